@@ -1,0 +1,157 @@
+//! Essential boundary conditions on node regions, and the reaction forces they exert.
+//!
+//! A region holds some velocity components of its nodes: both (fixed), one (roller), or
+//! prescribed functions of time. Integrators call [`BoundaryConditions::enforce`] wherever they
+//! produce nodal velocities. When they pass a [`Reactions`] accumulator, the force needed to hold
+//! each constraint, `m_I (v_held − v_free) / Δt`, is summed per region: that is the force the
+//! boundary exerts on the body.
+
+use crate::components::{FIELDS, NodeMass, NodeVelocity};
+use crate::dim::{DIM, Vector};
+use bevy_ecs::prelude::Resource;
+
+/// A function of time, linear between points and constant beyond the first and last.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PiecewiseLinear {
+    points: Vec<(f64, f64)>,
+}
+
+impl PiecewiseLinear {
+    /// Builds the function; times must be finite and strictly increasing, with at least one point.
+    pub fn new(points: Vec<(f64, f64)>) -> Result<Self, String> {
+        if points.is_empty() {
+            return Err("at least one (time, value) point".into());
+        }
+        if points.iter().any(|(t, v)| !t.is_finite() || !v.is_finite()) {
+            return Err("finite times and values".into());
+        }
+        if points.windows(2).any(|w| w[1].0 <= w[0].0) {
+            return Err("strictly increasing times".into());
+        }
+        Ok(Self { points })
+    }
+
+    /// A constant function.
+    pub fn constant(value: f64) -> Self {
+        Self {
+            points: vec![(0.0, value)],
+        }
+    }
+
+    /// Value at time `t`.
+    pub fn eval(&self, t: f64) -> f64 {
+        let first = self.points[0];
+        let last = self.points[self.points.len() - 1];
+        if t <= first.0 {
+            return first.1;
+        }
+        if t >= last.0 {
+            return last.1;
+        }
+        let k = self.points.partition_point(|(tk, _)| *tk <= t);
+        let (t0, v0) = self.points[k - 1];
+        let (t1, v1) = self.points[k];
+        v0 + (v1 - v0) * (t - t0) / (t1 - t0)
+    }
+}
+
+/// One named region of nodes and the velocity components it holds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BoundaryRegion {
+    /// Name from the scene, used for the `reaction_<name>_x/y` columns.
+    pub name: String,
+    /// Linear indices of the nodes in the region.
+    pub nodes: Vec<u32>,
+    /// Prescribed velocity per component; `None` leaves that component free.
+    pub velocity: [Option<PiecewiseLinear>; DIM],
+}
+
+/// All boundary regions of the scene, applied in scene order.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct BoundaryConditions {
+    /// The regions.
+    pub regions: Vec<BoundaryRegion>,
+}
+
+/// Reaction force of each region over the last step that measured it, in region order.
+#[derive(Resource, Clone, Debug, Default, PartialEq)]
+pub struct Reactions(pub Vec<Vector>);
+
+impl BoundaryConditions {
+    /// Sets the held velocity components of every field with mass at time `time`.
+    ///
+    /// With `measure = Some((dt, reactions))`, also records the reaction of each region. A node
+    /// in several regions is held by each in turn, so the last listed region wins and a component
+    /// already held at the same value adds nothing to later regions.
+    pub fn enforce(
+        &self,
+        time: f64,
+        masses: &[NodeMass],
+        velocities: &mut [NodeVelocity],
+        mut measure: Option<(f64, &mut Reactions)>,
+    ) {
+        if let Some((_, reactions)) = measure.as_mut() {
+            reactions.0.clear();
+            reactions.0.resize(self.regions.len(), Vector::ZERO);
+        }
+        for (r, region) in self.regions.iter().enumerate() {
+            let held: [Option<f64>; DIM] =
+                std::array::from_fn(|c| region.velocity[c].as_ref().map(|f| f.eval(time)));
+            let mut reaction = Vector::ZERO;
+            for &node in &region.nodes {
+                let node = node as usize;
+                for field in 0..FIELDS {
+                    let mass = masses[node].0[field];
+                    let v = &mut velocities[node].0[field];
+                    for (c, target) in held.iter().enumerate() {
+                        if let Some(target) = *target {
+                            reaction[c] += mass * (target - v[c]);
+                            v[c] = target;
+                        }
+                    }
+                }
+            }
+            if let Some((dt, reactions)) = measure.as_mut() {
+                reactions.0[r] = reaction / *dt;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn piecewise_linear_interpolates_and_clamps() {
+        let f = PiecewiseLinear::new(vec![(0.0, 0.0), (1.0, 2.0), (3.0, 2.0)]).unwrap();
+        assert_eq!(f.eval(-1.0), 0.0);
+        assert_eq!(f.eval(0.5), 1.0);
+        assert_eq!(f.eval(2.0), 2.0);
+        assert_eq!(f.eval(10.0), 2.0);
+        assert!(PiecewiseLinear::new(vec![(1.0, 0.0), (1.0, 1.0)]).is_err());
+        assert!(PiecewiseLinear::new(vec![]).is_err());
+    }
+
+    #[test]
+    fn enforcing_a_fixed_region_measures_the_holding_force() {
+        let bcs = BoundaryConditions {
+            regions: vec![BoundaryRegion {
+                name: "left".into(),
+                nodes: vec![0],
+                velocity: [Some(PiecewiseLinear::constant(0.0)), None],
+            }],
+        };
+        let masses = [NodeMass([2.0, 0.0]), NodeMass([1.0, 0.0])];
+        let mut velocities = [
+            NodeVelocity([Vector::new(-0.5, 0.3), Vector::ZERO]),
+            NodeVelocity([Vector::new(-0.5, 0.3), Vector::ZERO]),
+        ];
+        let mut reactions = Reactions::default();
+        bcs.enforce(0.0, &masses, &mut velocities, Some((0.1, &mut reactions)));
+        assert_eq!(velocities[0].0[0], Vector::new(0.0, 0.3));
+        assert_eq!(velocities[1].0[0], Vector::new(-0.5, 0.3));
+        // Holding 2 kg moving at -0.5 m/s to rest over 0.1 s takes +10 N along x.
+        assert_eq!(reactions.0, vec![Vector::new(10.0, 0.0)]);
+    }
+}

@@ -1,0 +1,222 @@
+//! Components: one small `Copy` component per physical quantity.
+//!
+//! Particles carry the [`Particle`] marker, grid nodes the [`Node`] marker; every query filters
+//! by one of them. Components are never added or removed during a run (that would split the
+//! storage tables): state changes are written into fields.
+//!
+//! Nodes carry [`FIELDS`] velocity fields from the start. A single-field pipeline uses field 0;
+//! damage-field-gradient partitioning and contact (a later stage of the work) spread material
+//! over both.
+
+use crate::dim::{Matrix, SymTensor, Vector};
+use bevy_ecs::prelude::Component;
+
+/// Number of velocity fields every node carries.
+pub const FIELDS: usize = 2;
+
+/// Marker of a material point.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct Particle;
+
+/// Stable particle number, assigned at creation in seeding order; used in messages and output.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct ParticleId(pub u32);
+
+/// Current position.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct Position(pub Vector);
+
+/// Current velocity.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct Velocity(pub Vector);
+
+/// Current acceleration (used by integrators that carry it between steps).
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct Acceleration(pub Vector);
+
+/// Mass (constant).
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct Mass(pub f64);
+
+/// Current volume (area × unit thickness in 2D).
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct Volume(pub f64);
+
+/// Volume at creation.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct InitialVolume(pub f64);
+
+/// Deformation gradient F.
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct DeformationGradient(pub Matrix);
+
+impl Default for DeformationGradient {
+    fn default() -> Self {
+        Self(Matrix::IDENTITY)
+    }
+}
+
+/// Cauchy stress (plane strain, `zz` kept).
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct Stress(pub SymTensor);
+
+/// Small-strain measure accumulated from the strain increments.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct Strain(pub SymTensor);
+
+/// Stored elastic energy per unit reference volume, written by the stress system.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct StrainEnergyDensity(pub f64);
+
+/// Damage in `[0, 1]`: 0 intact, 1 fully failed. Internal force is scaled by `1 − damage`.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct Damage(pub f64);
+
+/// Index into the scene's material table ([`crate::resources::Materials`]).
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MaterialId(pub u16);
+
+/// Index of the body (in scene order) the particle was seeded from.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BodyId(pub u16);
+
+/// Contact group declared by the body; used by contact algorithms.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ContactGroup(pub u8);
+
+/// Marker of a background grid node.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct Node;
+
+/// Linear node number (`i + j * nodes_x`); equals the node's row in its storage table.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NodeIndex(pub u32);
+
+/// Node position (fixed for a background grid).
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodePosition(pub Vector);
+
+/// Lumped mass of each velocity field.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeMass(pub [f64; FIELDS]);
+
+/// Momentum of each velocity field.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeMomentum(pub [Vector; FIELDS]);
+
+/// Velocity of each velocity field.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeVelocity(pub [Vector; FIELDS]);
+
+/// Acceleration of each velocity field over the current step.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeAcceleration(pub [Vector; FIELDS]);
+
+/// Total (internal + external) force on each velocity field.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeForce(pub [Vector; FIELDS]);
+
+/// Outward surface normal of each velocity field (for contact).
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeNormal(pub [Vector; FIELDS]);
+
+/// Every component a particle is created with.
+#[derive(bevy_ecs::bundle::Bundle, Clone, Copy, Debug)]
+pub struct ParticleBundle {
+    /// Marker.
+    pub marker: Particle,
+    /// Stable id.
+    pub id: ParticleId,
+    /// Position.
+    pub position: Position,
+    /// Velocity.
+    pub velocity: Velocity,
+    /// Acceleration.
+    pub acceleration: Acceleration,
+    /// Mass.
+    pub mass: Mass,
+    /// Current volume.
+    pub volume: Volume,
+    /// Initial volume.
+    pub initial_volume: InitialVolume,
+    /// Deformation gradient.
+    pub deformation_gradient: DeformationGradient,
+    /// Stress.
+    pub stress: Stress,
+    /// Strain.
+    pub strain: Strain,
+    /// Stored energy density.
+    pub energy_density: StrainEnergyDensity,
+    /// Damage.
+    pub damage: Damage,
+    /// Material.
+    pub material: MaterialId,
+    /// Body.
+    pub body: BodyId,
+    /// Contact group.
+    pub group: ContactGroup,
+}
+
+impl ParticleBundle {
+    /// An unstressed particle at rest with the given id, position, mass, volume and material.
+    pub fn new(id: u32, position: Vector, mass: f64, volume: f64, material: u16) -> Self {
+        Self {
+            marker: Particle,
+            id: ParticleId(id),
+            position: Position(position),
+            velocity: Velocity::default(),
+            acceleration: Acceleration::default(),
+            mass: Mass(mass),
+            volume: Volume(volume),
+            initial_volume: InitialVolume(volume),
+            deformation_gradient: DeformationGradient::default(),
+            stress: Stress::default(),
+            strain: Strain::default(),
+            energy_density: StrainEnergyDensity::default(),
+            damage: Damage::default(),
+            material: MaterialId(material),
+            body: BodyId(0),
+            group: ContactGroup(0),
+        }
+    }
+}
+
+/// Every component a grid node is created with.
+#[derive(bevy_ecs::bundle::Bundle, Clone, Copy, Debug)]
+pub struct NodeBundle {
+    /// Marker.
+    pub marker: Node,
+    /// Linear index.
+    pub index: NodeIndex,
+    /// Position.
+    pub position: NodePosition,
+    /// Field masses.
+    pub mass: NodeMass,
+    /// Field momenta.
+    pub momentum: NodeMomentum,
+    /// Field velocities.
+    pub velocity: NodeVelocity,
+    /// Field accelerations.
+    pub acceleration: NodeAcceleration,
+    /// Field forces.
+    pub force: NodeForce,
+    /// Field normals.
+    pub normal: NodeNormal,
+}
+
+impl NodeBundle {
+    /// An empty node with the given index and position.
+    pub fn new(index: u32, position: Vector) -> Self {
+        Self {
+            marker: Node,
+            index: NodeIndex(index),
+            position: NodePosition(position),
+            mass: NodeMass::default(),
+            momentum: NodeMomentum::default(),
+            velocity: NodeVelocity::default(),
+            acceleration: NodeAcceleration::default(),
+            force: NodeForce::default(),
+            normal: NodeNormal::default(),
+        }
+    }
+}

@@ -1,0 +1,143 @@
+//! Particle–node connectivity in compact CSR tables.
+//!
+//! The basis stage writes, for every particle row `p`, the nodes it influences with the shape
+//! function value `N_Ip` and gradient `∇N_Ip`. Every transfer reads these tables.
+//!
+//! Grid-to-particle transfers gather over a particle's row. Particle-to-grid transfers gather over
+//! the transposed table (node → entries, in particle order), so each node's sum is always
+//! accumulated in the same order and the result is bitwise identical for any thread count.
+
+use crate::dim::Vector;
+use bevy_ecs::prelude::Resource;
+use rayon::prelude::*;
+use std::ops::AddAssign;
+
+/// Shape-function connectivity for the current particle positions.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct Connectivity {
+    /// Row offsets: entries of particle row `p` are `row_offsets[p]..row_offsets[p + 1]`.
+    pub row_offsets: Vec<usize>,
+    /// Node index of each entry.
+    pub nodes: Vec<u32>,
+    /// Shape function value `N_Ip` of each entry.
+    pub weights: Vec<f64>,
+    /// Shape function gradient `∇N_Ip` of each entry.
+    pub gradients: Vec<Vector>,
+    /// Transposed offsets: entries touching node `I` are `node_offsets[I]..node_offsets[I + 1]`.
+    pub node_offsets: Vec<usize>,
+    /// For each transposed slot, the (entry, particle row) it refers to, in particle order.
+    pub node_entries: Vec<(u32, u32)>,
+}
+
+impl Connectivity {
+    /// Number of particle rows.
+    pub fn particle_count(&self) -> usize {
+        self.row_offsets.len().saturating_sub(1)
+    }
+
+    /// Entry range of particle row `p`.
+    pub fn row(&self, p: usize) -> std::ops::Range<usize> {
+        self.row_offsets[p]..self.row_offsets[p + 1]
+    }
+
+    /// Replaces the tables from per-particle rows of `(node, N, ∇N)` and rebuilds the transpose.
+    ///
+    /// `rows` must be in particle-row order. `node_count` is the number of grid nodes.
+    pub fn rebuild(&mut self, rows: &[Vec<(u32, f64, Vector)>], node_count: usize) {
+        self.row_offsets.clear();
+        self.nodes.clear();
+        self.weights.clear();
+        self.gradients.clear();
+        self.row_offsets.push(0);
+        for row in rows {
+            for &(node, weight, gradient) in row {
+                self.nodes.push(node);
+                self.weights.push(weight);
+                self.gradients.push(gradient);
+            }
+            self.row_offsets.push(self.nodes.len());
+        }
+        self.rebuild_transpose(node_count);
+    }
+
+    /// Rebuilds the node-major transpose from the particle-major tables (counting sort, so the
+    /// entries of each node stay in particle order).
+    pub fn rebuild_transpose(&mut self, node_count: usize) {
+        let mut counts = vec![0usize; node_count + 1];
+        for &node in &self.nodes {
+            counts[node as usize + 1] += 1;
+        }
+        for i in 0..node_count {
+            counts[i + 1] += counts[i];
+        }
+        self.node_offsets.clone_from(&counts);
+        self.node_entries.clear();
+        self.node_entries.resize(self.nodes.len(), (0, 0));
+        let mut cursor = counts;
+        for p in 0..self.particle_count() {
+            for entry in self.row(p) {
+                let node = self.nodes[entry] as usize;
+                self.node_entries[cursor[node]] = (entry as u32, p as u32);
+                cursor[node] += 1;
+            }
+        }
+    }
+
+    /// Particle-to-grid transfer: `out[I] = Σ_(entries of I) contribution(entry, particle)`.
+    ///
+    /// Runs in parallel over nodes; each node sums its entries in particle order, so the result
+    /// does not depend on the number of threads.
+    pub fn scatter_to_nodes<T, F>(&self, out: &mut [T], contribution: F)
+    where
+        T: Default + AddAssign + Send,
+        F: Fn(usize, usize) -> T + Sync,
+    {
+        out.par_iter_mut().enumerate().for_each(|(node, slot)| {
+            let mut sum = T::default();
+            if node + 1 < self.node_offsets.len() {
+                for &(entry, particle) in
+                    &self.node_entries[self.node_offsets[node]..self.node_offsets[node + 1]]
+                {
+                    sum += contribution(entry as usize, particle as usize);
+                }
+            }
+            *slot = sum;
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Connectivity {
+        let mut c = Connectivity::default();
+        let g = Vector::ZERO;
+        c.rebuild(
+            &[
+                vec![(0, 0.5, g), (2, 0.5, g)],
+                vec![(2, 1.0, g)],
+                vec![(1, 0.25, g), (0, 0.75, g)],
+            ],
+            3,
+        );
+        c
+    }
+
+    #[test]
+    fn transpose_lists_entries_per_node_in_particle_order() {
+        let c = sample();
+        assert_eq!(c.node_offsets, vec![0, 2, 3, 5]);
+        assert_eq!(c.node_entries, vec![(0, 0), (4, 2), (3, 2), (1, 0), (2, 1)]);
+    }
+
+    #[test]
+    fn scatter_sums_weighted_particle_values() {
+        let c = sample();
+        let masses = [2.0, 4.0, 8.0];
+        let mut node_mass = vec![0.0; 3];
+        c.scatter_to_nodes(&mut node_mass, |e, p| c.weights[e] * masses[p]);
+        assert_eq!(node_mass, vec![0.5 * 2.0 + 0.75 * 8.0, 0.25 * 8.0, 0.5 * 2.0 + 4.0]);
+        assert_eq!(node_mass.iter().sum::<f64>(), masses.iter().sum::<f64>());
+    }
+}

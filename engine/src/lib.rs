@@ -1,0 +1,39 @@
+//! # fractum-engine
+//!
+//! The framework of Fractum, a Material Point Method engine for dynamic fracture and frictional
+//! contact. It knows no algorithm: it defines the data (components and resources), the stages of
+//! a step, the registry that maps system names to installers, the RON scene format with its
+//! validation, the simulation loop, output writers, diagnostics, and test helpers.
+//! Algorithms live in `fractum-systems` (or in a user's crate) and plug in through
+//! [`registry::Registry`].
+
+pub mod boundary;
+pub mod components;
+pub mod connectivity;
+pub mod diagnostics;
+pub mod dim;
+pub mod health;
+pub mod output;
+pub mod registry;
+pub mod resources;
+pub mod run;
+pub mod scene;
+pub mod simulation;
+pub mod stage;
+pub mod testing;
+
+pub use simulation::Simulation;
+
+/// What a system file usually needs.
+pub mod prelude {
+    pub use crate::boundary::{BoundaryConditions, Reactions};
+    pub use crate::components::*;
+    pub use crate::connectivity::Connectivity;
+    pub use crate::dim::{Matrix, SymTensor, Vector};
+    pub use crate::health::single_table;
+    pub use crate::registry::{Installer, ParamDoc, Params, Registration, Registry};
+    pub use crate::resources::{BodyForce, Grid, Material, Materials, SimClock};
+    pub use crate::scene::SceneError;
+    pub use crate::stage::Stage;
+    pub use bevy_ecs::prelude::*;
+}

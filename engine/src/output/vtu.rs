@@ -1,0 +1,110 @@
+//! VTU (VTK XML unstructured grid) frames of the particles, one vertex cell per particle.
+//!
+//! Arrays are stored as raw little-endian bytes in an appended-data block (`header_type="UInt64"`,
+//! each array preceded by its byte count), which ParaView and every VTK reader load directly and
+//! which is compact for large particle counts.
+
+use super::atomic::write_atomically;
+use crate::dim::{SymTensor, Vector, to_3d};
+use std::fmt::Write;
+use std::path::Path;
+
+/// Particle data of one frame, in particle-id order.
+#[derive(Clone, Debug, Default)]
+pub struct ParticleFrame {
+    /// Particle ids.
+    pub id: Vec<u32>,
+    /// Body index.
+    pub body: Vec<u16>,
+    /// Material index.
+    pub material: Vec<u16>,
+    /// Positions.
+    pub position: Vec<Vector>,
+    /// Velocities.
+    pub velocity: Vec<Vector>,
+    /// Masses.
+    pub mass: Vec<f64>,
+    /// Current volumes.
+    pub volume: Vec<f64>,
+    /// Cauchy stresses.
+    pub stress: Vec<SymTensor>,
+    /// Damage.
+    pub damage: Vec<f64>,
+    /// Stored energy per unit reference volume.
+    pub strain_energy_density: Vec<f64>,
+}
+
+struct Appended {
+    xml: String,
+    data: Vec<u8>,
+}
+
+impl Appended {
+    fn array(&mut self, name: Option<&str>, ty: &str, components: usize, bytes: Vec<u8>) {
+        let name_attr = name.map(|n| format!(" Name=\"{n}\"")).unwrap_or_default();
+        let _ = writeln!(
+            self.xml,
+            "        <DataArray type=\"{ty}\"{name_attr} NumberOfComponents=\"{components}\" \
+             format=\"appended\" offset=\"{}\"/>",
+            self.data.len()
+        );
+        self.data.extend_from_slice(&(bytes.len() as u64).to_le_bytes());
+        self.data.extend_from_slice(&bytes);
+    }
+}
+
+fn f64_bytes(values: impl Iterator<Item = f64>) -> Vec<u8> {
+    values.flat_map(f64::to_le_bytes).collect()
+}
+
+fn i32_bytes(values: impl Iterator<Item = i32>) -> Vec<u8> {
+    values.flat_map(i32::to_le_bytes).collect()
+}
+
+fn i64_bytes(values: impl Iterator<Item = i64>) -> Vec<u8> {
+    values.flat_map(i64::to_le_bytes).collect()
+}
+
+/// Writes `frame` to `path` atomically.
+pub fn write_particle_frame(path: &Path, frame: &ParticleFrame) -> std::io::Result<()> {
+    let n = frame.position.len();
+    let mut out = Appended {
+        xml: String::new(),
+        data: Vec::new(),
+    };
+    let _ = write!(
+        out.xml,
+        "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" \
+         byte_order=\"LittleEndian\" header_type=\"UInt64\">\n  <UnstructuredGrid>\n    \
+         <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">\n      <PointData \
+         Scalars=\"damage\" Vectors=\"velocity\">\n"
+    );
+    out.array(Some("id"), "Int32", 1, i32_bytes(frame.id.iter().map(|&v| v as i32)));
+    out.array(Some("body"), "Int32", 1, i32_bytes(frame.body.iter().map(|&v| v as i32)));
+    out.array(Some("material"), "Int32", 1, i32_bytes(frame.material.iter().map(|&v| v as i32)));
+    out.array(Some("velocity"), "Float64", 3, f64_bytes(frame.velocity.iter().flat_map(|v| to_3d(*v))));
+    out.array(Some("mass"), "Float64", 1, f64_bytes(frame.mass.iter().copied()));
+    out.array(Some("volume"), "Float64", 1, f64_bytes(frame.volume.iter().copied()));
+    out.array(Some("stress"), "Float64", 9, f64_bytes(frame.stress.iter().flat_map(|s| s.as_3x3())));
+    out.array(Some("damage"), "Float64", 1, f64_bytes(frame.damage.iter().copied()));
+    out.array(
+        Some("strain_energy_density"),
+        "Float64",
+        1,
+        f64_bytes(frame.strain_energy_density.iter().copied()),
+    );
+    out.xml.push_str("      </PointData>\n      <Points>\n");
+    out.array(None, "Float64", 3, f64_bytes(frame.position.iter().flat_map(|v| to_3d(*v))));
+    out.xml.push_str("      </Points>\n      <Cells>\n");
+    out.array(Some("connectivity"), "Int64", 1, i64_bytes(0..n as i64));
+    out.array(Some("offsets"), "Int64", 1, i64_bytes(1..=n as i64));
+    // VTK_VERTEX = 1.
+    out.array(Some("types"), "UInt8", 1, vec![1u8; n]);
+    out.xml.push_str(
+        "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n  <AppendedData encoding=\"raw\">\n   _",
+    );
+    let mut bytes = out.xml.into_bytes();
+    bytes.extend_from_slice(&out.data);
+    bytes.extend_from_slice(b"\n  </AppendedData>\n</VTKFile>\n");
+    write_atomically(path, &bytes)
+}

@@ -1,0 +1,281 @@
+//! The system registry: names such as `basis/linear` mapped to installers.
+//!
+//! A [`Registration`] describes one algorithm: its name (`stage/algorithm`), a one-line summary,
+//! its parameters, the systems it needs alongside it, and an install function. The install
+//! function receives an [`Installer`] that can add systems to the registration's own stage only,
+//! and a [`Params`] holding the raw RON of the pipeline entry's `params`, which it parses into
+//! its own typed struct. Users register their own algorithms from their own crates the same way.
+
+use crate::scene::{Location, SceneError, parse_fragment};
+use crate::stage::Stage;
+use bevy_ecs::prelude::{FromWorld, Resource, World};
+use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule, ScheduleConfigs};
+use bevy_ecs::system::ScheduleSystem;
+use serde::de::DeserializeOwned;
+use std::collections::BTreeMap;
+
+/// Documentation of one parameter, shown by `fractum systems`.
+#[derive(Clone, Copy, Debug)]
+pub struct ParamDoc {
+    /// Field name in `params: (...)`.
+    pub name: &'static str,
+    /// Type as a user writes it, e.g. `f64`.
+    pub ty: &'static str,
+    /// Default value, or `None` when the parameter is required.
+    pub default: Option<&'static str>,
+    /// What it means, with units.
+    pub doc: &'static str,
+}
+
+/// Installs a registration's systems and resources for one pipeline entry.
+pub type InstallFn = fn(&mut Installer, &Params) -> Result<(), SceneError>;
+
+/// One registered algorithm.
+#[derive(Clone, Copy, Debug)]
+pub struct Registration {
+    /// `stage/algorithm`, e.g. `basis/linear`.
+    pub name: &'static str,
+    /// One line: what it does.
+    pub summary: &'static str,
+    /// Its parameters.
+    pub params: &'static [ParamDoc],
+    /// Other systems that must be in the same pipeline (e.g. a predictor's matching advection).
+    pub requires: &'static [&'static str],
+    /// Adds its systems to the schedule.
+    pub install: InstallFn,
+}
+
+impl Registration {
+    /// The stage named by the prefix of [`Registration::name`].
+    pub fn stage(&self) -> Option<Stage> {
+        self.name.split_once('/').and_then(|(s, _)| Stage::from_name(s))
+    }
+}
+
+/// Why a registration was refused.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum RegistryError {
+    /// The name is not `stage/algorithm` with a known stage.
+    #[error("system name `{0}` must be `stage/algorithm` with a stage among: {1}")]
+    BadName(String, String),
+    /// The name is taken.
+    #[error("a system named `{0}` is already registered")]
+    Duplicate(String),
+}
+
+/// Every algorithm the engine can install, by name.
+#[derive(Clone, Debug, Default)]
+pub struct Registry {
+    entries: BTreeMap<&'static str, Registration>,
+}
+
+impl Registry {
+    /// An empty registry.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds a registration.
+    pub fn register(&mut self, registration: Registration) -> Result<(), RegistryError> {
+        let stage_ok = registration.stage().is_some()
+            && registration
+                .name
+                .split_once('/')
+                .is_some_and(|(_, algo)| !algo.is_empty() && !algo.contains('/'));
+        if !stage_ok {
+            let stages: Vec<_> = Stage::ORDER.iter().map(|s| s.name()).collect();
+            return Err(RegistryError::BadName(
+                registration.name.to_string(),
+                stages.join(", "),
+            ));
+        }
+        if self.entries.contains_key(registration.name) {
+            return Err(RegistryError::Duplicate(registration.name.to_string()));
+        }
+        self.entries.insert(registration.name, registration);
+        Ok(())
+    }
+
+    /// The registration with this name.
+    pub fn get(&self, name: &str) -> Option<&Registration> {
+        self.entries.get(name)
+    }
+
+    /// All registrations, ordered by stage then name.
+    pub fn iter(&self) -> impl Iterator<Item = &Registration> {
+        let mut all: Vec<_> = self.entries.values().collect();
+        all.sort_by_key(|r| (r.stage(), r.name));
+        all.into_iter()
+    }
+
+    /// All names, ordered by stage then name.
+    pub fn names(&self) -> Vec<&'static str> {
+        self.iter().map(|r| r.name).collect()
+    }
+}
+
+/// What an install function may do: add systems to its own stage and set up resources.
+pub struct Installer<'a> {
+    stage: Stage,
+    schedule: &'a mut Schedule,
+    world: &'a mut World,
+}
+
+impl<'a> Installer<'a> {
+    /// An installer for `stage`.
+    pub fn new(stage: Stage, schedule: &'a mut Schedule, world: &'a mut World) -> Self {
+        Self {
+            stage,
+            schedule,
+            world,
+        }
+    }
+
+    /// The stage this installer adds to.
+    pub fn stage(&self) -> Stage {
+        self.stage
+    }
+
+    /// Adds systems to this installer's stage (and only there).
+    pub fn add_systems<M>(&mut self, systems: impl IntoScheduleConfigs<ScheduleSystem, M>) {
+        let configs: ScheduleConfigs<ScheduleSystem> = systems.into_configs();
+        self.schedule.add_systems(configs.in_set(self.stage));
+    }
+
+    /// Inserts a resource (typically the system's parsed parameters).
+    pub fn insert_resource<R: Resource>(&mut self, resource: R) {
+        self.world.insert_resource(resource);
+    }
+
+    /// Inserts a resource built from the world unless one exists (typically a scratch buffer).
+    pub fn init_resource<R: Resource + FromWorld>(&mut self) {
+        self.world.init_resource::<R>();
+    }
+
+    /// Read access to the world as built from the scene (grid, materials, particles).
+    pub fn world(&self) -> &World {
+        self.world
+    }
+}
+
+/// The raw `params` of one pipeline entry, with where it sits in the scene file.
+#[derive(Clone, Debug)]
+pub struct Params<'a> {
+    raw: Option<&'a str>,
+    file: &'a str,
+    origin: Location,
+    field: String,
+}
+
+impl<'a> Params<'a> {
+    /// Params text `raw` (None when the entry has no `params`) found at `origin` in `file`,
+    /// whose field path is `field` (e.g. `pipeline[2].params`).
+    pub fn new(raw: Option<&'a str>, file: &'a str, origin: Location, field: String) -> Self {
+        Self {
+            raw,
+            file,
+            origin,
+            field,
+        }
+    }
+
+    /// No params, as for a test or a programmatic pipeline.
+    pub fn none() -> Params<'static> {
+        Params {
+            raw: None,
+            file: "<no params>",
+            origin: Location { line: 1, col: 1 },
+            field: "params".to_string(),
+        }
+    }
+
+    /// Params from a string, as for a test or a programmatic pipeline.
+    pub fn from_str(raw: &'a str) -> Self {
+        Self {
+            raw: Some(raw),
+            file: "<params>",
+            origin: Location { line: 1, col: 1 },
+            field: "params".to_string(),
+        }
+    }
+
+    /// Parses the params into `T`. An entry without `params` parses as `()`, so `T` must give
+    /// every field a default for that to succeed; otherwise the error names the missing field.
+    pub fn parse<T: DeserializeOwned>(&self) -> Result<T, SceneError> {
+        parse_fragment(self.file, self.raw.unwrap_or("()"), self.origin, &self.field)
+    }
+
+    /// An error about these params (e.g. a value out of range), placed at the params.
+    pub fn error(&self, relative: &str, message: impl Into<String>) -> SceneError {
+        let field = if relative.is_empty() {
+            self.field.clone()
+        } else {
+            format!("{}.{relative}", self.field)
+        };
+        let location = self
+            .raw
+            .and_then(|raw| {
+                let at = crate::scene::locate::locate(raw, relative)?;
+                Some(self.origin.offset_by(Location::of_offset(raw, at)))
+            })
+            .unwrap_or(self.origin);
+        SceneError::at(self.file, location, &field, message)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn nothing(_: &mut Installer, _: &Params) -> Result<(), SceneError> {
+        Ok(())
+    }
+
+    fn registration(name: &'static str) -> Registration {
+        Registration {
+            name,
+            summary: "test",
+            params: &[],
+            requires: &[],
+            install: nothing,
+        }
+    }
+
+    #[test]
+    fn names_must_start_with_a_stage() {
+        let mut registry = Registry::new();
+        assert!(registry.register(registration("basis/test")).is_ok());
+        assert!(matches!(
+            registry.register(registration("basis/test")),
+            Err(RegistryError::Duplicate(_))
+        ));
+        assert!(matches!(
+            registry.register(registration("shape/test")),
+            Err(RegistryError::BadName(..))
+        ));
+        assert!(registry.register(registration("basis/")).is_err());
+        registry.register(registration("advection/a")).unwrap();
+        assert_eq!(registry.names(), vec!["basis/test", "advection/a"]);
+    }
+
+    #[test]
+    fn param_errors_point_inside_the_params() {
+        #[derive(serde::Deserialize, Debug)]
+        #[serde(deny_unknown_fields)]
+        #[allow(dead_code)]
+        struct P {
+            k: f64,
+        }
+        let params = Params::new(
+            Some("(\n  k: -1.0)"),
+            "s.ron",
+            Location { line: 4, col: 13 },
+            "pipeline[0].params".into(),
+        );
+        let p: P = params.parse().unwrap();
+        assert_eq!(p.k, -1.0);
+        let e = params.error("k", "must be positive");
+        assert_eq!(e.to_string(), "s.ron:5:6: `pipeline[0].params.k`: must be positive");
+        assert!(Params::none().parse::<P>().unwrap_err().message.contains("`k`"));
+    }
+}

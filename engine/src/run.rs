@@ -1,0 +1,191 @@
+//! The run loop: step to the end, writing frames and time-series rows on schedule.
+
+use crate::boundary::Reactions;
+use crate::components::{
+    BodyId, Damage, Mass, MaterialId, Particle, ParticleId, Position, StrainEnergyDensity, Stress,
+    Velocity, Volume,
+};
+use crate::diagnostics::totals;
+use crate::health::Blowup;
+use crate::output::{
+    OutputPlan, ParticleFrame, ProbeKind, SeriesWriter, write_particle_frame, write_pvd,
+};
+use crate::simulation::Simulation;
+use bevy_ecs::prelude::*;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Why a run did not finish.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The state became invalid; outputs up to the previous output step are on disk.
+    #[error("the run stopped at {0}")]
+    Blowup(Blowup),
+    /// An output file could not be written.
+    #[error("cannot write {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+}
+
+/// What a finished run did.
+#[derive(Clone, Debug)]
+pub struct RunSummary {
+    /// Steps taken.
+    pub steps: u64,
+    /// Simulated time reached.
+    pub time: f64,
+    /// Particles.
+    pub particles: usize,
+    /// Threads used by the parallel kernels.
+    pub threads: usize,
+    /// Wall-clock time of the stepping loop (output included).
+    pub wall: Duration,
+    /// VTU frames written.
+    pub frames: usize,
+}
+
+impl RunSummary {
+    /// Particle-steps per second of wall time.
+    pub fn particle_steps_per_second(&self) -> f64 {
+        self.particles as f64 * self.steps as f64 / self.wall.as_secs_f64().max(1e-12)
+    }
+}
+
+fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> RunError + '_ {
+    move |source| RunError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Collects the particle state for a VTU frame.
+pub fn particle_frame(world: &mut World) -> ParticleFrame {
+    let mut query = world.query_filtered::<(
+        &ParticleId,
+        &BodyId,
+        &MaterialId,
+        &Position,
+        &Velocity,
+        &Mass,
+        &Volume,
+        &Stress,
+        &Damage,
+        &StrainEnergyDensity,
+    ), With<Particle>>();
+    let mut f = ParticleFrame::default();
+    for (id, body, material, x, v, m, vol, s, d, w) in query.iter(world) {
+        f.id.push(id.0);
+        f.body.push(body.0);
+        f.material.push(material.0);
+        f.position.push(x.0);
+        f.velocity.push(v.0);
+        f.mass.push(m.0);
+        f.volume.push(vol.0);
+        f.stress.push(s.0);
+        f.damage.push(d.0);
+        f.strain_energy_density.push(w.0);
+    }
+    f
+}
+
+/// The values of one `series.csv` row after the step column.
+pub fn series_row(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
+    let t = totals(world);
+    let time = world.resource::<crate::resources::SimClock>().time;
+    let mut row = vec![
+        time,
+        t.kinetic_energy,
+        t.strain_energy,
+        t.total_energy(),
+        t.momentum.x,
+        t.momentum.y,
+    ];
+    for probe in &plan.probes {
+        let value = match probe {
+            ProbeKind::Reaction { index, .. } => world
+                .resource::<Reactions>()
+                .0
+                .get(*index)
+                .copied()
+                .unwrap_or_default(),
+            ProbeKind::CentreOfMassVelocity => t.centre_of_mass_velocity(),
+        };
+        row.extend([value.x, value.y]);
+    }
+    row
+}
+
+struct Outputs<'a> {
+    plan: &'a OutputPlan,
+    dir: &'a Path,
+    series: SeriesWriter,
+    frames: Vec<(f64, String)>,
+}
+
+impl Outputs<'_> {
+    fn record(&mut self, sim: &mut Simulation, force: bool) -> Result<(), RunError> {
+        let step = sim.clock().step;
+        let due = |every: u64| every > 0 && step % every == 0;
+        if force || due(self.plan.csv_every) || (self.plan.csv_every == 0 && step == 0) {
+            let row = series_row(&mut sim.world, self.plan);
+            let path = self.dir.join("series.csv");
+            self.series.push(step, &row).map_err(io_error(&path))?;
+        }
+        if self.plan.vtu_every > 0 && (force || due(self.plan.vtu_every)) {
+            let name = format!("frames/particles_{step:08}.vtu");
+            let path = self.dir.join(&name);
+            write_particle_frame(&path, &particle_frame(&mut sim.world)).map_err(io_error(&path))?;
+            self.frames.push((sim.clock().time, name));
+            let pvd = self.dir.join("particles.pvd");
+            write_pvd(&pvd, &self.frames).map_err(io_error(&pvd))?;
+        }
+        Ok(())
+    }
+}
+
+/// Steps `sim` to its end, writing `out_dir/series.csv`, `out_dir/frames/*.vtu` and
+/// `out_dir/particles.pvd`. `on_step` is called after every step (for progress display).
+pub fn run(
+    sim: &mut Simulation,
+    plan: &OutputPlan,
+    out_dir: &Path,
+    mut on_step: impl FnMut(&Simulation),
+) -> Result<RunSummary, RunError> {
+    let frames_dir = out_dir.join("frames");
+    std::fs::create_dir_all(&frames_dir).map_err(io_error(&frames_dir))?;
+    let mut outputs = Outputs {
+        plan,
+        dir: out_dir,
+        series: SeriesWriter::new(out_dir.join("series.csv"), &plan.columns()),
+        frames: Vec::new(),
+    };
+    let particles = sim.particle_count();
+    let started = Instant::now();
+    let first_step = sim.clock().step;
+    outputs.record(sim, true)?;
+    while !sim.finished() {
+        if let Err(blowup) = sim.step() {
+            let path = out_dir.join("series.csv");
+            outputs.series.flush().map_err(io_error(&path))?;
+            return Err(RunError::Blowup(blowup));
+        }
+        let last = sim.finished();
+        outputs.record(sim, last)?;
+        on_step(sim);
+    }
+    let path = out_dir.join("series.csv");
+    outputs.series.flush().map_err(io_error(&path))?;
+    let clock = sim.clock();
+    Ok(RunSummary {
+        steps: clock.step - first_step,
+        time: clock.time,
+        particles,
+        threads: sim.threads(),
+        wall: started.elapsed(),
+        frames: outputs.frames.len(),
+    })
+}

@@ -1,0 +1,293 @@
+//! The scene file format: plain serde structs, every one rejecting unknown fields.
+//!
+//! A scene is one RON value of type [`Scene`]. See `scenes/` for examples and ARCHITECTURE.md
+//! for the meaning of each section. Units are SI throughout.
+
+use ron::value::RawValue;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+
+/// A 2D point or vector written as `(x, y)`.
+pub type Pair = (f64, f64);
+
+/// The whole scene.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Free text shown by `fractum check`.
+    #[serde(default)]
+    pub title: String,
+    /// Unit system; only SI is supported, and it is the default.
+    #[serde(default)]
+    pub units: Units,
+    /// Time stepping and end of the run.
+    pub time: TimeSpec,
+    /// Background grid.
+    pub grid: GridSpec,
+    /// Materials by name.
+    pub materials: BTreeMap<String, MaterialSpec>,
+    /// Bodies seeded with particles.
+    pub bodies: Vec<BodySpec>,
+    /// Essential boundary conditions on node regions.
+    #[serde(default)]
+    pub boundaries: Vec<BoundarySpec>,
+    /// Body force per unit mass (an acceleration), e.g. `(0.0, -9.81)`.
+    #[serde(default)]
+    pub body_force: Pair,
+    /// What to write and how often.
+    #[serde(default)]
+    pub output: OutputSpec,
+    /// The systems of the step, by name, each with its own parameters.
+    pub pipeline: Vec<PipelineEntry>,
+}
+
+/// Unit system of every number in the scene.
+#[derive(Debug, Default, Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(deny_unknown_fields)]
+pub enum Units {
+    /// Metres, kilograms, seconds, pascals, newtons.
+    #[default]
+    SI,
+}
+
+/// Time stepping.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeSpec {
+    /// How the step size is chosen.
+    pub step: TimeStep,
+    /// When the run ends.
+    pub end: End,
+}
+
+/// Step size rule.
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum TimeStep {
+    /// A fixed step in seconds; must not exceed the stable limit `h / (c + |v|)`.
+    Fixed(f64),
+    /// A fraction in (0, 1] of the stable limit, re-evaluated every step.
+    Cfl(f64),
+}
+
+/// End of the run.
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum End {
+    /// Simulated time in seconds.
+    Time(f64),
+    /// Number of steps.
+    Steps(u64),
+}
+
+/// Uniform background grid over a box.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridSpec {
+    /// Lower corner.
+    pub min: Pair,
+    /// Upper corner; `max − min` must be a whole number of cells.
+    pub max: Pair,
+    /// Node spacing.
+    pub spacing: f64,
+}
+
+/// Elastic constants and density of a material.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    /// Mass density in kg/m³.
+    pub density: f64,
+    /// Young's modulus in Pa.
+    pub youngs_modulus: f64,
+    /// Poisson's ratio, in (−1, 0.5).
+    pub poisson_ratio: f64,
+}
+
+/// A body filled with particles.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// Optional name, shown by `fractum check`.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Region the particles fill.
+    pub shape: Shape,
+    /// Name of a material in `materials`.
+    pub material: String,
+    /// Particles per cell along each direction.
+    #[serde(default = "default_particles_per_cell")]
+    pub particles_per_cell: u32,
+    /// Where particles sit inside a cell.
+    #[serde(default)]
+    pub placement: Placement,
+    /// Initial velocity.
+    #[serde(default)]
+    pub velocity: InitialVelocity,
+    /// Contact group (for contact algorithms).
+    #[serde(default)]
+    pub contact_group: u8,
+}
+
+fn default_particles_per_cell() -> u32 {
+    2
+}
+
+/// Geometric shapes a body can take.
+#[derive(Debug, Deserialize, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum Shape {
+    /// Axis-aligned rectangle.
+    Rectangle {
+        /// Lower corner.
+        min: Pair,
+        /// Upper corner.
+        max: Pair,
+    },
+    /// Disk.
+    Disk {
+        /// Centre.
+        center: Pair,
+        /// Radius.
+        radius: f64,
+    },
+    /// Simple polygon (vertices in order, either orientation).
+    Polygon {
+        /// Vertices.
+        vertices: Vec<Pair>,
+    },
+}
+
+/// Placement of particles inside each grid cell.
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq, Eq, Default)]
+#[serde(deny_unknown_fields)]
+pub enum Placement {
+    /// Centres of equal sub-cells; equal volumes.
+    #[default]
+    Uniform,
+    /// Gauss–Legendre points of the cell (1 to 3 per direction), volumes from the Gauss weights.
+    Gauss,
+}
+
+/// Initial velocity of a body.
+#[derive(Debug, Deserialize, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum InitialVelocity {
+    /// The same velocity everywhere.
+    Uniform(Pair),
+}
+
+impl Default for InitialVelocity {
+    fn default() -> Self {
+        Self::Uniform((0.0, 0.0))
+    }
+}
+
+/// A named essential boundary condition on a region of nodes.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoundarySpec {
+    /// Name; used in the `reaction_<name>_x/y` probe columns.
+    pub name: String,
+    /// Which nodes.
+    pub nodes: Region,
+    /// What is held.
+    pub condition: Condition,
+}
+
+/// A region of grid nodes.
+#[derive(Debug, Deserialize, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum Region {
+    /// Nodes inside the box, boundary included.
+    Box {
+        /// Lower corner.
+        min: Pair,
+        /// Upper corner.
+        max: Pair,
+    },
+}
+
+/// An axis.
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq, Eq)]
+#[serde(deny_unknown_fields)]
+pub enum Axis {
+    /// x.
+    X,
+    /// y.
+    Y,
+}
+
+/// What a boundary region holds.
+#[derive(Debug, Deserialize, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum Condition {
+    /// Both velocity components zero.
+    Fixed,
+    /// Velocity component along `normal` zero, the other free.
+    Roller {
+        /// Direction of the held component.
+        normal: Axis,
+    },
+    /// Prescribed velocity components as piecewise-linear functions of time, `[(t, v), …]`;
+    /// an absent component stays free.
+    Velocity {
+        /// x component.
+        #[serde(default)]
+        x: Option<Vec<Pair>>,
+        /// y component.
+        #[serde(default)]
+        y: Option<Vec<Pair>>,
+    },
+}
+
+/// Output settings.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Write a VTU frame every this many steps (0: none). The initial and final states are
+    /// always written when frames are on.
+    #[serde(default)]
+    pub vtu_every: u64,
+    /// Write a `series.csv` row every this many steps (0: initial and final rows only).
+    #[serde(default = "default_csv_every")]
+    pub csv_every: u64,
+    /// Extra `series.csv` columns.
+    #[serde(default)]
+    pub probes: Vec<Probe>,
+}
+
+fn default_csv_every() -> u64 {
+    1
+}
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        Self {
+            vtu_every: 0,
+            csv_every: default_csv_every(),
+            probes: Vec::new(),
+        }
+    }
+}
+
+/// An extra time-series quantity.
+#[derive(Debug, Deserialize, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub enum Probe {
+    /// Force the named boundary region exerts on the body: `reaction_<name>_x`, `_y`.
+    Reaction(String),
+    /// Centre-of-mass velocity of all particles: `com_velocity_x`, `com_velocity_y`.
+    CentreOfMassVelocity,
+}
+
+/// One system of the pipeline.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PipelineEntry {
+    /// Registered name, `stage/algorithm`.
+    pub system: String,
+    /// The system's own parameters, parsed by its installer.
+    #[serde(default)]
+    pub params: Option<Box<RawValue>>,
+}

@@ -1,0 +1,180 @@
+//! [`Simulation`]: the world, the step schedule, the clock and the thread pool.
+
+use crate::components::{MaterialId, Particle, Velocity};
+use crate::health::{Blowup, Health, healthy, stage_check};
+use crate::resources::{Grid, Materials, SimClock};
+use crate::scene::{End, TimeStep};
+use crate::stage::{Stage, StageCheck, configure_stages};
+use bevy_ecs::prelude::*;
+use bevy_ecs::schedule::{LogLevel, ScheduleBuildSettings, ScheduleLabel, SingleThreadedExecutor};
+
+/// Label of the one schedule that takes a step.
+#[derive(ScheduleLabel, Clone, Debug, PartialEq, Eq, Hash)]
+pub struct StepSchedule;
+
+/// An empty step schedule: single-threaded executor, ambiguities are errors, the stages chained
+/// in order with the engine's health check after each, and every stage skipped after a failure.
+pub fn step_schedule() -> Schedule {
+    let mut schedule = Schedule::new(StepSchedule);
+    schedule.set_executor(SingleThreadedExecutor::new());
+    schedule.set_build_settings(ScheduleBuildSettings {
+        ambiguity_detection: LogLevel::Error,
+        ..Default::default()
+    });
+    configure_stages(&mut schedule);
+    for stage in Stage::ORDER {
+        schedule.configure_sets(stage.run_if(healthy));
+        schedule.add_systems(stage_check(stage).in_set(StageCheck(stage)).run_if(healthy));
+    }
+    schedule
+}
+
+/// Builds the schedule's executable form now, turning ordering problems into a message that
+/// names the systems involved.
+pub fn initialize_schedule(schedule: &mut Schedule, world: &mut World) -> Result<(), String> {
+    world.init_resource::<Health>();
+    schedule
+        .initialize(world)
+        .map(|_| ())
+        .map_err(|e| e.to_string(schedule.graph(), world))
+}
+
+/// A loaded scene ready to step.
+pub struct Simulation {
+    /// All entities and resources.
+    pub world: World,
+    schedule: Schedule,
+    pool: Option<rayon::ThreadPool>,
+    time_step: TimeStep,
+    end: End,
+}
+
+impl Simulation {
+    /// Wraps a built world and schedule; initialises the schedule (see [`initialize_schedule`]).
+    pub fn new(
+        mut world: World,
+        mut schedule: Schedule,
+        time_step: TimeStep,
+        end: End,
+    ) -> Result<Self, String> {
+        world.init_resource::<SimClock>();
+        initialize_schedule(&mut schedule, &mut world)?;
+        Ok(Self {
+            world,
+            schedule,
+            pool: None,
+            time_step,
+            end,
+        })
+    }
+
+    /// Runs the parallel kernels on a pool of `threads` threads (the only pool the run uses).
+    pub fn set_threads(&mut self, threads: usize) -> Result<(), rayon::ThreadPoolBuildError> {
+        self.pool = Some(rayon::ThreadPoolBuilder::new().num_threads(threads).build()?);
+        Ok(())
+    }
+
+    /// Threads the parallel kernels run on.
+    pub fn threads(&self) -> usize {
+        self.pool
+            .as_ref()
+            .map_or_else(rayon::current_num_threads, |p| p.current_num_threads())
+    }
+
+    /// The clock.
+    pub fn clock(&self) -> SimClock {
+        *self.world.resource::<SimClock>()
+    }
+
+    /// The end of the run.
+    pub fn end(&self) -> End {
+        self.end
+    }
+
+    /// Replaces the end of the run (e.g. `--steps N`).
+    pub fn set_end(&mut self, end: End) {
+        self.end = end;
+    }
+
+    /// Fraction of the run done, in [0, 1].
+    pub fn progress(&self) -> f64 {
+        let clock = self.clock();
+        match self.end {
+            End::Steps(n) if n > 0 => clock.step as f64 / n as f64,
+            End::Time(t) if t > 0.0 => (clock.time / t).min(1.0),
+            _ => 1.0,
+        }
+    }
+
+    /// True once the end of the run is reached.
+    pub fn finished(&self) -> bool {
+        let clock = self.clock();
+        match self.end {
+            End::Steps(n) => clock.step >= n,
+            End::Time(t) => clock.time >= t * (1.0 - 1e-12) || t - clock.time <= 1e-9 * clock.dt,
+        }
+    }
+
+    /// Number of particles.
+    pub fn particle_count(&mut self) -> usize {
+        self.world
+            .query_filtered::<(), With<Particle>>()
+            .iter(&self.world)
+            .count()
+    }
+
+    /// The largest stable step `h / max_p (c_p + |v_p|)` for the current state.
+    pub fn stable_time_step(&mut self) -> f64 {
+        stable_time_step(&mut self.world)
+    }
+
+    /// The size of the next step under the scene's rule, clipped to land on the end time.
+    pub fn next_time_step(&mut self) -> f64 {
+        let dt = match self.time_step {
+            TimeStep::Fixed(dt) => dt,
+            TimeStep::Cfl(factor) => factor * self.stable_time_step(),
+        };
+        match self.end {
+            End::Time(t) => dt.min(t - self.clock().time).max(f64::MIN_POSITIVE),
+            End::Steps(_) => dt,
+        }
+    }
+
+    /// Takes one step. On failure the state is left as the failing stage produced it.
+    pub fn step(&mut self) -> Result<(), Blowup> {
+        let dt = self.next_time_step();
+        self.world.resource_mut::<SimClock>().dt = dt;
+        let (world, schedule) = (&mut self.world, &mut self.schedule);
+        match &self.pool {
+            Some(pool) => pool.install(|| schedule.run(world)),
+            None => schedule.run(world),
+        }
+        if let Some(failure) = self.world.resource::<Health>().failure.clone() {
+            return Err(failure);
+        }
+        let mut clock = self.world.resource_mut::<SimClock>();
+        clock.step += 1;
+        clock.time += dt;
+        Ok(())
+    }
+
+    /// Runs `f` on this simulation's thread pool (e.g. output that uses rayon).
+    pub fn install<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
+        match &self.pool {
+            Some(pool) => pool.install(f),
+            None => f(),
+        }
+    }
+}
+
+/// `h / max_p (c_p + |v_p|)`, with `c_p` the wave speed of the particle's material.
+pub fn stable_time_step(world: &mut World) -> f64 {
+    let h = world.resource::<Grid>().spacing;
+    let speeds: Vec<f64> = world.resource::<Materials>().0.iter().map(|m| m.wave_speed()).collect();
+    let fastest = world
+        .query_filtered::<(&MaterialId, &Velocity), With<Particle>>()
+        .iter(world)
+        .map(|(m, v)| speeds.get(m.0 as usize).copied().unwrap_or(0.0) + v.0.length())
+        .fold(0.0, f64::max);
+    if fastest > 0.0 { h / fastest } else { f64::INFINITY }
+}

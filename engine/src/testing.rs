@@ -1,0 +1,102 @@
+//! Helpers for testing one system alone on a tiny world.
+//!
+//! ```
+//! use fractum_engine::prelude::*;
+//! use fractum_engine::testing::*;
+//!
+//! // A 2×2-cell grid of spacing 0.5, one particle, one step of 1 ms.
+//! let mut world = tiny_world(2, 0.5, 1e-3);
+//! spawn_particle(&mut world, Vector::new(0.3, 0.6), Vector::new(1.0, 0.0), 2.0, 0.25);
+//! run_system(&mut world, |mut q: Query<&mut Velocity, With<Particle>>| {
+//!     for mut v in &mut q {
+//!         v.0 *= 2.0;
+//!     }
+//! });
+//! assert_eq!(particle_values::<Velocity>(&mut world)[0].0, Vector::new(2.0, 0.0));
+//! ```
+
+use crate::boundary::{BoundaryConditions, Reactions};
+use crate::components::{NodeBundle, NodeIndex, Particle, ParticleBundle, ParticleId};
+use crate::connectivity::Connectivity;
+use crate::dim::Vector;
+use crate::health::Health;
+use crate::resources::{BodyForce, Grid, Material, Materials, SimClock};
+use bevy_ecs::prelude::*;
+use bevy_ecs::schedule::ScheduleConfigs;
+use bevy_ecs::system::ScheduleSystem;
+
+/// The material of [`tiny_world`]: E = 100 Pa, ν = 0.25, ρ = 1 kg/m³.
+pub fn test_material() -> Material {
+    Material {
+        name: "test".into(),
+        density: 1.0,
+        youngs_modulus: 100.0,
+        poisson_ratio: 0.25,
+    }
+}
+
+/// A world with an `n × n`-cell grid of spacing `h` at the origin, its nodes, one material
+/// ([`test_material`]), a clock with step `dt`, no body force and no boundary conditions.
+pub fn tiny_world(n: usize, h: f64, dt: f64) -> World {
+    let grid = Grid {
+        min: Vector::ZERO,
+        spacing: h,
+        cells: [n, n],
+    };
+    let mut world = World::new();
+    world.insert_resource(grid);
+    world.insert_resource(SimClock {
+        step: 0,
+        time: 0.0,
+        dt,
+    });
+    world.insert_resource(Materials(vec![test_material()]));
+    world.insert_resource(BodyForce::default());
+    world.insert_resource(BoundaryConditions::default());
+    world.insert_resource(Reactions::default());
+    world.insert_resource(Connectivity::default());
+    world.insert_resource(Health::default());
+    let nodes: Vec<_> = (0..grid.node_count())
+        .map(|i| NodeBundle::new(i as u32, grid.node_position(i)))
+        .collect();
+    world.spawn_batch(nodes);
+    world
+}
+
+/// Spawns a particle of material 0 with the next free id.
+pub fn spawn_particle(world: &mut World, x: Vector, v: Vector, mass: f64, volume: f64) -> Entity {
+    let id = world.query_filtered::<(), With<Particle>>().iter(world).count() as u32;
+    let mut bundle = ParticleBundle::new(id, x, mass, volume, 0);
+    bundle.velocity.0 = v;
+    world.spawn(bundle).id()
+}
+
+/// Runs `systems` once in a schedule of their own.
+pub fn run_system<M>(world: &mut World, systems: impl IntoScheduleConfigs<ScheduleSystem, M>) {
+    let configs: ScheduleConfigs<ScheduleSystem> = systems.into_configs();
+    let mut schedule = Schedule::default();
+    schedule.add_systems(configs);
+    schedule.run(world);
+}
+
+/// A component of every particle, in id order.
+pub fn particle_values<T: Component + Copy>(world: &mut World) -> Vec<T> {
+    let mut rows: Vec<(u32, T)> = world
+        .query_filtered::<(&ParticleId, &T), With<Particle>>()
+        .iter(world)
+        .map(|(id, t)| (id.0, *t))
+        .collect();
+    rows.sort_by_key(|r| r.0);
+    rows.into_iter().map(|r| r.1).collect()
+}
+
+/// A component of every node, in node-index order.
+pub fn node_values<T: Component + Copy>(world: &mut World) -> Vec<T> {
+    let mut rows: Vec<(u32, T)> = world
+        .query::<(&NodeIndex, &T)>()
+        .iter(world)
+        .map(|(i, t)| (i.0, *t))
+        .collect();
+    rows.sort_by_key(|r| r.0);
+    rows.into_iter().map(|r| r.1).collect()
+}
