@@ -60,6 +60,27 @@ impl Connectivity {
         self.rebuild_transpose(node_count);
     }
 
+    /// Refills the tables with exactly `width` entries per particle row, computed in parallel by
+    /// `fill(p, nodes, weights, gradients)` on the row's slices, then rebuilds the transpose.
+    pub fn fill_fixed_width<F>(&mut self, particles: usize, width: usize, node_count: usize, fill: F)
+    where
+        F: Fn(usize, &mut [u32], &mut [f64], &mut [Vector]) + Sync,
+    {
+        let entries = particles * width;
+        self.row_offsets.clear();
+        self.row_offsets.extend((0..=particles).map(|p| p * width));
+        self.nodes.resize(entries, 0);
+        self.weights.resize(entries, 0.0);
+        self.gradients.resize(entries, Vector::ZERO);
+        self.nodes
+            .par_chunks_mut(width)
+            .zip(self.weights.par_chunks_mut(width))
+            .zip(self.gradients.par_chunks_mut(width))
+            .enumerate()
+            .for_each(|(p, ((n, w), g))| fill(p, n, w, g));
+        self.rebuild_transpose(node_count);
+    }
+
     /// Rebuilds the node-major transpose from the particle-major tables (counting sort, so the
     /// entries of each node stay in particle order).
     pub fn rebuild_transpose(&mut self, node_count: usize) {

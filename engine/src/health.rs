@@ -44,17 +44,25 @@ pub fn healthy(health: Res<Health>) -> bool {
     health.failure.is_none()
 }
 
-/// Returns the first item of a contiguous query iterator and insists there is no second table.
+/// The slices of the one table that holds all particles (or all nodes), from a contiguous query.
 ///
 /// The engine creates all particles (and all nodes) with one bundle and never adds or removes
-/// components, so each lives in exactly one table and slice index equals row index. A second
-/// table means some code broke that rule; continuing would silently skip entities.
-pub fn single_table<I: Iterator>(mut tables: I, what: &str) -> Option<I::Item> {
+/// components, so each lives in exactly one table and slice index equals row index (for nodes,
+/// the node index). A second table means some code broke that rule, and continuing would
+/// silently skip entities, so that is a panic naming the rule. `None` means there are no such
+/// entities.
+pub fn single_table<I: IntoIterator, E: std::fmt::Debug>(
+    tables: Result<I, E>,
+    what: &str,
+) -> Option<I::Item> {
+    let mut tables = tables
+        .unwrap_or_else(|e| panic!("{what} components must use table storage: {e:?}"))
+        .into_iter();
     let first = tables.next();
     assert!(
         tables.next().is_none(),
         "{what} are stored in more than one table: a component was added to or removed from only \
-         some of them. Give every {what} the same components at creation."
+         some of them. Give every one of them the same components at creation."
     );
     first
 }
@@ -78,7 +86,7 @@ type NodeCheckQuery<'w, 's> = Query<
 
 fn first_bad_particle(particles: &ParticleCheckQuery, grid: &Grid) -> Option<String> {
     let (ids, positions, velocities, stresses, volumes) =
-        single_table(particles.contiguous_iter().ok()?, "particles")?;
+        single_table(particles.contiguous_iter(), "particles")?;
     let (lo, hi) = (grid.min, grid.max());
     let bad = (0..ids.len()).into_par_iter().find_first(|&p| {
         let x = positions[p].0;
@@ -115,7 +123,7 @@ fn first_bad_particle(particles: &ParticleCheckQuery, grid: &Grid) -> Option<Str
 
 fn first_bad_node(nodes: &NodeCheckQuery) -> Option<String> {
     let (indices, masses, velocities, forces) =
-        single_table(nodes.contiguous_iter().ok()?, "nodes")?;
+        single_table(nodes.contiguous_iter(), "nodes")?;
     let bad = (0..indices.len()).into_par_iter().find_first(|&n| {
         !(masses[n].0.iter().all(|m| m.is_finite())
             && velocities[n].0.iter().all(|v| v.is_finite())

@@ -1,1 +1,50 @@
-//! Stock systems.
+//! # fractum-systems
+//!
+//! Fractum's stock algorithms. One file per algorithm, grouped by stage; each file starts with
+//! what it does, its stage, its registration name and the paper equations it implements, and
+//! exposes one `REGISTRATION`. [`register_all`] adds them all to a registry; a user's crate can
+//! then add its own next to them.
+
+use fractum_engine::prelude::{Params, Registration, Registry, SceneError};
+
+pub mod advection;
+pub mod basis;
+pub mod predictor;
+pub mod stress;
+
+/// Every stock registration.
+pub const ALL: &[Registration] = &[
+    basis::linear::REGISTRATION,
+    predictor::usl::REGISTRATION,
+    stress::linear_elastic::REGISTRATION,
+    advection::usl::REGISTRATION,
+];
+
+/// Adds every stock system to `registry`.
+///
+/// # Panics
+/// If a stock name is already taken (a user's registration should use its own names).
+pub fn register_all(registry: &mut Registry) {
+    for registration in ALL {
+        if let Err(e) = registry.register(*registration) {
+            panic!("stock system cannot be registered: {e}");
+        }
+    }
+}
+
+/// A registry holding every stock system.
+pub fn stock_registry() -> Registry {
+    let mut registry = Registry::new();
+    register_all(&mut registry);
+    registry
+}
+
+/// Empty parameter set: rejects any field given in `params: (...)`.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct NoParams {}
+
+/// Parses `params` for a system that takes none, so a stray field is an error, not ignored.
+pub(crate) fn no_params(params: &Params) -> Result<(), SceneError> {
+    params.parse::<NoParams>().map(|_| ())
+}

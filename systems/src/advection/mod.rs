@@ -1,0 +1,2 @@
+//! Advection stage: grid-to-particle transfer and particle motion.
+pub mod usl;

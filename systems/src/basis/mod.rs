@@ -1,0 +1,2 @@
+//! Basis stage: shape functions and particle–node connectivity.
+pub mod linear;

@@ -1,0 +1,2 @@
+//! Predictor stage: particle-to-grid transfer and the nodal velocity predictor.
+pub mod usl;

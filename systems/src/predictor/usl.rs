@@ -1,0 +1,244 @@
+//! Update-stress-last explicit scheme, grid part: particle-to-grid transfer, nodal forces and
+//! the nodal velocity update.
+//!
+//! - Stage: predictor. Registration name: `predictor/usl`. Pairs with `advection/usl`.
+//! - Implements eqs. (1)–(6) of Homel & Herbold (dfg-partitioning-mpm.md §1.1):
+//!   `m_I = Σ N_Ip m_p`, `v_I = Σ N_Ip m_p v_p / m_I`,
+//!   `f_I = Σ N_Ip m_p b − Σ (1 − D_p) V_p σ_p · ∇N_Ip`, `v̄_I = v_I + Δt f_I / m_I`,
+//!   with essential boundary conditions held on `v_I` and `v̄_I`. The stress used is the one
+//!   carried from the previous step (update stress last); the stress stage that follows
+//!   evaluates the velocity gradient from `v̄_I` (eq. 7).
+//! - Writes field 0 of every node; the node acceleration is the one implied by the held
+//!   velocities, `(v̄_I − v_I)/Δt`, so particles see the boundary conditions too.
+
+use fractum_engine::dim::sym_dot;
+use fractum_engine::prelude::*;
+use serde::Deserialize;
+use std::ops::AddAssign;
+
+/// Registration of `predictor/usl`.
+pub const REGISTRATION: Registration = Registration {
+    name: "predictor/usl",
+    summary: "USL grid update: P2G of mass and momentum, nodal forces, v̄ = v + Δt f/m (eqs. 1-6)",
+    params: &[ParamDoc {
+        name: "min_node_mass",
+        ty: "f64",
+        default: Some("0.0"),
+        doc: "nodes with less mass (kg) are treated as empty: zero velocity and acceleration",
+    }],
+    requires: &["advection/usl"],
+    install,
+};
+
+/// Parameters of `predictor/usl`.
+#[derive(Resource, Deserialize, Clone, Copy, Debug, Default, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct UslPredictorParams {
+    /// Nodes with no more mass than this are empty.
+    #[serde(default)]
+    pub min_node_mass: f64,
+}
+
+fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    let parsed: UslPredictorParams = params.parse()?;
+    if !(parsed.min_node_mass >= 0.0 && parsed.min_node_mass.is_finite()) {
+        return Err(params.error("min_node_mass", "expected a finite mass >= 0"));
+    }
+    installer.insert_resource(parsed);
+    installer.add_systems(usl_predictor);
+    Ok(())
+}
+
+/// Per-node sums of the particle-to-grid transfer.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeSums {
+    /// Σ N m.
+    pub mass: f64,
+    /// Σ N m v.
+    pub momentum: Vector,
+    /// Σ N m b − Σ (1 − D) V σ·∇N.
+    pub force: Vector,
+}
+
+impl AddAssign for NodeSums {
+    fn add_assign(&mut self, rhs: Self) {
+        self.mass += rhs.mass;
+        self.momentum += rhs.momentum;
+        self.force += rhs.force;
+    }
+}
+
+/// Particle state read by the transfer, as slices in particle-row order.
+pub struct ParticleSlices<'a> {
+    /// Masses.
+    pub mass: &'a [Mass],
+    /// Velocities.
+    pub velocity: &'a [Velocity],
+    /// Volumes.
+    pub volume: &'a [Volume],
+    /// Stresses.
+    pub stress: &'a [Stress],
+    /// Damage.
+    pub damage: &'a [Damage],
+}
+
+/// Contribution of connectivity entry `e` of particle `p` to its node (eqs. 1–4).
+pub fn contribution(
+    c: &Connectivity,
+    particles: &ParticleSlices,
+    body_force: Vector,
+    e: usize,
+    p: usize,
+) -> NodeSums {
+    let (n, grad) = (c.weights[e], c.gradients[e]);
+    let m = particles.mass[p].0;
+    let intact = 1.0 - particles.damage[p].0;
+    NodeSums {
+        mass: n * m,
+        momentum: n * m * particles.velocity[p].0,
+        force: n * m * body_force - intact * particles.volume[p].0 * sym_dot(&particles.stress[p].0, grad),
+    }
+}
+
+/// Velocity `momentum / mass` of a node, zero for an empty node.
+pub fn node_velocity(sums: &NodeSums, min_mass: f64) -> Vector {
+    if sums.mass > min_mass && sums.mass > 0.0 {
+        sums.momentum / sums.mass
+    } else {
+        Vector::ZERO
+    }
+}
+
+type ParticleQuery<'w, 's> =
+    Query<'w, 's, (&'static Mass, &'static Velocity, &'static Volume, &'static Stress, &'static Damage), With<Particle>>;
+type NodeQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        &'static mut NodeMass,
+        &'static mut NodeMomentum,
+        &'static mut NodeVelocity,
+        &'static mut NodeAcceleration,
+        &'static mut NodeForce,
+    ),
+    With<Node>,
+>;
+
+/// The `predictor/usl` system.
+#[allow(clippy::too_many_arguments)]
+pub fn usl_predictor(
+    clock: Res<SimClock>,
+    body_force: Res<BodyForce>,
+    bcs: Res<BoundaryConditions>,
+    mut reactions: ResMut<Reactions>,
+    connectivity: Res<Connectivity>,
+    params: Res<UslPredictorParams>,
+    particles: ParticleQuery,
+    mut nodes: NodeQuery,
+) {
+    let Some((mass, velocity, volume, stress, damage)) =
+        single_table(particles.contiguous_iter(), "particles")
+    else {
+        return;
+    };
+    let Some((mut node_mass, mut momentum, mut node_velocity_out, mut acceleration, mut force)) =
+        single_table(nodes.contiguous_iter_mut(), "nodes")
+    else {
+        return;
+    };
+    let slices = ParticleSlices {
+        mass,
+        velocity,
+        volume,
+        stress,
+        damage,
+    };
+    let mut sums = vec![NodeSums::default(); node_mass.len()];
+    connectivity.scatter_to_nodes(&mut sums, |e, p| {
+        contribution(&connectivity, &slices, body_force.0, e, p)
+    });
+    let dt = clock.dt;
+    for (i, s) in sums.iter().enumerate() {
+        node_mass[i] = NodeMass([s.mass, 0.0]);
+        momentum[i] = NodeMomentum([s.momentum, Vector::ZERO]);
+        force[i] = NodeForce([s.force, Vector::ZERO]);
+        node_velocity_out[i] = NodeVelocity([node_velocity(s, params.min_node_mass), Vector::ZERO]);
+    }
+    bcs.enforce(clock.time, &node_mass, &mut node_velocity_out, None);
+    let start: Vec<NodeVelocity> = node_velocity_out.to_vec();
+    for (i, s) in sums.iter().enumerate() {
+        let v = start[i].0[0];
+        let updated = if s.mass > params.min_node_mass && s.mass > 0.0 {
+            v + dt * s.force / s.mass
+        } else {
+            Vector::ZERO
+        };
+        node_velocity_out[i].0[0] = updated;
+    }
+    bcs.enforce(clock.time + dt, &node_mass, &mut node_velocity_out, Some((dt, &mut reactions)));
+    for i in 0..sums.len() {
+        acceleration[i].0[0] = (node_velocity_out[i].0[0] - start[i].0[0]) / dt;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::basis::linear::linear_basis;
+    use fractum_engine::boundary::{BoundaryRegion, PiecewiseLinear};
+    use fractum_engine::testing::*;
+
+    #[test]
+    fn transfer_conserves_mass_and_momentum_and_applies_body_force() {
+        let mut world = tiny_world(2, 0.5, 0.01);
+        world.insert_resource(UslPredictorParams::default());
+        world.insert_resource(BodyForce(Vector::new(0.0, -10.0)));
+        spawn_particle(&mut world, Vector::new(0.3, 0.6), Vector::new(1.0, 2.0), 2.0, 0.1);
+        spawn_particle(&mut world, Vector::new(0.8, 0.2), Vector::new(-1.0, 0.5), 3.0, 0.1);
+        run_system(&mut world, (linear_basis, usl_predictor).chain());
+        let masses = node_values::<NodeMass>(&mut world);
+        let velocities = node_values::<NodeVelocity>(&mut world);
+        let accelerations = node_values::<NodeAcceleration>(&mut world);
+        let total_mass: f64 = masses.iter().map(|m| m.0[0]).sum();
+        let momentum: Vector = masses.iter().zip(&velocities).map(|(m, v)| m.0[0] * v.0[0]).sum();
+        let impulse: Vector = masses.iter().zip(&accelerations).map(|(m, a)| m.0[0] * a.0[0]).sum();
+        assert!((total_mass - 5.0).abs() < 1e-14);
+        // Unstressed particles: the grid momentum after the step is the particles' momentum
+        // plus the body-force impulse.
+        let expected = Vector::new(2.0 - 3.0, 4.0 + 1.5) + Vector::new(0.0, -10.0 * 5.0 * 0.01);
+        assert!((momentum - expected).length() < 1e-12, "{momentum}");
+        assert!((impulse - Vector::new(0.0, -50.0)).length() < 1e-10);
+        assert!(masses.iter().all(|m| m.0[1] == 0.0));
+    }
+
+    #[test]
+    fn tension_contracts_the_cell_and_fixed_nodes_report_the_reaction() {
+        let mut world = tiny_world(2, 0.5, 0.01);
+        world.insert_resource(UslPredictorParams::default());
+        world.insert_resource(BoundaryConditions {
+            regions: vec![BoundaryRegion {
+                name: "centre".into(),
+                nodes: vec![4],
+                velocity: [Some(PiecewiseLinear::constant(0.0)), Some(PiecewiseLinear::constant(0.0))],
+            }],
+        });
+        let p = spawn_particle(&mut world, Vector::new(0.6, 0.6), Vector::ZERO, 1.0, 0.25);
+        world.get_mut::<Stress>(p).unwrap().0 = SymTensor {
+            xx: 10.0,
+            yy: 0.0,
+            zz: 0.0,
+            xy: 0.0,
+        };
+        run_system(&mut world, (linear_basis, usl_predictor).chain());
+        let forces = node_values::<NodeForce>(&mut world);
+        let velocities = node_values::<NodeVelocity>(&mut world);
+        // Tension contracts the cell: its left nodes are pulled right, its right nodes left.
+        assert!(forces[4].0[0].x > 0.0 && forces[5].0[0].x < 0.0);
+        assert_eq!(velocities[4].0[0], Vector::ZERO);
+        // Internal forces sum to zero; the reaction holds the fixed node against its share.
+        let total: Vector = forces.iter().map(|f| f.0[0]).sum();
+        assert!(total.length() < 1e-12);
+        let reaction = world.resource::<Reactions>().0[0];
+        assert!((reaction + forces[4].0[0]).length() < 1e-12, "{reaction}");
+    }
+}

@@ -1,0 +1,2 @@
+//! Stress stage: constitutive updates from the nodal velocity field.
+pub mod linear_elastic;
