@@ -1,1 +1,34 @@
 //! Shared helpers for the integration tests in `tests/`.
+
+use fractum_engine::scene::{Built, SceneError, SceneFile, build_simulation};
+use std::path::{Path, PathBuf};
+
+/// The workspace root.
+pub fn repo_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Every `*.ron` file in `dir` (relative to the workspace root), sorted.
+pub fn ron_files(dir: &str) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(repo_root().join(dir))
+        .unwrap_or_else(|e| panic!("cannot list {dir}: {e}"))
+        .filter_map(|entry| entry.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "ron"))
+        .collect();
+    files.sort();
+    files
+}
+
+/// Reads and builds a scene with the stock systems.
+pub fn load(path: &Path) -> Result<Built, SceneError> {
+    let file = SceneFile::read(path)?;
+    build_simulation(&file, &fractum_systems::stock_registry())
+}
+
+/// A fresh, empty temporary folder for one test.
+pub fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("fractum-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("cannot create {}: {e}", dir.display()));
+    dir
+}

@@ -1,1 +1,283 @@
-//! CLI.
+//! # fractum-cli
+//!
+//! The `fractum` command line: `run`, `check` and `systems`. The commands are library functions
+//! so that a user's crate can build its own `fractum` with extra systems registered:
+//!
+//! ```no_run
+//! let mut registry = fractum_systems::stock_registry();
+//! // registry.register(my_crate::MY_DAMAGE).unwrap();
+//! std::process::exit(fractum_cli::main_with(std::env::args_os(), &registry));
+//! ```
+
+use clap::{Parser, Subcommand};
+use fractum_engine::registry::Registry;
+use fractum_engine::run::{RunError, RunSummary, run};
+use fractum_engine::scene::{Built, End, SceneError, SceneFile, TimeStep, build_simulation};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::ffi::OsString;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Exit code: the scene is invalid.
+pub const EXIT_BAD_SCENE: i32 = 1;
+/// Exit code: the command line is malformed (clap's own code).
+pub const EXIT_USAGE: i32 = 2;
+/// Exit code: the run stopped on a non-finite value or a particle leaving the grid.
+pub const EXIT_BLOWUP: i32 = 3;
+/// Exit code: an output file could not be written, or the thread pool could not start.
+pub const EXIT_IO: i32 = 4;
+
+/// Material Point Method simulations of dynamic fracture and frictional contact.
+#[derive(Debug, Parser)]
+#[command(name = "fractum", version, about)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run a scene: VTU frames, a ParaView .pvd collection and series.csv in the output folder.
+    Run {
+        /// Scene file (.ron).
+        scene: PathBuf,
+        /// Output folder [default: out/<scene name>].
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Threads for the parallel kernels [default: all cores].
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Stop after this many steps instead of the scene's end.
+        #[arg(long)]
+        steps: Option<u64>,
+        /// No progress bar.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Validate a scene and print a summary of what it would run.
+    Check {
+        /// Scene file (.ron).
+        scene: PathBuf,
+    },
+    /// List every registered system with its stage, summary and parameters.
+    Systems,
+}
+
+/// Parses `args` and runs the command with the systems in `registry`; returns the exit code.
+pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) -> i32 {
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() { EXIT_USAGE } else { 0 };
+        }
+    };
+    match cli.command {
+        Command::Systems => {
+            print!("{}", systems_report(registry));
+            0
+        }
+        Command::Check { scene } => match load(&scene, registry) {
+            Ok((file, mut built)) => {
+                print!("{}", check_report(&file, &mut built));
+                0
+            }
+            Err(e) => report_scene_error(&e),
+        },
+        Command::Run {
+            scene,
+            out,
+            threads,
+            steps,
+            quiet,
+        } => run_command(&scene, out, threads, steps, quiet, registry),
+    }
+}
+
+fn report_scene_error(e: &SceneError) -> i32 {
+    eprintln!("error: {e}");
+    EXIT_BAD_SCENE
+}
+
+/// Reads, validates and builds a scene.
+pub fn load(path: &Path, registry: &Registry) -> Result<(SceneFile, Built), SceneError> {
+    let file = SceneFile::read(path)?;
+    let built = build_simulation(&file, registry)?;
+    Ok((file, built))
+}
+
+/// The `fractum systems` listing.
+pub fn systems_report(registry: &Registry) -> String {
+    let mut out = String::new();
+    let mut stage = None;
+    for r in registry.iter() {
+        if r.stage() != stage {
+            stage = r.stage();
+            let name = stage.map(|s| s.name()).unwrap_or("?");
+            let _ = writeln!(out, "\n[{name}]");
+        }
+        let _ = writeln!(out, "  {:<28} {}", r.name, r.summary);
+        for p in r.params {
+            let default = p.default.map_or("required".to_string(), |d| format!("default {d}"));
+            let _ = writeln!(out, "      {}: {} ({default}) - {}", p.name, p.ty, p.doc);
+        }
+        if !r.requires.is_empty() {
+            let _ = writeln!(out, "      needs: {}", r.requires.join(", "));
+        }
+    }
+    out.trim_start().to_string()
+}
+
+fn describe_step(step: TimeStep, limit: f64) -> String {
+    match step {
+        TimeStep::Fixed(dt) => format!("dt = {dt:e} s fixed (stable limit {limit:.4e} s)"),
+        TimeStep::Cfl(f) => format!("CFL {f} of the stable limit (now dt = {:.4e} s)", f * limit),
+    }
+}
+
+/// The `fractum check` summary of a valid scene.
+pub fn check_report(file: &SceneFile, built: &mut Built) -> String {
+    let scene = &file.scene;
+    let sim = &mut built.simulation;
+    let grid = *sim.world.resource::<fractum_engine::resources::Grid>();
+    let limit = sim.stable_time_step();
+    let mut out = String::new();
+    let _ = writeln!(out, "scene      {}{}", file.name, if scene.title.is_empty() { String::new() } else { format!(" - {}", scene.title) });
+    let _ = writeln!(
+        out,
+        "grid       {} x {} cells, h = {} m, {} nodes, box ({}, {}) to ({}, {})",
+        grid.cells[0],
+        grid.cells[1],
+        grid.spacing,
+        grid.node_count(),
+        grid.min.x,
+        grid.min.y,
+        grid.max().x,
+        grid.max().y
+    );
+    let counts: Vec<String> = scene
+        .bodies
+        .iter()
+        .zip(&built.body_particles)
+        .enumerate()
+        .map(|(b, (body, n))| format!("{}: {n}", body.name.clone().unwrap_or(format!("body {b}"))))
+        .collect();
+    let _ = writeln!(out, "particles  {} ({})", sim.particle_count(), counts.join(", "));
+    for m in &sim.world.resource::<fractum_engine::resources::Materials>().0 {
+        let _ = writeln!(
+            out,
+            "material   {}: density {} kg/m3, E {} Pa, nu {}, wave speed {:.4e} m/s",
+            m.name,
+            m.density,
+            m.youngs_modulus,
+            m.poisson_ratio,
+            m.wave_speed()
+        );
+    }
+    let end = match sim.end() {
+        End::Time(t) => format!("end at t = {t} s"),
+        End::Steps(n) => format!("end after {n} steps"),
+    };
+    let _ = writeln!(out, "time       {}; {end}", describe_step(scene.time.step, limit));
+    for b in &scene.boundaries {
+        let _ = writeln!(out, "boundary   {}: {:?}", b.name, b.condition);
+    }
+    let _ = writeln!(out, "pipeline");
+    for (stage, names) in &built.pipeline.by_stage {
+        let _ = writeln!(out, "  {:<10} {}", stage.name(), names.join(", "));
+    }
+    let frames = match built.output.vtu_every {
+        0 => "no VTU frames".to_string(),
+        n => format!("VTU frame every {n} steps"),
+    };
+    let _ = writeln!(out, "output     {frames}; series.csv columns: {}", built.output.columns().join(","));
+    out.push_str("ok\n");
+    out
+}
+
+fn default_out_dir(scene: &Path) -> PathBuf {
+    let stem = scene.file_stem().map(|s| s.to_string_lossy().into_owned());
+    Path::new("out").join(stem.unwrap_or_else(|| "run".into()))
+}
+
+fn progress_bar(quiet: bool) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(1_000_000);
+    let style = ProgressStyle::with_template("[{elapsed_precise}] {bar:32} {msg} ETA {eta}")
+        .unwrap_or_else(|_| ProgressStyle::default_bar());
+    bar.set_style(style);
+    bar
+}
+
+fn run_command(
+    scene: &Path,
+    out: Option<PathBuf>,
+    threads: Option<usize>,
+    steps: Option<u64>,
+    quiet: bool,
+    registry: &Registry,
+) -> i32 {
+    let (_, mut built) = match load(scene, registry) {
+        Ok(loaded) => loaded,
+        Err(e) => return report_scene_error(&e),
+    };
+    let sim = &mut built.simulation;
+    if let Some(n) = threads {
+        if let Err(e) = sim.set_threads(n.max(1)) {
+            eprintln!("error: cannot start {n} threads: {e}");
+            return EXIT_IO;
+        }
+    }
+    if let Some(n) = steps {
+        sim.set_end(End::Steps(n));
+    }
+    let out_dir = out.unwrap_or_else(|| default_out_dir(scene));
+    let bar = progress_bar(quiet);
+    let started = Instant::now();
+    let mut last_draw = Instant::now();
+    let result = run(sim, &built.output, &out_dir, |sim| {
+        if last_draw.elapsed() > Duration::from_millis(100) || sim.finished() {
+            last_draw = Instant::now();
+            let clock = sim.clock();
+            let rate = clock.step as f64 / started.elapsed().as_secs_f64().max(1e-9);
+            bar.set_position((sim.progress() * 1e6) as u64);
+            bar.set_message(format!("step {} t = {:.4e} s {rate:.0} steps/s", clock.step, clock.time));
+        }
+    });
+    bar.finish_and_clear();
+    match result {
+        Ok(summary) => {
+            print!("{}", summary_report(&summary, &out_dir));
+            0
+        }
+        Err(RunError::Blowup(b)) => {
+            eprintln!("error: the run stopped at {b}");
+            eprintln!("outputs up to the last output step are in {}", out_dir.display());
+            EXIT_BLOWUP
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            EXIT_IO
+        }
+    }
+}
+
+/// The end-of-run summary.
+pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
+    format!(
+        "steps {}, simulated time {:.6e} s, particles {}, threads {}\nwall time {:.3} s, {:.4e} particle-steps/s\n{} VTU frames, output in {}\n",
+        s.steps,
+        s.time,
+        s.particles,
+        s.threads,
+        s.wall.as_secs_f64(),
+        s.particle_steps_per_second(),
+        s.frames,
+        out_dir.display()
+    )
+}

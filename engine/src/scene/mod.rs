@@ -6,7 +6,7 @@ mod format;
 pub mod locate;
 mod seed;
 
-pub use build::{PipelineSummary, build_simulation};
+pub use build::{Built, PipelineSummary, build_simulation};
 pub use error::{Location, SceneError};
 pub use format::*;
 pub use seed::{particles_in_shape, point_in_shape};
@@ -78,6 +78,9 @@ pub fn parse_fragment<T: DeserializeOwned>(
         },
         Err(e) => {
             let path = e.path().to_string();
+            // serde_path_to_error writes `?` for a position it cannot name (e.g. a syntax error
+            // between fields); the location still says where.
+            let path = path.trim_end_matches('?').trim_end_matches('.').to_string();
             let path = if path == "." { String::new() } else { path };
             let e = deserializer.span_error(e.into_inner());
             Err(spanned_error(file, origin, prefix, &path, e))

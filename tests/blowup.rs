@@ -1,0 +1,80 @@
+//! A run that goes wrong stops at once with a message naming the step, the stage and the
+//! particle.
+
+use fractum_engine::prelude::*;
+use fractum_engine::scene::{SceneFile, build_simulation};
+
+fn scene(velocity: &str, extra_system: &str) -> SceneFile {
+    let text = format!(
+        r#"(
+    time: (step: Fixed(1.0e-3), end: Steps(100)),
+    grid: (min: (0.0, 0.0), max: (1.0, 1.0), spacing: 0.1),
+    materials: {{ "m": (density: 1.0, youngs_modulus: 1.0, poisson_ratio: 0.0) }},
+    bodies: [(shape: Rectangle(min: (0.8, 0.4), max: (1.0, 0.6)), material: "m",
+              velocity: Uniform({velocity}))],
+    pipeline: [(system: "basis/linear"), (system: "predictor/usl"),
+               (system: "stress/linear_elastic"), (system: "advection/usl") {extra_system}],
+)"#
+    );
+    SceneFile::parse("inline.ron", text).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn a_particle_leaving_the_grid_stops_the_run_naming_it() {
+    // The right column of particles sits 0.025 from the edge and moves at 10 m/s: it leaves
+    // during step 3 (x = 0.975 + 0.03 > 1).
+    let file = scene("(10.0, 0.0)", "");
+    let mut sim = build_simulation(&file, &fractum_systems::stock_registry()).unwrap().simulation;
+    let failure = loop {
+        if let Err(e) = sim.step() {
+            break e;
+        }
+        assert!(!sim.finished(), "the run finished although particles left the grid");
+    };
+    assert_eq!(failure.step, 3);
+    assert_eq!(failure.stage, Stage::Advection);
+    assert!(failure.message.contains("left the grid"), "{failure}");
+    let text = failure.to_string();
+    assert!(text.starts_with("step 3, stage advection: particle "), "{text}");
+}
+
+fn poison(mut particles: Query<(&ParticleId, &mut Stress), With<Particle>>, clock: Res<SimClock>) {
+    if clock.step == 4 {
+        for (id, mut s) in &mut particles {
+            if id.0 == 7 {
+                s.0.xy = f64::NAN;
+            }
+        }
+    }
+}
+
+fn poison_install(installer: &mut Installer, _: &Params) -> Result<(), SceneError> {
+    installer.add_systems(poison);
+    Ok(())
+}
+
+#[test]
+fn a_non_finite_stress_stops_the_run_in_the_stage_that_produced_it() {
+    let mut registry = fractum_systems::stock_registry();
+    registry
+        .register(Registration {
+            name: "damage/poison",
+            summary: "writes NaN into particle 7's stress at step 5",
+            params: &[],
+            requires: &[],
+            install: poison_install,
+        })
+        .unwrap();
+    let file = scene("(0.0, 0.0)", r#", (system: "damage/poison")"#);
+    let mut sim = build_simulation(&file, &registry).unwrap().simulation;
+    let failure = loop {
+        if let Err(e) = sim.step() {
+            break e;
+        }
+    };
+    assert_eq!((failure.step, failure.stage), (5, Stage::Damage));
+    assert!(failure.message.starts_with("particle 7 at "), "{failure}");
+    assert!(failure.message.contains("non-finite stress"), "{failure}");
+    // The clock stays at the last completed step.
+    assert_eq!(sim.clock().step, 4);
+}
