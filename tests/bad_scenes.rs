@@ -52,6 +52,9 @@ fn corpus_covers_the_mistakes_users_make() {
         "body_outside_grid",
         "unstable_dt",
     ] {
-        assert!(names.iter().any(|n| n == required), "missing bad scene {required}");
+        assert!(
+            names.iter().any(|n| n == required),
+            "missing bad scene {required}"
+        );
     }
 }

@@ -24,18 +24,26 @@ fn a_particle_leaving_the_grid_stops_the_run_naming_it() {
     // The right column of particles sits 0.025 from the edge and moves at 10 m/s: it leaves
     // during step 3 (x = 0.975 + 0.03 > 1).
     let file = scene("(10.0, 0.0)", "");
-    let mut sim = build_simulation(&file, &fractum_systems::stock_registry()).unwrap().simulation;
+    let mut sim = build_simulation(&file, &fractum_systems::stock_registry())
+        .unwrap()
+        .simulation;
     let failure = loop {
         if let Err(e) = sim.step() {
             break e;
         }
-        assert!(!sim.finished(), "the run finished although particles left the grid");
+        assert!(
+            !sim.finished(),
+            "the run finished although particles left the grid"
+        );
     };
     assert_eq!(failure.step, 3);
     assert_eq!(failure.stage, Stage::Advection);
     assert!(failure.message.contains("left the grid"), "{failure}");
     let text = failure.to_string();
-    assert!(text.starts_with("step 3, stage advection: particle "), "{text}");
+    assert!(
+        text.starts_with("step 3, stage advection: particle "),
+        "{text}"
+    );
 }
 
 fn poison(mut particles: Query<(&ParticleId, &mut Stress), With<Particle>>, clock: Res<SimClock>) {

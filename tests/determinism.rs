@@ -19,7 +19,10 @@ fn state_after(threads: usize, steps: u64) -> Vec<u64> {
     rows.sort_by_key(|r| r.0.0);
     rows.iter()
         .flat_map(|(_, x, v, s, vol)| {
-            [x.0.x, x.0.y, v.0.x, v.0.y, s.0.xx, s.0.yy, s.0.zz, s.0.xy, vol.0].map(f64::to_bits)
+            [
+                x.0.x, x.0.y, v.0.x, v.0.y, s.0.xx, s.0.yy, s.0.zz, s.0.xy, vol.0,
+            ]
+            .map(f64::to_bits)
         })
         .collect()
 }

@@ -69,9 +69,13 @@ fn systems_run_in_stage_order_whatever_the_order_in_the_file() {
     shuffled.reverse();
     shuffled.swap(0, 5);
     shuffled.swap(3, 9);
-    let pipeline: Vec<String> = shuffled.iter().map(|n| format!("(system: \"{n}\")")).collect();
+    let pipeline: Vec<String> = shuffled
+        .iter()
+        .map(|n| format!("(system: \"{n}\")"))
+        .collect();
     let file = scene_with(&pipeline.join(", "));
-    let mut built = build_simulation(&file, &registry_with_loggers()).unwrap_or_else(|e| panic!("{e}"));
+    let mut built =
+        build_simulation(&file, &registry_with_loggers()).unwrap_or_else(|e| panic!("{e}"));
     built.simulation.step().unwrap();
     built.simulation.step().unwrap();
     let log = &built.simulation.world.resource::<Log>().0;
@@ -115,7 +119,10 @@ fn unordered_conflicting_systems_in_one_stage_fail_to_load_naming_them() {
         Err(e) => e.to_string(),
     };
     assert!(error.starts_with("inline.ron:"), "{error}");
-    assert!(error.contains("first_writer") && error.contains("second_writer"), "{error}");
+    assert!(
+        error.contains("first_writer") && error.contains("second_writer"),
+        "{error}"
+    );
 }
 
 #[test]

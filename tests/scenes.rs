@@ -14,9 +14,18 @@ fn frame_point_count(path: &std::path::Path) -> usize {
     let piece = pieces[0]
         .load_piece_data(Some(path))
         .unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
-    let names: Vec<String> = piece.data.point.iter().map(|a| a.name().to_string()).collect();
+    let names: Vec<String> = piece
+        .data
+        .point
+        .iter()
+        .map(|a| a.name().to_string())
+        .collect();
     for expected in ["id", "velocity", "stress", "damage", "mass", "volume"] {
-        assert!(names.iter().any(|n| n == expected), "{}: no `{expected}` array", path.display());
+        assert!(
+            names.iter().any(|n| n == expected),
+            "{}: no `{expected}` array",
+            path.display()
+        );
     }
     piece.num_points()
 }
@@ -39,13 +48,22 @@ fn every_shipped_scene_runs_a_few_steps() {
         let csv = std::fs::read_to_string(out.join("series.csv")).unwrap();
         let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
         assert_eq!(&header[..BASE_COLUMNS.len()], &BASE_COLUMNS);
-        let last: Vec<f64> = csv.lines().last().unwrap().split(',').map(|v| v.parse().unwrap()).collect();
+        let last: Vec<f64> = csv
+            .lines()
+            .last()
+            .unwrap()
+            .split(',')
+            .map(|v| v.parse().unwrap())
+            .collect();
         assert_eq!(last.len(), header.len());
         assert!(last.iter().all(|v| v.is_finite()), "{name}: {last:?}");
         let frame = out.join("frames/particles_00000005.vtu");
         assert_eq!(frame_point_count(&frame), particles, "{name}");
         let pvd = std::fs::read_to_string(out.join("particles.pvd")).unwrap();
-        assert!(pvd.contains("frames/particles_00000000.vtu") && pvd.contains("frames/particles_00000005.vtu"));
+        assert!(
+            pvd.contains("frames/particles_00000000.vtu")
+                && pvd.contains("frames/particles_00000005.vtu")
+        );
         std::fs::remove_dir_all(&out).unwrap();
     }
 }

@@ -62,8 +62,13 @@ impl Connectivity {
 
     /// Refills the tables with exactly `width` entries per particle row, computed in parallel by
     /// `fill(p, nodes, weights, gradients)` on the row's slices, then rebuilds the transpose.
-    pub fn fill_fixed_width<F>(&mut self, particles: usize, width: usize, node_count: usize, fill: F)
-    where
+    pub fn fill_fixed_width<F>(
+        &mut self,
+        particles: usize,
+        width: usize,
+        node_count: usize,
+        fill: F,
+    ) where
         F: Fn(usize, &mut [u32], &mut [f64], &mut [Vector]) + Sync,
     {
         let entries = particles * width;
@@ -158,7 +163,10 @@ mod tests {
         let masses = [2.0, 4.0, 8.0];
         let mut node_mass = vec![0.0; 3];
         c.scatter_to_nodes(&mut node_mass, |e, p| c.weights[e] * masses[p]);
-        assert_eq!(node_mass, vec![0.5 * 2.0 + 0.75 * 8.0, 0.25 * 8.0, 0.5 * 2.0 + 4.0]);
+        assert_eq!(
+            node_mass,
+            vec![0.5 * 2.0 + 0.75 * 8.0, 0.25 * 8.0, 0.5 * 2.0 + 4.0]
+        );
         assert_eq!(node_mass.iter().sum::<f64>(), masses.iter().sum::<f64>());
     }
 }

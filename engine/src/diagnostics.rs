@@ -38,12 +38,9 @@ impl Totals {
 
 /// Computes the totals of the current state.
 pub fn totals(world: &mut World) -> Totals {
-    let mut query = world.query_filtered::<(
-        &Mass,
-        &Velocity,
-        &StrainEnergyDensity,
-        &InitialVolume,
-    ), With<Particle>>();
+    let mut query = world
+        .query_filtered::<(&Mass, &Velocity, &StrainEnergyDensity, &InitialVolume), With<Particle>>(
+        );
     let mut t = Totals::default();
     for (m, v, w, v0) in query.iter(world) {
         t.kinetic_energy += 0.5 * m.0 * v.0.length_squared();

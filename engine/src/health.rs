@@ -26,7 +26,11 @@ pub struct Blowup {
 
 impl fmt::Display for Blowup {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "step {}, stage {}: {}", self.step, self.stage, self.message)
+        write!(
+            f,
+            "step {}, stage {}: {}",
+            self.step, self.stage, self.message
+        )
     }
 }
 
@@ -74,13 +78,24 @@ fn fmt_vec(v: Vector) -> String {
 type ParticleCheckQuery<'w, 's> = Query<
     'w,
     's,
-    (&'static ParticleId, &'static Position, &'static Velocity, &'static Stress, &'static Volume),
+    (
+        &'static ParticleId,
+        &'static Position,
+        &'static Velocity,
+        &'static Stress,
+        &'static Volume,
+    ),
     With<Particle>,
 >;
 type NodeCheckQuery<'w, 's> = Query<
     'w,
     's,
-    (&'static NodeIndex, &'static NodeMass, &'static NodeVelocity, &'static NodeForce),
+    (
+        &'static NodeIndex,
+        &'static NodeMass,
+        &'static NodeVelocity,
+        &'static NodeForce,
+    ),
     With<Node>,
 >;
 
@@ -109,9 +124,17 @@ fn first_bad_particle(particles: &ParticleCheckQuery, grid: &Grid) -> Option<Str
             fmt_vec(hi)
         )
     } else if !v.is_finite() {
-        format!("particle {id} at {} has a non-finite velocity {}", fmt_vec(x), fmt_vec(v))
+        format!(
+            "particle {id} at {} has a non-finite velocity {}",
+            fmt_vec(x),
+            fmt_vec(v)
+        )
     } else if !stresses[bad].0.is_finite() {
-        format!("particle {id} at {} has a non-finite stress {:?}", fmt_vec(x), stresses[bad].0)
+        format!(
+            "particle {id} at {} has a non-finite stress {:?}",
+            fmt_vec(x),
+            stresses[bad].0
+        )
     } else {
         format!(
             "particle {id} at {} has an invalid volume {:e}",
@@ -122,8 +145,7 @@ fn first_bad_particle(particles: &ParticleCheckQuery, grid: &Grid) -> Option<Str
 }
 
 fn first_bad_node(nodes: &NodeCheckQuery) -> Option<String> {
-    let (indices, masses, velocities, forces) =
-        single_table(nodes.contiguous_iter(), "nodes")?;
+    let (indices, masses, velocities, forces) = single_table(nodes.contiguous_iter(), "nodes")?;
     let bad = (0..indices.len()).into_par_iter().find_first(|&n| {
         !(masses[n].0.iter().all(|m| m.is_finite())
             && velocities[n].0.iter().all(|v| v.is_finite())

@@ -48,7 +48,9 @@ pub struct Registration {
 impl Registration {
     /// The stage named by the prefix of [`Registration::name`].
     pub fn stage(&self) -> Option<Stage> {
-        self.name.split_once('/').and_then(|(s, _)| Stage::from_name(s))
+        self.name
+            .split_once('/')
+            .and_then(|(s, _)| Stage::from_name(s))
     }
 }
 
@@ -190,7 +192,7 @@ impl<'a> Params<'a> {
     }
 
     /// Params from a string, as for a test or a programmatic pipeline.
-    pub fn from_str(raw: &'a str) -> Self {
+    pub fn inline(raw: &'a str) -> Self {
         Self {
             raw: Some(raw),
             file: "<params>",
@@ -202,7 +204,12 @@ impl<'a> Params<'a> {
     /// Parses the params into `T`. An entry without `params` parses as `()`, so `T` must give
     /// every field a default for that to succeed; otherwise the error names the missing field.
     pub fn parse<T: DeserializeOwned>(&self) -> Result<T, SceneError> {
-        parse_fragment(self.file, self.raw.unwrap_or("()"), self.origin, &self.field)
+        parse_fragment(
+            self.file,
+            self.raw.unwrap_or("()"),
+            self.origin,
+            &self.field,
+        )
     }
 
     /// An error about these params (e.g. a value out of range), placed at the params.
@@ -275,7 +282,16 @@ mod tests {
         let p: P = params.parse().unwrap();
         assert_eq!(p.k, -1.0);
         let e = params.error("k", "must be positive");
-        assert_eq!(e.to_string(), "s.ron:5:6: `pipeline[0].params.k`: must be positive");
-        assert!(Params::none().parse::<P>().unwrap_err().message.contains("`k`"));
+        assert_eq!(
+            e.to_string(),
+            "s.ron:5:6: `pipeline[0].params.k`: must be positive"
+        );
+        assert!(
+            Params::none()
+                .parse::<P>()
+                .unwrap_err()
+                .message
+                .contains("`k`")
+        );
     }
 }

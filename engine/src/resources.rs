@@ -138,7 +138,10 @@ mod tests {
         };
         assert_eq!(grid.node_count(), 15);
         assert_eq!(grid.max(), Vector::new(1.0, 1.0));
-        assert_eq!(grid.node_position(grid.node_index(2, 1)), Vector::new(0.0, 0.5));
+        assert_eq!(
+            grid.node_position(grid.node_index(2, 1)),
+            Vector::new(0.0, 0.5)
+        );
         assert_eq!(grid.cell_of(Vector::new(1.0, 1.0)), Some([3, 1]));
         assert_eq!(grid.cell_of(Vector::new(-0.99, 0.01)), Some([0, 0]));
         assert_eq!(grid.cell_of(Vector::new(1.01, 0.5)), None);

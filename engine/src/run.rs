@@ -129,7 +129,7 @@ struct Outputs<'a> {
 impl Outputs<'_> {
     fn record(&mut self, sim: &mut Simulation, force: bool) -> Result<(), RunError> {
         let step = sim.clock().step;
-        let due = |every: u64| every > 0 && step % every == 0;
+        let due = |every: u64| every > 0 && step.is_multiple_of(every);
         if force || due(self.plan.csv_every) || (self.plan.csv_every == 0 && step == 0) {
             let row = series_row(&mut sim.world, self.plan);
             let path = self.dir.join("series.csv");
@@ -138,7 +138,8 @@ impl Outputs<'_> {
         if self.plan.vtu_every > 0 && (force || due(self.plan.vtu_every)) {
             let name = format!("frames/particles_{step:08}.vtu");
             let path = self.dir.join(&name);
-            write_particle_frame(&path, &particle_frame(&mut sim.world)).map_err(io_error(&path))?;
+            write_particle_frame(&path, &particle_frame(&mut sim.world))
+                .map_err(io_error(&path))?;
             self.frames.push((sim.clock().time, name));
             let pvd = self.dir.join("particles.pvd");
             write_pvd(&pvd, &self.frames).map_err(io_error(&pvd))?;

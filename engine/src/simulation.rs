@@ -70,7 +70,11 @@ impl Simulation {
 
     /// Runs the parallel kernels on a pool of `threads` threads (the only pool the run uses).
     pub fn set_threads(&mut self, threads: usize) -> Result<(), rayon::ThreadPoolBuildError> {
-        self.pool = Some(rayon::ThreadPoolBuilder::new().num_threads(threads).build()?);
+        self.pool = Some(
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()?,
+        );
         Ok(())
     }
 
@@ -170,11 +174,20 @@ impl Simulation {
 /// `h / max_p (c_p + |v_p|)`, with `c_p` the wave speed of the particle's material.
 pub fn stable_time_step(world: &mut World) -> f64 {
     let h = world.resource::<Grid>().spacing;
-    let speeds: Vec<f64> = world.resource::<Materials>().0.iter().map(|m| m.wave_speed()).collect();
+    let speeds: Vec<f64> = world
+        .resource::<Materials>()
+        .0
+        .iter()
+        .map(|m| m.wave_speed())
+        .collect();
     let fastest = world
         .query_filtered::<(&MaterialId, &Velocity), With<Particle>>()
         .iter(world)
         .map(|(m, v)| speeds.get(m.0 as usize).copied().unwrap_or(0.0) + v.0.length())
         .fold(0.0, f64::max);
-    if fastest > 0.0 { h / fastest } else { f64::INFINITY }
+    if fastest > 0.0 {
+        h / fastest
+    } else {
+        f64::INFINITY
+    }
 }

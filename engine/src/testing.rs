@@ -65,7 +65,10 @@ pub fn tiny_world(n: usize, h: f64, dt: f64) -> World {
 
 /// Spawns a particle of material 0 with the next free id.
 pub fn spawn_particle(world: &mut World, x: Vector, v: Vector, mass: f64, volume: f64) -> Entity {
-    let id = world.query_filtered::<(), With<Particle>>().iter(world).count() as u32;
+    let id = world
+        .query_filtered::<(), With<Particle>>()
+        .iter(world)
+        .count() as u32;
     let mut bundle = ParticleBundle::new(id, x, mass, volume, 0);
     bundle.velocity.0 = v;
     world.spawn(bundle).id()

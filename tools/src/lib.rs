@@ -121,7 +121,9 @@ pub fn systems_report(registry: &Registry) -> String {
         }
         let _ = writeln!(out, "  {:<28} {}", r.name, r.summary);
         for p in r.params {
-            let default = p.default.map_or("required".to_string(), |d| format!("default {d}"));
+            let default = p
+                .default
+                .map_or("required".to_string(), |d| format!("default {d}"));
             let _ = writeln!(out, "      {}: {} ({default}) - {}", p.name, p.ty, p.doc);
         }
         if !r.requires.is_empty() {
@@ -145,7 +147,16 @@ pub fn check_report(file: &SceneFile, built: &mut Built) -> String {
     let grid = *sim.world.resource::<fractum_engine::resources::Grid>();
     let limit = sim.stable_time_step();
     let mut out = String::new();
-    let _ = writeln!(out, "scene      {}{}", file.name, if scene.title.is_empty() { String::new() } else { format!(" - {}", scene.title) });
+    let _ = writeln!(
+        out,
+        "scene      {}{}",
+        file.name,
+        if scene.title.is_empty() {
+            String::new()
+        } else {
+            format!(" - {}", scene.title)
+        }
+    );
     let _ = writeln!(
         out,
         "grid       {} x {} cells, h = {} m, {} nodes, box ({}, {}) to ({}, {})",
@@ -165,8 +176,17 @@ pub fn check_report(file: &SceneFile, built: &mut Built) -> String {
         .enumerate()
         .map(|(b, (body, n))| format!("{}: {n}", body.name.clone().unwrap_or(format!("body {b}"))))
         .collect();
-    let _ = writeln!(out, "particles  {} ({})", sim.particle_count(), counts.join(", "));
-    for m in &sim.world.resource::<fractum_engine::resources::Materials>().0 {
+    let _ = writeln!(
+        out,
+        "particles  {} ({})",
+        sim.particle_count(),
+        counts.join(", ")
+    );
+    for m in &sim
+        .world
+        .resource::<fractum_engine::resources::Materials>()
+        .0
+    {
         let _ = writeln!(
             out,
             "material   {}: density {} kg/m3, E {} Pa, nu {}, wave speed {:.4e} m/s",
@@ -181,7 +201,11 @@ pub fn check_report(file: &SceneFile, built: &mut Built) -> String {
         End::Time(t) => format!("end at t = {t} s"),
         End::Steps(n) => format!("end after {n} steps"),
     };
-    let _ = writeln!(out, "time       {}; {end}", describe_step(scene.time.step, limit));
+    let _ = writeln!(
+        out,
+        "time       {}; {end}",
+        describe_step(scene.time.step, limit)
+    );
     for b in &scene.boundaries {
         let _ = writeln!(out, "boundary   {}: {:?}", b.name, b.condition);
     }
@@ -193,7 +217,11 @@ pub fn check_report(file: &SceneFile, built: &mut Built) -> String {
         0 => "no VTU frames".to_string(),
         n => format!("VTU frame every {n} steps"),
     };
-    let _ = writeln!(out, "output     {frames}; series.csv columns: {}", built.output.columns().join(","));
+    let _ = writeln!(
+        out,
+        "output     {frames}; series.csv columns: {}",
+        built.output.columns().join(",")
+    );
     out.push_str("ok\n");
     out
 }
@@ -227,11 +255,11 @@ fn run_command(
         Err(e) => return report_scene_error(&e),
     };
     let sim = &mut built.simulation;
-    if let Some(n) = threads {
-        if let Err(e) = sim.set_threads(n.max(1)) {
-            eprintln!("error: cannot start {n} threads: {e}");
-            return EXIT_IO;
-        }
+    if let Some(n) = threads
+        && let Err(e) = sim.set_threads(n.max(1))
+    {
+        eprintln!("error: cannot start {n} threads: {e}");
+        return EXIT_IO;
     }
     if let Some(n) = steps {
         sim.set_end(End::Steps(n));
@@ -246,7 +274,10 @@ fn run_command(
             let clock = sim.clock();
             let rate = clock.step as f64 / started.elapsed().as_secs_f64().max(1e-9);
             bar.set_position((sim.progress() * 1e6) as u64);
-            bar.set_message(format!("step {} t = {:.4e} s {rate:.0} steps/s", clock.step, clock.time));
+            bar.set_message(format!(
+                "step {} t = {:.4e} s {rate:.0} steps/s",
+                clock.step, clock.time
+            ));
         }
     });
     bar.finish_and_clear();
@@ -257,7 +288,10 @@ fn run_command(
         }
         Err(RunError::Blowup(b)) => {
             eprintln!("error: the run stopped at {b}");
-            eprintln!("outputs up to the last output step are in {}", out_dir.display());
+            eprintln!(
+                "outputs up to the last output step are in {}",
+                out_dir.display()
+            );
             EXIT_BLOWUP
         }
         Err(e) => {

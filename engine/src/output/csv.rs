@@ -36,7 +36,10 @@ impl SeriesWriter {
             let _ = write!(self.text, ",{v:?}");
         }
         self.text.push('\n');
-        if self.last_flush.is_none_or(|t| t.elapsed() > Duration::from_secs(1)) {
+        if self
+            .last_flush
+            .is_none_or(|t| t.elapsed() > Duration::from_secs(1))
+        {
             self.flush()?;
         }
         Ok(())

@@ -1,11 +1,14 @@
 //! VTU (VTK XML unstructured grid) frames of the particles, one vertex cell per particle.
 //!
-//! Arrays are stored as raw little-endian bytes in an appended-data block (`header_type="UInt64"`,
-//! each array preceded by its byte count), which ParaView and every VTK reader load directly and
-//! which is compact for large particle counts.
+//! Arrays are written inline as base64 of their little-endian bytes, each preceded by its byte
+//! count (`header_type="UInt64"`, header and data encoded together as VTK does for uncompressed
+//! data). Unlike raw appended data this keeps the file well-formed XML, so generic XML tools and
+//! every VTK reader accept it.
 
 use super::atomic::write_atomically;
 use crate::dim::{SymTensor, Vector, to_3d};
+use base64::Engine as _;
+use base64::engine::general_purpose::STANDARD as BASE64;
 use std::fmt::Write;
 use std::path::Path;
 
@@ -34,22 +37,21 @@ pub struct ParticleFrame {
     pub strain_energy_density: Vec<f64>,
 }
 
-struct Appended {
+struct Inline {
     xml: String,
-    data: Vec<u8>,
 }
 
-impl Appended {
+impl Inline {
     fn array(&mut self, name: Option<&str>, ty: &str, components: usize, bytes: Vec<u8>) {
         let name_attr = name.map(|n| format!(" Name=\"{n}\"")).unwrap_or_default();
+        let mut block = (bytes.len() as u64).to_le_bytes().to_vec();
+        block.extend_from_slice(&bytes);
         let _ = writeln!(
             self.xml,
             "        <DataArray type=\"{ty}\"{name_attr} NumberOfComponents=\"{components}\" \
-             format=\"appended\" offset=\"{}\"/>",
-            self.data.len()
+             format=\"binary\">{}</DataArray>",
+            BASE64.encode(&block)
         );
-        self.data.extend_from_slice(&(bytes.len() as u64).to_le_bytes());
-        self.data.extend_from_slice(&bytes);
     }
 }
 
@@ -68,10 +70,7 @@ fn i64_bytes(values: impl Iterator<Item = i64>) -> Vec<u8> {
 /// Writes `frame` to `path` atomically.
 pub fn write_particle_frame(path: &Path, frame: &ParticleFrame) -> std::io::Result<()> {
     let n = frame.position.len();
-    let mut out = Appended {
-        xml: String::new(),
-        data: Vec::new(),
-    };
+    let mut out = Inline { xml: String::new() };
     let _ = write!(
         out.xml,
         "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" \
@@ -79,14 +78,54 @@ pub fn write_particle_frame(path: &Path, frame: &ParticleFrame) -> std::io::Resu
          <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">\n      <PointData \
          Scalars=\"damage\" Vectors=\"velocity\">\n"
     );
-    out.array(Some("id"), "Int32", 1, i32_bytes(frame.id.iter().map(|&v| v as i32)));
-    out.array(Some("body"), "Int32", 1, i32_bytes(frame.body.iter().map(|&v| v as i32)));
-    out.array(Some("material"), "Int32", 1, i32_bytes(frame.material.iter().map(|&v| v as i32)));
-    out.array(Some("velocity"), "Float64", 3, f64_bytes(frame.velocity.iter().flat_map(|v| to_3d(*v))));
-    out.array(Some("mass"), "Float64", 1, f64_bytes(frame.mass.iter().copied()));
-    out.array(Some("volume"), "Float64", 1, f64_bytes(frame.volume.iter().copied()));
-    out.array(Some("stress"), "Float64", 9, f64_bytes(frame.stress.iter().flat_map(|s| s.as_3x3())));
-    out.array(Some("damage"), "Float64", 1, f64_bytes(frame.damage.iter().copied()));
+    out.array(
+        Some("id"),
+        "Int32",
+        1,
+        i32_bytes(frame.id.iter().map(|&v| v as i32)),
+    );
+    out.array(
+        Some("body"),
+        "Int32",
+        1,
+        i32_bytes(frame.body.iter().map(|&v| v as i32)),
+    );
+    out.array(
+        Some("material"),
+        "Int32",
+        1,
+        i32_bytes(frame.material.iter().map(|&v| v as i32)),
+    );
+    out.array(
+        Some("velocity"),
+        "Float64",
+        3,
+        f64_bytes(frame.velocity.iter().flat_map(|v| to_3d(*v))),
+    );
+    out.array(
+        Some("mass"),
+        "Float64",
+        1,
+        f64_bytes(frame.mass.iter().copied()),
+    );
+    out.array(
+        Some("volume"),
+        "Float64",
+        1,
+        f64_bytes(frame.volume.iter().copied()),
+    );
+    out.array(
+        Some("stress"),
+        "Float64",
+        9,
+        f64_bytes(frame.stress.iter().flat_map(|s| s.as_3x3())),
+    );
+    out.array(
+        Some("damage"),
+        "Float64",
+        1,
+        f64_bytes(frame.damage.iter().copied()),
+    );
     out.array(
         Some("strain_energy_density"),
         "Float64",
@@ -94,17 +133,18 @@ pub fn write_particle_frame(path: &Path, frame: &ParticleFrame) -> std::io::Resu
         f64_bytes(frame.strain_energy_density.iter().copied()),
     );
     out.xml.push_str("      </PointData>\n      <Points>\n");
-    out.array(None, "Float64", 3, f64_bytes(frame.position.iter().flat_map(|v| to_3d(*v))));
+    out.array(
+        None,
+        "Float64",
+        3,
+        f64_bytes(frame.position.iter().flat_map(|v| to_3d(*v))),
+    );
     out.xml.push_str("      </Points>\n      <Cells>\n");
     out.array(Some("connectivity"), "Int64", 1, i64_bytes(0..n as i64));
     out.array(Some("offsets"), "Int64", 1, i64_bytes(1..=n as i64));
     // VTK_VERTEX = 1.
     out.array(Some("types"), "UInt8", 1, vec![1u8; n]);
-    out.xml.push_str(
-        "      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n  <AppendedData encoding=\"raw\">\n   _",
-    );
-    let mut bytes = out.xml.into_bytes();
-    bytes.extend_from_slice(&out.data);
-    bytes.extend_from_slice(b"\n  </AppendedData>\n</VTKFile>\n");
-    write_atomically(path, &bytes)
+    out.xml
+        .push_str("      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
+    write_atomically(path, out.xml.as_bytes())
 }

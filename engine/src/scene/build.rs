@@ -60,15 +60,16 @@ pub fn build_simulation(file: &SceneFile, registry: &Registry) -> Result<Built, 
     world.init_resource::<Connectivity>();
     let mut schedule = step_schedule();
     let pipeline = install_pipeline(file, registry, &mut schedule, &mut world)?;
-    let simulation = Simulation::new(world, schedule, scene.time.step, scene.time.end).map_err(|e| {
-        file.error(
-            "pipeline",
-            format!(
-                "systems in one stage touch the same data without an order between them; \
+    let simulation =
+        Simulation::new(world, schedule, scene.time.step, scene.time.end).map_err(|e| {
+            file.error(
+                "pipeline",
+                format!(
+                    "systems in one stage touch the same data without an order between them; \
                  order them or split them into stages:\n{e}"
-            ),
-        )
-    })?;
+                ),
+            )
+        })?;
     Ok(Built {
         simulation,
         pipeline,
@@ -90,7 +91,10 @@ fn grid_of(file: &SceneFile) -> Result<Grid, SceneError> {
         return Err(file.error("grid.min", "expected finite coordinates"));
     }
     if !(finite_pair(g.max) && g.max.0 > g.min.0 && g.max.1 > g.min.1) {
-        return Err(file.error("grid.max", "expected a corner above and to the right of `min`"));
+        return Err(file.error(
+            "grid.max",
+            "expected a corner above and to the right of `min`",
+        ));
     }
     let span = [g.max.0 - g.min.0, g.max.1 - g.min.1];
     let mut cells = [0usize; 2];
@@ -151,13 +155,22 @@ fn spawn_nodes(world: &mut World, grid: &Grid) {
     world.spawn_batch(nodes);
 }
 
-fn check_shape(file: &SceneFile, field: &str, shape: &Shape, grid: &Grid) -> Result<(), SceneError> {
+fn check_shape(
+    file: &SceneFile,
+    field: &str,
+    shape: &Shape,
+    grid: &Grid,
+) -> Result<(), SceneError> {
     let valid = match shape {
         Shape::Rectangle { min, max } => {
             finite_pair(*min) && finite_pair(*max) && max.0 > min.0 && max.1 > min.1
         }
-        Shape::Disk { center, radius } => finite_pair(*center) && radius.is_finite() && *radius > 0.0,
-        Shape::Polygon { vertices } => vertices.len() >= 3 && vertices.iter().all(|v| finite_pair(*v)),
+        Shape::Disk { center, radius } => {
+            finite_pair(*center) && radius.is_finite() && *radius > 0.0
+        }
+        Shape::Polygon { vertices } => {
+            vertices.len() >= 3 && vertices.iter().all(|v| finite_pair(*v))
+        }
     };
     if !valid {
         let expected = match shape {
@@ -196,13 +209,20 @@ fn spawn_bodies(
     for (b, body) in file.scene.bodies.iter().enumerate() {
         let field = |f: &str| format!("bodies[{b}].{f}");
         let Some(material) = materials.iter().position(|m| m.name == body.material) else {
-            let known: Vec<_> = materials.iter().map(|m| format!("\"{}\"", m.name)).collect();
+            let known: Vec<_> = materials
+                .iter()
+                .map(|m| format!("\"{}\"", m.name))
+                .collect();
             return Err(file.error(
                 &field("material"),
                 format!(
                     "unknown material \"{}\"; the scene defines: {}",
                     body.material,
-                    if known.is_empty() { "none".into() } else { known.join(", ") }
+                    if known.is_empty() {
+                        "none".into()
+                    } else {
+                        known.join(", ")
+                    }
                 ),
             ));
         };
@@ -232,7 +252,8 @@ fn spawn_bodies(
         let bundles: Vec<ParticleBundle> = seeded
             .iter()
             .map(|&(x, volume)| {
-                let mut p = ParticleBundle::new(next_id, x, density * volume, volume, material as u16);
+                let mut p =
+                    ParticleBundle::new(next_id, x, density * volume, volume, material as u16);
                 next_id += 1;
                 p.velocity = Velocity(Vector::new(v.0, v.1));
                 p.body = BodyId(b as u16);
@@ -263,9 +284,15 @@ fn check_time(file: &SceneFile, grid: &Grid, materials: &[Material]) -> Result<(
         .filter_map(|b| {
             let m = materials.iter().find(|m| m.name == b.material)?;
             let InitialVelocity::Uniform(v) = b.velocity;
-            Some((m.wave_speed() + Vector::new(v.0, v.1).length(), m.name.clone()))
+            Some((
+                m.wave_speed() + Vector::new(v.0, v.1).length(),
+                m.name.clone(),
+            ))
         })
-        .fold((0.0, String::new()), |acc, x| if x.0 > acc.0 { x } else { acc });
+        .fold(
+            (0.0, String::new()),
+            |acc, x| if x.0 > acc.0 { x } else { acc },
+        );
     let limit = grid.spacing / fastest;
     match time.step {
         TimeStep::Fixed(dt) if !(dt.is_finite() && dt > 0.0) => {
@@ -289,7 +316,10 @@ fn check_time(file: &SceneFile, grid: &Grid, materials: &[Material]) -> Result<(
 }
 
 fn valid_region_name(name: &str) -> bool {
-    !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
 }
 
 fn boundaries_of(file: &SceneFile, grid: &Grid) -> Result<BoundaryConditions, SceneError> {
@@ -300,7 +330,10 @@ fn boundaries_of(file: &SceneFile, grid: &Grid) -> Result<BoundaryConditions, Sc
             return Err(file.error(&field("name"), "expected letters, digits, `_` or `-` only"));
         }
         if regions.iter().any(|x| x.name == spec.name) {
-            return Err(file.error(&field("name"), format!("region \"{}\" is defined twice", spec.name)));
+            return Err(file.error(
+                &field("name"),
+                format!("region \"{}\" is defined twice", spec.name),
+            ));
         }
         let Region::Box { min, max } = spec.nodes;
         let tol = 1e-9 * grid.spacing;
@@ -317,7 +350,10 @@ fn boundaries_of(file: &SceneFile, grid: &Grid) -> Result<BoundaryConditions, Sc
         let function = |points: &Option<Vec<Pair>>, axis: &str| match points {
             None => Ok(None),
             Some(p) => PiecewiseLinear::new(p.clone()).map(Some).map_err(|e| {
-                file.error(&field(&format!("condition.{axis}")), format!("expected {e}"))
+                file.error(
+                    &field(&format!("condition.{axis}")),
+                    format!("expected {e}"),
+                )
             }),
         };
         let velocity = match &spec.condition {
@@ -343,19 +379,30 @@ fn boundaries_of(file: &SceneFile, grid: &Grid) -> Result<BoundaryConditions, Sc
     Ok(BoundaryConditions { regions })
 }
 
-fn output_plan(file: &SceneFile, boundaries: &BoundaryConditions) -> Result<OutputPlan, SceneError> {
+fn output_plan(
+    file: &SceneFile,
+    boundaries: &BoundaryConditions,
+) -> Result<OutputPlan, SceneError> {
     let spec = &file.scene.output;
     let mut probes = Vec::new();
     for (k, probe) in spec.probes.iter().enumerate() {
         match probe {
             Probe::Reaction(name) => {
                 let Some(index) = boundaries.regions.iter().position(|r| &r.name == name) else {
-                    let known: Vec<_> = boundaries.regions.iter().map(|r| format!("\"{}\"", r.name)).collect();
+                    let known: Vec<_> = boundaries
+                        .regions
+                        .iter()
+                        .map(|r| format!("\"{}\"", r.name))
+                        .collect();
                     return Err(file.error(
                         &format!("output.probes[{k}]"),
                         format!(
                             "no boundary region named \"{name}\"; the scene defines: {}",
-                            if known.is_empty() { "none".into() } else { known.join(", ") }
+                            if known.is_empty() {
+                                "none".into()
+                            } else {
+                                known.join(", ")
+                            }
                         ),
                     ));
                 };
@@ -394,8 +441,14 @@ fn install_pipeline(
                 ),
             ));
         };
-        if chosen.iter().any(|(_, r): &(usize, &crate::registry::Registration)| r.name == registration.name) {
-            return Err(file.error(&field, format!("system \"{}\" is listed twice", entry.system)));
+        if chosen
+            .iter()
+            .any(|(_, r): &(usize, &crate::registry::Registration)| r.name == registration.name)
+        {
+            return Err(file.error(
+                &field,
+                format!("system \"{}\" is listed twice", entry.system),
+            ));
         }
         chosen.push((k, registration));
     }
@@ -420,7 +473,10 @@ fn install_pipeline(
             if !chosen.iter().any(|(_, r)| r.name == *needed) {
                 return Err(file.error(
                     &format!("pipeline[{k}].system"),
-                    format!("system \"{}\" needs \"{needed}\" in the pipeline", registration.name),
+                    format!(
+                        "system \"{}\" needs \"{needed}\" in the pipeline",
+                        registration.name
+                    ),
                 ));
             }
         }

@@ -113,7 +113,12 @@ mod tests {
 
     #[test]
     fn display_names_file_place_and_field() {
-        let e = SceneError::at("s.ron", Location { line: 3, col: 7 }, "grid.spacing", "must be > 0");
+        let e = SceneError::at(
+            "s.ron",
+            Location { line: 3, col: 7 },
+            "grid.spacing",
+            "must be > 0",
+        );
         assert_eq!(e.to_string(), "s.ron:3:7: `grid.spacing`: must be > 0");
     }
 }

@@ -125,10 +125,9 @@ impl Walker<'_> {
                 }
             }
             _ => {
-                while self
-                    .peek()
-                    .is_some_and(|c| !matches!(c, b',' | b')' | b']' | b'}') && !c.is_ascii_whitespace())
-                {
+                while self.peek().is_some_and(|c| {
+                    !matches!(c, b',' | b')' | b']' | b'}') && !c.is_ascii_whitespace()
+                }) {
                     self.i += 1;
                 }
             }

@@ -30,8 +30,9 @@ impl SceneFile {
     /// Reads and parses a scene file.
     pub fn read(path: &Path) -> Result<Self, SceneError> {
         let name = path.display().to_string();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| SceneError::whole_file(&name, format!("cannot read the scene file: {e}")))?;
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            SceneError::whole_file(&name, format!("cannot read the scene file: {e}"))
+        })?;
         Self::parse(&name, text)
     }
 

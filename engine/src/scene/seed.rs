@@ -41,7 +41,10 @@ pub fn shape_bounds(shape: &Shape) -> (Vector, Vector) {
             (c - Vector::splat(*radius), c + Vector::splat(*radius))
         }
         Shape::Polygon { vertices } => vertices.iter().fold(
-            (Vector::splat(f64::INFINITY), Vector::splat(f64::NEG_INFINITY)),
+            (
+                Vector::splat(f64::INFINITY),
+                Vector::splat(f64::NEG_INFINITY),
+            ),
             |(lo, hi), v| {
                 let v = Vector::new(v.0, v.1);
                 (lo.min(v), hi.max(v))

@@ -40,7 +40,11 @@ pub fn interpolate(
 type ParticleQuery<'w, 's> = Query<
     'w,
     's,
-    (&'static mut Position, &'static mut Velocity, &'static mut Acceleration),
+    (
+        &'static mut Position,
+        &'static mut Velocity,
+        &'static mut Acceleration,
+    ),
     With<Particle>,
 >;
 
@@ -82,8 +86,20 @@ mod tests {
     #[test]
     fn uniform_grid_motion_moves_particles_rigidly() {
         let mut world = tiny_world(2, 0.5, 0.1);
-        spawn_particle(&mut world, Vector::new(0.3, 0.7), Vector::new(1.0, 0.0), 1.0, 0.1);
-        spawn_particle(&mut world, Vector::new(0.9, 0.1), Vector::new(1.0, 0.0), 1.0, 0.1);
+        spawn_particle(
+            &mut world,
+            Vector::new(0.3, 0.7),
+            Vector::new(1.0, 0.0),
+            1.0,
+            0.1,
+        );
+        spawn_particle(
+            &mut world,
+            Vector::new(0.9, 0.1),
+            Vector::new(1.0, 0.0),
+            1.0,
+            0.1,
+        );
         let mut query = world.query::<(&mut NodeVelocity, &mut NodeAcceleration)>();
         for (mut v, mut a) in query.iter_mut(&mut world) {
             v.0[0] = Vector::new(1.5, -0.5);
@@ -95,6 +111,9 @@ mod tests {
         assert!((x[0].0 - Vector::new(0.45, 0.65)).length() < 1e-14);
         assert!((x[1].0 - Vector::new(1.05, 0.05)).length() < 1e-14);
         assert!((v[0].0 - Vector::new(1.5, -0.5)).length() < 1e-14);
-        assert_eq!(particle_values::<Acceleration>(&mut world)[1].0, Vector::new(5.0, -5.0));
+        assert_eq!(
+            particle_values::<Acceleration>(&mut world)[1].0,
+            Vector::new(5.0, -5.0)
+        );
     }
 }

@@ -35,7 +35,11 @@ pub fn bilinear_row(grid: &Grid, x: Vector) -> Option<[(u32, f64, Vector); 4]> {
     let (sx, sy) = (xi.x, xi.y);
     let node = |di: usize, dj: usize| grid.node_index(i + di, j + dj) as u32;
     Some([
-        (node(0, 0), (1.0 - sx) * (1.0 - sy), Vector::new(-(1.0 - sy), -(1.0 - sx)) / h),
+        (
+            node(0, 0),
+            (1.0 - sx) * (1.0 - sy),
+            Vector::new(-(1.0 - sy), -(1.0 - sx)) / h,
+        ),
         (node(1, 0), sx * (1.0 - sy), Vector::new(1.0 - sy, -sx) / h),
         (node(0, 1), (1.0 - sx) * sy, Vector::new(-sy, 1.0 - sx) / h),
         (node(1, 1), sx * sy, Vector::new(sy, sx) / h),
@@ -50,16 +54,21 @@ pub fn linear_basis(
 ) {
     let positions = single_table(particles.contiguous_iter(), "particles").unwrap_or(&[]);
     let grid = *grid;
-    connectivity.fill_fixed_width(positions.len(), 4, grid.node_count(), |p, nodes, weights, gradients| {
-        // A particle outside the grid gets no support; the engine's health check stops the run
-        // before such a state is stepped.
-        let row = bilinear_row(&grid, positions[p].0).unwrap_or([(0, 0.0, Vector::ZERO); 4]);
-        for (k, (node, weight, gradient)) in row.into_iter().enumerate() {
-            nodes[k] = node;
-            weights[k] = weight;
-            gradients[k] = gradient;
-        }
-    });
+    connectivity.fill_fixed_width(
+        positions.len(),
+        4,
+        grid.node_count(),
+        |p, nodes, weights, gradients| {
+            // A particle outside the grid gets no support; the engine's health check stops the run
+            // before such a state is stepped.
+            let row = bilinear_row(&grid, positions[p].0).unwrap_or([(0, 0.0, Vector::ZERO); 4]);
+            for (k, (node, weight, gradient)) in row.into_iter().enumerate() {
+                nodes[k] = node;
+                weights[k] = weight;
+                gradients[k] = gradient;
+            }
+        },
+    );
 }
 
 #[cfg(test)]
@@ -74,10 +83,17 @@ mod tests {
             spacing: 0.5,
             cells: [4, 4],
         };
-        for x in [Vector::new(-0.8, 2.1), Vector::new(0.24, 3.49), Vector::new(1.0, 4.0)] {
+        for x in [
+            Vector::new(-0.8, 2.1),
+            Vector::new(0.24, 3.49),
+            Vector::new(1.0, 4.0),
+        ] {
             let row = bilinear_row(&grid, x).unwrap();
             let sum: f64 = row.iter().map(|e| e.1).sum();
-            let first: Vector = row.iter().map(|e| e.1 * grid.node_position(e.0 as usize)).sum();
+            let first: Vector = row
+                .iter()
+                .map(|e| e.1 * grid.node_position(e.0 as usize))
+                .sum();
             let grad_sum: Vector = row.iter().map(|e| e.2).sum();
             // Σ x_I ⊗ ∇N_I = identity.
             let jacobian: Matrix = row
@@ -87,7 +103,13 @@ mod tests {
             assert!((sum - 1.0).abs() < 1e-14);
             assert!((first - x).length() < 1e-14);
             assert!(grad_sum.length() < 1e-12);
-            assert!((jacobian - Matrix::IDENTITY).abs().to_cols_array().iter().all(|v| *v < 1e-12));
+            assert!(
+                (jacobian - Matrix::IDENTITY)
+                    .abs()
+                    .to_cols_array()
+                    .iter()
+                    .all(|v| *v < 1e-12)
+            );
         }
         assert!(bilinear_row(&grid, Vector::new(1.1, 3.0)).is_none());
     }

@@ -96,7 +96,8 @@ pub fn contribution(
     NodeSums {
         mass: n * m,
         momentum: n * m * particles.velocity[p].0,
-        force: n * m * body_force - intact * particles.volume[p].0 * sym_dot(&particles.stress[p].0, grad),
+        force: n * m * body_force
+            - intact * particles.volume[p].0 * sym_dot(&particles.stress[p].0, grad),
     }
 }
 
@@ -109,8 +110,18 @@ pub fn node_velocity(sums: &NodeSums, min_mass: f64) -> Vector {
     }
 }
 
-type ParticleQuery<'w, 's> =
-    Query<'w, 's, (&'static Mass, &'static Velocity, &'static Volume, &'static Stress, &'static Damage), With<Particle>>;
+type ParticleQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        &'static Mass,
+        &'static Velocity,
+        &'static Volume,
+        &'static Stress,
+        &'static Damage,
+    ),
+    With<Particle>,
+>;
 type NodeQuery<'w, 's> = Query<
     'w,
     's,
@@ -175,7 +186,12 @@ pub fn usl_predictor(
         };
         node_velocity_out[i].0[0] = updated;
     }
-    bcs.enforce(clock.time + dt, &node_mass, &mut node_velocity_out, Some((dt, &mut reactions)));
+    bcs.enforce(
+        clock.time + dt,
+        &node_mass,
+        &mut node_velocity_out,
+        Some((dt, &mut reactions)),
+    );
     for i in 0..sums.len() {
         acceleration[i].0[0] = (node_velocity_out[i].0[0] - start[i].0[0]) / dt;
     }
@@ -193,15 +209,35 @@ mod tests {
         let mut world = tiny_world(2, 0.5, 0.01);
         world.insert_resource(UslPredictorParams::default());
         world.insert_resource(BodyForce(Vector::new(0.0, -10.0)));
-        spawn_particle(&mut world, Vector::new(0.3, 0.6), Vector::new(1.0, 2.0), 2.0, 0.1);
-        spawn_particle(&mut world, Vector::new(0.8, 0.2), Vector::new(-1.0, 0.5), 3.0, 0.1);
+        spawn_particle(
+            &mut world,
+            Vector::new(0.3, 0.6),
+            Vector::new(1.0, 2.0),
+            2.0,
+            0.1,
+        );
+        spawn_particle(
+            &mut world,
+            Vector::new(0.8, 0.2),
+            Vector::new(-1.0, 0.5),
+            3.0,
+            0.1,
+        );
         run_system(&mut world, (linear_basis, usl_predictor).chain());
         let masses = node_values::<NodeMass>(&mut world);
         let velocities = node_values::<NodeVelocity>(&mut world);
         let accelerations = node_values::<NodeAcceleration>(&mut world);
         let total_mass: f64 = masses.iter().map(|m| m.0[0]).sum();
-        let momentum: Vector = masses.iter().zip(&velocities).map(|(m, v)| m.0[0] * v.0[0]).sum();
-        let impulse: Vector = masses.iter().zip(&accelerations).map(|(m, a)| m.0[0] * a.0[0]).sum();
+        let momentum: Vector = masses
+            .iter()
+            .zip(&velocities)
+            .map(|(m, v)| m.0[0] * v.0[0])
+            .sum();
+        let impulse: Vector = masses
+            .iter()
+            .zip(&accelerations)
+            .map(|(m, a)| m.0[0] * a.0[0])
+            .sum();
         assert!((total_mass - 5.0).abs() < 1e-14);
         // Unstressed particles: the grid momentum after the step is the particles' momentum
         // plus the body-force impulse.
@@ -219,7 +255,10 @@ mod tests {
             regions: vec![BoundaryRegion {
                 name: "centre".into(),
                 nodes: vec![4],
-                velocity: [Some(PiecewiseLinear::constant(0.0)), Some(PiecewiseLinear::constant(0.0))],
+                velocity: [
+                    Some(PiecewiseLinear::constant(0.0)),
+                    Some(PiecewiseLinear::constant(0.0)),
+                ],
             }],
         });
         let p = spawn_particle(&mut world, Vector::new(0.6, 0.6), Vector::ZERO, 1.0, 0.25);

@@ -62,9 +62,17 @@ pub struct ElasticState {
 }
 
 /// One explicit update of `state` under velocity gradient `l` over `dt`.
-pub fn update_elastic(state: &ElasticState, l: Matrix, dt: f64, lambda: f64, mu: f64) -> ElasticState {
+pub fn update_elastic(
+    state: &ElasticState,
+    l: Matrix,
+    dt: f64,
+    lambda: f64,
+    mu: f64,
+) -> ElasticState {
     let increment = SymTensor::sym_of(l * dt);
-    let stress = state.stress.add_scaled(&hooke_increment(&increment, lambda, mu), 1.0);
+    let stress = state
+        .stress
+        .add_scaled(&hooke_increment(&increment, lambda, mu), 1.0);
     let strain = state.strain.add_scaled(&increment, 1.0);
     ElasticState {
         stress,

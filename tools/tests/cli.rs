@@ -1,0 +1,131 @@
+//! The `fractum` binary as a user runs it: exit codes, messages, and files written.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn fractum(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_fractum"))
+        .args(args)
+        .current_dir(root())
+        .output()
+        .expect("the fractum binary runs")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+#[test]
+fn systems_lists_every_stock_system_with_its_stage() {
+    let out = fractum(&["systems"]);
+    assert!(out.status.success());
+    let listing = text(&out.stdout);
+    for registration in fractum_systems::ALL {
+        assert!(listing.contains(registration.name), "{listing}");
+    }
+    assert!(listing.contains("[basis]") && listing.contains("[advection]"));
+    assert!(
+        listing.contains("min_node_mass: f64 (default 0.0)"),
+        "{listing}"
+    );
+}
+
+#[test]
+fn check_summarises_a_valid_scene() {
+    let out = fractum(&["check", "scenes/two_disks.ron"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let summary = text(&out.stdout);
+    assert!(summary.contains("particles  416"), "{summary}");
+    assert!(summary.contains("441 nodes"), "{summary}");
+    assert!(summary.contains("basis      basis/linear"), "{summary}");
+    assert!(summary.trim_end().ends_with("ok"));
+}
+
+#[test]
+fn check_rejects_a_bad_scene_with_its_location_and_exit_code_1() {
+    let out = fractum(&["check", "tests/bad_scenes/unknown_material.ron"]);
+    assert_eq!(out.status.code(), Some(1));
+    let error = text(&out.stderr);
+    assert!(
+        error.starts_with(
+            "error: tests/bad_scenes/unknown_material.ron:9:72: `bodies[0].material`:"
+        ),
+        "{error}"
+    );
+    assert!(
+        !error.contains("panicked") && !error.contains("backtrace"),
+        "{error}"
+    );
+}
+
+#[test]
+fn a_missing_scene_file_is_reported_not_panicked() {
+    let out = fractum(&["check", "scenes/no_such_scene.ron"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stderr).contains("cannot read the scene file"));
+}
+
+#[test]
+fn run_writes_frames_collection_and_series_and_prints_a_summary() {
+    let out_dir = std::env::temp_dir().join(format!("fractum-cli-run-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out_dir);
+    let out = fractum(&[
+        "run",
+        "scenes/block_compression.ron",
+        "--out",
+        out_dir.to_str().unwrap(),
+        "--steps",
+        "60",
+        "--threads",
+        "2",
+        "--quiet",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let summary = text(&out.stdout);
+    assert!(
+        summary.contains("steps 60") && summary.contains("particles 400"),
+        "{summary}"
+    );
+    assert!(
+        summary.contains("particle-steps/s") && summary.contains("threads 2"),
+        "{summary}"
+    );
+    let csv = std::fs::read_to_string(out_dir.join("series.csv")).unwrap();
+    let header = csv.lines().next().unwrap();
+    assert_eq!(
+        header,
+        "step,time,kinetic_energy,strain_energy,total_energy,momentum_x,momentum_y,\
+         reaction_base_x,reaction_base_y,reaction_top_x,reaction_top_y"
+    );
+    // Rows at steps 0, 5, ..., 60.
+    assert_eq!(csv.lines().count(), 1 + 13);
+    for frame in [
+        "particles_00000000.vtu",
+        "particles_00000050.vtu",
+        "particles_00000060.vtu",
+    ] {
+        assert!(out_dir.join("frames").join(frame).is_file(), "{frame}");
+    }
+    assert!(out_dir.join("particles.pvd").is_file());
+    let leftovers: Vec<_> = std::fs::read_dir(&out_dir)
+        .unwrap()
+        .chain(std::fs::read_dir(out_dir.join("frames")).unwrap())
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(
+        leftovers.is_empty(),
+        "temporary files left behind: {leftovers:?}"
+    );
+    std::fs::remove_dir_all(&out_dir).unwrap();
+}
+
+#[test]
+fn bad_usage_exits_with_2() {
+    let out = fractum(&["run"]);
+    assert_eq!(out.status.code(), Some(2));
+}
