@@ -47,6 +47,8 @@ pub struct Simulation {
     pool: Option<rayon::ThreadPool>,
     time_step: TimeStep,
     end: End,
+    /// Kahan compensation of the clock's running sum of step sizes.
+    time_compensation: f64,
 }
 
 impl Simulation {
@@ -65,6 +67,7 @@ impl Simulation {
             pool: None,
             time_step,
             end,
+            time_compensation: 0.0,
         })
     }
 
@@ -156,9 +159,14 @@ impl Simulation {
         if let Some(failure) = self.world.resource::<Health>().failure.clone() {
             return Err(failure);
         }
+        // Compensated summation keeps t = Σ dt exact to round-off over millions of steps, so
+        // output times read as the user expects (3.0, not 2.9999999999997806).
         let mut clock = self.world.resource_mut::<SimClock>();
+        let increment = dt - self.time_compensation;
+        let time = clock.time + increment;
+        self.time_compensation = (time - clock.time) - increment;
+        clock.time = time;
         clock.step += 1;
-        clock.time += dt;
         Ok(())
     }
 
