@@ -135,6 +135,65 @@ type NodeQuery<'w, 's> = Query<
     With<Node>,
 >;
 
+/// Node columns written by the grid update, as plain slices in node-index order.
+pub struct NodeColumns<'a> {
+    /// Field masses.
+    pub mass: &'a mut [NodeMass],
+    /// Field momenta.
+    pub momentum: &'a mut [NodeMomentum],
+    /// Field velocities.
+    pub velocity: &'a mut [NodeVelocity],
+    /// Field accelerations.
+    pub acceleration: &'a mut [NodeAcceleration],
+    /// Field forces.
+    pub force: &'a mut [NodeForce],
+}
+
+/// Boundary conditions, the time at the start of the step and the step size.
+pub struct StepContext<'a> {
+    /// Essential boundary conditions.
+    pub bcs: &'a BoundaryConditions,
+    /// Time at the start of the step.
+    pub time: f64,
+    /// Step size.
+    pub dt: f64,
+    /// Nodes with no more mass than this are empty.
+    pub min_node_mass: f64,
+}
+
+/// Eqs. (5)–(6) on field 0: stores the transfer sums, holds the boundary conditions on `v_I`,
+/// updates `v̄_I = v_I + Δt f_I / m_I`, holds them again at the end of the step (measuring the
+/// reactions) and sets `a_I = (v̄_I − v_I)/Δt`.
+pub fn grid_update(
+    sums: &[NodeSums],
+    ctx: &StepContext,
+    nodes: NodeColumns,
+    reactions: &mut Reactions,
+) {
+    for (i, s) in sums.iter().enumerate() {
+        nodes.mass[i] = NodeMass([s.mass, 0.0]);
+        nodes.momentum[i] = NodeMomentum([s.momentum, Vector::ZERO]);
+        nodes.force[i] = NodeForce([s.force, Vector::ZERO]);
+        nodes.velocity[i] = NodeVelocity([node_velocity(s, ctx.min_node_mass), Vector::ZERO]);
+    }
+    ctx.bcs.enforce(ctx.time, nodes.mass, nodes.velocity, None);
+    let start: Vec<Vector> = nodes.velocity.iter().map(|v| v.0[0]).collect();
+    for (i, s) in sums.iter().enumerate() {
+        let occupied = s.mass > ctx.min_node_mass && s.mass > 0.0;
+        nodes.velocity[i].0[0] = if occupied {
+            start[i] + ctx.dt * s.force / s.mass
+        } else {
+            Vector::ZERO
+        };
+    }
+    let end = ctx.time + ctx.dt;
+    ctx.bcs
+        .enforce(end, nodes.mass, nodes.velocity, Some((ctx.dt, reactions)));
+    for (i, a) in nodes.acceleration.iter_mut().enumerate() {
+        a.0[0] = (nodes.velocity[i].0[0] - start[i]) / ctx.dt;
+    }
+}
+
 /// The `predictor/usl` system.
 #[allow(clippy::too_many_arguments)]
 pub fn usl_predictor(
@@ -152,7 +211,7 @@ pub fn usl_predictor(
     else {
         return;
     };
-    let Some((mut node_mass, mut momentum, mut node_velocity_out, mut acceleration, mut force)) =
+    let Some((mut node_mass, mut momentum, mut node_velocity, mut acceleration, mut force)) =
         single_table(nodes.contiguous_iter_mut(), "nodes")
     else {
         return;
@@ -168,33 +227,22 @@ pub fn usl_predictor(
     connectivity.scatter_to_nodes(&mut sums, |e, p| {
         contribution(&connectivity, &slices, body_force.0, e, p)
     });
-    let dt = clock.dt;
-    for (i, s) in sums.iter().enumerate() {
-        node_mass[i] = NodeMass([s.mass, 0.0]);
-        momentum[i] = NodeMomentum([s.momentum, Vector::ZERO]);
-        force[i] = NodeForce([s.force, Vector::ZERO]);
-        node_velocity_out[i] = NodeVelocity([node_velocity(s, params.min_node_mass), Vector::ZERO]);
-    }
-    bcs.enforce(clock.time, &node_mass, &mut node_velocity_out, None);
-    let start: Vec<NodeVelocity> = node_velocity_out.to_vec();
-    for (i, s) in sums.iter().enumerate() {
-        let v = start[i].0[0];
-        let updated = if s.mass > params.min_node_mass && s.mass > 0.0 {
-            v + dt * s.force / s.mass
-        } else {
-            Vector::ZERO
-        };
-        node_velocity_out[i].0[0] = updated;
-    }
-    bcs.enforce(
-        clock.time + dt,
-        &node_mass,
-        &mut node_velocity_out,
-        Some((dt, &mut reactions)),
-    );
-    for i in 0..sums.len() {
-        acceleration[i].0[0] = (node_velocity_out[i].0[0] - start[i].0[0]) / dt;
-    }
+    let ctx = StepContext {
+        bcs: &bcs,
+        time: clock.time,
+        dt: clock.dt,
+        min_node_mass: params.min_node_mass,
+    };
+    // Each `&mut *column` marks the whole column changed once; indexing the bevy column inside
+    // a loop would do that on every access (quadratic), so the kernel gets plain slices.
+    let columns = NodeColumns {
+        mass: &mut node_mass,
+        momentum: &mut momentum,
+        velocity: &mut node_velocity,
+        acceleration: &mut acceleration,
+        force: &mut force,
+    };
+    grid_update(&sums, &ctx, columns, &mut reactions);
 }
 
 #[cfg(test)]
