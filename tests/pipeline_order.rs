@@ -54,6 +54,20 @@ fn scene_with(pipeline: &str) -> SceneFile {
     SceneFile::parse("inline.ron", text).unwrap_or_else(|e| panic!("{e}"))
 }
 
+fn stock_plus(name: &'static str, install: fractum_engine::registry::InstallFn) -> Registry {
+    let mut registry = fractum_systems::stock_registry();
+    registry
+        .register(Registration {
+            name,
+            summary: "a test system",
+            params: &[],
+            requires: &[],
+            install,
+        })
+        .unwrap();
+    registry
+}
+
 fn registry_with_loggers() -> Registry {
     let mut registry = fractum_systems::stock_registry();
     for name in LOGGERS {
@@ -100,16 +114,7 @@ fn conflicting_install(installer: &mut Installer, _: &Params) -> Result<(), Scen
 
 #[test]
 fn unordered_conflicting_systems_in_one_stage_fail_to_load_naming_them() {
-    let mut registry = fractum_systems::stock_registry();
-    registry
-        .register(Registration {
-            name: "damage/conflicting",
-            summary: "two systems writing one resource with no order",
-            params: &[],
-            requires: &[],
-            install: conflicting_install,
-        })
-        .unwrap();
+    let registry = stock_plus("damage/conflicting", conflicting_install);
     let file = scene_with(
         r#"(system: "basis/linear"), (system: "predictor/usl"), (system: "stress/linear_elastic"),
            (system: "damage/conflicting"), (system: "advection/usl")"#,
@@ -132,16 +137,7 @@ fn conflicting_systems_load_once_ordered() {
         installer.add_systems((first_writer, second_writer).chain());
         Ok(())
     }
-    let mut registry = fractum_systems::stock_registry();
-    registry
-        .register(Registration {
-            name: "damage/ordered",
-            summary: "two systems writing one resource, chained",
-            params: &[],
-            requires: &[],
-            install: ordered_install,
-        })
-        .unwrap();
+    let registry = stock_plus("damage/ordered", ordered_install);
     let file = scene_with(
         r#"(system: "basis/linear"), (system: "predictor/usl"), (system: "stress/linear_elastic"),
            (system: "damage/ordered"), (system: "advection/usl")"#,

@@ -136,32 +136,39 @@ impl Walker<'_> {
 
     /// At `(`: a struct (named fields), a tuple, or an enum variant's contents.
     fn group(&mut self, path: &str, variant: Option<&str>) {
-        self.i += 1;
         let mut index = 0;
+        self.items(b')', |w| {
+            if let Some((field, after)) = w.field_name() {
+                w.i = after;
+                let field_path = join_field(path, &field);
+                w.value(&field_path);
+                if let Some(variant) = variant {
+                    let start = w.out.iter().rev().find(|(p, _)| *p == field_path);
+                    let start = start.map(|(_, at)| *at).unwrap_or(w.i);
+                    let alias = join_field(&join_field(path, variant), &field);
+                    w.out.push((alias, start));
+                }
+            } else {
+                w.value(&join_field(path, &index.to_string()));
+                index += 1;
+            }
+        });
+    }
+
+    /// At an opening bracket: calls `item` for each comma-separated item up to `close`.
+    fn items(&mut self, close: u8, mut item: impl FnMut(&mut Self)) {
+        self.i += 1;
         loop {
             self.skip_trivia();
             match self.peek() {
                 None => return,
-                Some(b')') => {
+                Some(c) if c == close => {
                     self.i += 1;
                     return;
                 }
                 _ => {}
             }
-            if let Some((field, after)) = self.field_name() {
-                self.i = after;
-                let field_path = join_field(path, &field);
-                self.value(&field_path);
-                if let Some(variant) = variant {
-                    let start = self.out.iter().rev().find(|(p, _)| *p == field_path);
-                    let start = start.map(|(_, at)| *at).unwrap_or(self.i);
-                    let alias = join_field(&join_field(path, variant), &field);
-                    self.out.push((alias, start));
-                }
-            } else {
-                self.value(&join_field(path, &index.to_string()));
-                index += 1;
-            }
+            item(self);
             self.skip_trivia();
             if self.peek() == Some(b',') {
                 self.i += 1;
@@ -180,50 +187,25 @@ impl Walker<'_> {
     }
 
     fn list(&mut self, path: &str) {
-        self.i += 1;
         let mut index = 0;
-        loop {
-            self.skip_trivia();
-            match self.peek() {
-                None => return,
-                Some(b']') => {
-                    self.i += 1;
-                    return;
-                }
-                _ => {}
-            }
-            self.value(&format!("{path}[{index}]"));
+        self.items(b']', |w| {
+            w.value(&format!("{path}[{index}]"));
             index += 1;
-            self.skip_trivia();
-            if self.peek() == Some(b',') {
-                self.i += 1;
-            }
-        }
+        });
     }
 
     fn map(&mut self, path: &str) {
-        self.i += 1;
-        loop {
-            self.skip_trivia();
-            let key = match self.peek() {
-                None => return,
-                Some(b'}') => {
-                    self.i += 1;
-                    return;
-                }
-                Some(b'"') => self.string(),
-                _ => self.identifier().to_string(),
+        self.items(b'}', |w| {
+            let key = match w.peek() {
+                Some(b'"') => w.string(),
+                _ => w.identifier().to_string(),
             };
-            self.skip_trivia();
-            if self.peek() == Some(b':') {
-                self.i += 1;
+            w.skip_trivia();
+            if w.peek() == Some(b':') {
+                w.i += 1;
             }
-            self.value(&join_field(path, &key));
-            self.skip_trivia();
-            if self.peek() == Some(b',') {
-                self.i += 1;
-            }
-        }
+            w.value(&join_field(path, &key));
+        });
     }
 }
 

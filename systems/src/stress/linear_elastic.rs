@@ -146,16 +146,20 @@ mod tests {
     use crate::basis::linear::linear_basis;
     use fractum_engine::testing::*;
 
-    #[test]
-    fn uniaxial_strain_gives_plane_strain_hooke_stress() {
-        let (lambda, mu) = test_material().lame();
-        let state = ElasticState {
+    fn unstrained() -> ElasticState {
+        ElasticState {
             stress: SymTensor::ZERO,
             strain: SymTensor::ZERO,
             deformation_gradient: Matrix::IDENTITY,
             volume: 1.0,
             energy_density: 0.0,
-        };
+        }
+    }
+
+    #[test]
+    fn uniaxial_strain_gives_plane_strain_hooke_stress() {
+        let (lambda, mu) = test_material().lame();
+        let state = unstrained();
         // Stretch along x at rate 0.1/s for 0.01 s: ε_xx = 1e-3.
         let l = Matrix::from_cols(Vector::new(0.1, 0.0), Vector::ZERO);
         let after = update_elastic(&state, l, 0.01, lambda, mu);
@@ -169,13 +173,7 @@ mod tests {
     #[test]
     fn rigid_rotation_rate_produces_no_stress() {
         let (lambda, mu) = test_material().lame();
-        let state = ElasticState {
-            stress: SymTensor::ZERO,
-            strain: SymTensor::ZERO,
-            deformation_gradient: Matrix::IDENTITY,
-            volume: 1.0,
-            energy_density: 0.0,
-        };
+        let state = unstrained();
         let spin = Matrix::from_cols(Vector::new(0.0, 1.0), Vector::new(-1.0, 0.0));
         let after = update_elastic(&state, spin, 1e-3, lambda, mu);
         assert_eq!(after.stress, SymTensor::ZERO);
