@@ -13,7 +13,8 @@ use bevy_ecs::schedule::{LogLevel, ScheduleBuildSettings, ScheduleLabel, SingleT
 pub struct StepSchedule;
 
 /// An empty step schedule: single-threaded executor, ambiguities are errors, the stages chained
-/// in order with the engine's health check after each, and every stage skipped after a failure.
+/// in order, and every stage skipped after a failure. Add the health checks with
+/// [`add_stage_checks`] once the pipeline is installed.
 pub fn step_schedule() -> Schedule {
     let mut schedule = Schedule::new(StepSchedule);
     schedule.set_executor(SingleThreadedExecutor::new());
@@ -24,9 +25,16 @@ pub fn step_schedule() -> Schedule {
     configure_stages(&mut schedule);
     for stage in Stage::ORDER {
         schedule.configure_sets(stage.run_if(healthy));
-        schedule.add_systems(stage_check(stage).in_set(StageCheck(stage)).run_if(healthy));
     }
     schedule
+}
+
+/// Puts the engine's health check after each of `stages` (the stages that have systems: an
+/// empty stage changes nothing, so checking after it would only repeat the previous check).
+pub fn add_stage_checks(schedule: &mut Schedule, stages: impl IntoIterator<Item = Stage>) {
+    for stage in stages {
+        schedule.add_systems(stage_check(stage).in_set(StageCheck(stage)).run_if(healthy));
+    }
 }
 
 /// Builds the schedule's executable form now, turning ordering problems into a message that

@@ -1,8 +1,9 @@
 //! The stages of one time step, defined and ordered in exactly one place.
 //!
 //! A step is one bevy schedule. Each stage is a [`SystemSet`]; [`configure_stages`] chains them
-//! in [`Stage::ORDER`] and puts an engine health check after every stage, so a NaN or a particle
-//! leaving the grid is reported with the stage that produced it.
+//! in [`Stage::ORDER`], with a [`StageCheck`] slot after each where the engine puts its health
+//! check (after every stage that has systems), so a NaN or a particle leaving the grid is
+//! reported with the stage that produced it.
 
 use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule, SystemSet};
 use std::fmt;

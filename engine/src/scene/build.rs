@@ -13,7 +13,7 @@ use crate::dim::Vector;
 use crate::output::{OutputPlan, ProbeKind};
 use crate::registry::{Installer, Params, Registry};
 use crate::resources::{BodyForce, Grid, Material, Materials, SimClock};
-use crate::simulation::{Simulation, step_schedule};
+use crate::simulation::{Simulation, add_stage_checks, step_schedule};
 use crate::stage::Stage;
 use bevy_ecs::prelude::World;
 
@@ -60,6 +60,10 @@ pub fn build_simulation(file: &SceneFile, registry: &Registry) -> Result<Built, 
     world.init_resource::<Connectivity>();
     let mut schedule = step_schedule();
     let pipeline = install_pipeline(file, registry, &mut schedule, &mut world)?;
+    add_stage_checks(
+        &mut schedule,
+        pipeline.by_stage.iter().map(|(stage, _)| *stage),
+    );
     let simulation =
         Simulation::new(world, schedule, scene.time.step, scene.time.end).map_err(|e| {
             file.error(
