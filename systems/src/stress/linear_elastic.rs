@@ -7,7 +7,8 @@
 //!   `Δσ = λ tr(Δε) I + 2μ Δε`, with `Δε_zz = 0` and `σ_zz` kept (plane strain).
 //! - Volume follows the strain increment, `V ← V (1 + tr Δε)` (Appendix A, step 5, written for
 //!   the volume: `ρ V = m` is constant); F follows `F ← (I + Δt L) F` (eq. 8).
-//! - Stored energy density `W = ½ σ : ε` per unit reference volume, for the energy balance.
+//! - Stored energy per unit reference volume accumulates the stress work of each step,
+//!   `ΔW = ½(σₙ + σₙ₊₁):Δε · V½/V₀`, so kinetic + stored energy is the scheme's own balance.
 
 use fractum_engine::dim::{SymTensor, outer};
 use fractum_engine::prelude::*;
@@ -61,25 +62,34 @@ pub struct ElasticState {
     pub energy_density: f64,
 }
 
-/// One explicit update of `state` under velocity gradient `l` over `dt`.
+/// One explicit update of `state` under velocity gradient `l` over `dt`, with Lamé constants
+/// `(λ, μ)`; `initial_volume` is the particle's reference volume.
+///
+/// The stored energy is the work of the stress over the step, trapezoidal in the stress and at
+/// the mid-step volume, per unit reference volume: `ΔW = ½(σₙ + σₙ₊₁):Δε · V½ / V₀`. That is the
+/// work the internal forces (which use the current volume) actually do, so kinetic plus stored
+/// energy is the scheme's own energy balance; for small strains it equals `½ σ:ε`.
 pub fn update_elastic(
     state: &ElasticState,
     l: Matrix,
     dt: f64,
-    lambda: f64,
-    mu: f64,
+    (lambda, mu): (f64, f64),
+    initial_volume: f64,
 ) -> ElasticState {
     let increment = SymTensor::sym_of(l * dt);
     let stress = state
         .stress
         .add_scaled(&hooke_increment(&increment, lambda, mu), 1.0);
-    let strain = state.strain.add_scaled(&increment, 1.0);
+    let volume = state.volume * (1.0 + increment.trace());
+    let mean_stress_x2 = state.stress.add_scaled(&stress, 1.0);
+    let mid_volume_ratio = 0.5 * (state.volume + volume) / initial_volume;
+    let work = 0.5 * mean_stress_x2.double_dot(&increment) * mid_volume_ratio;
     ElasticState {
         stress,
-        strain,
+        strain: state.strain.add_scaled(&increment, 1.0),
         deformation_gradient: (Matrix::IDENTITY + l * dt) * state.deformation_gradient,
-        volume: state.volume * (1.0 + increment.trace()),
-        energy_density: 0.5 * stress.double_dot(&strain),
+        volume,
+        energy_density: state.energy_density + work,
     }
 }
 
@@ -88,6 +98,7 @@ type ParticleQuery<'w, 's> = Query<
     's,
     (
         &'static MaterialId,
+        &'static InitialVolume,
         &'static mut Stress,
         &'static mut Strain,
         &'static mut DeformationGradient,
@@ -106,7 +117,7 @@ pub fn linear_elastic_stress(
     mut particles: ParticleQuery,
 ) {
     let node_velocity = single_table(nodes.contiguous_iter(), "nodes").unwrap_or(&[]);
-    let Some((material, mut stress, mut strain, mut f, mut volume, mut energy)) =
+    let Some((material, initial_volume, mut stress, mut strain, mut f, mut volume, mut energy)) =
         single_table(particles.contiguous_iter_mut(), "particles")
     else {
         return;
@@ -122,7 +133,6 @@ pub fn linear_elastic_stress(
         .zip(energy.par_iter_mut())
         .enumerate()
         .for_each(|(p, ((((s, e), f), v), w))| {
-            let (lambda, mu) = lame[material[p].0 as usize];
             let l = velocity_gradient(c, node_velocity, p);
             let before = ElasticState {
                 stress: s.0,
@@ -131,7 +141,8 @@ pub fn linear_elastic_stress(
                 volume: v.0,
                 energy_density: w.0,
             };
-            let after = update_elastic(&before, l, dt, lambda, mu);
+            let moduli = lame[material[p].0 as usize];
+            let after = update_elastic(&before, l, dt, moduli, initial_volume[p].0);
             s.0 = after.stress;
             e.0 = after.strain;
             f.0 = after.deformation_gradient;
@@ -162,12 +173,14 @@ mod tests {
         let state = unstrained();
         // Stretch along x at rate 0.1/s for 0.01 s: ε_xx = 1e-3.
         let l = Matrix::from_cols(Vector::new(0.1, 0.0), Vector::ZERO);
-        let after = update_elastic(&state, l, 0.01, lambda, mu);
+        let after = update_elastic(&state, l, 0.01, (lambda, mu), 1.0);
         assert!((after.stress.xx - (lambda + 2.0 * mu) * 1e-3).abs() < 1e-12);
         assert!((after.stress.yy - lambda * 1e-3).abs() < 1e-12);
         assert!((after.stress.zz - lambda * 1e-3).abs() < 1e-12);
         assert!((after.volume - 1.001).abs() < 1e-15);
-        assert!((after.energy_density - 0.5 * (lambda + 2.0 * mu) * 1e-6).abs() < 1e-15);
+        // ½ σ:ε at the mid-step volume 1.0005.
+        let half_sigma_eps = 0.5 * (lambda + 2.0 * mu) * 1e-6;
+        assert!((after.energy_density - half_sigma_eps * 1.0005).abs() < 1e-15);
     }
 
     #[test]
@@ -175,7 +188,7 @@ mod tests {
         let (lambda, mu) = test_material().lame();
         let state = unstrained();
         let spin = Matrix::from_cols(Vector::new(0.0, 1.0), Vector::new(-1.0, 0.0));
-        let after = update_elastic(&state, spin, 1e-3, lambda, mu);
+        let after = update_elastic(&state, spin, 1e-3, (lambda, mu), 1.0);
         assert_eq!(after.stress, SymTensor::ZERO);
     }
 
