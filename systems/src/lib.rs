@@ -9,15 +9,20 @@ use fractum_engine::prelude::{Params, Registration, Registry, SceneError};
 
 pub mod advection;
 pub mod basis;
+pub mod corrector;
 pub mod predictor;
 pub mod stress;
+pub mod transfer;
 
 /// Every stock registration.
 pub const ALL: &[Registration] = &[
     basis::linear::REGISTRATION,
     predictor::usl::REGISTRATION,
+    predictor::newmark::REGISTRATION,
     stress::linear_elastic::REGISTRATION,
+    corrector::newmark::REGISTRATION,
     advection::usl::REGISTRATION,
+    advection::newmark::REGISTRATION,
 ];
 
 /// Adds every stock system to `registry`.

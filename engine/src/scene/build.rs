@@ -240,9 +240,11 @@ fn spawn_bodies(
             ));
         }
         check_shape(file, &field("shape"), &body.shape, grid)?;
-        let InitialVelocity::Uniform(v) = body.velocity;
-        if !finite_pair(v) {
-            return Err(file.error(&field("velocity"), "expected finite numbers"));
+        if !body.velocity.is_valid() {
+            return Err(file.error(
+                &field("velocity"),
+                "expected finite numbers (and a positive wavelength)",
+            ));
         }
         let seeded = particles_in_shape(&body.shape, grid, body.particles_per_cell, body.placement);
         if seeded.is_empty() {
@@ -259,6 +261,7 @@ fn spawn_bodies(
                 let mut p =
                     ParticleBundle::new(next_id, x, density * volume, volume, material as u16);
                 next_id += 1;
+                let v = body.velocity.at(x.x, x.y);
                 p.velocity = Velocity(Vector::new(v.0, v.1));
                 p.body = BodyId(b as u16);
                 p.group = ContactGroup(body.contact_group);
@@ -287,11 +290,7 @@ fn check_time(file: &SceneFile, grid: &Grid, materials: &[Material]) -> Result<(
         .iter()
         .filter_map(|b| {
             let m = materials.iter().find(|m| m.name == b.material)?;
-            let InitialVelocity::Uniform(v) = b.velocity;
-            Some((
-                m.wave_speed() + Vector::new(v.0, v.1).length(),
-                m.name.clone(),
-            ))
+            Some((m.wave_speed() + b.velocity.max_speed(), m.name.clone()))
         })
         .fold(
             (0.0, String::new()),

@@ -175,6 +175,66 @@ pub enum Placement {
 pub enum InitialVelocity {
     /// The same velocity everywhere.
     Uniform(Pair),
+    /// A sine profile along one axis: `v(x) = amplitude · sin(2π (x_axis − origin) / wavelength)`.
+    /// The first axial mode of a bar of length L fixed at x = 0 is `wavelength: 4L`.
+    Sine {
+        /// Velocity at the crests.
+        amplitude: Pair,
+        /// Coordinate the profile varies along.
+        axis: Axis,
+        /// Wavelength (m).
+        wavelength: f64,
+        /// Coordinate where the profile is zero.
+        #[serde(default)]
+        origin: f64,
+    },
+}
+
+impl InitialVelocity {
+    /// The velocity at `(x, y)`.
+    pub fn at(&self, x: f64, y: f64) -> Pair {
+        match self {
+            InitialVelocity::Uniform(v) => *v,
+            InitialVelocity::Sine {
+                amplitude,
+                axis,
+                wavelength,
+                origin,
+            } => {
+                let s = match axis {
+                    Axis::X => x,
+                    Axis::Y => y,
+                };
+                let factor = (2.0 * std::f64::consts::PI * (s - origin) / wavelength).sin();
+                (amplitude.0 * factor, amplitude.1 * factor)
+            }
+        }
+    }
+
+    /// The largest speed the profile can give.
+    pub fn max_speed(&self) -> f64 {
+        let (Self::Uniform(v) | Self::Sine { amplitude: v, .. }) = self;
+        v.0.hypot(v.1)
+    }
+
+    /// True when every number is finite (and a wavelength positive).
+    pub fn is_valid(&self) -> bool {
+        match self {
+            Self::Uniform(v) => v.0.is_finite() && v.1.is_finite(),
+            Self::Sine {
+                amplitude,
+                wavelength,
+                origin,
+                ..
+            } => {
+                amplitude.0.is_finite()
+                    && amplitude.1.is_finite()
+                    && origin.is_finite()
+                    && wavelength.is_finite()
+                    && *wavelength > 0.0
+            }
+        }
+    }
 }
 
 impl Default for InitialVelocity {

@@ -1,2 +1,3 @@
 //! Advection stage: grid-to-particle transfer and particle motion.
+pub mod newmark;
 pub mod usl;

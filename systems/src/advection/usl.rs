@@ -6,6 +6,7 @@
 //!   nodes. The particle acceleration `Σ N_Ip a_I` is stored for output and for integrators
 //!   that need it.
 
+use crate::transfer::interpolate;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 
@@ -22,19 +23,6 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     crate::no_params(params)?;
     installer.add_systems(usl_advection);
     Ok(())
-}
-
-/// `(Σ N a_I, Σ N v_I)` over particle row `p`, from field 0.
-pub fn interpolate(
-    c: &Connectivity,
-    acceleration: &[NodeAcceleration],
-    velocity: &[NodeVelocity],
-    p: usize,
-) -> (Vector, Vector) {
-    c.row(p).fold((Vector::ZERO, Vector::ZERO), |(a, v), e| {
-        let (node, n) = (c.nodes[e] as usize, c.weights[e]);
-        (a + n * acceleration[node].0[0], v + n * velocity[node].0[0])
-    })
 }
 
 type ParticleQuery<'w, 's> = Query<

@@ -1,2 +1,3 @@
 //! Basis stage: shape functions and particle–node connectivity.
 pub mod linear;
+pub mod lme_kernel;

@@ -11,10 +11,9 @@
 //! - Writes field 0 of every node; the node acceleration is the one implied by the held
 //!   velocities, `(v̄_I − v_I)/Δt`, so particles see the boundary conditions too.
 
-use fractum_engine::dim::sym_dot;
+use crate::transfer::{NodeSums, ParticleSlices, contribution, node_velocity};
 use fractum_engine::prelude::*;
 use serde::Deserialize;
-use std::ops::AddAssign;
 
 /// Registration of `predictor/usl`.
 pub const REGISTRATION: Registration = Registration {
@@ -47,67 +46,6 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     installer.insert_resource(parsed);
     installer.add_systems(usl_predictor);
     Ok(())
-}
-
-/// Per-node sums of the particle-to-grid transfer.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct NodeSums {
-    /// Σ N m.
-    pub mass: f64,
-    /// Σ N m v.
-    pub momentum: Vector,
-    /// Σ N m b − Σ (1 − D) V σ·∇N.
-    pub force: Vector,
-}
-
-impl AddAssign for NodeSums {
-    fn add_assign(&mut self, rhs: Self) {
-        self.mass += rhs.mass;
-        self.momentum += rhs.momentum;
-        self.force += rhs.force;
-    }
-}
-
-/// Particle state read by the transfer, as slices in particle-row order.
-pub struct ParticleSlices<'a> {
-    /// Masses.
-    pub mass: &'a [Mass],
-    /// Velocities.
-    pub velocity: &'a [Velocity],
-    /// Volumes.
-    pub volume: &'a [Volume],
-    /// Stresses.
-    pub stress: &'a [Stress],
-    /// Damage.
-    pub damage: &'a [Damage],
-}
-
-/// Contribution of connectivity entry `e` of particle `p` to its node (eqs. 1–4).
-pub fn contribution(
-    c: &Connectivity,
-    particles: &ParticleSlices,
-    body_force: Vector,
-    e: usize,
-    p: usize,
-) -> NodeSums {
-    let (n, grad) = (c.weights[e], c.gradients[e]);
-    let m = particles.mass[p].0;
-    let intact = 1.0 - particles.damage[p].0;
-    NodeSums {
-        mass: n * m,
-        momentum: n * m * particles.velocity[p].0,
-        force: n * m * body_force
-            - intact * particles.volume[p].0 * sym_dot(&particles.stress[p].0, grad),
-    }
-}
-
-/// Velocity `momentum / mass` of a node, zero for an empty node.
-pub fn node_velocity(sums: &NodeSums, min_mass: f64) -> Vector {
-    if sums.mass > min_mass && sums.mass > 0.0 {
-        sums.momentum / sums.mass
-    } else {
-        Vector::ZERO
-    }
 }
 
 type ParticleQuery<'w, 's> = Query<

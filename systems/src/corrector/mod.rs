@@ -1,0 +1,2 @@
+//! Corrector stage: nodal velocity correctors.
+pub mod newmark;

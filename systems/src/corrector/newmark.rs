@@ -1,0 +1,168 @@
+//! Explicit Newmark predictor-corrector, corrector part: nodal forces from the updated stress
+//! and the velocity corrector.
+//!
+//! - Stage: corrector. Registration name: `corrector/newmark`. Pairs with `predictor/newmark`.
+//! - Implements eigensoftening-lme-mpm.md Appendix A (Algorithm 1), steps 7–8, eq. (2):
+//!   `f_I = Σ N_Ip m_p b − Σ (1 − D_p) V_p σ_p · ∇N_Ip` with the stress just updated, and
+//!   `v_I = ṽ_I + γ Δt f_I / m_I`. Held velocity components stay held; the force that holds them
+//!   is the region's reaction, and the nodal force and acceleration stored for the particle
+//!   update include it, so particles move consistently with the boundary conditions.
+
+use crate::predictor::newmark::NewmarkParams;
+use crate::transfer::{ParticleSlices, force_contribution};
+use fractum_engine::prelude::*;
+
+/// Registration of `corrector/newmark`.
+pub const REGISTRATION: Registration = Registration {
+    name: "corrector/newmark",
+    summary: "Newmark corrector: f_I from the new stress, v_I = ṽ_I + γ Δt f_I / m_I (eq. 2)",
+    params: &[],
+    requires: &["predictor/newmark"],
+    install,
+};
+
+fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    crate::no_params(params)?;
+    installer.add_systems(newmark_corrector);
+    Ok(())
+}
+
+/// Corrected velocity and the effective force `m (v − ṽ)/(γ Δt)` of one node, before the
+/// boundary conditions are held.
+pub fn correct(mass: f64, predicted: Vector, force: Vector, gamma_dt: f64) -> Vector {
+    if mass > 0.0 {
+        predicted + gamma_dt * force / mass
+    } else {
+        Vector::ZERO
+    }
+}
+
+type ParticleQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        &'static Mass,
+        &'static Velocity,
+        &'static Volume,
+        &'static Stress,
+        &'static Damage,
+    ),
+    With<Particle>,
+>;
+type NodeQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        &'static NodeMass,
+        &'static mut NodeVelocity,
+        &'static mut NodeAcceleration,
+        &'static mut NodeForce,
+    ),
+    With<Node>,
+>;
+
+/// The `corrector/newmark` system.
+#[allow(clippy::too_many_arguments)]
+pub fn newmark_corrector(
+    clock: Res<SimClock>,
+    params: Res<NewmarkParams>,
+    body_force: Res<BodyForce>,
+    bcs: Res<BoundaryConditions>,
+    mut reactions: ResMut<Reactions>,
+    connectivity: Res<Connectivity>,
+    particles: ParticleQuery,
+    mut nodes: NodeQuery,
+) {
+    let Some((mass, velocity, volume, stress, damage)) =
+        single_table(particles.contiguous_iter(), "particles")
+    else {
+        return;
+    };
+    let Some((node_mass, mut node_velocity, mut node_acceleration, mut node_force)) =
+        single_table(nodes.contiguous_iter_mut(), "nodes")
+    else {
+        return;
+    };
+    let slices = ParticleSlices {
+        mass,
+        velocity,
+        volume,
+        stress,
+        damage,
+    };
+    let mut forces = vec![Vector::ZERO; node_mass.len()];
+    connectivity.scatter_to_nodes(&mut forces, |e, p| {
+        force_contribution(&connectivity, &slices, body_force.0, e, p)
+    });
+    let gamma_dt = params.gamma * clock.dt;
+    let velocities: &mut [NodeVelocity] = &mut node_velocity;
+    let predicted: Vec<Vector> = velocities.iter().map(|v| v.0[0]).collect();
+    for (i, v) in velocities.iter_mut().enumerate() {
+        v.0[0] = correct(node_mass[i].0[0], predicted[i], forces[i], gamma_dt);
+    }
+    bcs.enforce(
+        clock.time + clock.dt,
+        node_mass,
+        velocities,
+        Some((gamma_dt, &mut reactions)),
+    );
+    let (accelerations, stored_forces): (&mut [NodeAcceleration], &mut [NodeForce]) =
+        (&mut node_acceleration, &mut node_force);
+    for i in 0..forces.len() {
+        let m = node_mass[i].0[0];
+        let a = if m > 0.0 {
+            (velocities[i].0[0] - predicted[i]) / gamma_dt
+        } else {
+            Vector::ZERO
+        };
+        accelerations[i].0[0] = a;
+        stored_forces[i].0[0] = m * a;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::basis::linear::linear_basis;
+    use fractum_engine::boundary::{BoundaryRegion, PiecewiseLinear};
+    use fractum_engine::testing::*;
+
+    #[test]
+    fn corrector_adds_gamma_dt_times_acceleration_and_holds_fixed_nodes() {
+        let mut world = tiny_world(2, 0.5, 0.1);
+        world.insert_resource(NewmarkParams { gamma: 0.5 });
+        world.insert_resource(BodyForce(Vector::new(0.0, -10.0)));
+        world.insert_resource(BoundaryConditions {
+            regions: vec![BoundaryRegion {
+                name: "corner".into(),
+                nodes: vec![0],
+                velocity: [
+                    Some(PiecewiseLinear::constant(0.0)),
+                    Some(PiecewiseLinear::constant(0.0)),
+                ],
+            }],
+        });
+        spawn_particle(&mut world, Vector::new(0.2, 0.2), Vector::ZERO, 4.0, 0.1);
+        let mut query = world.query::<(&NodeIndex, &mut NodeMass)>();
+        for (i, mut m) in query.iter_mut(&mut world) {
+            m.0[0] = if [0, 1, 3, 4].contains(&i.0) {
+                1.0
+            } else {
+                0.0
+            };
+        }
+        run_system(&mut world, (linear_basis, newmark_corrector).chain());
+        let velocities = node_values::<NodeVelocity>(&mut world);
+        let forces = node_values::<NodeForce>(&mut world);
+        // Node 4 (N = 0.16) carries 0.16 · 4 kg · g; with unit nodal mass v = γ Δt f / m.
+        assert!((velocities[4].0[0] - Vector::new(0.0, 0.05 * -6.4)).length() < 1e-12);
+        assert_eq!(velocities[0].0[0], Vector::ZERO);
+        // The corner's reaction cancels its share of the weight: N_0 = 0.36.
+        let reaction = world.resource::<Reactions>().0[0];
+        assert!(
+            (reaction - Vector::new(0.0, 0.36 * 40.0)).length() < 1e-12,
+            "{reaction}"
+        );
+        assert_eq!(forces[0].0[0], Vector::ZERO);
+    }
+}

@@ -1,0 +1,97 @@
+//! Particle–grid transfer kernels shared by the integrators (not a system).
+//!
+//! - Particle to grid: lumped mass `m_I = Σ N_Ip m_p`, momentum `Σ N_Ip m_p v_p`, and force
+//!   `f_I = Σ N_Ip m_p b − Σ (1 − D_p) V_p σ_p · ∇N_Ip` (dfg-partitioning-mpm.md eqs. 1–4;
+//!   eigensoftening-lme-mpm.md Appendix A steps 1, 2 and 7, with the damage scaling of eq. 16).
+//! - Grid to particle: `Σ N_Ip a_I` and `Σ N_Ip v_I` (eqs. 9–10; Appendix A step 9).
+//!
+//! All read field 0 of the nodes.
+
+use fractum_engine::dim::sym_dot;
+use fractum_engine::prelude::*;
+use std::ops::AddAssign;
+
+/// Per-node sums of the particle-to-grid transfer.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeSums {
+    /// Σ N m.
+    pub mass: f64,
+    /// Σ N m v.
+    pub momentum: Vector,
+    /// Σ N m b − Σ (1 − D) V σ·∇N.
+    pub force: Vector,
+}
+
+impl AddAssign for NodeSums {
+    fn add_assign(&mut self, rhs: Self) {
+        self.mass += rhs.mass;
+        self.momentum += rhs.momentum;
+        self.force += rhs.force;
+    }
+}
+
+/// Particle state read by the transfer, as slices in particle-row order.
+pub struct ParticleSlices<'a> {
+    /// Masses.
+    pub mass: &'a [Mass],
+    /// Velocities.
+    pub velocity: &'a [Velocity],
+    /// Volumes.
+    pub volume: &'a [Volume],
+    /// Stresses.
+    pub stress: &'a [Stress],
+    /// Damage.
+    pub damage: &'a [Damage],
+}
+
+/// Contribution of connectivity entry `e` of particle `p` to its node (eqs. 1–4).
+pub fn contribution(
+    c: &Connectivity,
+    particles: &ParticleSlices,
+    body_force: Vector,
+    e: usize,
+    p: usize,
+) -> NodeSums {
+    let n = c.weights[e];
+    let m = particles.mass[p].0;
+    NodeSums {
+        mass: n * m,
+        momentum: n * m * particles.velocity[p].0,
+        force: force_contribution(c, particles, body_force, e, p),
+    }
+}
+
+/// Velocity `momentum / mass` of a node, zero for an empty node.
+pub fn node_velocity(sums: &NodeSums, min_mass: f64) -> Vector {
+    if sums.mass > min_mass && sums.mass > 0.0 {
+        sums.momentum / sums.mass
+    } else {
+        Vector::ZERO
+    }
+}
+
+/// Internal plus body force of connectivity entry `e` of particle `p` on its node.
+pub fn force_contribution(
+    c: &Connectivity,
+    particles: &ParticleSlices,
+    body_force: Vector,
+    e: usize,
+    p: usize,
+) -> Vector {
+    let intact = 1.0 - particles.damage[p].0;
+    c.weights[e] * particles.mass[p].0 * body_force
+        - intact * particles.volume[p].0 * sym_dot(&particles.stress[p].0, c.gradients[e])
+}
+
+/// `(Σ N a_I, Σ N v_I)` over particle row `p`, from field 0.
+pub fn interpolate(
+    c: &Connectivity,
+    acceleration: &[NodeAcceleration],
+    velocity: &[NodeVelocity],
+    p: usize,
+) -> (Vector, Vector) {
+    c.row(p).fold((Vector::ZERO, Vector::ZERO), |(a, v), e| {
+        let (node, n) = (c.nodes[e] as usize, c.weights[e]);
+        (a + n * acceleration[node].0[0], v + n * velocity[node].0[0])
+    })
+}
