@@ -103,7 +103,9 @@ fn polish(x: Vector, nodes: &[Vector], beta: f64, mut lambda: Vector) -> Vector 
     for _ in 0..2 {
         let Some(step) = newton_step(&m) else { break };
         let trial = moments(x, nodes, beta, lambda + step);
-        if !(trial.r.length() < m.r.length()) {
+        // NaN residuals compare false and stop the polish too.
+        let better = trial.r.length() < m.r.length();
+        if !better {
             break;
         }
         lambda += step;
