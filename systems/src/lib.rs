@@ -17,6 +17,7 @@ pub mod transfer;
 /// Every stock registration.
 pub const ALL: &[Registration] = &[
     basis::linear::REGISTRATION,
+    basis::lme::REGISTRATION,
     predictor::usl::REGISTRATION,
     predictor::newmark::REGISTRATION,
     stress::linear_elastic::REGISTRATION,

@@ -1,0 +1,303 @@
+//! Local maximum-entropy (LME) shape functions on any node cloud.
+//!
+//! - Stage: basis. Registration name: `basis/lme`.
+//! - Arroyo & Ortiz's approximants, eigensoftening-lme-mpm.md §2.2, eqs. (6)–(10), with
+//!   `β = γ̂ / h²`. The support is truncated where the Gaussian factor `exp(−β r²)` falls below
+//!   `support_tolerance` (default 1e-6, as the paper recommends), which fixes the search radius
+//!   `r = h √(−ln tol / γ̂)`. Nodes within it are found with a kd-tree (kiddo) over the node
+//!   positions, so nothing assumes a regular grid.
+//! - λ is found per particle by Newton's method on `log Z`, warm-started from the particle's λ
+//!   of the previous step, with a damped line-search fallback (see `lme_kernel.rs`). A particle
+//!   whose λ still does not converge stops the run with a message naming it.
+//! - Writes the [`Connectivity`] tables; keeps λ per particle in [`LmeMultipliers`].
+
+use super::lme_kernel::{LmeSettings, lme_shape_functions, support_radius};
+use fractum_engine::health::{Blowup, Health};
+use fractum_engine::prelude::*;
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use rayon::prelude::*;
+use serde::Deserialize;
+
+/// Registration of `basis/lme`.
+pub const REGISTRATION: Registration = Registration {
+    name: "basis/lme",
+    summary: "local maximum-entropy shape functions (Arroyo & Ortiz), kd-tree node search",
+    params: &[
+        ParamDoc {
+            name: "gamma",
+            ty: "f64",
+            default: Some("3.5"),
+            doc: "dimensionless locality γ̂ = β h²; larger is more local (→ linear as γ̂ → ∞)",
+        },
+        ParamDoc {
+            name: "support_tolerance",
+            ty: "f64",
+            default: Some("1e-6"),
+            doc: "support is truncated where exp(-β r²) falls below this",
+        },
+        ParamDoc {
+            name: "newton_tolerance",
+            ty: "f64",
+            default: Some("1e-12"),
+            doc: "λ is converged when |Σ N_I (x - x_I)| ≤ this × h",
+        },
+        ParamDoc {
+            name: "max_iterations",
+            ty: "usize",
+            default: Some("50"),
+            doc: "Newton iterations allowed (plain, then again damped)",
+        },
+    ],
+    requires: &[],
+    install,
+};
+
+/// Parameters of `basis/lme`.
+#[derive(Resource, Deserialize, Clone, Copy, Debug, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct LmeParams {
+    /// γ̂.
+    pub gamma: f64,
+    /// Support truncation tolerance.
+    pub support_tolerance: f64,
+    /// Newton tolerance relative to h.
+    pub newton_tolerance: f64,
+    /// Newton iteration cap.
+    pub max_iterations: usize,
+}
+
+impl Default for LmeParams {
+    fn default() -> Self {
+        Self {
+            gamma: 3.5,
+            support_tolerance: 1e-6,
+            newton_tolerance: 1e-12,
+            max_iterations: 50,
+        }
+    }
+}
+
+fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    let parsed: LmeParams = params.parse()?;
+    if !(parsed.gamma.is_finite() && parsed.gamma > 0.0) {
+        return Err(params.error("gamma", "expected γ̂ > 0"));
+    }
+    if !(parsed.support_tolerance > 0.0 && parsed.support_tolerance < 1.0) {
+        return Err(params.error("support_tolerance", "expected a value in (0, 1)"));
+    }
+    if !(parsed.newton_tolerance > 0.0 && parsed.newton_tolerance < 1e-3) {
+        return Err(params.error("newton_tolerance", "expected a value in (0, 1e-3)"));
+    }
+    if parsed.max_iterations == 0 {
+        return Err(params.error("max_iterations", "expected at least 1"));
+    }
+    installer.insert_resource(parsed);
+    installer.init_resource::<LmeMultipliers>();
+    installer.add_systems(lme_basis);
+    Ok(())
+}
+
+/// λ of every particle row from the last step (the Newton warm start).
+#[derive(Resource, Clone, Debug, Default)]
+pub struct LmeMultipliers(pub Vec<Vector>);
+
+/// Node positions with a kd-tree for radius searches.
+pub struct NodeCloud {
+    tree: ImmutableKdTree<f64, 2>,
+    positions: Vec<Vector>,
+}
+
+impl NodeCloud {
+    /// Builds the tree over `positions` (node index = position in the slice).
+    pub fn new(positions: Vec<Vector>) -> Self {
+        let points: Vec<[f64; 2]> = positions.iter().map(|p| [p.x, p.y]).collect();
+        Self {
+            tree: ImmutableKdTree::new_from_slice(&points),
+            positions,
+        }
+    }
+
+    /// Number of nodes.
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// True when there are no nodes.
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// Indices of the nodes within `radius` of `x`, ascending.
+    pub fn within(&self, x: Vector, radius: f64) -> Vec<u32> {
+        let mut found: Vec<u32> = self
+            .tree
+            .within_unsorted::<SquaredEuclidean>(&[x.x, x.y], radius * radius)
+            .into_iter()
+            .map(|n| n.item as u32)
+            .collect();
+        found.sort_unstable();
+        found
+    }
+
+    /// Position of node `i`.
+    pub fn position(&self, i: u32) -> Vector {
+        self.positions[i as usize]
+    }
+}
+
+/// One particle's connectivity: `(node, N, ∇N)` per support node.
+pub type Row = Vec<(u32, f64, Vector)>;
+
+/// One particle's connectivity row and λ, or the reason it has none.
+pub fn particle_row(
+    cloud: &NodeCloud,
+    x: Vector,
+    settings: &LmeSettings,
+    radius: f64,
+    lambda_guess: Vector,
+) -> Result<(Row, Vector), String> {
+    let support = cloud.within(x, radius);
+    let positions: Vec<Vector> = support.iter().map(|&i| cloud.position(i)).collect();
+    match lme_shape_functions(x, &positions, settings, lambda_guess) {
+        Ok(sol) => {
+            let row = support
+                .iter()
+                .zip(sol.values.iter().zip(&sol.gradients))
+                .map(|(&i, (&n, &g))| (i, n, g))
+                .collect();
+            Ok((row, sol.lambda))
+        }
+        Err(f) => Err(format!(
+            "LME shape functions did not converge: |r| = {:e} after {} Newton iterations over {} \
+             nodes (a particle at the edge of the node cloud, or too few nodes in the support; \
+             try a smaller gamma)",
+            f.residual, f.iterations, f.nodes
+        )),
+    }
+}
+
+type ParticleQuery<'w, 's> =
+    Query<'w, 's, (&'static ParticleId, &'static Position), With<Particle>>;
+
+/// The `basis/lme` system.
+#[allow(clippy::too_many_arguments)]
+pub fn lme_basis(
+    grid: Res<Grid>,
+    params: Res<LmeParams>,
+    clock: Res<SimClock>,
+    mut health: ResMut<Health>,
+    mut multipliers: ResMut<LmeMultipliers>,
+    mut connectivity: ResMut<Connectivity>,
+    mut cloud: Local<Option<NodeCloud>>,
+    nodes: Query<&NodePosition, With<Node>>,
+    particles: ParticleQuery,
+) {
+    let node_positions = single_table(nodes.contiguous_iter(), "nodes").unwrap_or(&[]);
+    if cloud
+        .as_ref()
+        .is_none_or(|c| c.len() != node_positions.len())
+    {
+        *cloud = Some(NodeCloud::new(node_positions.iter().map(|p| p.0).collect()));
+    }
+    let Some(cloud) = cloud.as_ref() else { return };
+    let (ids, positions) =
+        single_table(particles.contiguous_iter(), "particles").unwrap_or((&[], &[]));
+    let h = grid.spacing;
+    let settings = LmeSettings {
+        beta: params.gamma / (h * h),
+        tolerance: params.newton_tolerance,
+        length_scale: h,
+        max_iterations: params.max_iterations,
+    };
+    let radius = support_radius(settings.beta, params.support_tolerance);
+    if multipliers.0.len() != positions.len() {
+        multipliers.0 = vec![Vector::ZERO; positions.len()];
+    }
+    let guesses = &multipliers.0;
+    let rows: Vec<_> = (0..positions.len())
+        .into_par_iter()
+        .map(|p| particle_row(cloud, positions[p].0, &settings, radius, guesses[p]))
+        .collect();
+    if let Some((p, Err(message))) = rows.iter().enumerate().find(|(_, r)| r.is_err()) {
+        let x = positions[p].0;
+        health.failure = Some(Blowup {
+            step: clock.step + 1,
+            stage: Stage::Basis,
+            message: format!("particle {} at ({:e}, {:e}): {message}", ids[p].0, x.x, x.y),
+        });
+        return;
+    }
+    let (rows, lambdas): (Vec<_>, Vec<_>) = rows.into_iter().map(|r| r.unwrap_or_default()).unzip();
+    multipliers.0 = lambdas;
+    connectivity.rebuild(&rows, cloud.len());
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fractum_engine::testing::*;
+
+    #[test]
+    fn rows_are_consistent_and_lambda_is_kept_for_the_next_step() {
+        let mut world = tiny_world(8, 0.25, 1e-3);
+        world.insert_resource(LmeParams::default());
+        world.insert_resource(LmeMultipliers::default());
+        spawn_particle(&mut world, Vector::new(1.03, 0.91), Vector::ZERO, 1.0, 0.01);
+        spawn_particle(&mut world, Vector::new(0.62, 1.37), Vector::ZERO, 1.0, 0.01);
+        run_system(&mut world, lme_basis);
+        let c = world.resource::<Connectivity>().clone();
+        let grid = *world.resource::<Grid>();
+        for (p, x) in [Vector::new(1.03, 0.91), Vector::new(0.62, 1.37)]
+            .into_iter()
+            .enumerate()
+        {
+            let row = c.row(p);
+            let unity: f64 = row.clone().map(|e| c.weights[e]).sum();
+            let first: Vector = row
+                .clone()
+                .map(|e| c.weights[e] * grid.node_position(c.nodes[e] as usize))
+                .sum();
+            let gradients: Vector = row.clone().map(|e| c.gradients[e]).sum();
+            assert!((unity - 1.0).abs() < 1e-12);
+            assert!((first - x).length() < 1e-12);
+            assert!(gradients.length() < 1e-9);
+            // γ̂ = 3.5 with tolerance 1e-6: radius 1.99 h, so 12 or 13 nodes.
+            assert!((12..=16).contains(&row.len()), "{}", row.len());
+        }
+        let lambdas = world.resource::<LmeMultipliers>().0.clone();
+        assert_eq!(lambdas.len(), 2);
+        assert!(lambdas[0].length() > 0.0);
+    }
+
+    #[test]
+    fn a_particle_outside_the_node_cloud_stops_the_run_naming_it() {
+        let mut world = tiny_world(4, 0.25, 1e-3);
+        world.insert_resource(LmeParams::default());
+        world.insert_resource(LmeMultipliers::default());
+        spawn_particle(&mut world, Vector::new(0.5, 0.5), Vector::ZERO, 1.0, 0.01);
+        spawn_particle(
+            &mut world,
+            Vector::new(-0.01, -0.01),
+            Vector::ZERO,
+            1.0,
+            0.01,
+        );
+        run_system(&mut world, lme_basis);
+        let failure = world
+            .resource::<Health>()
+            .failure
+            .clone()
+            .expect("a failure");
+        assert_eq!(failure.stage, Stage::Basis);
+        assert!(
+            failure.message.starts_with("particle 1 at "),
+            "{}",
+            failure.message
+        );
+        assert!(
+            failure.message.contains("did not converge"),
+            "{}",
+            failure.message
+        );
+    }
+}
