@@ -78,6 +78,19 @@ pub struct BoundaryConditions {
 pub struct Reactions(pub Vec<Vector>);
 
 impl BoundaryConditions {
+    /// For each of `node_count` nodes, which velocity components some region holds.
+    pub fn held_mask(&self, node_count: usize) -> Vec<[bool; DIM]> {
+        let mut mask = vec![[false; DIM]; node_count];
+        for region in &self.regions {
+            for &node in &region.nodes {
+                for (c, held) in region.velocity.iter().enumerate() {
+                    mask[node as usize][c] |= held.is_some();
+                }
+            }
+        }
+        mask
+    }
+
     /// Sets the held velocity components of every field with mass at time `time`.
     ///
     /// With `measure = Some((dt, reactions))`, also records the reaction of each region. A node

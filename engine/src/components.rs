@@ -68,6 +68,12 @@ pub struct Strain(pub SymTensor);
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
 pub struct StrainEnergyDensity(pub f64);
 
+/// Current dilatational wave speed of the particle's material state (m/s), for the stable time
+/// step. Set from the material at creation; stress systems whose stiffness changes with
+/// deformation keep it current.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct WaveSpeed(pub f64);
+
 /// Damage in `[0, 1]`: 0 intact, 1 fully failed. Internal force is scaled by `1 − damage`.
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
 pub struct Damage(pub f64);
@@ -147,6 +153,8 @@ pub struct ParticleBundle {
     pub strain: Strain,
     /// Stored energy density.
     pub energy_density: StrainEnergyDensity,
+    /// Wave speed.
+    pub wave_speed: WaveSpeed,
     /// Damage.
     pub damage: Damage,
     /// Material.
@@ -173,6 +181,7 @@ impl ParticleBundle {
             stress: Stress::default(),
             strain: Strain::default(),
             energy_density: StrainEnergyDensity::default(),
+            wave_speed: WaveSpeed::default(),
             damage: Damage::default(),
             material: MaterialId(material),
             body: BodyId(0),

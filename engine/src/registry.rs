@@ -6,6 +6,7 @@
 //! and a [`Params`] holding the raw RON of the pipeline entry's `params`, which it parses into
 //! its own typed struct. Users register their own algorithms from their own crates the same way.
 
+use crate::resources::TimeStepLimit;
 use crate::scene::{Location, SceneError, parse_fragment};
 use crate::stage::Stage;
 use bevy_ecs::prelude::{FromWorld, Resource, World};
@@ -152,6 +153,18 @@ impl<'a> Installer<'a> {
     /// Inserts a resource built from the world unless one exists (typically a scratch buffer).
     pub fn init_resource<R: Resource + FromWorld>(&mut self) {
         self.world.init_resource::<R>();
+    }
+
+    /// Lowers the stable time step to `factor` times the central-difference limit (the lowest
+    /// factor any system asks for wins); `reason` is shown when a scene's step is too large.
+    pub fn restrict_time_step(&mut self, factor: f64, reason: impl Into<String>) {
+        let mut limit = self.world.get_resource_or_init::<TimeStepLimit>();
+        if factor < limit.factor {
+            *limit = TimeStepLimit {
+                factor,
+                reason: reason.into(),
+            };
+        }
     }
 
     /// Read access to the world as built from the scene (grid, materials, particles).

@@ -121,6 +121,39 @@ impl Materials {
     }
 }
 
+/// How much of the central-difference stable time step the installed systems allow.
+///
+/// The engine's limit is `h / (√d (c + |v|))`: the central-difference limit of a lumped-mass
+/// bilinear grid in `d` dimensions. An integrator with a smaller stability region lowers
+/// `factor` at install (through [`crate::registry::Installer::restrict_time_step`]) and says why.
+#[derive(Resource, Clone, Debug, PartialEq)]
+pub struct TimeStepLimit {
+    /// Fraction of the central-difference limit, in (0, 1].
+    pub factor: f64,
+    /// Which system set it and why (empty when nothing restricts it).
+    pub reason: String,
+}
+
+impl Default for TimeStepLimit {
+    fn default() -> Self {
+        Self {
+            factor: 1.0,
+            reason: String::new(),
+        }
+    }
+}
+
+impl TimeStepLimit {
+    /// The stable step for spacing `h` and fastest signal speed `speed` (wave plus material).
+    pub fn stable_step(&self, h: f64, speed: f64) -> f64 {
+        if speed > 0.0 {
+            self.factor * h / ((crate::dim::DIM as f64).sqrt() * speed)
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
 /// Uniform body force per unit mass (an acceleration, e.g. gravity).
 #[derive(Resource, Clone, Copy, Debug, Default, PartialEq)]
 pub struct BodyForce(pub Vector);

@@ -1,8 +1,8 @@
 //! [`Simulation`]: the world, the step schedule, the clock and the thread pool.
 
-use crate::components::{MaterialId, Particle, Velocity};
+use crate::components::{MaterialId, Particle, Velocity, WaveSpeed};
 use crate::health::{Blowup, Health, healthy, stage_check};
-use crate::resources::{Grid, Materials, SimClock};
+use crate::resources::{Grid, Materials, SimClock, TimeStepLimit};
 use crate::scene::{End, TimeStep};
 use crate::stage::{Stage, StageCheck, configure_stages};
 use bevy_ecs::prelude::*;
@@ -138,7 +138,7 @@ impl Simulation {
             .count()
     }
 
-    /// The largest stable step `h / max_p (c_p + |v_p|)` for the current state.
+    /// The largest stable step for the current state (see [`stable_time_step`]).
     pub fn stable_time_step(&mut self) -> f64 {
         stable_time_step(&mut self.world)
     }
@@ -187,7 +187,9 @@ impl Simulation {
     }
 }
 
-/// `h / max_p (c_p + |v_p|)`, with `c_p` the wave speed of the particle's material.
+/// The stable step [`TimeStepLimit::stable_step`] for the fastest particle signal
+/// `max_p (c_p + |v_p|)`, with `c_p` the particle's current wave speed, or its material's
+/// small-strain wave speed when no stress system has set one.
 pub fn stable_time_step(world: &mut World) -> f64 {
     let h = world.resource::<Grid>().spacing;
     let speeds: Vec<f64> = world
@@ -197,13 +199,18 @@ pub fn stable_time_step(world: &mut World) -> f64 {
         .map(|m| m.wave_speed())
         .collect();
     let fastest = world
-        .query_filtered::<(&MaterialId, &Velocity), With<Particle>>()
+        .query_filtered::<(&MaterialId, &WaveSpeed, &Velocity), With<Particle>>()
         .iter(world)
-        .map(|(m, v)| speeds.get(m.0 as usize).copied().unwrap_or(0.0) + v.0.length())
+        .map(|(m, c, v)| {
+            let c = if c.0 > 0.0 {
+                c.0
+            } else {
+                speeds.get(m.0 as usize).copied().unwrap_or(0.0)
+            };
+            c + v.0.length()
+        })
         .fold(0.0, f64::max);
-    if fastest > 0.0 {
-        h / fastest
-    } else {
-        f64::INFINITY
-    }
+    world
+        .get_resource_or_init::<TimeStepLimit>()
+        .stable_step(h, fastest)
 }

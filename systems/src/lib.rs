@@ -21,6 +21,7 @@ pub const ALL: &[Registration] = &[
     predictor::usl::REGISTRATION,
     predictor::newmark::REGISTRATION,
     stress::linear_elastic::REGISTRATION,
+    stress::neo_hookean::REGISTRATION,
     corrector::newmark::REGISTRATION,
     advection::usl::REGISTRATION,
     advection::newmark::REGISTRATION,

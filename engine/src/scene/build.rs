@@ -7,12 +7,12 @@ use super::format::*;
 use super::seed::{cell_points, particles_in_shape, shape_bounds};
 use super::{SceneError, SceneFile};
 use crate::boundary::{BoundaryConditions, BoundaryRegion, PiecewiseLinear, Reactions};
-use crate::components::{BodyId, ContactGroup, NodeBundle, ParticleBundle, Velocity};
+use crate::components::{BodyId, ContactGroup, NodeBundle, ParticleBundle, Velocity, WaveSpeed};
 use crate::connectivity::Connectivity;
 use crate::dim::Vector;
 use crate::output::{OutputPlan, ProbeKind};
 use crate::registry::{Installer, Params, Registry};
-use crate::resources::{BodyForce, Grid, Material, Materials, SimClock};
+use crate::resources::{BodyForce, Grid, Material, Materials, SimClock, TimeStepLimit};
 use crate::simulation::{Simulation, add_stage_checks, step_schedule};
 use crate::stage::Stage;
 use bevy_ecs::prelude::World;
@@ -45,7 +45,6 @@ pub fn build_simulation(file: &SceneFile, registry: &Registry) -> Result<Built, 
     world.insert_resource(grid);
     spawn_nodes(&mut world, &grid);
     let body_particles = spawn_bodies(file, &grid, &materials, &mut world)?;
-    check_time(file, &grid, &materials)?;
     let boundaries = boundaries_of(file, &grid)?;
     let output = output_plan(file, &boundaries)?;
     let body_force = Vector::new(scene.body_force.0, scene.body_force.1);
@@ -60,6 +59,8 @@ pub fn build_simulation(file: &SceneFile, registry: &Registry) -> Result<Built, 
     world.init_resource::<Connectivity>();
     let mut schedule = step_schedule();
     let pipeline = install_pipeline(file, registry, &mut schedule, &mut world)?;
+    let limit = world.get_resource_or_init::<TimeStepLimit>().clone();
+    check_time(file, &grid, &world.resource::<Materials>().0, &limit)?;
     add_stage_checks(
         &mut schedule,
         pipeline.by_stage.iter().map(|(stage, _)| *stage),
@@ -255,6 +256,7 @@ fn spawn_bodies(
             ));
         }
         let density = materials[material].density;
+        let wave_speed = materials[material].wave_speed();
         let bundles: Vec<ParticleBundle> = seeded
             .iter()
             .map(|&(x, volume)| {
@@ -264,6 +266,7 @@ fn spawn_bodies(
                 let v = body.velocity.at(x.x, x.y);
                 p.velocity = Velocity(Vector::new(v.0, v.1));
                 p.body = BodyId(b as u16);
+                p.wave_speed = WaveSpeed(wave_speed);
                 p.group = ContactGroup(body.contact_group);
                 p
             })
@@ -274,7 +277,12 @@ fn spawn_bodies(
     Ok(counts)
 }
 
-fn check_time(file: &SceneFile, grid: &Grid, materials: &[Material]) -> Result<(), SceneError> {
+fn check_time(
+    file: &SceneFile,
+    grid: &Grid,
+    materials: &[Material],
+    limit: &TimeStepLimit,
+) -> Result<(), SceneError> {
     let time = &file.scene.time;
     match time.end {
         End::Time(t) if !(t.is_finite() && t > 0.0) => {
@@ -296,19 +304,24 @@ fn check_time(file: &SceneFile, grid: &Grid, materials: &[Material]) -> Result<(
             (0.0, String::new()),
             |acc, x| if x.0 > acc.0 { x } else { acc },
         );
-    let limit = grid.spacing / fastest;
+    let stable = limit.stable_step(grid.spacing, fastest);
+    let restriction = if limit.reason.is_empty() {
+        String::new()
+    } else {
+        format!(" × {} ({})", limit.factor, limit.reason)
+    };
     match time.step {
         TimeStep::Fixed(dt) if !(dt.is_finite() && dt > 0.0) => {
             Err(file.error("time.step", "expected a positive time step"))
         }
-        TimeStep::Fixed(dt) if dt > limit => Err(file.error(
+        TimeStep::Fixed(dt) if dt > stable => Err(file.error(
             "time.step",
             format!(
-                "the time step {dt:e} s exceeds the stable limit {limit:e} s = h / (c + |v|) with \
-                 h = {} m and c + |v| = {fastest:.6e} m/s (material \"{culprit}\"); use \
+                "the time step {dt:e} s exceeds the stable limit {stable:e} s = h / (√2 (c + |v|)){restriction} \
+                 with h = {} m and c + |v| = {fastest:.6e} m/s (material \"{culprit}\"); use \
                  `Fixed({:.3e})` or less, or `Cfl(0.5)`",
                 grid.spacing,
-                0.9 * limit
+                0.9 * stable
             ),
         )),
         TimeStep::Cfl(f) if !(f > 0.0 && f <= 1.0) => {

@@ -4,9 +4,12 @@
 //! - Stage: corrector. Registration name: `corrector/newmark`. Pairs with `predictor/newmark`.
 //! - Implements eigensoftening-lme-mpm.md Appendix A (Algorithm 1), steps 7–8, eq. (2):
 //!   `f_I = Σ N_Ip m_p b − Σ (1 − D_p) V_p σ_p · ∇N_Ip` with the stress just updated, and
-//!   `v_I = ṽ_I + γ Δt f_I / m_I`. Held velocity components stay held; the force that holds them
-//!   is the region's reaction, and the nodal force and acceleration stored for the particle
-//!   update include it, so particles move consistently with the boundary conditions.
+//!   `v_I = ṽ_I + γ Δt f_I / m_I`. Held velocity components stay at their prescribed value and
+//!   the force that holds them is the region's reaction. As in the authors' implementation the
+//!   force, and so the acceleration handed to the particle update, is zero in held components:
+//!   the particle update applies a full `Δt a_I`, so passing the holding acceleration
+//!   `(v_I − ṽ_I)/(γ Δt)` would over-correct particles next to a moving boundary by `1/γ` and
+//!   feed energy into the body.
 
 use crate::predictor::newmark::NewmarkParams;
 use crate::transfer::{ParticleSlices, force_contribution};
@@ -27,7 +30,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     Ok(())
 }
 
-/// Corrected velocity and the effective force `m (v − ṽ)/(γ Δt)` of one node, before the
+/// Corrected velocity `ṽ + γ Δt f / m` of one node (zero for an empty node), before the
 /// boundary conditions are held.
 pub fn correct(mass: f64, predicted: Vector, force: Vector, gamma_dt: f64) -> Vector {
     if mass > 0.0 {
@@ -106,17 +109,19 @@ pub fn newmark_corrector(
         velocities,
         Some((gamma_dt, &mut reactions)),
     );
+    let held = bcs.held_mask(forces.len());
     let (accelerations, stored_forces): (&mut [NodeAcceleration], &mut [NodeForce]) =
         (&mut node_acceleration, &mut node_force);
     for i in 0..forces.len() {
         let m = node_mass[i].0[0];
-        let a = if m > 0.0 {
-            (velocities[i].0[0] - predicted[i]) / gamma_dt
-        } else {
-            Vector::ZERO
-        };
-        accelerations[i].0[0] = a;
-        stored_forces[i].0[0] = m * a;
+        let mut f = if m > 0.0 { forces[i] } else { Vector::ZERO };
+        for (c, is_held) in held[i].iter().enumerate() {
+            if *is_held {
+                f[c] = 0.0;
+            }
+        }
+        stored_forces[i].0[0] = f;
+        accelerations[i].0[0] = if m > 0.0 { f / m } else { Vector::ZERO };
     }
 }
 
