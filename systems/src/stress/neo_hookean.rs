@@ -34,7 +34,9 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
 /// `None` when `J ≤ 0` (the material has inverted).
 pub fn neo_hookean_stress_of(f: Matrix, lambda: f64, mu: f64) -> Option<SymTensor> {
     let j = f.determinant();
-    if !(j > 0.0) {
+    // Also rejects a NaN determinant.
+    let inverted = j.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater);
+    if inverted {
         return None;
     }
     let b = f * f.transpose();
