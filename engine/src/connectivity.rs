@@ -45,18 +45,26 @@ impl Connectivity {
     /// `rows` must be in particle-row order. `node_count` is the number of grid nodes.
     pub fn rebuild(&mut self, rows: &[Vec<(u32, f64, Vector)>], node_count: usize) {
         self.row_offsets.clear();
-        self.nodes.clear();
-        self.weights.clear();
-        self.gradients.clear();
         self.row_offsets.push(0);
+        let mut total = 0;
         for row in rows {
-            for &(node, weight, gradient) in row {
-                self.nodes.push(node);
-                self.weights.push(weight);
-                self.gradients.push(gradient);
-            }
-            self.row_offsets.push(self.nodes.len());
+            total += row.len();
+            self.row_offsets.push(total);
         }
+        // Parallel flattening; `collect` keeps row order, so the tables are the same for any
+        // number of threads.
+        self.nodes = rows
+            .par_iter()
+            .flat_map_iter(|r| r.iter().map(|e| e.0))
+            .collect();
+        self.weights = rows
+            .par_iter()
+            .flat_map_iter(|r| r.iter().map(|e| e.1))
+            .collect();
+        self.gradients = rows
+            .par_iter()
+            .flat_map_iter(|r| r.iter().map(|e| e.2))
+            .collect();
         self.rebuild_transpose(node_count);
     }
 

@@ -9,9 +9,13 @@
 //! - λ is found per particle by Newton's method on `log Z`, warm-started from the particle's λ
 //!   of the previous step, with a damped line-search fallback (see `lme_kernel.rs`). A particle
 //!   whose λ still does not converge stops the run with a message naming it.
-//! - Writes the [`Connectivity`] tables; keeps λ per particle in [`LmeMultipliers`].
+//! - The kd-tree is queried with the radius plus a skin, and a particle's candidate list is
+//!   reused until it has moved more than the skin (as neighbour lists are in the DFG paper,
+//!   §2.5); every step the candidates are filtered to the exact radius, so the support, and so
+//!   the result, does not depend on when the lists were rebuilt.
+//! - Writes the [`Connectivity`] tables; keeps λ and the candidate lists in [`LmeState`].
 
-use super::lme_kernel::{LmeSettings, lme_shape_functions, support_radius};
+use super::lme_kernel::{LmeScratch, LmeSettings, lme_gradient, lme_solve, support_radius};
 use fractum_engine::health::{Blowup, Health};
 use fractum_engine::prelude::*;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
@@ -92,14 +96,31 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         return Err(params.error("max_iterations", "expected at least 1"));
     }
     installer.insert_resource(parsed);
-    installer.init_resource::<LmeMultipliers>();
+    installer.init_resource::<LmeState>();
     installer.add_systems(lme_basis);
     Ok(())
 }
 
-/// λ of every particle row from the last step (the Newton warm start).
+/// Per-particle state kept between steps.
 #[derive(Resource, Clone, Debug, Default)]
-pub struct LmeMultipliers(pub Vec<Vector>);
+pub struct LmeState {
+    /// λ of every particle row from the last step (the Newton warm start).
+    pub lambda: Vec<Vector>,
+    /// Where each particle was when its candidate list was built.
+    pub anchors: Vec<Vector>,
+    /// Nodes within radius + skin of the anchor, ascending.
+    pub candidates: Vec<Vec<u32>>,
+}
+
+impl LmeState {
+    fn resize(&mut self, particles: usize) {
+        if self.lambda.len() != particles {
+            self.lambda = vec![Vector::ZERO; particles];
+            self.anchors = vec![Vector::splat(f64::INFINITY); particles];
+            self.candidates = vec![Vec::new(); particles];
+        }
+    }
+}
 
 /// Node positions with a kd-tree for radius searches.
 pub struct NodeCloud {
@@ -148,24 +169,51 @@ impl NodeCloud {
 /// One particle's connectivity: `(node, N, ∇N)` per support node.
 pub type Row = Vec<(u32, f64, Vector)>;
 
-/// One particle's connectivity row and λ, or the reason it has none.
+/// Per-thread buffers for [`particle_row`].
+#[derive(Clone, Debug, Default)]
+pub struct RowScratch {
+    support: Vec<u32>,
+    positions: Vec<Vector>,
+    lme: LmeScratch,
+}
+
+/// One particle's connectivity row and λ over the `candidates` within `radius` of `x`, or the
+/// reason it has none.
 pub fn particle_row(
     cloud: &NodeCloud,
     x: Vector,
+    candidates: &[u32],
     settings: &LmeSettings,
     radius: f64,
     lambda_guess: Vector,
+    scratch: &mut RowScratch,
 ) -> Result<(Row, Vector), String> {
-    let support = cloud.within(x, radius);
-    let positions: Vec<Vector> = support.iter().map(|&i| cloud.position(i)).collect();
-    match lme_shape_functions(x, &positions, settings, lambda_guess) {
-        Ok(sol) => {
-            let row = support
+    let radius2 = radius * radius;
+    scratch.support.clear();
+    scratch.positions.clear();
+    for &i in candidates {
+        let xi = cloud.position(i);
+        if (x - xi).length_squared() <= radius2 {
+            scratch.support.push(i);
+            scratch.positions.push(xi);
+        }
+    }
+    match lme_solve(
+        x,
+        &scratch.positions,
+        settings,
+        lambda_guess,
+        &mut scratch.lme,
+    ) {
+        Ok((lambda, j_inverse, _)) => {
+            let row = scratch
+                .support
                 .iter()
-                .zip(sol.values.iter().zip(&sol.gradients))
-                .map(|(&i, (&n, &g))| (i, n, g))
+                .zip(&scratch.positions)
+                .zip(&scratch.lme.values)
+                .map(|((&i, &xi), &n)| (i, n, lme_gradient(x, xi, n, j_inverse)))
                 .collect();
-            Ok((row, sol.lambda))
+            Ok((row, lambda))
         }
         Err(f) => Err(format!(
             "LME shape functions did not converge: |r| = {:e} after {} Newton iterations over {} \
@@ -186,7 +234,7 @@ pub fn lme_basis(
     params: Res<LmeParams>,
     clock: Res<SimClock>,
     mut health: ResMut<Health>,
-    mut multipliers: ResMut<LmeMultipliers>,
+    mut state: ResMut<LmeState>,
     mut connectivity: ResMut<Connectivity>,
     mut cloud: Local<Option<NodeCloud>>,
     nodes: Query<&NodePosition, With<Node>>,
@@ -210,13 +258,25 @@ pub fn lme_basis(
         max_iterations: params.max_iterations,
     };
     let radius = support_radius(settings.beta, params.support_tolerance);
-    if multipliers.0.len() != positions.len() {
-        multipliers.0 = vec![Vector::ZERO; positions.len()];
-    }
-    let guesses = &multipliers.0;
-    let rows: Vec<_> = (0..positions.len())
-        .into_par_iter()
-        .map(|p| particle_row(cloud, positions[p].0, &settings, radius, guesses[p]))
+    let skin = 0.25 * radius;
+    state.resize(positions.len());
+    let LmeState {
+        lambda,
+        anchors,
+        candidates,
+    } = &mut *state;
+    let rows: Vec<_> = anchors
+        .par_iter_mut()
+        .zip(candidates.par_iter_mut())
+        .enumerate()
+        .map_init(RowScratch::default, |scratch, (p, (anchor, list))| {
+            let x = positions[p].0;
+            if (x - *anchor).length() > skin {
+                *list = cloud.within(x, radius + skin);
+                *anchor = x;
+            }
+            particle_row(cloud, x, list, &settings, radius, lambda[p], scratch)
+        })
         .collect();
     if let Some((p, Err(message))) = rows.iter().enumerate().find(|(_, r)| r.is_err()) {
         let x = positions[p].0;
@@ -228,7 +288,7 @@ pub fn lme_basis(
         return;
     }
     let (rows, lambdas): (Vec<_>, Vec<_>) = rows.into_iter().map(|r| r.unwrap_or_default()).unzip();
-    multipliers.0 = lambdas;
+    *lambda = lambdas;
     connectivity.rebuild(&rows, cloud.len());
 }
 
@@ -241,7 +301,7 @@ mod tests {
     fn rows_are_consistent_and_lambda_is_kept_for_the_next_step() {
         let mut world = tiny_world(8, 0.25, 1e-3);
         world.insert_resource(LmeParams::default());
-        world.insert_resource(LmeMultipliers::default());
+        world.insert_resource(LmeState::default());
         spawn_particle(&mut world, Vector::new(1.03, 0.91), Vector::ZERO, 1.0, 0.01);
         spawn_particle(&mut world, Vector::new(0.62, 1.37), Vector::ZERO, 1.0, 0.01);
         run_system(&mut world, lme_basis);
@@ -264,7 +324,7 @@ mod tests {
             // γ̂ = 3.5 with tolerance 1e-6: radius 1.99 h, so 12 or 13 nodes.
             assert!((12..=16).contains(&row.len()), "{}", row.len());
         }
-        let lambdas = world.resource::<LmeMultipliers>().0.clone();
+        let lambdas = world.resource::<LmeState>().lambda.clone();
         assert_eq!(lambdas.len(), 2);
         assert!(lambdas[0].length() > 0.0);
     }
@@ -273,7 +333,7 @@ mod tests {
     fn a_particle_outside_the_node_cloud_stops_the_run_naming_it() {
         let mut world = tiny_world(4, 0.25, 1e-3);
         world.insert_resource(LmeParams::default());
-        world.insert_resource(LmeMultipliers::default());
+        world.insert_resource(LmeState::default());
         spawn_particle(&mut world, Vector::new(0.5, 0.5), Vector::ZERO, 1.0, 0.01);
         spawn_particle(
             &mut world,

@@ -51,35 +51,52 @@ pub struct LmeFailure {
     pub nodes: usize,
 }
 
+/// Reusable buffers for one solve (one per thread), so the hot loop does not allocate.
+#[derive(Clone, Debug, Default)]
+pub struct LmeScratch {
+    /// `N_I` at the current λ; holds the result after a successful solve.
+    pub values: Vec<f64>,
+    trial: Vec<f64>,
+}
+
+/// `log Z`, `r` and `J` at one λ (the `N_I` are in a buffer beside it).
+#[derive(Clone, Copy, Debug)]
 struct Moments {
     log_z: f64,
-    values: Vec<f64>,
     r: Vector,
     j: Matrix,
 }
 
-fn moments(x: Vector, nodes: &[Vector], beta: f64, lambda: Vector) -> Moments {
-    let exponents: Vec<f64> = nodes
-        .iter()
-        .map(|&xi| {
-            let d = x - xi;
-            -beta * d.length_squared() + lambda.dot(d)
-        })
-        .collect();
-    let largest = exponents.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let mut values: Vec<f64> = exponents.iter().map(|f| (f - largest).exp()).collect();
-    let z: f64 = values.iter().sum();
-    values.iter_mut().for_each(|v| *v /= z);
+/// Evaluates the moments at `lambda`, writing `N_I` into `values`.
+fn moments(
+    x: Vector,
+    nodes: &[Vector],
+    beta: f64,
+    lambda: Vector,
+    values: &mut Vec<f64>,
+) -> Moments {
+    values.clear();
+    // Exponents first, then shifted by the largest so that exp never overflows.
+    values.extend(nodes.iter().map(|&xi| {
+        let d = x - xi;
+        -beta * d.length_squared() + lambda.dot(d)
+    }));
+    let largest = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mut z = 0.0;
+    for v in values.iter_mut() {
+        *v = (*v - largest).exp();
+        z += *v;
+    }
     let mut r = Vector::ZERO;
     let mut second = Matrix::ZERO;
-    for (&n, &xi) in values.iter().zip(nodes) {
+    for (v, &xi) in values.iter_mut().zip(nodes) {
+        *v /= z;
         let d = x - xi;
-        r += n * d;
-        second += outer(d, d) * n;
+        r += *v * d;
+        second += outer(d, d) * *v;
     }
     Moments {
         log_z: z.ln() + largest,
-        values,
         r,
         j: second - outer(r, r),
     }
@@ -95,110 +112,163 @@ fn newton_step(m: &Moments) -> Option<Vector> {
     step.is_finite().then_some(step)
 }
 
-/// Up to two more Newton steps while they still shrink `|r|`: at quadratic convergence they
-/// take the residual from the tolerance to round-off, which the gradient identities need
-/// because they carry `J⁻¹ r` and J is small near a node at large γ̂.
-fn polish(x: Vector, nodes: &[Vector], beta: f64, mut lambda: Vector) -> Vector {
-    let mut m = moments(x, nodes, beta, lambda);
-    for _ in 0..2 {
-        let Some(step) = newton_step(&m) else { break };
-        let trial = moments(x, nodes, beta, lambda + step);
-        // NaN residuals compare false and stop the polish too.
-        let better = trial.r.length() < m.r.length();
-        if !better {
-            break;
-        }
-        lambda += step;
-        m = trial;
-    }
-    lambda
+struct Problem<'a> {
+    x: Vector,
+    nodes: &'a [Vector],
+    settings: &'a LmeSettings,
 }
 
-/// Plain Newton from `start`; `Ok(λ)` on convergence, `Err(iterations)` otherwise.
-fn plain_newton(
+impl Problem<'_> {
+    fn goal(&self) -> f64 {
+        self.settings.tolerance * self.settings.length_scale
+    }
+
+    /// Moments at `lambda` into the scratch's trial buffer.
+    fn trial(&self, lambda: Vector, scratch: &mut LmeScratch) -> Moments {
+        moments(
+            self.x,
+            self.nodes,
+            self.settings.beta,
+            lambda,
+            &mut scratch.trial,
+        )
+    }
+
+    /// Moments at `lambda` into the scratch's current buffer.
+    fn current(&self, lambda: Vector, scratch: &mut LmeScratch) -> Moments {
+        moments(
+            self.x,
+            self.nodes,
+            self.settings.beta,
+            lambda,
+            &mut scratch.values,
+        )
+    }
+
+    /// One more Newton step if it still shrinks `|r|`: at quadratic convergence it takes the
+    /// residual from the tolerance to round-off, which the gradient identities need because
+    /// they carry `J⁻¹ r` and J is small near a node at large γ̂.
+    fn polish(&self, lambda: Vector, m: Moments, scratch: &mut LmeScratch) -> (Vector, Moments) {
+        let Some(step) = newton_step(&m) else {
+            return (lambda, m);
+        };
+        let trial = self.trial(lambda + step, scratch);
+        // NaN residuals compare false and keep the current λ.
+        let better = trial.r.length() < m.r.length();
+        if better {
+            std::mem::swap(&mut scratch.values, &mut scratch.trial);
+            (lambda + step, trial)
+        } else {
+            (lambda, m)
+        }
+    }
+
+    /// Plain Newton from `start`; `Err(iterations)` when it does not converge.
+    fn plain_newton(
+        &self,
+        start: Vector,
+        scratch: &mut LmeScratch,
+    ) -> Result<(Vector, Moments, usize), usize> {
+        let mut lambda = start;
+        for k in 0..self.settings.max_iterations {
+            let m = self.current(lambda, scratch);
+            if m.r.length() <= self.goal() {
+                let (lambda, m) = self.polish(lambda, m, scratch);
+                return Ok((lambda, m, k));
+            }
+            lambda += newton_step(&m).ok_or(k)?;
+        }
+        Err(self.settings.max_iterations)
+    }
+
+    /// Damped Newton with Armijo backtracking on `log Z`, from λ = 0; steepest descent when J
+    /// is singular. `Err(residual)` when it does not converge.
+    fn damped_newton(&self, scratch: &mut LmeScratch) -> Result<(Vector, Moments, usize), f64> {
+        let mut lambda = Vector::ZERO;
+        let mut m = self.current(lambda, scratch);
+        for k in 0..self.settings.max_iterations {
+            if m.r.length() <= self.goal() {
+                let (lambda, m) = self.polish(lambda, m, scratch);
+                return Ok((lambda, m, k));
+            }
+            let direction = newton_step(&m).unwrap_or(-m.r);
+            let slope = m.r.dot(direction);
+            let mut t = 1.0;
+            loop {
+                let trial = self.trial(lambda + t * direction, scratch);
+                // Sufficient decrease of log Z, or (once its changes drown in round-off near
+                // the minimum) a halving of the gradient norm.
+                let decreases = trial.log_z <= m.log_z + 1e-4 * t * slope;
+                let closer = trial.r.length() <= 0.5 * m.r.length();
+                if trial.log_z.is_finite() && (decreases || closer) {
+                    lambda += t * direction;
+                    m = trial;
+                    std::mem::swap(&mut scratch.values, &mut scratch.trial);
+                    break;
+                }
+                t *= 0.5;
+                if t < 1e-12 {
+                    return Err(m.r.length());
+                }
+            }
+        }
+        if m.r.length() <= self.goal() {
+            Ok((lambda, m, self.settings.max_iterations))
+        } else {
+            Err(m.r.length())
+        }
+    }
+}
+
+/// Solves for λ at `x` over `nodes`, warm-started from `lambda_guess`. On success `scratch.values`
+/// holds `N_I` and the result carries λ, `J⁻¹` and the iterations used.
+pub fn lme_solve(
     x: Vector,
     nodes: &[Vector],
-    s: &LmeSettings,
-    start: Vector,
-) -> Result<(Vector, usize), usize> {
-    let goal = s.tolerance * s.length_scale;
-    let mut lambda = start;
-    for k in 0..s.max_iterations {
-        let m = moments(x, nodes, s.beta, lambda);
-        if m.r.length() <= goal {
-            return Ok((polish(x, nodes, s.beta, lambda), k));
-        }
-        lambda += newton_step(&m).ok_or(k)?;
-    }
-    Err(s.max_iterations)
+    settings: &LmeSettings,
+    lambda_guess: Vector,
+    scratch: &mut LmeScratch,
+) -> Result<(Vector, Matrix, usize), LmeFailure> {
+    let problem = Problem { x, nodes, settings };
+    let (lambda, m, iterations) = match problem.plain_newton(lambda_guess, scratch) {
+        Ok(found) => found,
+        Err(spent) => problem
+            .damped_newton(scratch)
+            .map(|(lambda, m, k)| (lambda, m, k + spent))
+            .map_err(|residual| LmeFailure {
+                residual,
+                iterations: spent + settings.max_iterations,
+                nodes: nodes.len(),
+            })?,
+    };
+    Ok((lambda, m.j.inverse(), iterations))
 }
 
-/// Damped Newton with Armijo backtracking on `log Z`, from λ = 0; steepest descent when J is
-/// singular.
-fn damped_newton(x: Vector, nodes: &[Vector], s: &LmeSettings) -> Result<(Vector, usize), f64> {
-    let goal = s.tolerance * s.length_scale;
-    let mut lambda = Vector::ZERO;
-    let mut m = moments(x, nodes, s.beta, lambda);
-    for k in 0..s.max_iterations {
-        if m.r.length() <= goal {
-            return Ok((polish(x, nodes, s.beta, lambda), k));
-        }
-        let direction = newton_step(&m).unwrap_or(-m.r);
-        let slope = m.r.dot(direction);
-        let mut t = 1.0;
-        loop {
-            let trial = moments(x, nodes, s.beta, lambda + t * direction);
-            // Sufficient decrease of log Z, or (once its changes drown in round-off near the
-            // minimum) a halving of the gradient norm.
-            let decreases = trial.log_z <= m.log_z + 1e-4 * t * slope;
-            let closer = trial.r.length() <= 0.5 * m.r.length();
-            if trial.log_z.is_finite() && (decreases || closer) {
-                lambda += t * direction;
-                m = trial;
-                break;
-            }
-            t *= 0.5;
-            if t < 1e-12 {
-                return Err(m.r.length());
-            }
-        }
-    }
-    if m.r.length() <= goal {
-        Ok((lambda, s.max_iterations))
-    } else {
-        Err(m.r.length())
-    }
+/// `∇N_I = −N_I J⁻¹ (x − x_I)` (eq. 8).
+pub fn lme_gradient(x: Vector, node: Vector, value: f64, j_inverse: Matrix) -> Vector {
+    -value * (j_inverse * (x - node))
 }
 
-/// LME shape functions at `x` over `nodes`, warm-started from `lambda_guess`.
+/// LME shape functions at `x` over `nodes`, warm-started from `lambda_guess` (allocating
+/// convenience over [`lme_solve`]).
 pub fn lme_shape_functions(
     x: Vector,
     nodes: &[Vector],
     settings: &LmeSettings,
     lambda_guess: Vector,
 ) -> Result<LmeSolution, LmeFailure> {
-    let solved = match plain_newton(x, nodes, settings, lambda_guess) {
-        Ok(found) => Ok(found),
-        Err(spent) => damped_newton(x, nodes, settings)
-            .map(|(lambda, k)| (lambda, k + spent))
-            .map_err(|residual| LmeFailure {
-                residual,
-                iterations: spent + settings.max_iterations,
-                nodes: nodes.len(),
-            }),
-    };
-    let (lambda, iterations) = solved?;
-    let m = moments(x, nodes, settings.beta, lambda);
-    let j_inverse = m.j.inverse();
-    let gradients = m
+    let mut scratch = LmeScratch::default();
+    let (lambda, j_inverse, iterations) =
+        lme_solve(x, nodes, settings, lambda_guess, &mut scratch)?;
+    let gradients = scratch
         .values
         .iter()
         .zip(nodes)
-        .map(|(&n, &xi)| -n * (j_inverse * (x - xi)))
+        .map(|(&n, &xi)| lme_gradient(x, xi, n, j_inverse))
         .collect();
     Ok(LmeSolution {
         lambda,
-        values: m.values,
+        values: scratch.values,
         gradients,
         iterations,
     })
