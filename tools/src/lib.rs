@@ -9,7 +9,10 @@
 //! std::process::exit(fractum_cli::main_with(std::env::args_os(), &registry));
 //! ```
 
-use clap::{Parser, Subcommand};
+pub mod bench;
+
+use bench::{BenchPipeline, default_steps, measure, table};
+use clap::{Parser, Subcommand, ValueEnum};
 use fractum_engine::registry::Registry;
 use fractum_engine::run::{RunError, RunSummary, run};
 use fractum_engine::scene::{Built, End, SceneError, SceneFile, TimeStep, build_simulation};
@@ -64,6 +67,30 @@ pub enum Command {
     },
     /// List every registered system with its stage, summary and parameters.
     Systems,
+    /// Measure particle-steps per second of the stock pipelines on a generated scene.
+    Bench {
+        /// Pipelines to measure.
+        #[arg(long, value_enum, value_delimiter = ',', default_values = ["linear-usl", "lme-newmark"])]
+        pipeline: Vec<PipelineArg>,
+        /// Particle counts.
+        #[arg(long, value_delimiter = ',', default_values = ["10000", "100000", "1000000"])]
+        particles: Vec<usize>,
+        /// Thread counts.
+        #[arg(long, value_delimiter = ',', default_values = ["1", "2"])]
+        threads: Vec<usize>,
+        /// Timed steps per measurement [default: about 2 million particle-steps, at least 5].
+        #[arg(long)]
+        steps: Option<u64>,
+    },
+}
+
+/// Pipelines `fractum bench` knows.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum PipelineArg {
+    /// `basis/linear` + update-stress-last + linear elasticity.
+    LinearUsl,
+    /// `basis/lme` + Newmark predictor-corrector + linear elasticity.
+    LmeNewmark,
 }
 
 /// Parses `args` and runs the command with the systems in `registry`; returns the exit code.
@@ -80,6 +107,12 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             print!("{}", systems_report(registry));
             0
         }
+        Command::Bench {
+            pipeline,
+            particles,
+            threads,
+            steps,
+        } => bench_command(&pipeline, &particles, &threads, steps, registry),
         Command::Check { scene } => match load(&scene, registry) {
             Ok((file, mut built)) => {
                 print!("{}", check_report(&file, &mut built));
@@ -95,6 +128,45 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             quiet,
         } => run_command(&scene, out, threads, steps, quiet, registry),
     }
+}
+
+fn bench_command(
+    pipelines: &[PipelineArg],
+    particles: &[usize],
+    threads: &[usize],
+    steps: Option<u64>,
+    registry: &Registry,
+) -> i32 {
+    let mut results = Vec::new();
+    for &pipeline in pipelines {
+        let pipeline = match pipeline {
+            PipelineArg::LinearUsl => BenchPipeline::LinearUsl,
+            PipelineArg::LmeNewmark => BenchPipeline::LmeNewmark,
+        };
+        for &n in particles {
+            for &t in threads {
+                let steps = steps.unwrap_or_else(|| default_steps(n));
+                match measure(registry, pipeline, n, t.max(1), steps) {
+                    Ok(result) => {
+                        eprintln!(
+                            "{} {} particles, {} threads: {:.3e} particle-steps/s",
+                            pipeline.name(),
+                            result.particles,
+                            result.threads,
+                            result.rate()
+                        );
+                        results.push(result);
+                    }
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        return EXIT_BLOWUP;
+                    }
+                }
+            }
+        }
+    }
+    print!("{}", table(&results));
+    0
 }
 
 fn report_scene_error(e: &SceneError) -> i32 {
