@@ -117,5 +117,11 @@ fn stress(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, lme_point, transfers, stress);
+// The macro generates an undocumented function.
+#[allow(missing_docs)]
+mod group {
+    use super::*;
+    criterion_group!(benches, lme_point, transfers, stress);
+}
+use group::benches;
 criterion_main!(benches);
