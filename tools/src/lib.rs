@@ -10,6 +10,7 @@
 //! ```
 
 pub mod bench;
+pub mod plot;
 
 use bench::{BenchPipeline, default_steps, measure, table};
 use clap::{Parser, Subcommand, ValueEnum};
@@ -67,6 +68,21 @@ pub enum Command {
     },
     /// List every registered system with its stage, summary and parameters.
     Systems,
+    /// Plot series.csv columns against time into a PNG.
+    Plot {
+        /// The series.csv of a run.
+        csv: PathBuf,
+        /// Columns to draw.
+        #[arg(long, value_delimiter = ',', default_values = ["kinetic_energy", "strain_energy", "total_energy"])]
+        columns: Vec<String>,
+        /// Also draw the analytic centre-of-mass velocity of a bar's first axial mode, given as
+        /// L,E,RHO,V0 (e.g. 25,100,1,0.1 for scenes/bar_vibration.ron).
+        #[arg(long)]
+        bar: Option<String>,
+        /// Output PNG [default: next to the CSV, named after the columns].
+        #[arg(long)]
+        output: Option<PathBuf>,
+    },
     /// Measure particle-steps per second of the stock pipelines on a generated scene.
     Bench {
         /// Pipelines to measure.
@@ -107,6 +123,12 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             print!("{}", systems_report(registry));
             0
         }
+        Command::Plot {
+            csv,
+            columns,
+            bar,
+            output,
+        } => plot_command(&csv, &columns, bar.as_deref(), output),
         Command::Bench {
             pipeline,
             particles,
@@ -127,6 +149,26 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             steps,
             quiet,
         } => run_command(&scene, out, threads, steps, quiet, registry),
+    }
+}
+
+fn plot_command(csv: &Path, columns: &[String], bar: Option<&str>, output: Option<PathBuf>) -> i32 {
+    let result = (|| {
+        let series = plot::Series::read(csv)?;
+        let bar = bar.map(plot::BarReference::parse).transpose()?;
+        let output =
+            output.unwrap_or_else(|| csv.with_file_name(format!("{}.png", columns.join("+"))));
+        plot::plot(&series, columns, bar, &output)
+    })();
+    match result {
+        Ok(path) => {
+            println!("wrote {}", path.display());
+            0
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            EXIT_BAD_SCENE
+        }
     }
 }
 

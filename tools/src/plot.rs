@@ -1,0 +1,250 @@
+//! `fractum plot`: PNG line plots of `series.csv` columns against time, optionally with the
+//! analytic centre-of-mass velocity of the first axial mode of a bar for comparison.
+//!
+//! Text is drawn with the DejaVu Sans font compiled into the binary, so plotting needs no
+//! system font libraries. The PNG is drawn to a temporary file and renamed into place.
+
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+use std::path::{Path, PathBuf};
+use std::sync::Once;
+
+/// A time series read from `series.csv`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Series {
+    /// Column names.
+    pub columns: Vec<String>,
+    /// Rows of values.
+    pub rows: Vec<Vec<f64>>,
+}
+
+impl Series {
+    /// Reads a CSV written by `fractum run`.
+    pub fn read(path: &Path) -> Result<Self, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        let mut lines = text.lines();
+        let columns: Vec<String> = lines
+            .next()
+            .ok_or_else(|| format!("{}: empty file", path.display()))?
+            .split(',')
+            .map(str::to_string)
+            .collect();
+        let mut rows = Vec::new();
+        for (k, line) in lines.enumerate() {
+            let row: Result<Vec<f64>, _> = line.split(',').map(str::parse::<f64>).collect();
+            let row = row.map_err(|e| format!("{}:{}: {e}", path.display(), k + 2))?;
+            if row.len() != columns.len() {
+                return Err(format!(
+                    "{}:{}: expected {} values",
+                    path.display(),
+                    k + 2,
+                    columns.len()
+                ));
+            }
+            rows.push(row);
+        }
+        Ok(Self { columns, rows })
+    }
+
+    /// Values of column `name`.
+    pub fn column(&self, name: &str) -> Result<Vec<f64>, String> {
+        let i = self.columns.iter().position(|c| c == name).ok_or_else(|| {
+            format!(
+                "no column `{name}`; the file has: {}",
+                self.columns.join(", ")
+            )
+        })?;
+        Ok(self.rows.iter().map(|r| r[i]).collect())
+    }
+}
+
+/// Parameters of the analytic bar solution: length, Young's modulus, density, peak velocity.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BarReference {
+    /// Bar length L.
+    pub length: f64,
+    /// Young's modulus E.
+    pub youngs_modulus: f64,
+    /// Density ρ.
+    pub density: f64,
+    /// Peak initial velocity v0.
+    pub v0: f64,
+}
+
+impl BarReference {
+    /// `(2 v0 / π) cos(ω t)` with `ω = π/(2L) √(E/ρ)`.
+    pub fn centre_of_mass_velocity(&self, t: f64) -> f64 {
+        let omega = std::f64::consts::PI / (2.0 * self.length)
+            * (self.youngs_modulus / self.density).sqrt();
+        2.0 * self.v0 / std::f64::consts::PI * (omega * t).cos()
+    }
+
+    /// Parses `L,E,RHO,V0`.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let v: Result<Vec<f64>, _> = text.split(',').map(|s| s.trim().parse::<f64>()).collect();
+        match v.map_err(|e| e.to_string())?.as_slice() {
+            [l, e, rho, v0] => Ok(Self {
+                length: *l,
+                youngs_modulus: *e,
+                density: *rho,
+                v0: *v0,
+            }),
+            _ => Err("expected four numbers L,E,RHO,V0".into()),
+        }
+    }
+}
+
+fn register_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // The bundled font is valid; a failure here would only lose the text.
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            dejavu::sans::regular(),
+        );
+    });
+}
+
+fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    let pad = if hi > lo {
+        0.05 * (hi - lo)
+    } else {
+        lo.abs().max(1.0) * 0.05
+    };
+    (lo - pad, hi + pad)
+}
+
+/// Draws `columns` of `series` against `time` into `output`, with the bar reference curve when
+/// given. Returns the path written.
+pub fn plot(
+    series: &Series,
+    columns: &[String],
+    bar: Option<BarReference>,
+    output: &Path,
+) -> Result<PathBuf, String> {
+    register_font();
+    let time = series.column("time")?;
+    let mut curves: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+    for name in columns {
+        let values = series.column(name)?;
+        curves.push((name.clone(), time.iter().copied().zip(values).collect()));
+    }
+    if let Some(bar) = bar {
+        let t_end = time.last().copied().unwrap_or(0.0);
+        let samples = (0..=2000).map(|k| t_end * k as f64 / 2000.0);
+        curves.push((
+            "analytic (2 v0/π) cos(ωt)".into(),
+            samples
+                .map(|t| (t, bar.centre_of_mass_velocity(t)))
+                .collect(),
+        ));
+    }
+    let (x0, x1) = range(time.iter().copied());
+    let (y0, y1) = range(curves.iter().flat_map(|(_, c)| c.iter().map(|p| p.1)));
+    // The encoder chooses the format from the extension, so the temporary name ends in .png.
+    let name = output
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let temp = output.with_file_name(format!(".{name}.{}.tmp.png", std::process::id()));
+    {
+        let root = BitMapBackend::new(&temp, (1200, 700)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let mut chart = ChartBuilder::on(&root)
+            .margin(20)
+            .x_label_area_size(50)
+            .y_label_area_size(90)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(|e| e.to_string())?;
+        chart
+            .configure_mesh()
+            .x_desc("time (s)")
+            .label_style(("sans-serif", 18))
+            .axis_desc_style(("sans-serif", 20))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        for (k, (name, points)) in curves.iter().enumerate() {
+            let color = Palette99::pick(k).to_rgba();
+            chart
+                .draw_series(LineSeries::new(
+                    points.iter().copied(),
+                    color.stroke_width(2),
+                ))
+                .map_err(|e| e.to_string())?
+                .label(name.clone())
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                });
+        }
+        chart
+            .configure_series_labels()
+            .label_font(("sans-serif", 18))
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| e.to_string())?;
+        root.present().map_err(|e| e.to_string())?;
+    }
+    std::fs::rename(&temp, output)
+        .map_err(|e| format!("cannot write {}: {e}", output.display()))?;
+    Ok(output.to_path_buf())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bar_reference_matches_the_analytic_period_and_amplitude() {
+        let bar = BarReference::parse("25, 100, 1, 0.1").unwrap();
+        let a = 0.2 / std::f64::consts::PI;
+        assert!((bar.centre_of_mass_velocity(0.0) - a).abs() < 1e-15);
+        assert!((bar.centre_of_mass_velocity(10.0) - a).abs() < 1e-12);
+        assert!(bar.centre_of_mass_velocity(2.5).abs() < 1e-12);
+        assert!(BarReference::parse("1,2").is_err());
+    }
+
+    #[test]
+    fn plots_columns_into_a_png() {
+        let dir = std::env::temp_dir().join(format!("fractum-plot-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let csv = dir.join("series.csv");
+        std::fs::write(
+            &csv,
+            "step,time,a,b\n0,0.0,1.0,2.0\n1,0.5,1.5,1.0\n2,1.0,0.5,0.0\n",
+        )
+        .unwrap();
+        let series = Series::read(&csv).unwrap();
+        assert!(
+            series
+                .column("c")
+                .unwrap_err()
+                .contains("the file has: step, time, a, b")
+        );
+        let out = plot(
+            &series,
+            &["a".into(), "b".into()],
+            None,
+            &dir.join("ab.png"),
+        )
+        .unwrap();
+        let bytes = std::fs::read(&out).unwrap();
+        assert_eq!(&bytes[1..4], b"PNG");
+        assert_eq!(
+            std::fs::read_dir(&dir).unwrap().count(),
+            2,
+            "only the CSV and the PNG"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
