@@ -1,13 +1,20 @@
 //! A run that goes wrong stops at once with a message naming the step, the stage and the
 //! particle.
 
+use fractum_engine::health::EscapedParticles;
 use fractum_engine::prelude::*;
+use fractum_engine::run::{RunError, run};
 use fractum_engine::scene::{SceneFile, build_simulation};
+use fractum_suite::temp_dir;
 
 fn scene(velocity: &str, extra_system: &str) -> SceneFile {
+    scene_with_safety(velocity, extra_system, "")
+}
+
+fn scene_with_safety(velocity: &str, extra_system: &str, safety: &str) -> SceneFile {
     let text = format!(
         r#"(
-    time: (step: Fixed(1.0e-3), end: Steps(100)),
+    time: (step: Fixed(1.0e-3), end: Steps(100)),{safety}
     grid: (min: (0.0, 0.0), max: (1.0, 1.0), spacing: 0.1),
     materials: {{ "m": (density: 1.0, youngs_modulus: 1.0, poisson_ratio: 0.0) }},
     bodies: [(shape: Rectangle(min: (0.8, 0.4), max: (1.0, 0.6)), material: "m",
@@ -85,4 +92,67 @@ fn a_non_finite_stress_stops_the_run_in_the_stage_that_produced_it() {
     assert!(failure.message.contains("non-finite stress"), "{failure}");
     // The clock stays at the last completed step.
     assert_eq!(sim.clock().step, 4);
+}
+
+#[test]
+fn under_the_remove_policy_escaping_particles_are_removed_and_the_run_goes_on() {
+    let file = scene_with_safety("(10.0, 0.0)", "", "\n    safety: (on_leave_grid: Remove),");
+    let mut sim = build_simulation(&file, &fractum_systems::stock_registry())
+        .unwrap()
+        .simulation;
+    let before = sim.particle_count();
+    for _ in 0..10 {
+        sim.step().unwrap_or_else(|e| panic!("{e}"));
+    }
+    let escaped = sim.world.resource::<EscapedParticles>().clone();
+    assert!(escaped.count > 0);
+    assert_eq!(sim.particle_count() as u64, before as u64 - escaped.count);
+    let (_, x) = escaped.first.unwrap();
+    assert!(x.x > 1.0, "{x}");
+}
+
+#[test]
+fn a_blown_up_run_writes_the_state_at_the_start_of_the_failing_step() {
+    let mut registry = fractum_systems::stock_registry();
+    registry
+        .register(Registration {
+            name: "damage/poison",
+            summary: "writes NaN into particle 7's stress at step 5",
+            params: &[],
+            requires: &[],
+            install: poison_install,
+        })
+        .unwrap();
+    let file = scene("(0.0, 0.0)", r#", (system: "damage/poison")"#);
+    let mut built = build_simulation(&file, &registry).unwrap();
+    let particles = built.simulation.particle_count();
+    let out = temp_dir("last-good");
+    let error = run(&mut built.simulation, &built.output, &out, |_| {}).unwrap_err();
+    let RunError::Blowup(blowup, Some(path)) = error else {
+        panic!("expected a blow-up with a last good frame");
+    };
+    assert_eq!(blowup.step, 5);
+    assert_eq!(path, out.join("frames/particles_last_good_00000004.vtu"));
+    let vtk = vtkio::Vtk::import(&path).unwrap();
+    let vtkio::model::DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
+        panic!("not an unstructured grid");
+    };
+    let piece = pieces[0].load_piece_data(Some(&path)).unwrap();
+    assert_eq!(piece.num_points(), particles);
+    let stress = piece
+        .data
+        .point
+        .iter()
+        .find(|a| a.name() == "stress")
+        .unwrap();
+    let vtkio::model::Attribute::DataArray(array) = stress else {
+        panic!("stress is not a data array");
+    };
+    let values: Vec<f64> = array.data.clone().cast_into().unwrap();
+    assert_eq!(values.len(), 9 * particles);
+    assert!(
+        values.iter().all(|v| v.is_finite()),
+        "the saved state is the good one"
+    );
+    std::fs::remove_dir_all(&out).unwrap();
 }

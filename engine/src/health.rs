@@ -8,6 +8,7 @@ use crate::components::{
 };
 use crate::dim::Vector;
 use crate::resources::{Grid, SimClock};
+use crate::scene::LeaveGrid;
 use crate::stage::Stage;
 use bevy_ecs::prelude::*;
 use rayon::prelude::*;
@@ -99,14 +100,18 @@ type NodeCheckQuery<'w, 's> = Query<
     With<Node>,
 >;
 
-fn first_bad_particle(particles: &ParticleCheckQuery, grid: &Grid) -> Option<String> {
+fn first_bad_particle(
+    particles: &ParticleCheckQuery,
+    grid: &Grid,
+    outside_allowed: bool,
+) -> Option<String> {
     let (ids, positions, velocities, stresses, volumes) =
         single_table(particles.contiguous_iter(), "particles")?;
     let (lo, hi) = (grid.min, grid.max());
     let bad = (0..ids.len()).into_par_iter().find_first(|&p| {
         let x = positions[p].0;
         !(x.is_finite()
-            && grid.contains(x)
+            && (outside_allowed || grid.contains(x))
             && velocities[p].0.is_finite()
             && stresses[p].0.is_finite()
             && volumes[p].0.is_finite()
@@ -160,15 +165,51 @@ fn first_bad_node(nodes: &NodeCheckQuery) -> Option<String> {
 /// The check system the engine runs after `stage`.
 pub fn stage_check(
     stage: Stage,
-) -> impl FnMut(Res<SimClock>, Res<Grid>, ResMut<Health>, ParticleCheckQuery, NodeCheckQuery) {
-    move |clock, grid, mut health, particles, nodes| {
-        let found = first_bad_particle(&particles, &grid).or_else(|| first_bad_node(&nodes));
+) -> impl FnMut(
+    Res<SimClock>,
+    Res<Grid>,
+    Option<Res<LeaveGrid>>,
+    ResMut<Health>,
+    ParticleCheckQuery,
+    NodeCheckQuery,
+) {
+    move |clock, grid, policy, mut health, particles, nodes| {
+        let outside_allowed = policy.is_some_and(|p| *p == LeaveGrid::Remove);
+        let found = first_bad_particle(&particles, &grid, outside_allowed)
+            .or_else(|| first_bad_node(&nodes));
         if let Some(message) = found {
             health.failure = Some(Blowup {
                 step: clock.step + 1,
                 stage,
                 message,
             });
+        }
+    }
+}
+
+/// Particles removed because they left the grid (policy [`LeaveGrid::Remove`]).
+#[derive(Resource, Clone, Debug, Default, PartialEq)]
+pub struct EscapedParticles {
+    /// How many so far.
+    pub count: u64,
+    /// Id and position of the first one removed.
+    pub first: Option<(u32, Vector)>,
+}
+
+/// Despawns the particles outside the grid (run after advection under [`LeaveGrid::Remove`]).
+/// The removal takes effect at the end of the step; particle rows are renumbered, which every
+/// system handles because per-row state is rebuilt when the particle count changes.
+pub fn remove_escaped_particles(
+    grid: Res<Grid>,
+    mut escaped: ResMut<EscapedParticles>,
+    particles: Query<(Entity, &ParticleId, &Position), With<Particle>>,
+    mut commands: Commands,
+) {
+    for (entity, id, x) in &particles {
+        if !grid.contains(x.0) && x.0.is_finite() {
+            escaped.count += 1;
+            escaped.first.get_or_insert((id.0, x.0));
+            commands.entity(entity).despawn();
         }
     }
 }

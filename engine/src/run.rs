@@ -18,9 +18,10 @@ use std::time::{Duration, Instant};
 /// Why a run did not finish.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
-    /// The state became invalid; outputs up to the previous output step are on disk.
+    /// The state became invalid. Outputs up to the previous output step are on disk, and the
+    /// state at the start of the failing step too when the plan keeps it.
     #[error("the run stopped at {0}")]
-    Blowup(Blowup),
+    Blowup(Blowup, Option<PathBuf>),
     /// An output file could not be written.
     #[error("cannot write {path}: {source}")]
     Io {
@@ -46,6 +47,8 @@ pub struct RunSummary {
     pub wall: Duration,
     /// VTU frames written.
     pub frames: usize,
+    /// Particles removed on leaving the grid.
+    pub removed: u64,
 }
 
 impl RunSummary {
@@ -169,10 +172,20 @@ pub fn run(
     let first_step = sim.clock().step;
     outputs.record(sim, true)?;
     while !sim.finished() {
+        let last_good = plan.last_good_frame.then(|| particle_frame(&mut sim.world));
         if let Err(blowup) = sim.step() {
             let path = out_dir.join("series.csv");
             outputs.series.flush().map_err(io_error(&path))?;
-            return Err(RunError::Blowup(blowup));
+            let written = match last_good {
+                Some(frame) => {
+                    let step = sim.clock().step;
+                    let path = frames_dir.join(format!("particles_last_good_{step:08}.vtu"));
+                    write_particle_frame(&path, &frame).map_err(io_error(&path))?;
+                    Some(path)
+                }
+                None => None,
+            };
+            return Err(RunError::Blowup(blowup, written));
         }
         let last = sim.finished();
         outputs.record(sim, last)?;
@@ -188,5 +201,9 @@ pub fn run(
         threads: sim.threads(),
         wall: started.elapsed(),
         frames: outputs.frames.len(),
+        removed: sim
+            .world
+            .resource::<crate::health::EscapedParticles>()
+            .count,
     })
 }

@@ -41,6 +41,7 @@ pub fn add_stage_checks(schedule: &mut Schedule, stages: impl IntoIterator<Item 
 /// names the systems involved.
 pub fn initialize_schedule(schedule: &mut Schedule, world: &mut World) -> Result<(), String> {
     world.init_resource::<Health>();
+    world.init_resource::<crate::health::EscapedParticles>();
     schedule
         .initialize(world)
         .map(|_| ())

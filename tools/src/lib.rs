@@ -400,12 +400,19 @@ fn run_command(
             print!("{}", summary_report(&summary, &out_dir));
             0
         }
-        Err(RunError::Blowup(b)) => {
+        Err(RunError::Blowup(b, last_good)) => {
             eprintln!("error: the run stopped at {b}");
             eprintln!(
                 "outputs up to the last output step are in {}",
                 out_dir.display()
             );
+            if let Some(path) = last_good {
+                eprintln!(
+                    "the state at the start of step {} is in {}",
+                    b.step,
+                    path.display()
+                );
+            }
             EXIT_BLOWUP
         }
         Err(e) => {
@@ -417,8 +424,13 @@ fn run_command(
 
 /// The end-of-run summary.
 pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
+    let removed = if s.removed > 0 {
+        format!("{} particles left the grid and were removed\n", s.removed)
+    } else {
+        String::new()
+    };
     format!(
-        "steps {}, simulated time {:.6e} s, particles {}, threads {}\nwall time {:.3} s, {:.4e} particle-steps/s\n{} VTU frames, output in {}\n",
+        "steps {}, simulated time {:.6e} s, particles {}, threads {}\nwall time {:.3} s, {:.4e} particle-steps/s\n{} VTU frames, output in {}\n{removed}",
         s.steps,
         s.time,
         s.particles,

@@ -21,6 +21,8 @@ pub struct OutputPlan {
     pub csv_every: u64,
     /// Extra CSV columns.
     pub probes: Vec<ProbeKind>,
+    /// Keep the state at the start of each step to write it if the step blows up.
+    pub last_good_frame: bool,
 }
 
 /// A resolved probe.

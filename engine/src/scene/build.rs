@@ -10,12 +10,15 @@ use crate::boundary::{BoundaryConditions, BoundaryRegion, PiecewiseLinear, React
 use crate::components::{BodyId, ContactGroup, NodeBundle, ParticleBundle, Velocity, WaveSpeed};
 use crate::connectivity::Connectivity;
 use crate::dim::Vector;
+use crate::health::remove_escaped_particles;
 use crate::output::{OutputPlan, ProbeKind};
 use crate::registry::{Installer, Params, Registry};
 use crate::resources::{BodyForce, Grid, Material, Materials, SimClock, TimeStepLimit};
 use crate::simulation::{Simulation, add_stage_checks, step_schedule};
 use crate::stage::Stage;
+use crate::stage::StageCheck;
 use bevy_ecs::prelude::World;
+use bevy_ecs::schedule::IntoScheduleConfigs;
 
 /// The pipeline as installed: system names per stage, in stage order.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -56,6 +59,8 @@ pub fn build_simulation(file: &SceneFile, registry: &Registry) -> Result<Built, 
     world.insert_resource(Reactions(vec![Vector::ZERO; boundaries.regions.len()]));
     world.insert_resource(boundaries);
     world.insert_resource(SimClock::default());
+    let policy = file.scene.safety.on_leave_grid;
+    world.insert_resource(policy);
     world.init_resource::<Connectivity>();
     let mut schedule = step_schedule();
     let pipeline = install_pipeline(file, registry, &mut schedule, &mut world)?;
@@ -65,6 +70,9 @@ pub fn build_simulation(file: &SceneFile, registry: &Registry) -> Result<Built, 
         &mut schedule,
         pipeline.by_stage.iter().map(|(stage, _)| *stage),
     );
+    if policy == LeaveGrid::Remove {
+        schedule.add_systems(remove_escaped_particles.in_set(StageCheck(Stage::Advection)));
+    }
     let simulation =
         Simulation::new(world, schedule, scene.time.step, scene.time.end).map_err(|e| {
             file.error(
@@ -434,6 +442,7 @@ fn output_plan(
         vtu_every: spec.vtu_every,
         csv_every: spec.csv_every,
         probes,
+        last_good_frame: spec.last_good_frame,
     })
 }
 

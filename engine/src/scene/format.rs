@@ -37,6 +37,9 @@ pub struct Scene {
     /// What to write and how often.
     #[serde(default)]
     pub output: OutputSpec,
+    /// What to do when the run goes wrong.
+    #[serde(default)]
+    pub safety: SafetySpec,
     /// The systems of the step, by name, each with its own parameters.
     pub pipeline: Vec<PipelineEntry>,
 }
@@ -315,6 +318,14 @@ pub struct OutputSpec {
     /// Extra `series.csv` columns.
     #[serde(default)]
     pub probes: Vec<Probe>,
+    /// Keep a copy of the particle state at the start of every step, so that a run that blows
+    /// up can write the last good state (`frames/particles_last_good_<step>.vtu`).
+    #[serde(default = "default_true")]
+    pub last_good_frame: bool,
+}
+
+fn default_true() -> bool {
+    true
 }
 
 fn default_csv_every() -> u64 {
@@ -327,6 +338,7 @@ impl Default for OutputSpec {
             vtu_every: 0,
             csv_every: default_csv_every(),
             probes: Vec::new(),
+            last_good_frame: true,
         }
     }
 }
@@ -339,6 +351,27 @@ pub enum Probe {
     Reaction(String),
     /// Centre-of-mass velocity of all particles: `com_velocity_x`, `com_velocity_y`.
     CentreOfMassVelocity,
+}
+
+/// Run-safety settings.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SafetySpec {
+    /// What happens to a particle that leaves the grid.
+    #[serde(default)]
+    pub on_leave_grid: LeaveGrid,
+}
+
+/// What happens to a particle that leaves the grid.
+#[derive(Debug, Default, Deserialize, Clone, Copy, PartialEq, Eq, bevy_ecs::prelude::Resource)]
+#[serde(deny_unknown_fields)]
+pub enum LeaveGrid {
+    /// Stop the run, naming the particle and its position (default).
+    #[default]
+    Stop,
+    /// Remove the particle (its mass and momentum leave the system) and go on; the count is
+    /// reported at the end of the run.
+    Remove,
 }
 
 /// One system of the pipeline.
