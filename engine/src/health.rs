@@ -163,6 +163,8 @@ fn first_bad_node(nodes: &NodeCheckQuery) -> Option<String> {
 }
 
 /// The check system the engine runs after `stage`.
+// The "complex type" is the returned system's parameter list, spelled out as bevy needs it.
+#[allow(clippy::type_complexity)]
 pub fn stage_check(
     stage: Stage,
 ) -> impl FnMut(
