@@ -68,8 +68,8 @@ fn poison_install(installer: &mut Installer, _: &Params) -> Result<(), SceneErro
     Ok(())
 }
 
-#[test]
-fn a_non_finite_stress_stops_the_run_in_the_stage_that_produced_it() {
+/// The stock systems plus `damage/poison`.
+fn registry_with_poison() -> Registry {
     let mut registry = fractum_systems::stock_registry();
     registry
         .register(Registration {
@@ -80,6 +80,12 @@ fn a_non_finite_stress_stops_the_run_in_the_stage_that_produced_it() {
             install: poison_install,
         })
         .unwrap();
+    registry
+}
+
+#[test]
+fn a_non_finite_stress_stops_the_run_in_the_stage_that_produced_it() {
+    let registry = registry_with_poison();
     let file = scene("(0.0, 0.0)", r#", (system: "damage/poison")"#);
     let mut sim = build_simulation(&file, &registry).unwrap().simulation;
     let failure = loop {
@@ -113,16 +119,7 @@ fn under_the_remove_policy_escaping_particles_are_removed_and_the_run_goes_on() 
 
 #[test]
 fn a_blown_up_run_writes_the_state_at_the_start_of_the_failing_step() {
-    let mut registry = fractum_systems::stock_registry();
-    registry
-        .register(Registration {
-            name: "damage/poison",
-            summary: "writes NaN into particle 7's stress at step 5",
-            params: &[],
-            requires: &[],
-            install: poison_install,
-        })
-        .unwrap();
+    let registry = registry_with_poison();
     let file = scene("(0.0, 0.0)", r#", (system: "damage/poison")"#);
     let mut built = build_simulation(&file, &registry).unwrap();
     let particles = built.simulation.particle_count();

@@ -9,7 +9,79 @@
 
 use fractum_engine::dim::sym_dot;
 use fractum_engine::prelude::*;
+use rayon::prelude::*;
 use std::ops::AddAssign;
+
+/// Particle data the force transfer reads: mass, velocity, volume, stress, damage.
+pub type ForceSourceQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        &'static Mass,
+        &'static Velocity,
+        &'static Volume,
+        &'static Stress,
+        &'static Damage,
+    ),
+    With<Particle>,
+>;
+
+/// Node data a particle-to-grid predictor writes.
+pub type NodeTransferQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        &'static mut NodeMass,
+        &'static mut NodeMomentum,
+        &'static mut NodeVelocity,
+        &'static mut NodeAcceleration,
+        &'static mut NodeForce,
+    ),
+    With<Node>,
+>;
+
+/// Particle state a grid-to-particle update moves.
+pub type AdvectedQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        &'static mut Position,
+        &'static mut Velocity,
+        &'static mut Acceleration,
+    ),
+    With<Particle>,
+>;
+
+/// Node data a grid-to-particle update reads.
+pub type NodeMotionQuery<'w, 's> =
+    Query<'w, 's, (&'static NodeAcceleration, &'static NodeVelocity), With<Node>>;
+
+/// Grid-to-particle update of every particle in parallel: `a_p = Σ N a_I`, then
+/// `update(x, v, Σ N a_I, Σ N v_I)` moves the particle (the integrator's own rule).
+pub fn advect_particles(
+    connectivity: &Connectivity,
+    nodes: &NodeMotionQuery,
+    particles: &mut AdvectedQuery,
+    update: impl Fn(&mut Vector, &mut Vector, Vector, Vector) + Sync,
+) {
+    let (node_acceleration, node_velocity) =
+        single_table(nodes.contiguous_iter(), "nodes").unwrap_or((&[], &[]));
+    let Some((mut position, mut velocity, mut acceleration)) =
+        single_table(particles.contiguous_iter_mut(), "particles")
+    else {
+        return;
+    };
+    position
+        .par_iter_mut()
+        .zip(velocity.par_iter_mut())
+        .zip(acceleration.par_iter_mut())
+        .enumerate()
+        .for_each(|(p, ((x, v), a))| {
+            let (a_grid, v_grid) = interpolate(connectivity, node_acceleration, node_velocity, p);
+            a.0 = a_grid;
+            update(&mut x.0, &mut v.0, a_grid, v_grid);
+        });
+}
 
 /// Per-node sums of the particle-to-grid transfer.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -6,9 +6,8 @@
 //!   `x_p ← x_p + Δt Σ N_Ip v_I + ½ Δt² a_p`, with `v_I` the corrected nodal velocity (as in the
 //!   authors' implementation, where the particle update follows the corrector).
 
-use crate::transfer::interpolate;
+use crate::transfer::{AdvectedQuery, NodeMotionQuery, advect_particles};
 use fractum_engine::prelude::*;
-use rayon::prelude::*;
 
 /// Registration of `advection/newmark`.
 pub const REGISTRATION: Registration = Registration {
@@ -25,44 +24,23 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     Ok(())
 }
 
-type ParticleQuery<'w, 's> = Query<
-    'w,
-    's,
-    (
-        &'static mut Position,
-        &'static mut Velocity,
-        &'static mut Acceleration,
-    ),
-    With<Particle>,
->;
-
 /// The `advection/newmark` system.
 pub fn newmark_advection(
     clock: Res<SimClock>,
     connectivity: Res<Connectivity>,
-    nodes: Query<(&NodeAcceleration, &NodeVelocity), With<Node>>,
-    mut particles: ParticleQuery,
+    nodes: NodeMotionQuery,
+    mut particles: AdvectedQuery,
 ) {
-    let (node_acceleration, node_velocity) =
-        single_table(nodes.contiguous_iter(), "nodes").unwrap_or((&[], &[]));
-    let Some((mut position, mut velocity, mut acceleration)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
-    else {
-        return;
-    };
     let dt = clock.dt;
-    let c = &*connectivity;
-    position
-        .par_iter_mut()
-        .zip(velocity.par_iter_mut())
-        .zip(acceleration.par_iter_mut())
-        .enumerate()
-        .for_each(|(p, ((x, v), a))| {
-            let (a_grid, v_grid) = interpolate(c, node_acceleration, node_velocity, p);
-            a.0 = a_grid;
-            v.0 += dt * a_grid;
-            x.0 += dt * v_grid + 0.5 * dt * dt * a_grid;
-        });
+    advect_particles(
+        &connectivity,
+        &nodes,
+        &mut particles,
+        |x, v, a_grid, v_grid| {
+            *v += dt * a_grid;
+            *x += dt * v_grid + 0.5 * dt * dt * a_grid;
+        },
+    );
 }
 
 #[cfg(test)]

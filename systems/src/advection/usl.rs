@@ -6,9 +6,8 @@
 //!   nodes. The particle acceleration `Σ N_Ip a_I` is stored for output and for integrators
 //!   that need it.
 
-use crate::transfer::interpolate;
+use crate::transfer::{AdvectedQuery, NodeMotionQuery, advect_particles};
 use fractum_engine::prelude::*;
-use rayon::prelude::*;
 
 /// Registration of `advection/usl`.
 pub const REGISTRATION: Registration = Registration {
@@ -25,44 +24,23 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     Ok(())
 }
 
-type ParticleQuery<'w, 's> = Query<
-    'w,
-    's,
-    (
-        &'static mut Position,
-        &'static mut Velocity,
-        &'static mut Acceleration,
-    ),
-    With<Particle>,
->;
-
 /// The `advection/usl` system.
 pub fn usl_advection(
     clock: Res<SimClock>,
     connectivity: Res<Connectivity>,
-    nodes: Query<(&NodeAcceleration, &NodeVelocity), With<Node>>,
-    mut particles: ParticleQuery,
+    nodes: NodeMotionQuery,
+    mut particles: AdvectedQuery,
 ) {
-    let (node_acceleration, node_velocity) =
-        single_table(nodes.contiguous_iter(), "nodes").unwrap_or((&[], &[]));
-    let Some((mut position, mut velocity, mut acceleration)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
-    else {
-        return;
-    };
     let dt = clock.dt;
-    let c = &*connectivity;
-    position
-        .par_iter_mut()
-        .zip(velocity.par_iter_mut())
-        .zip(acceleration.par_iter_mut())
-        .enumerate()
-        .for_each(|(p, ((x, v), a))| {
-            let (a_grid, v_grid) = interpolate(c, node_acceleration, node_velocity, p);
-            a.0 = a_grid;
-            v.0 += dt * a_grid;
-            x.0 += dt * v_grid;
-        });
+    advect_particles(
+        &connectivity,
+        &nodes,
+        &mut particles,
+        |x, v, a_grid, v_grid| {
+            *v += dt * a_grid;
+            *x += dt * v_grid;
+        },
+    );
 }
 
 #[cfg(test)]

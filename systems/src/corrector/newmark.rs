@@ -12,7 +12,7 @@
 //!   feed energy into the body.
 
 use crate::predictor::newmark::NewmarkParams;
-use crate::transfer::{ParticleSlices, force_contribution};
+use crate::transfer::{ForceSourceQuery, ParticleSlices, force_contribution};
 use fractum_engine::prelude::*;
 
 /// Registration of `corrector/newmark`.
@@ -40,18 +40,6 @@ pub fn correct(mass: f64, predicted: Vector, force: Vector, gamma_dt: f64) -> Ve
     }
 }
 
-type ParticleQuery<'w, 's> = Query<
-    'w,
-    's,
-    (
-        &'static Mass,
-        &'static Velocity,
-        &'static Volume,
-        &'static Stress,
-        &'static Damage,
-    ),
-    With<Particle>,
->;
 type NodeQuery<'w, 's> = Query<
     'w,
     's,
@@ -73,7 +61,7 @@ pub fn newmark_corrector(
     bcs: Res<BoundaryConditions>,
     mut reactions: ResMut<Reactions>,
     connectivity: Res<Connectivity>,
-    particles: ParticleQuery,
+    particles: ForceSourceQuery,
     mut nodes: NodeQuery,
 ) {
     let Some((mass, velocity, volume, stress, damage)) =

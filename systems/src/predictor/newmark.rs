@@ -9,7 +9,7 @@
 //!   increment from `ṽ_I` (step 4).
 //! - Writes field 0; clears the nodal force and acceleration, which the corrector fills.
 
-use crate::transfer::NodeSums;
+use crate::transfer::{NodeSums, NodeTransferQuery};
 use fractum_engine::prelude::*;
 use serde::Deserialize;
 
@@ -100,19 +100,6 @@ pub fn predictor_contribution(
 
 type ParticleQuery<'w, 's> =
     Query<'w, 's, (&'static Mass, &'static Velocity, &'static Acceleration), With<Particle>>;
-type NodeQuery<'w, 's> = Query<
-    'w,
-    's,
-    (
-        &'static mut NodeMass,
-        &'static mut NodeMomentum,
-        &'static mut NodeVelocity,
-        &'static mut NodeAcceleration,
-        &'static mut NodeForce,
-    ),
-    With<Node>,
->;
-
 /// The `predictor/newmark` system.
 pub fn newmark_predictor(
     clock: Res<SimClock>,
@@ -120,7 +107,7 @@ pub fn newmark_predictor(
     bcs: Res<BoundaryConditions>,
     connectivity: Res<Connectivity>,
     particles: ParticleQuery,
-    mut nodes: NodeQuery,
+    mut nodes: NodeTransferQuery,
 ) {
     let Some((mass, velocity, acceleration)) =
         single_table(particles.contiguous_iter(), "particles")

@@ -11,7 +11,9 @@
 //! - Writes field 0 of every node; the node acceleration is the one implied by the held
 //!   velocities, `(v̄_I − v_I)/Δt`, so particles see the boundary conditions too.
 
-use crate::transfer::{NodeSums, ParticleSlices, contribution, node_velocity};
+use crate::transfer::{
+    ForceSourceQuery, NodeSums, NodeTransferQuery, ParticleSlices, contribution, node_velocity,
+};
 use fractum_engine::prelude::*;
 use serde::Deserialize;
 
@@ -47,31 +49,6 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     installer.add_systems(usl_predictor);
     Ok(())
 }
-
-type ParticleQuery<'w, 's> = Query<
-    'w,
-    's,
-    (
-        &'static Mass,
-        &'static Velocity,
-        &'static Volume,
-        &'static Stress,
-        &'static Damage,
-    ),
-    With<Particle>,
->;
-type NodeQuery<'w, 's> = Query<
-    'w,
-    's,
-    (
-        &'static mut NodeMass,
-        &'static mut NodeMomentum,
-        &'static mut NodeVelocity,
-        &'static mut NodeAcceleration,
-        &'static mut NodeForce,
-    ),
-    With<Node>,
->;
 
 /// Node columns written by the grid update, as plain slices in node-index order.
 pub struct NodeColumns<'a> {
@@ -141,8 +118,8 @@ pub fn usl_predictor(
     mut reactions: ResMut<Reactions>,
     connectivity: Res<Connectivity>,
     params: Res<UslPredictorParams>,
-    particles: ParticleQuery,
-    mut nodes: NodeQuery,
+    particles: ForceSourceQuery,
+    mut nodes: NodeTransferQuery,
 ) {
     let Some((mass, velocity, volume, stress, damage)) =
         single_table(particles.contiguous_iter(), "particles")
