@@ -78,6 +78,10 @@ pub struct WaveSpeed(pub f64);
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
 pub struct Damage(pub f64);
 
+/// History variable of the damage law, e.g. the strain at crack onset; 0 until the law sets it.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct DamageHistory(pub f64);
+
 /// Index into the scene's material table ([`crate::resources::Materials`]).
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MaterialId(pub u16);
@@ -157,6 +161,8 @@ pub struct ParticleBundle {
     pub wave_speed: WaveSpeed,
     /// Damage.
     pub damage: Damage,
+    /// Damage-law history.
+    pub damage_history: DamageHistory,
     /// Material.
     pub material: MaterialId,
     /// Body.
@@ -183,6 +189,7 @@ impl ParticleBundle {
             energy_density: StrainEnergyDensity::default(),
             wave_speed: WaveSpeed::default(),
             damage: Damage::default(),
+            damage_history: DamageHistory::default(),
             material: MaterialId(material),
             body: BodyId(0),
             group: ContactGroup(0),

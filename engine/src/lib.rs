@@ -13,11 +13,13 @@ pub mod connectivity;
 pub mod diagnostics;
 pub mod dim;
 pub mod health;
+pub mod neighbourhood;
 pub mod output;
 pub mod registry;
 pub mod resources;
 pub mod run;
 pub mod scene;
+pub mod series;
 pub mod simulation;
 pub mod stage;
 pub mod testing;
@@ -31,9 +33,11 @@ pub mod prelude {
     pub use crate::connectivity::Connectivity;
     pub use crate::dim::{Matrix, SymTensor, Vector};
     pub use crate::health::single_table;
+    pub use crate::neighbourhood::Neighbourhoods;
     pub use crate::registry::{Installer, ParamDoc, Params, Registration, Registry};
     pub use crate::resources::{BodyForce, Grid, Material, Materials, SimClock};
     pub use crate::scene::SceneError;
+    pub use crate::series::SeriesColumns;
     pub use crate::stage::Stage;
     pub use bevy_ecs::prelude::*;
 }

@@ -8,6 +8,7 @@
 
 use crate::resources::TimeStepLimit;
 use crate::scene::{Location, SceneError, parse_fragment};
+use crate::series::SeriesColumns;
 use crate::stage::Stage;
 use bevy_ecs::prelude::{FromWorld, Resource, World};
 use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule, ScheduleConfigs};
@@ -165,6 +166,14 @@ impl<'a> Installer<'a> {
                 reason: reason.into(),
             };
         }
+    }
+
+    /// Declares a `series.csv` column this system will fill, returning its slot in
+    /// [`SeriesColumns::values`].
+    pub fn add_series_column(&mut self, name: &str) -> usize {
+        self.world
+            .get_resource_or_init::<SeriesColumns>()
+            .declare(name)
     }
 
     /// Read access to the world as built from the scene (grid, materials, particles).

@@ -119,6 +119,12 @@ pub fn series_row(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
         };
         row.extend([value.x, value.y]);
     }
+    if let Some(extra) = world.get_resource::<crate::series::SeriesColumns>() {
+        row.extend(plan.system_columns.iter().map(|name| {
+            let slot = extra.names.iter().position(|n| n == name);
+            slot.map_or(f64::NAN, |i| extra.values[i])
+        }));
+    }
     row
 }
 

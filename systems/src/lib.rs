@@ -10,12 +10,15 @@ use fractum_engine::prelude::{Params, Registration, Registry, SceneError};
 pub mod advection;
 pub mod basis;
 pub mod corrector;
+pub mod neighbour;
 pub mod predictor;
 pub mod stress;
 pub mod transfer;
 
 /// Every stock registration.
 pub const ALL: &[Registration] = &[
+    neighbour::kdtree::REGISTRATION,
+    neighbour::node_linked::REGISTRATION,
     basis::linear::REGISTRATION,
     basis::lme::REGISTRATION,
     predictor::usl::REGISTRATION,

@@ -23,6 +23,8 @@ pub struct OutputPlan {
     pub probes: Vec<ProbeKind>,
     /// Keep the state at the start of each step to write it if the step blows up.
     pub last_good_frame: bool,
+    /// Columns published by systems, after the probes.
+    pub system_columns: Vec<String>,
 }
 
 /// A resolved probe.
@@ -66,6 +68,7 @@ impl OutputPlan {
                 }
             }
         }
+        columns.extend(self.system_columns.iter().cloned());
         columns
     }
 }

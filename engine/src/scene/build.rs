@@ -64,6 +64,11 @@ pub fn build_simulation(file: &SceneFile, registry: &Registry) -> Result<Built, 
     world.init_resource::<Connectivity>();
     let mut schedule = step_schedule();
     let pipeline = install_pipeline(file, registry, &mut schedule, &mut world)?;
+    let mut output = output;
+    output.system_columns = world
+        .get_resource::<crate::series::SeriesColumns>()
+        .map(|c| c.names.clone())
+        .unwrap_or_default();
     let limit = world.get_resource_or_init::<TimeStepLimit>().clone();
     check_time(file, &grid, &world.resource::<Materials>().0, &limit)?;
     add_stage_checks(
@@ -443,6 +448,7 @@ fn output_plan(
         csv_every: spec.csv_every,
         probes,
         last_good_frame: spec.last_good_frame,
+        system_columns: Vec::new(),
     })
 }
 

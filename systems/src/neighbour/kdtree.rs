@@ -1,0 +1,131 @@
+//! ε-neighbourhoods from a kd-tree over the particle positions, with a skin.
+//!
+//! - Stage: neighbour. Registration name: `neighbour/kdtree`.
+//! - B_ε(x_p) of eigensoftening-lme-mpm.md §2.3 (eqs. 11–15), radius ε = C_ε h. A kiddo kd-tree
+//!   over the particle positions is queried with radius ε(1 + skin); the candidate lists are
+//!   kept until some particle has moved more than ε·skin/2 since the last build (two particles
+//!   then cannot have closed a gap larger than the skin), as the DFG paper's neighbour lists do
+//!   (§2.5). Every step the candidates are filtered to the exact radius, so the lists do not
+//!   depend on when the tree was rebuilt.
+//! - Lists are sorted, without duplicates, and include the particle itself.
+
+use super::{NeighbourParams, PARAM_DOCS, filter_row, parse_params};
+use fractum_engine::prelude::*;
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use rayon::prelude::*;
+
+/// Registration of `neighbour/kdtree`.
+pub const REGISTRATION: Registration = Registration {
+    name: "neighbour/kdtree",
+    summary: "ε-neighbourhoods from a kd-tree over particles, rebuilt when particles move past a skin",
+    params: PARAM_DOCS,
+    requires: &[],
+    install,
+};
+
+fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    installer.insert_resource(parse_params(params)?);
+    installer.init_resource::<Neighbourhoods>();
+    installer.init_resource::<KdTreeCandidates>();
+    installer.add_systems(kdtree_neighbours);
+    Ok(())
+}
+
+/// Candidate lists within ε(1 + skin) of where each particle was at the last build.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct KdTreeCandidates {
+    /// Positions at the last build.
+    pub anchors: Vec<Vector>,
+    /// Candidate rows per particle.
+    pub candidates: Vec<Vec<u32>>,
+}
+
+/// Candidate lists for all particles from a fresh kd-tree.
+pub fn build_candidates(positions: &[Position], radius: f64) -> Vec<Vec<u32>> {
+    let points: Vec<[f64; 2]> = positions.iter().map(|p| [p.0.x, p.0.y]).collect();
+    let tree: ImmutableKdTree<f64, 2> = ImmutableKdTree::new_from_slice(&points);
+    points
+        .par_iter()
+        .map(|x| {
+            tree.within_unsorted::<SquaredEuclidean>(x, radius * radius)
+                .into_iter()
+                .map(|n| n.item as u32)
+                .collect()
+        })
+        .collect()
+}
+
+/// The `neighbour/kdtree` system.
+pub fn kdtree_neighbours(
+    grid: Res<Grid>,
+    params: Res<NeighbourParams>,
+    mut state: ResMut<KdTreeCandidates>,
+    mut neighbourhoods: ResMut<Neighbourhoods>,
+    particles: Query<(&Position, &BodyId), With<Particle>>,
+) {
+    let (positions, bodies) =
+        single_table(particles.contiguous_iter(), "particles").unwrap_or((&[], &[]));
+    let epsilon = params.c_epsilon * grid.spacing;
+    let skin = params.skin * epsilon;
+    let moved = |(anchor, x): (&Vector, &Position)| (x.0 - *anchor).length() > 0.5 * skin;
+    let stale = state.anchors.len() != positions.len()
+        || state
+            .anchors
+            .par_iter()
+            .zip(positions.par_iter())
+            .any(moved);
+    if stale {
+        state.candidates = build_candidates(positions, epsilon + skin);
+        state.anchors = positions.iter().map(|p| p.0).collect();
+        neighbourhoods.rebuilds += 1;
+    }
+    let rows: Vec<Vec<u32>> = (0..positions.len())
+        .into_par_iter()
+        .map(|p| {
+            let candidates = state.candidates[p].iter().copied();
+            filter_row(p, candidates, positions, bodies, epsilon, params.same_body)
+        })
+        .collect();
+    neighbourhoods.set_rows(&rows, epsilon);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fractum_engine::testing::*;
+
+    #[test]
+    fn lists_hold_the_particles_within_epsilon_including_self() {
+        let mut world = tiny_world(4, 0.25, 1e-3);
+        world.insert_resource(NeighbourParams {
+            c_epsilon: 1.0,
+            skin: 0.25,
+            same_body: false,
+        });
+        world.insert_resource(Neighbourhoods::default());
+        world.insert_resource(KdTreeCandidates::default());
+        for x in [0.1, 0.3, 0.36, 0.7] {
+            spawn_particle(&mut world, Vector::new(x, 0.5), Vector::ZERO, 1.0, 0.01);
+        }
+        run_system(&mut world, kdtree_neighbours);
+        let n = world.resource::<Neighbourhoods>().clone();
+        assert_eq!(n.radius, 0.25);
+        assert_eq!(n.of(0), &[0, 1]);
+        assert_eq!(n.of(1), &[0, 1, 2]);
+        assert_eq!(n.of(2), &[1, 2]);
+        assert_eq!(n.of(3), &[3]);
+        assert_eq!(n.rebuilds, 1);
+        // A small move keeps the tree; the lists still follow the exact radius.
+        let mut q = world.query::<(&ParticleId, &mut Position)>();
+        for (id, mut x) in q.iter_mut(&mut world) {
+            if id.0 == 2 {
+                x.0.x += 0.02;
+            }
+        }
+        run_system(&mut world, kdtree_neighbours);
+        let n = world.resource::<Neighbourhoods>().clone();
+        assert_eq!(n.rebuilds, 1);
+        assert_eq!(n.of(0), &[0, 1]);
+        assert_eq!(n.of(2), &[1, 2]);
+    }
+}

@@ -1,0 +1,85 @@
+//! Neighbour stage: ε-neighbourhoods of the particles for non-local damage.
+pub mod kdtree;
+pub mod node_linked;
+
+use fractum_engine::prelude::*;
+use serde::Deserialize;
+
+/// Parameters shared by the neighbourhood builders.
+#[derive(Resource, Deserialize, Clone, Copy, Debug, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct NeighbourParams {
+    /// ε = C_ε h.
+    pub c_epsilon: f64,
+    /// Skin as a fraction of ε (kd-tree only): lists are rebuilt when a particle has moved more
+    /// than half of it.
+    pub skin: f64,
+    /// Only particles of the same body are neighbours.
+    pub same_body: bool,
+}
+
+impl Default for NeighbourParams {
+    fn default() -> Self {
+        Self {
+            c_epsilon: 2.0,
+            skin: 0.25,
+            same_body: false,
+        }
+    }
+}
+
+/// Parameter documentation shared by both builders.
+pub const PARAM_DOCS: &[ParamDoc] = &[
+    ParamDoc {
+        name: "c_epsilon",
+        ty: "f64",
+        default: Some("2.0"),
+        doc: "neighbourhood radius ε = c_epsilon × h (h: grid spacing)",
+    },
+    ParamDoc {
+        name: "skin",
+        ty: "f64",
+        default: Some("0.25"),
+        doc: "kd-tree only: search ε(1 + skin), rebuild when a particle moved more than ε·skin/2",
+    },
+    ParamDoc {
+        name: "same_body",
+        ty: "bool",
+        default: Some("false"),
+        doc: "only particles of the same body are neighbours",
+    },
+];
+
+/// Parses and checks the shared parameters.
+pub fn parse_params(params: &Params) -> Result<NeighbourParams, SceneError> {
+    let parsed: NeighbourParams = params.parse()?;
+    if !(parsed.c_epsilon.is_finite() && parsed.c_epsilon > 0.0) {
+        return Err(params.error("c_epsilon", "expected a positive factor"));
+    }
+    if !(parsed.skin.is_finite() && parsed.skin >= 0.0) {
+        return Err(params.error("skin", "expected a fraction >= 0"));
+    }
+    Ok(parsed)
+}
+
+/// Keeps the candidates of `p` within `radius` (and in `p`'s body when asked), ascending.
+pub fn filter_row(
+    p: usize,
+    candidates: impl Iterator<Item = u32>,
+    positions: &[Position],
+    bodies: &[BodyId],
+    radius: f64,
+    same_body: bool,
+) -> Vec<u32> {
+    let x = positions[p].0;
+    let r2 = radius * radius;
+    let mut row: Vec<u32> = candidates
+        .filter(|&q| {
+            let q = q as usize;
+            (positions[q].0 - x).length_squared() <= r2 && (!same_body || bodies[q] == bodies[p])
+        })
+        .collect();
+    row.sort_unstable();
+    row.dedup();
+    row
+}
