@@ -41,7 +41,8 @@ pub struct Registration {
     pub summary: &'static str,
     /// Its parameters.
     pub params: &'static [ParamDoc],
-    /// Other systems that must be in the same pipeline (e.g. a predictor's matching advection).
+    /// Other systems that must be in the same pipeline (e.g. a predictor's matching advection);
+    /// `stage/*` asks for any system of that stage.
     pub requires: &'static [&'static str],
     /// Adds its systems to the schedule.
     pub install: InstallFn,

@@ -10,6 +10,7 @@ use fractum_engine::prelude::{Params, Registration, Registry, SceneError};
 pub mod advection;
 pub mod basis;
 pub mod corrector;
+pub mod damage;
 pub mod neighbour;
 pub mod predictor;
 pub mod stress;
@@ -25,6 +26,8 @@ pub const ALL: &[Registration] = &[
     predictor::newmark::REGISTRATION,
     stress::linear_elastic::REGISTRATION,
     stress::neo_hookean::REGISTRATION,
+    damage::eigenerosion::REGISTRATION,
+    damage::eigensoftening::REGISTRATION,
     corrector::newmark::REGISTRATION,
     advection::usl::REGISTRATION,
     advection::newmark::REGISTRATION,

@@ -501,12 +501,23 @@ fn install_pipeline(
     }
     for (k, registration) in &chosen {
         for needed in registration.requires {
-            if !chosen.iter().any(|(_, r)| r.name == *needed) {
+            // `stage/*` asks for any system of that stage.
+            let satisfied = match needed.strip_suffix("/*") {
+                Some(stage) => chosen
+                    .iter()
+                    .any(|(_, r)| r.stage().is_some_and(|s| s.name() == stage)),
+                None => chosen.iter().any(|(_, r)| r.name == *needed),
+            };
+            if !satisfied {
                 return Err(file.error(
                     &format!("pipeline[{k}].system"),
                     format!(
-                        "system \"{}\" needs \"{needed}\" in the pipeline",
-                        registration.name
+                        "system \"{}\" needs {} in the pipeline",
+                        registration.name,
+                        match needed.strip_suffix("/*") {
+                            Some(stage) => format!("a `{stage}` system"),
+                            None => format!("\"{needed}\""),
+                        }
                     ),
                 ));
             }

@@ -1,0 +1,209 @@
+//! Eigenerosion: energetic, non-local failure of brittle material points (Pandolfi & Ortiz).
+//!
+//! - Stage: damage. Registration name: `damage/eigenerosion`. Needs a `neighbour/*` system.
+//! - eigensoftening-lme-mpm.md §2.3, eqs. (11)–(12): for an intact particle,
+//!   `G_p = C_ε / m_p Σ_{q∈B_ε} m_q W_q` with `m_p = Σ_{q∈B_ε} m_q`, `W_q` the stored energy per
+//!   unit mass of intact neighbours (failed points carry no stress), and `C_ε = ε / h` from the
+//!   neighbourhood radius. When `G_p > G_F` the particle fails: damage 1, it keeps its mass and
+//!   stops contributing internal force.
+//! - Jacobi: every particle reads its neighbours' state from before this update.
+//! - Publishes `failed_particles` and `dissipated_energy`, the stored energy the failed points
+//!   held when they failed (the elastic energy the erosion removes).
+
+use fractum_engine::prelude::*;
+use rayon::prelude::*;
+use serde::Deserialize;
+
+/// Registration of `damage/eigenerosion`.
+pub const REGISTRATION: Registration = Registration {
+    name: "damage/eigenerosion",
+    summary: "eigenerosion (eqs. 11-12): a point fails when its neighbourhood energy release exceeds G_F",
+    params: &[ParamDoc {
+        name: "fracture_energy",
+        ty: "f64",
+        default: None,
+        doc: "G_F (J/m²)",
+    }],
+    requires: &["neighbour/*"],
+    install,
+};
+
+/// Parameters as written in the scene.
+#[derive(Deserialize, Clone, Copy, Debug)]
+#[serde(deny_unknown_fields)]
+struct RawParams {
+    fracture_energy: f64,
+}
+
+/// Installed parameters and running totals of `damage/eigenerosion`.
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+pub struct EigenerosionState {
+    /// G_F.
+    pub fracture_energy: f64,
+    /// Stored energy removed by failures so far.
+    pub released: f64,
+    /// Slots of the published columns: failed, dissipated energy.
+    pub columns: [usize; 2],
+}
+
+fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    let raw: RawParams = params.parse()?;
+    if !(raw.fracture_energy.is_finite() && raw.fracture_energy > 0.0) {
+        return Err(params.error("fracture_energy", "expected G_F > 0"));
+    }
+    let columns = [
+        installer.add_series_column("failed_particles"),
+        installer.add_series_column("dissipated_energy"),
+    ];
+    installer.insert_resource(EigenerosionState {
+        fracture_energy: raw.fracture_energy,
+        released: 0.0,
+        columns,
+    });
+    installer.add_systems(eigenerosion);
+    Ok(())
+}
+
+/// Energy release rate of eq. (11) for a neighbourhood, given each particle's mass, stored
+/// energy (`W V₀`, J per unit thickness) and damage.
+pub fn energy_release_rate(
+    neighbours: &[u32],
+    c_epsilon: f64,
+    mass: &[Mass],
+    stored: impl Fn(usize) -> f64,
+    damage: &[Damage],
+) -> f64 {
+    let (mut energy, mut total) = (0.0, 0.0);
+    for &q in neighbours {
+        let q = q as usize;
+        total += mass[q].0;
+        if damage[q].0 < 1.0 {
+            energy += stored(q);
+        }
+    }
+    if total > 0.0 {
+        c_epsilon * energy / total
+    } else {
+        0.0
+    }
+}
+
+type ParticleQuery<'w, 's> = Query<
+    'w,
+    's,
+    (
+        &'static Mass,
+        &'static InitialVolume,
+        &'static StrainEnergyDensity,
+        &'static mut Damage,
+    ),
+    With<Particle>,
+>;
+
+/// The `damage/eigenerosion` system.
+pub fn eigenerosion(
+    grid: Res<Grid>,
+    neighbourhoods: Res<Neighbourhoods>,
+    mut state: ResMut<EigenerosionState>,
+    mut columns: ResMut<SeriesColumns>,
+    mut particles: ParticleQuery,
+) {
+    let Some((mass, v0, energy, mut damage)) =
+        single_table(particles.contiguous_iter_mut(), "particles")
+    else {
+        return;
+    };
+    let damage: &mut [Damage] = &mut damage;
+    let c_epsilon = neighbourhoods.radius / grid.spacing;
+    // `m_q W_q` with W per unit mass: the stored energy W V₀ of the particle.
+    let stored = |q: usize| energy[q].0 * v0[q].0;
+    let previous: &[Damage] = damage;
+    let fails: Vec<bool> = (0..mass.len())
+        .into_par_iter()
+        .map(|p| {
+            if previous[p].0 >= 1.0 || p >= neighbourhoods.particle_count() {
+                return false;
+            }
+            let g = energy_release_rate(neighbourhoods.of(p), c_epsilon, mass, stored, previous);
+            g > state.fracture_energy
+        })
+        .collect();
+    for (p, fail) in fails.into_iter().enumerate() {
+        if fail {
+            state.released += stored(p);
+            damage[p].0 = 1.0;
+        }
+    }
+    let failed = damage.iter().filter(|d| d.0 >= 1.0).count();
+    let [f, e] = state.columns;
+    columns.values[f] = failed as f64;
+    columns.values[e] = state.released;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fractum_engine::testing::*;
+
+    #[test]
+    fn release_rate_averages_intact_energy_over_the_neighbourhood_mass() {
+        let mass = [Mass(1.0), Mass(3.0)];
+        let stored = |q: usize| [2.0, 6.0][q];
+        let g = energy_release_rate(&[0, 1], 2.0, &mass, stored, &[Damage(0.0), Damage(0.0)]);
+        assert_eq!(g, 2.0 * 8.0 / 4.0);
+        let g = energy_release_rate(&[0, 1], 2.0, &mass, stored, &[Damage(0.0), Damage(1.0)]);
+        assert_eq!(g, 2.0 * 2.0 / 4.0);
+    }
+
+    #[test]
+    fn system_fails_the_particles_above_g_f_from_previous_step_state() {
+        let mut world = tiny_world(4, 0.25, 1e-3);
+        let mut columns = SeriesColumns::default();
+        let slots = [
+            columns.declare("failed_particles"),
+            columns.declare("dissipated_energy"),
+        ];
+        world.insert_resource(columns);
+        world.insert_resource(EigenerosionState {
+            fracture_energy: 1.0,
+            released: 0.0,
+            columns: slots,
+        });
+        let mut neighbourhoods = Neighbourhoods::default();
+        // ε = 0.5 = 2 h: C_ε = 2.
+        neighbourhoods.set_rows(&[vec![0, 1], vec![0, 1], vec![2]], 0.5);
+        world.insert_resource(neighbourhoods);
+        for (k, w) in [(0, 0.5), (1, 0.3), (2, 0.3)] {
+            let p = spawn_particle(
+                &mut world,
+                Vector::new(0.1 + 0.2 * k as f64, 0.5),
+                Vector::ZERO,
+                1.0,
+                1.0,
+            );
+            world.get_mut::<StrainEnergyDensity>(p).unwrap().0 = w;
+        }
+        run_system(&mut world, eigenerosion);
+        // Particles 0, 1: G = 2 (0.5 + 0.3)/2 = 0.8 < 1; particle 2: G = 2 · 0.3 = 0.6.
+        assert!(
+            particle_values::<Damage>(&mut world)
+                .iter()
+                .all(|d| d.0 == 0.0)
+        );
+        let mut q = world.query::<(&ParticleId, &mut StrainEnergyDensity)>();
+        for (id, mut w) in q.iter_mut(&mut world) {
+            if id.0 == 0 {
+                w.0 = 0.8;
+            }
+        }
+        run_system(&mut world, eigenerosion);
+        // Both 0 and 1 see G = 2 (0.8 + 0.3)/2 = 1.1 > 1 and fail in the same (Jacobi) update.
+        let d: Vec<f64> = particle_values::<Damage>(&mut world)
+            .iter()
+            .map(|d| d.0)
+            .collect();
+        assert_eq!(d, vec![1.0, 1.0, 0.0]);
+        let state = *world.resource::<EigenerosionState>();
+        assert!((state.released - 1.1).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,4 @@
+//! Damage stage: failure and softening of material points.
+pub mod eigenerosion;
+pub mod eigensoftening;
+pub mod softening;
