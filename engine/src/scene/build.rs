@@ -311,7 +311,12 @@ fn check_time(
         .iter()
         .filter_map(|b| {
             let m = materials.iter().find(|m| m.name == b.material)?;
-            Some((m.wave_speed() + b.velocity.max_speed(), m.name.clone()))
+            // The linear field is bounded by its gradient times the grid's diagonal.
+            let extent = (grid.max() - grid.min).length();
+            Some((
+                m.wave_speed() + b.velocity.max_speed(extent),
+                m.name.clone(),
+            ))
         })
         .fold(
             (0.0, String::new()),

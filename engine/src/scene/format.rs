@@ -191,6 +191,15 @@ pub enum InitialVelocity {
         #[serde(default)]
         origin: f64,
     },
+    /// A linear field `v(x) = G (x − origin)`, e.g. homogeneous stretching; `gradient` is
+    /// `((∂vx/∂x, ∂vx/∂y), (∂vy/∂x, ∂vy/∂y))`.
+    Linear {
+        /// Velocity gradient, row by row.
+        gradient: (Pair, Pair),
+        /// Point where the velocity is zero.
+        #[serde(default)]
+        origin: Pair,
+    },
 }
 
 impl InitialVelocity {
@@ -211,13 +220,30 @@ impl InitialVelocity {
                 let factor = (2.0 * std::f64::consts::PI * (s - origin) / wavelength).sin();
                 (amplitude.0 * factor, amplitude.1 * factor)
             }
+            InitialVelocity::Linear { gradient, origin } => {
+                let (dx, dy) = (x - origin.0, y - origin.1);
+                (
+                    gradient.0.0 * dx + gradient.0.1 * dy,
+                    gradient.1.0 * dx + gradient.1.1 * dy,
+                )
+            }
         }
     }
 
-    /// The largest speed the profile can give.
-    pub fn max_speed(&self) -> f64 {
-        let (Self::Uniform(v) | Self::Sine { amplitude: v, .. }) = self;
-        v.0.hypot(v.1)
+    /// The largest speed the profile can give within `extent` of its origin (for the linear
+    /// field; the others are bounded everywhere).
+    pub fn max_speed(&self, extent: f64) -> f64 {
+        match self {
+            Self::Uniform(v) | Self::Sine { amplitude: v, .. } => v.0.hypot(v.1),
+            Self::Linear { gradient, .. } => {
+                let norm = (gradient.0.0.powi(2)
+                    + gradient.0.1.powi(2)
+                    + gradient.1.0.powi(2)
+                    + gradient.1.1.powi(2))
+                .sqrt();
+                norm * extent
+            }
+        }
     }
 
     /// True when every number is finite (and a wavelength positive).
@@ -236,6 +262,16 @@ impl InitialVelocity {
                     && wavelength.is_finite()
                     && *wavelength > 0.0
             }
+            Self::Linear { gradient, origin } => [
+                gradient.0.0,
+                gradient.0.1,
+                gradient.1.0,
+                gradient.1.1,
+                origin.0,
+                origin.1,
+            ]
+            .iter()
+            .all(|v| v.is_finite()),
         }
     }
 }
