@@ -38,6 +38,26 @@ impl PiecewiseLinear {
         }
     }
 
+    /// `∫₀ᵗ f(τ) dτ` (exact: trapezoids between the points, constant beyond them).
+    pub fn integral(&self, t: f64) -> f64 {
+        if t <= 0.0 {
+            return 0.0;
+        }
+        // Break points inside (0, t), then integrate the linear pieces exactly.
+        let mut knots = vec![0.0];
+        knots.extend(
+            self.points
+                .iter()
+                .map(|p| p.0)
+                .filter(|&tk| tk > 0.0 && tk < t),
+        );
+        knots.push(t);
+        knots
+            .windows(2)
+            .map(|w| 0.5 * (self.eval(w[0]) + self.eval(w[1])) * (w[1] - w[0]))
+            .sum()
+    }
+
     /// Value at time `t`.
     pub fn eval(&self, t: f64) -> f64 {
         let first = self.points[0];
@@ -144,6 +164,11 @@ mod tests {
         assert_eq!(f.eval(10.0), 2.0);
         assert!(PiecewiseLinear::new(vec![(1.0, 0.0), (1.0, 1.0)]).is_err());
         assert!(PiecewiseLinear::new(vec![]).is_err());
+        // Ramp to 2 over 1 s then hold: 1 after the ramp, +2 per second after that.
+        assert_eq!(f.integral(1.0), 1.0);
+        assert_eq!(f.integral(2.5), 4.0);
+        assert_eq!(f.integral(5.0), 9.0);
+        assert_eq!(f.integral(-1.0), 0.0);
     }
 
     #[test]

@@ -116,6 +116,16 @@ pub fn series_row(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
                 .copied()
                 .unwrap_or_default(),
             ProbeKind::CentreOfMassVelocity => t.centre_of_mass_velocity(),
+            ProbeKind::Displacement { index, .. } => {
+                let bcs = world.resource::<crate::boundary::BoundaryConditions>();
+                let region = &bcs.regions[*index];
+                let along = |c: usize| {
+                    region.velocity[c]
+                        .as_ref()
+                        .map_or(0.0, |f| f.integral(time))
+                };
+                crate::dim::Vector::new(along(0), along(1))
+            }
         };
         row.extend([value.x, value.y]);
     }

@@ -72,6 +72,9 @@ pub enum Command {
     Plot {
         /// The series.csv of a run.
         csv: PathBuf,
+        /// Column for the horizontal axis.
+        #[arg(long, default_value = "time")]
+        x: String,
         /// Columns to draw.
         #[arg(long, value_delimiter = ',', default_values = ["kinetic_energy", "strain_energy", "total_energy"])]
         columns: Vec<String>,
@@ -125,10 +128,11 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
         }
         Command::Plot {
             csv,
+            x,
             columns,
             bar,
             output,
-        } => plot_command(&csv, &columns, bar.as_deref(), output),
+        } => plot_command(&csv, &x, &columns, bar.as_deref(), output),
         Command::Bench {
             pipeline,
             particles,
@@ -152,13 +156,19 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
     }
 }
 
-fn plot_command(csv: &Path, columns: &[String], bar: Option<&str>, output: Option<PathBuf>) -> i32 {
+fn plot_command(
+    csv: &Path,
+    x: &str,
+    columns: &[String],
+    bar: Option<&str>,
+    output: Option<PathBuf>,
+) -> i32 {
     let result = (|| {
         let series = plot::Series::read(csv)?;
         let bar = bar.map(plot::BarReference::parse).transpose()?;
         let output =
             output.unwrap_or_else(|| csv.with_file_name(format!("{}.png", columns.join("+"))));
-        plot::plot(&series, columns, bar, &output)
+        plot::plot(&series, x, columns, bar, &output)
     })();
     match result {
         Ok(path) => {

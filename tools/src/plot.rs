@@ -124,16 +124,17 @@ fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo - pad, hi + pad)
 }
 
-/// Draws `columns` of `series` against `time` into `output`, with the bar reference curve when
-/// given. Returns the path written.
+/// Draws `columns` of `series` against the column `x` (usually `time`) into `output`, with the
+/// bar reference curve (which is a function of time) when given. Returns the path written.
 pub fn plot(
     series: &Series,
+    x: &str,
     columns: &[String],
     bar: Option<BarReference>,
     output: &Path,
 ) -> Result<PathBuf, String> {
     register_font();
-    let time = series.column("time")?;
+    let time = series.column(x)?;
     let mut curves: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     for name in columns {
         let values = series.column(name)?;
@@ -168,7 +169,11 @@ pub fn plot(
             .map_err(|e| e.to_string())?;
         chart
             .configure_mesh()
-            .x_desc("time (s)")
+            .x_desc(if x == "time" {
+                "time (s)".to_string()
+            } else {
+                x.to_string()
+            })
             .label_style(("sans-serif", 18))
             .axis_desc_style(("sans-serif", 20))
             .draw()
@@ -233,6 +238,7 @@ mod tests {
         );
         let out = plot(
             &series,
+            "time",
             &["a".into(), "b".into()],
             None,
             &dir.join("ab.png"),

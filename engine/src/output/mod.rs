@@ -39,6 +39,13 @@ pub enum ProbeKind {
     },
     /// Centre-of-mass velocity of all particles.
     CentreOfMassVelocity,
+    /// Displacement imposed by boundary region `index` (named `name`).
+    Displacement {
+        /// Region name.
+        name: String,
+        /// Region index.
+        index: usize,
+    },
 }
 
 /// The columns every `series.csv` starts with.
@@ -65,6 +72,10 @@ impl OutputPlan {
                 ProbeKind::CentreOfMassVelocity => {
                     columns.push("com_velocity_x".into());
                     columns.push("com_velocity_y".into());
+                }
+                ProbeKind::Displacement { name, .. } => {
+                    columns.push(format!("displacement_{name}_x"));
+                    columns.push(format!("displacement_{name}_y"));
                 }
             }
         }

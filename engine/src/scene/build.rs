@@ -4,10 +4,12 @@
 //! points at the offending text.
 
 use super::format::*;
-use super::seed::{cell_points, particles_in_shape, shape_bounds};
+use super::seed::{cell_points, particles_in_shape, point_in_shape, shape_bounds};
 use super::{SceneError, SceneFile};
 use crate::boundary::{BoundaryConditions, BoundaryRegion, PiecewiseLinear, Reactions};
-use crate::components::{BodyId, ContactGroup, NodeBundle, ParticleBundle, Velocity, WaveSpeed};
+use crate::components::{
+    BodyId, ContactGroup, Damage, NodeBundle, ParticleBundle, Velocity, WaveSpeed,
+};
 use crate::connectivity::Connectivity;
 use crate::dim::Vector;
 use crate::health::remove_escaped_particles;
@@ -280,6 +282,9 @@ fn spawn_bodies(
                 p.velocity = Velocity(Vector::new(v.0, v.1));
                 p.body = BodyId(b as u16);
                 p.wave_speed = WaveSpeed(wave_speed);
+                if body.cracks.iter().any(|crack| point_in_shape(crack, x)) {
+                    p.damage = Damage(1.0);
+                }
                 p.group = ContactGroup(body.contact_group);
                 p
             })
@@ -413,6 +418,37 @@ fn boundaries_of(file: &SceneFile, grid: &Grid) -> Result<BoundaryConditions, Sc
     Ok(BoundaryConditions { regions })
 }
 
+/// Index of the boundary region a probe names.
+fn region_index(
+    file: &SceneFile,
+    boundaries: &BoundaryConditions,
+    name: &str,
+    probe: usize,
+) -> Result<usize, SceneError> {
+    boundaries
+        .regions
+        .iter()
+        .position(|r| r.name == name)
+        .ok_or_else(|| {
+            let known: Vec<_> = boundaries
+                .regions
+                .iter()
+                .map(|r| format!("\"{}\"", r.name))
+                .collect();
+            file.error(
+                &format!("output.probes[{probe}]"),
+                format!(
+                    "no boundary region named \"{name}\"; the scene defines: {}",
+                    if known.is_empty() {
+                        "none".into()
+                    } else {
+                        known.join(", ")
+                    }
+                ),
+            )
+        })
+}
+
 fn output_plan(
     file: &SceneFile,
     boundaries: &BoundaryConditions,
@@ -422,30 +458,20 @@ fn output_plan(
     for (k, probe) in spec.probes.iter().enumerate() {
         match probe {
             Probe::Reaction(name) => {
-                let Some(index) = boundaries.regions.iter().position(|r| &r.name == name) else {
-                    let known: Vec<_> = boundaries
-                        .regions
-                        .iter()
-                        .map(|r| format!("\"{}\"", r.name))
-                        .collect();
-                    return Err(file.error(
-                        &format!("output.probes[{k}]"),
-                        format!(
-                            "no boundary region named \"{name}\"; the scene defines: {}",
-                            if known.is_empty() {
-                                "none".into()
-                            } else {
-                                known.join(", ")
-                            }
-                        ),
-                    ));
-                };
+                let index = region_index(file, boundaries, name, k)?;
                 probes.push(ProbeKind::Reaction {
                     name: name.clone(),
                     index,
                 });
             }
             Probe::CentreOfMassVelocity => probes.push(ProbeKind::CentreOfMassVelocity),
+            Probe::Displacement(name) => {
+                let index = region_index(file, boundaries, name, k)?;
+                probes.push(ProbeKind::Displacement {
+                    name: name.clone(),
+                    index,
+                });
+            }
         }
     }
     Ok(OutputPlan {

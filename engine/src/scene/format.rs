@@ -130,6 +130,10 @@ pub struct BodySpec {
     /// Contact group (for contact algorithms).
     #[serde(default)]
     pub contact_group: u8,
+    /// Existing cracks: particles of this body inside any of these shapes start failed
+    /// (damage 1: they keep their mass and carry no stress).
+    #[serde(default)]
+    pub cracks: Vec<Shape>,
 }
 
 fn default_particles_per_cell() -> u32 {
@@ -387,6 +391,10 @@ pub enum Probe {
     Reaction(String),
     /// Centre-of-mass velocity of all particles: `com_velocity_x`, `com_velocity_y`.
     CentreOfMassVelocity,
+    /// Displacement the named region's prescribed velocity has imposed so far (its time
+    /// integral; zero for components the region holds at rest or leaves free):
+    /// `displacement_<name>_x`, `_y`.
+    Displacement(String),
 }
 
 /// Run-safety settings.
