@@ -1,11 +1,14 @@
 //! Eigenerosion: energetic, non-local failure of brittle material points (Pandolfi & Ortiz).
 //!
 //! - Stage: damage. Registration name: `damage/eigenerosion`. Needs a `neighbour/*` system.
-//! - eigensoftening-lme-mpm.md §2.3, eqs. (11)–(12): for an intact particle,
-//!   `G_p = C_ε / m_p Σ_{q∈B_ε} m_q W_q` with `m_p = Σ_{q∈B_ε} m_q`, `W_q` the stored energy per
-//!   unit mass of intact neighbours (failed points carry no stress), and `C_ε = ε / h` from the
-//!   neighbourhood radius. When `G_p > G_F` the particle fails: damage 1, it keeps its mass and
-//!   stops contributing internal force.
+//! - eigensoftening-lme-mpm.md §2.3, eqs. (11)–(12), in the dimensionally consistent form of
+//!   the authors' implementation (NL-PartSol, `EigenErosion.c`): for an intact particle in
+//!   tension (largest principal stress > 0),
+//!   `G_p = C_ε h · Σ_{q∈B_ε, intact} V_q W_q / Σ_{q∈B_ε} V_q`: the neighbourhood's average
+//!   stored energy density times ε = C_ε h, an energy per unit crack area. (Read literally with
+//!   W per unit mass and a dimensionless C_ε, eq. (11) is not an energy per area.) Failed
+//!   points carry no stress and so no energy. When `G_p > G_F` the particle fails: damage 1,
+//!   it keeps its mass and stops contributing internal force.
 //! - Jacobi: every particle reads its neighbours' state from before this update.
 //! - Publishes `failed_particles` and `dissipated_energy`, the stored energy the failed points
 //!   held when they failed (the elastic energy the erosion removes).
@@ -64,25 +67,25 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     Ok(())
 }
 
-/// Energy release rate of eq. (11) for a neighbourhood, given each particle's mass, stored
-/// energy (`W V₀`, J per unit thickness) and damage.
+/// Energy release rate of eq. (11) for a neighbourhood of radius `epsilon`, given each
+/// particle's current volume, stored energy (`W V₀`, J per unit thickness) and damage.
 pub fn energy_release_rate(
     neighbours: &[u32],
-    c_epsilon: f64,
-    mass: &[Mass],
+    epsilon: f64,
+    volume: &[Volume],
     stored: impl Fn(usize) -> f64,
     damage: &[Damage],
 ) -> f64 {
     let (mut energy, mut total) = (0.0, 0.0);
     for &q in neighbours {
         let q = q as usize;
-        total += mass[q].0;
+        total += volume[q].0;
         if damage[q].0 < 1.0 {
             energy += stored(q);
         }
     }
     if total > 0.0 {
-        c_epsilon * energy / total
+        epsilon * energy / total
     } else {
         0.0
     }
@@ -92,8 +95,9 @@ type ParticleQuery<'w, 's> = Query<
     'w,
     's,
     (
-        &'static Mass,
+        &'static Volume,
         &'static InitialVolume,
+        &'static Stress,
         &'static StrainEnergyDensity,
         &'static mut Damage,
     ),
@@ -102,29 +106,29 @@ type ParticleQuery<'w, 's> = Query<
 
 /// The `damage/eigenerosion` system.
 pub fn eigenerosion(
-    grid: Res<Grid>,
     neighbourhoods: Res<Neighbourhoods>,
     mut state: ResMut<EigenerosionState>,
     mut columns: ResMut<SeriesColumns>,
     mut particles: ParticleQuery,
 ) {
-    let Some((mass, v0, energy, mut damage)) =
+    let Some((volume, v0, stress, energy, mut damage)) =
         single_table(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };
     let damage: &mut [Damage] = &mut damage;
-    let c_epsilon = neighbourhoods.radius / grid.spacing;
-    // `m_q W_q` with W per unit mass: the stored energy W V₀ of the particle.
+    let epsilon = neighbourhoods.radius;
+    // The stored energy of a particle: W per reference volume times V₀.
     let stored = |q: usize| energy[q].0 * v0[q].0;
     let previous: &[Damage] = damage;
-    let fails: Vec<bool> = (0..mass.len())
+    let fails: Vec<bool> = (0..volume.len())
         .into_par_iter()
         .map(|p| {
-            if previous[p].0 >= 1.0 || p >= neighbourhoods.particle_count() {
+            let tension = stress[p].0.in_plane_principal()[0] > 0.0;
+            if previous[p].0 >= 1.0 || !tension || p >= neighbourhoods.particle_count() {
                 return false;
             }
-            let g = energy_release_rate(neighbourhoods.of(p), c_epsilon, mass, stored, previous);
+            let g = energy_release_rate(neighbourhoods.of(p), epsilon, volume, stored, previous);
             g > state.fracture_energy
         })
         .collect();
@@ -146,13 +150,13 @@ mod tests {
     use fractum_engine::testing::*;
 
     #[test]
-    fn release_rate_averages_intact_energy_over_the_neighbourhood_mass() {
-        let mass = [Mass(1.0), Mass(3.0)];
+    fn release_rate_is_epsilon_times_the_average_intact_energy_density() {
+        let volume = [Volume(1.0), Volume(3.0)];
         let stored = |q: usize| [2.0, 6.0][q];
-        let g = energy_release_rate(&[0, 1], 2.0, &mass, stored, &[Damage(0.0), Damage(0.0)]);
-        assert_eq!(g, 2.0 * 8.0 / 4.0);
-        let g = energy_release_rate(&[0, 1], 2.0, &mass, stored, &[Damage(0.0), Damage(1.0)]);
-        assert_eq!(g, 2.0 * 2.0 / 4.0);
+        let g = energy_release_rate(&[0, 1], 0.5, &volume, stored, &[Damage(0.0), Damage(0.0)]);
+        assert_eq!(g, 0.5 * 8.0 / 4.0);
+        let g = energy_release_rate(&[0, 1], 0.5, &volume, stored, &[Damage(0.0), Damage(1.0)]);
+        assert_eq!(g, 0.5 * 2.0 / 4.0);
     }
 
     #[test]
@@ -165,15 +169,17 @@ mod tests {
         ];
         world.insert_resource(columns);
         world.insert_resource(EigenerosionState {
-            fracture_energy: 1.0,
+            fracture_energy: 0.25,
             released: 0.0,
             columns: slots,
         });
         let mut neighbourhoods = Neighbourhoods::default();
-        // ε = 0.5 = 2 h: C_ε = 2.
-        neighbourhoods.set_rows(&[vec![0, 1], vec![0, 1], vec![2]], 0.5);
+        neighbourhoods.set_rows(&[vec![0, 1], vec![0, 1], vec![2], vec![3]], 0.5);
         world.insert_resource(neighbourhoods);
-        for (k, w) in [(0, 0.5), (1, 0.3), (2, 0.3)] {
+        for (k, (w, sxx)) in [(0.5, 1.0), (0.3, 1.0), (0.3, 1.0), (0.9, -1.0)]
+            .into_iter()
+            .enumerate()
+        {
             let p = spawn_particle(
                 &mut world,
                 Vector::new(0.1 + 0.2 * k as f64, 0.5),
@@ -182,9 +188,11 @@ mod tests {
                 1.0,
             );
             world.get_mut::<StrainEnergyDensity>(p).unwrap().0 = w;
+            world.get_mut::<Stress>(p).unwrap().0.xx = sxx;
         }
         run_system(&mut world, eigenerosion);
-        // Particles 0, 1: G = 2 (0.5 + 0.3)/2 = 0.8 < 1; particle 2: G = 2 · 0.3 = 0.6.
+        // ε = 0.5. Particles 0, 1: G = 0.5 (0.5 + 0.3)/2 = 0.2; particle 2: 0.15; particle 3 has
+        // G = 0.45 > G_F but is in compression.
         assert!(
             particle_values::<Damage>(&mut world)
                 .iter()
@@ -197,12 +205,13 @@ mod tests {
             }
         }
         run_system(&mut world, eigenerosion);
-        // Both 0 and 1 see G = 2 (0.8 + 0.3)/2 = 1.1 > 1 and fail in the same (Jacobi) update.
+        // Both 0 and 1 see G = 0.5 (0.8 + 0.3)/2 = 0.275 > 0.25 and fail in the same (Jacobi)
+        // update.
         let d: Vec<f64> = particle_values::<Damage>(&mut world)
             .iter()
             .map(|d| d.0)
             .collect();
-        assert_eq!(d, vec![1.0, 1.0, 0.0]);
+        assert_eq!(d, vec![1.0, 1.0, 0.0, 0.0]);
         let state = *world.resource::<EigenerosionState>();
         assert!((state.released - 1.1).abs() < 1e-12);
     }
