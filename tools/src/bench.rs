@@ -16,6 +16,11 @@ pub enum BenchPipeline {
     LinearUsl,
     /// `basis/lme` (γ̂ = 3.5) + Newmark predictor-corrector + linear elasticity.
     LmeNewmark,
+    /// `linear+usl` plus `neighbour/kdtree` and `damage/eigensoftening` (strength too high to
+    /// crack, so every step evaluates the non-local stress): the neighbourhood and damage cost.
+    KdtreeSoftening,
+    /// As `KdtreeSoftening` with `neighbour/node_linked`.
+    NodeLinkedSoftening,
 }
 
 impl BenchPipeline {
@@ -24,6 +29,8 @@ impl BenchPipeline {
         match self {
             BenchPipeline::LinearUsl => "linear+usl",
             BenchPipeline::LmeNewmark => "lme+newmark",
+            BenchPipeline::KdtreeSoftening => "linear+usl+kdtree+eigensoftening",
+            BenchPipeline::NodeLinkedSoftening => "linear+usl+node_linked+eigensoftening",
         }
     }
 
@@ -37,6 +44,20 @@ impl BenchPipeline {
                 r#"(system: "basis/lme", params: (gamma: 3.5)), (system: "predictor/newmark"),
                    (system: "stress/linear_elastic"), (system: "corrector/newmark"),
                    (system: "advection/newmark")"#
+            }
+            BenchPipeline::KdtreeSoftening => {
+                r#"(system: "neighbour/kdtree", params: (c_epsilon: 2.0)), (system: "basis/linear"),
+                   (system: "predictor/usl"), (system: "stress/linear_elastic"),
+                   (system: "damage/eigensoftening", params: (tensile_strength: 1.0e12,
+                       fracture_energy: 100.0, band_width: 0.02)),
+                   (system: "advection/usl")"#
+            }
+            BenchPipeline::NodeLinkedSoftening => {
+                r#"(system: "neighbour/node_linked", params: (c_epsilon: 2.0)), (system: "basis/linear"),
+                   (system: "predictor/usl"), (system: "stress/linear_elastic"),
+                   (system: "damage/eigensoftening", params: (tensile_strength: 1.0e12,
+                       fracture_energy: 100.0, band_width: 0.02)),
+                   (system: "advection/usl")"#
             }
         }
     }
@@ -154,7 +175,12 @@ mod tests {
     #[test]
     fn generated_scenes_are_valid_and_have_the_requested_size() {
         let registry = fractum_systems::stock_registry();
-        for pipeline in [BenchPipeline::LinearUsl, BenchPipeline::LmeNewmark] {
+        for pipeline in [
+            BenchPipeline::LinearUsl,
+            BenchPipeline::LmeNewmark,
+            BenchPipeline::KdtreeSoftening,
+            BenchPipeline::NodeLinkedSoftening,
+        ] {
             let result = measure(&registry, pipeline, 400, 1, 2).unwrap();
             assert_eq!(result.particles, 400);
             assert!(result.rate() > 0.0);

@@ -110,6 +110,10 @@ pub enum PipelineArg {
     LinearUsl,
     /// `basis/lme` + Newmark predictor-corrector + linear elasticity.
     LmeNewmark,
+    /// `linear-usl` + `neighbour/kdtree` + `damage/eigensoftening`.
+    KdtreeSoftening,
+    /// `linear-usl` + `neighbour/node_linked` + `damage/eigensoftening`.
+    NodeLinkedSoftening,
 }
 
 /// Parses `args` and runs the command with the systems in `registry`; returns the exit code.
@@ -194,6 +198,8 @@ fn bench_command(
         let pipeline = match pipeline {
             PipelineArg::LinearUsl => BenchPipeline::LinearUsl,
             PipelineArg::LmeNewmark => BenchPipeline::LmeNewmark,
+            PipelineArg::KdtreeSoftening => BenchPipeline::KdtreeSoftening,
+            PipelineArg::NodeLinkedSoftening => BenchPipeline::NodeLinkedSoftening,
         };
         for &n in particles {
             for &t in threads {
