@@ -86,6 +86,20 @@ pub enum Command {
         #[arg(long)]
         output: Option<PathBuf>,
     },
+    /// Peak of a load curve and the RMS deviation of its rising part from a straight line.
+    Curve {
+        /// The series.csv of a run.
+        csv: PathBuf,
+        /// Column for x (e.g. displacement_top_y).
+        #[arg(long)]
+        x: String,
+        /// Column for y (e.g. reaction_top_y).
+        #[arg(long)]
+        y: String,
+        /// Ignore points with x below this (a start-up ramp).
+        #[arg(long, default_value_t = 0.0)]
+        from: f64,
+    },
     /// Measure particle-steps per second of the stock pipelines on a generated scene.
     Bench {
         /// Pipelines to measure.
@@ -137,6 +151,7 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             bar,
             output,
         } => plot_command(&csv, &x, &columns, bar.as_deref(), output),
+        Command::Curve { csv, x, y, from } => curve_command(&csv, &x, &y, from),
         Command::Bench {
             pipeline,
             particles,
@@ -177,6 +192,32 @@ fn plot_command(
     match result {
         Ok(path) => {
             println!("wrote {}", path.display());
+            0
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            EXIT_BAD_SCENE
+        }
+    }
+}
+
+fn curve_command(csv: &Path, x: &str, y: &str, from: f64) -> i32 {
+    let result = (|| {
+        let series = plot::Series::read(csv)?;
+        let (xs, ys) = (series.column(x)?, series.column(y)?);
+        plot::curve_summary(&xs, &ys, from)
+            .ok_or_else(|| "too few points before the peak".to_string())
+    })();
+    match result {
+        Ok(s) => {
+            println!(
+                "peak {y} = {:.6e} at {x} = {:.6e}\npre-peak slope {:.6e}, RMS deviation from the line {:.6e} ({:.2}% of the peak)",
+                s.peak,
+                s.x_at_peak,
+                s.slope,
+                s.rms_deviation,
+                100.0 * s.rms_deviation / s.peak.abs()
+            );
             0
         }
         Err(e) => {

@@ -205,9 +205,76 @@ pub fn plot(
     Ok(output.to_path_buf())
 }
 
+/// Peak of a load curve and the roughness of its rising part.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CurveSummary {
+    /// Largest y.
+    pub peak: f64,
+    /// x at the peak.
+    pub x_at_peak: f64,
+    /// Slope of the least-squares line through the pre-peak points.
+    pub slope: f64,
+    /// RMS deviation of the pre-peak points from that line.
+    pub rms_deviation: f64,
+}
+
+/// Peak of `y` against `x`, and the RMS deviation from a straight line of the points with
+/// `x` between `from` and 90% of the peak's x (the "wiggle" of a loading curve).
+pub fn curve_summary(x: &[f64], y: &[f64], from: f64) -> Option<CurveSummary> {
+    let peak_index = (0..y.len()).max_by(|&a, &b| y[a].total_cmp(&y[b]))?;
+    let (peak, x_at_peak) = (y[peak_index], x[peak_index]);
+    let points: Vec<(f64, f64)> = x
+        .iter()
+        .zip(y)
+        .filter(|(xi, _)| **xi >= from && **xi <= 0.9 * x_at_peak)
+        .map(|(a, b)| (*a, *b))
+        .collect();
+    if points.len() < 3 {
+        return None;
+    }
+    let n = points.len() as f64;
+    let (mx, my) = (
+        points.iter().map(|p| p.0).sum::<f64>() / n,
+        points.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let slope = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / sxx;
+    let rms = (points
+        .iter()
+        .map(|p| (p.1 - (my + slope * (p.0 - mx))).powi(2))
+        .sum::<f64>()
+        / n)
+        .sqrt();
+    Some(CurveSummary {
+        peak,
+        x_at_peak,
+        slope,
+        rms_deviation: rms,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn curve_summary_finds_the_peak_and_the_roughness_of_the_rise() {
+        let x: Vec<f64> = (0..=100).map(|i| i as f64 / 100.0).collect();
+        let straight: Vec<f64> = x
+            .iter()
+            .map(|v| if *v <= 0.5 { 2.0 * v } else { 1.0 - (v - 0.5) })
+            .collect();
+        let s = curve_summary(&x, &straight, 0.0).unwrap();
+        assert_eq!((s.peak, s.x_at_peak), (1.0, 0.5));
+        assert!((s.slope - 2.0).abs() < 1e-12 && s.rms_deviation < 1e-12);
+        let wiggly: Vec<f64> = straight
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v + if i % 2 == 0 { 0.01 } else { -0.01 })
+            .collect();
+        let s = curve_summary(&x, &wiggly, 0.0).unwrap();
+        assert!((s.rms_deviation - 0.01).abs() < 1e-3, "{}", s.rms_deviation);
+    }
 
     #[test]
     fn bar_reference_matches_the_analytic_period_and_amplitude() {
