@@ -116,6 +116,13 @@ pub fn series_row(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
                 .copied()
                 .unwrap_or_default(),
             ProbeKind::CentreOfMassVelocity => t.centre_of_mass_velocity(),
+            ProbeKind::Force { index, .. } => {
+                let mut query = world.query_filtered::<(&BodyId, &Mass, &crate::components::Acceleration), With<Particle>>();
+                query
+                    .iter(world)
+                    .filter(|(b, _, _)| b.0 == *index)
+                    .fold(crate::dim::Vector::ZERO, |f, (_, m, a)| f + m.0 * a.0)
+            }
             ProbeKind::Displacement { index, .. } => {
                 let bcs = world.resource::<crate::boundary::BoundaryConditions>();
                 let region = &bcs.regions[*index];

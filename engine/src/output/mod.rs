@@ -39,6 +39,13 @@ pub enum ProbeKind {
     },
     /// Centre-of-mass velocity of all particles.
     CentreOfMassVelocity,
+    /// Net force on body `index` (named `name`).
+    Force {
+        /// Body name.
+        name: String,
+        /// Body index.
+        index: u16,
+    },
     /// Displacement imposed by boundary region `index` (named `name`).
     Displacement {
         /// Region name.
@@ -72,6 +79,10 @@ impl OutputPlan {
                 ProbeKind::CentreOfMassVelocity => {
                     columns.push("com_velocity_x".into());
                     columns.push("com_velocity_y".into());
+                }
+                ProbeKind::Force { name, .. } => {
+                    columns.push(format!("force_{name}_x"));
+                    columns.push(format!("force_{name}_y"));
                 }
                 ProbeKind::Displacement { name, .. } => {
                     columns.push(format!("displacement_{name}_x"));

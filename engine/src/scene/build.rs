@@ -465,6 +465,32 @@ fn output_plan(
                 });
             }
             Probe::CentreOfMassVelocity => probes.push(ProbeKind::CentreOfMassVelocity),
+            Probe::Force(name) => {
+                let bodies = &file.scene.bodies;
+                let Some(index) = bodies.iter().position(|b| b.name.as_deref() == Some(name))
+                else {
+                    let known: Vec<_> = bodies
+                        .iter()
+                        .filter_map(|b| b.name.as_ref())
+                        .map(|n| format!("\"{n}\""))
+                        .collect();
+                    return Err(file.error(
+                        &format!("output.probes[{k}]"),
+                        format!(
+                            "no body named \"{name}\"; the named bodies are: {}",
+                            if known.is_empty() {
+                                "none".into()
+                            } else {
+                                known.join(", ")
+                            }
+                        ),
+                    ));
+                };
+                probes.push(ProbeKind::Force {
+                    name: name.clone(),
+                    index: index as u16,
+                });
+            }
             Probe::Displacement(name) => {
                 let index = region_index(file, boundaries, name, k)?;
                 probes.push(ProbeKind::Displacement {

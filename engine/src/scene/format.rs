@@ -391,6 +391,9 @@ pub enum Probe {
     Reaction(String),
     /// Centre-of-mass velocity of all particles: `com_velocity_x`, `com_velocity_y`.
     CentreOfMassVelocity,
+    /// Net force on the named body, `Σ m_p a_p` over its particles: `force_<name>_x`, `_y`
+    /// (e.g. the impact force on a hammer is minus this).
+    Force(String),
     /// Displacement the named region's prescribed velocity has imposed so far (its time
     /// integral; zero for components the region holds at rest or leaves free):
     /// `displacement_<name>_x`, `_y`.

@@ -55,13 +55,19 @@ pub const REGISTRATION: Registration = Registration {
             default: Some("Linear"),
             doc: "shape of the cohesive law",
         },
+        ParamDoc {
+            name: "materials",
+            ty: "[String]",
+            default: Some("all"),
+            doc: "only particles of these materials soften (e.g. not a steel impactor)",
+        },
     ],
     requires: &["neighbour/*"],
     install,
 };
 
 /// Parameters as written in the scene.
-#[derive(Deserialize, Clone, Copy, Debug)]
+#[derive(Deserialize, Clone, Debug)]
 #[serde(deny_unknown_fields)]
 struct RawParams {
     tensile_strength: f64,
@@ -72,6 +78,8 @@ struct RawParams {
     band_width: f64,
     #[serde(default)]
     softening: SofteningShape,
+    #[serde(default)]
+    materials: Option<Vec<String>>,
 }
 
 /// Installed parameters of `damage/eigensoftening`.
@@ -83,6 +91,8 @@ pub struct EigensofteningParams {
     pub band_width: f64,
     /// Slots of the published columns: damaged, failed, dissipated energy.
     pub columns: [usize; 3],
+    /// Which materials soften, by material index (`None`: all).
+    pub materials: Option<[bool; 64]>,
 }
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
@@ -117,6 +127,30 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
             "expected a positive fracture energy (or critical opening)",
         ));
     }
+    let materials = match &raw.materials {
+        None => None,
+        Some(names) => {
+            let table = installer.world().resource::<Materials>();
+            let mut mask = [false; 64];
+            for name in names {
+                let Some(i) = table.0.iter().position(|m| &m.name == name) else {
+                    let known: Vec<_> = table.0.iter().map(|m| format!("\"{}\"", m.name)).collect();
+                    return Err(params.error(
+                        "materials",
+                        format!(
+                            "unknown material \"{name}\"; the scene defines: {}",
+                            known.join(", ")
+                        ),
+                    ));
+                };
+                if i >= mask.len() {
+                    return Err(params.error("materials", "at most 64 materials can be selected"));
+                }
+                mask[i] = true;
+            }
+            Some(mask)
+        }
+    };
     let columns = [
         installer.add_series_column("damaged_particles"),
         installer.add_series_column("failed_particles"),
@@ -130,6 +164,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         },
         band_width: raw.band_width,
         columns,
+        materials,
     });
     installer.add_systems(eigensoftening);
     Ok(())
@@ -179,6 +214,7 @@ type ParticleQuery<'w, 's> = Query<
     's,
     (
         &'static Mass,
+        &'static MaterialId,
         &'static InitialVolume,
         &'static Stress,
         &'static Strain,
@@ -195,7 +231,7 @@ pub fn eigensoftening(
     mut columns: ResMut<SeriesColumns>,
     mut particles: ParticleQuery,
 ) {
-    let Some((mass, v0, stress, strain, mut damage, mut history)) =
+    let Some((mass, material, v0, stress, strain, mut damage, mut history)) =
         single_table(particles.contiguous_iter_mut(), "particles")
     else {
         return;
@@ -206,6 +242,12 @@ pub fn eigensoftening(
     let updated: Vec<(f64, f64)> = (0..mass.len())
         .into_par_iter()
         .map(|p| {
+            let softens = params
+                .materials
+                .is_none_or(|mask| mask[(material[p].0 as usize).min(63)]);
+            if !softens {
+                return (previous[p].0, history[p].0);
+            }
             let neighbours = if p < neighbourhoods.particle_count() {
                 neighbourhoods.of(p)
             } else {
@@ -303,6 +345,7 @@ mod tests {
             law: law(),
             band_width: 0.1,
             columns: slots,
+            materials: None,
         });
         let mut neighbourhoods = Neighbourhoods::default();
         neighbourhoods.set_rows(&[vec![0, 1], vec![0, 1], vec![2]], 0.5);
