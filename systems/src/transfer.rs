@@ -116,6 +116,21 @@ pub struct ParticleSlices<'a> {
     pub damage: &'a [Damage],
 }
 
+impl<'a> ParticleSlices<'a> {
+    /// The columns of the particle table a force transfer reads, or `None` without particles.
+    pub fn of(query: &'a ForceSourceQuery<'_, '_>) -> Option<Self> {
+        let (mass, velocity, volume, stress, damage) =
+            single_table(query.contiguous_iter(), "particles")?;
+        Some(Self {
+            mass,
+            velocity,
+            volume,
+            stress,
+            damage,
+        })
+    }
+}
+
 /// Contribution of connectivity entry `e` of particle `p` to its node (eqs. 1–4).
 pub fn contribution(
     c: &Connectivity,

@@ -64,22 +64,13 @@ pub fn newmark_corrector(
     particles: ForceSourceQuery,
     mut nodes: NodeQuery,
 ) {
-    let Some((mass, velocity, volume, stress, damage)) =
-        single_table(particles.contiguous_iter(), "particles")
-    else {
+    let Some(slices) = ParticleSlices::of(&particles) else {
         return;
     };
     let Some((node_mass, mut node_velocity, mut node_acceleration, mut node_force)) =
         single_table(nodes.contiguous_iter_mut(), "nodes")
     else {
         return;
-    };
-    let slices = ParticleSlices {
-        mass,
-        velocity,
-        volume,
-        stress,
-        damage,
     };
     let mut forces = vec![Vector::ZERO; node_mass.len()];
     connectivity.scatter_to_nodes(&mut forces, |e, p| {

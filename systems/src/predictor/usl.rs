@@ -121,22 +121,13 @@ pub fn usl_predictor(
     particles: ForceSourceQuery,
     mut nodes: NodeTransferQuery,
 ) {
-    let Some((mass, velocity, volume, stress, damage)) =
-        single_table(particles.contiguous_iter(), "particles")
-    else {
+    let Some(slices) = ParticleSlices::of(&particles) else {
         return;
     };
     let Some((mut node_mass, mut momentum, mut node_velocity, mut acceleration, mut force)) =
         single_table(nodes.contiguous_iter_mut(), "nodes")
     else {
         return;
-    };
-    let slices = ParticleSlices {
-        mass,
-        velocity,
-        volume,
-        stress,
-        damage,
     };
     let mut sums = vec![NodeSums::default(); node_mass.len()];
     connectivity.scatter_to_nodes(&mut sums, |e, p| {
