@@ -53,7 +53,10 @@ fn a_particle_leaving_the_grid_stops_the_run_naming_it() {
     );
 }
 
-fn poison(mut particles: Query<(&ParticleId, &mut Stress), With<Particle>>, clock: Res<SimClock>) {
+fn poison(
+    mut particles: Query<(&ParticleId, &mut Stress<Two>), With<Particle>>,
+    clock: Res<SimClock>,
+) {
     if clock.step == 4 {
         for (id, mut s) in &mut particles {
             if id.0 == 7 {
@@ -114,7 +117,7 @@ fn under_the_remove_policy_escaping_particles_are_removed_and_the_run_goes_on() 
     assert!(escaped.count > 0);
     assert_eq!(sim.particle_count() as u64, before as u64 - escaped.count);
     let (_, x) = escaped.first.unwrap();
-    assert!(x.x > 1.0, "{x}");
+    assert!(x[0] > 1.0, "{x:?}");
 }
 
 #[test]

@@ -1,42 +1,58 @@
-//! The same scene gives bitwise-identical results with 1 and 2 threads.
+//! The same scene gives bitwise-identical results with 1 and 2 threads, in 2D and in 3D.
 
 use fractum_engine::prelude::*;
-use fractum_engine::scene::{End, SceneFile, build_simulation};
+use fractum_engine::scene::{PipelineEntry, SceneFile, Spec};
+use fractum_engine::simulation::End;
 use fractum_suite::repo_root;
 
-const LME_NEWMARK: &str = r#"(system: "basis/lme", params: (gamma: 3.5)), (system: "predictor/newmark"),
-    (system: "stress/neo_hookean"), (system: "corrector/newmark"), (system: "advection/newmark")"#;
-
-/// The two-disk scene, with its pipeline replaced when `pipeline` is given.
-fn two_disks(pipeline: Option<&str>) -> SceneFile {
-    let mut text = std::fs::read_to_string(repo_root().join("scenes/two_disks.ron")).unwrap();
-    if let Some(pipeline) = pipeline {
-        let start = text.find("    pipeline: [").unwrap();
-        text = format!("{}    pipeline: [{pipeline}],\n)\n", &text[..start]);
-    }
-    SceneFile::parse("two_disks.ron", text).unwrap_or_else(|e| panic!("{e}"))
+/// Basis, integrator and stress: LME + Newmark + neo-Hookean.
+fn lme_newmark() -> Vec<PipelineEntry> {
+    vec![
+        PipelineEntry::with_params("basis/lme", "(gamma: 3.5)"),
+        PipelineEntry::new("predictor/newmark"),
+        PipelineEntry::new("stress/neo_hookean"),
+        PipelineEntry::new("corrector/newmark"),
+        PipelineEntry::new("advection/newmark"),
+    ]
 }
 
-fn state_after(pipeline: Option<&str>, threads: usize, steps: u64) -> Vec<u64> {
-    let mut built =
-        build_simulation(&two_disks(pipeline), &fractum_systems::stock_registry()).unwrap();
+/// The spec of a shipped scene, with its pipeline replaced when `pipeline` is given.
+fn spec<D: Dim>(scene: &str, pipeline: Option<Vec<PipelineEntry>>) -> Spec<D> {
+    let file = SceneFile::read(&repo_root().join("scenes").join(scene)).unwrap_or_else(|e| panic!("{e}"));
+    let spec = Spec::<D>::from_file(&file).unwrap_or_else(|e| panic!("{e}"));
+    match pipeline {
+        Some(entries) => spec.with_pipeline(entries),
+        None => spec,
+    }
+}
+
+/// The bits of every particle's position, velocity, stress and volume after `steps` steps.
+fn state_after<D: Dim>(spec: Spec<D>, threads: usize, steps: u64) -> Vec<u64> {
+    let mut built = spec
+        .build(&fractum_systems::stock_registry())
+        .unwrap_or_else(|e| panic!("{e}"));
     let sim = &mut built.simulation;
     sim.set_threads(threads).unwrap();
     sim.set_end(End::Steps(steps));
     while !sim.finished() {
         sim.step().unwrap();
     }
-    let mut query = sim
-        .world
-        .query_filtered::<(&ParticleId, &Position, &Velocity, &Stress, &Volume), With<Particle>>();
+    let mut query = sim.world.query_filtered::<(
+        &ParticleId,
+        &Position<D>,
+        &Velocity<D>,
+        &Stress<D>,
+        &Volume,
+    ), With<Particle>>();
     let mut rows: Vec<_> = query.iter(&sim.world).collect();
     rows.sort_by_key(|r| r.0.0);
     rows.iter()
         .flat_map(|(_, x, v, s, vol)| {
-            [
-                x.0.x, x.0.y, v.0.x, v.0.y, s.0.xx, s.0.yy, s.0.zz, s.0.xy, vol.0,
-            ]
-            .map(f64::to_bits)
+            let mut values: Vec<f64> = x.0.to_3d().into();
+            values.extend(v.0.to_3d());
+            values.extend(s.0.as_3x3());
+            values.push(vol.0);
+            values.into_iter().map(f64::to_bits)
         })
         .collect()
 }
@@ -50,13 +66,26 @@ fn assert_same(one: &[u64], two: &[u64]) {
 #[test]
 fn linear_usl_one_and_two_threads_give_identical_bits() {
     // 1700 steps of 1 ms take the disks through first contact (about t = 1.6 s).
-    assert_same(&state_after(None, 1, 1700), &state_after(None, 2, 1700));
+    let run = |threads| state_after(spec::<Two>("two_disks.ron", None), threads, 1700);
+    assert_same(&run(1), &run(2));
 }
 
 #[test]
 fn lme_newmark_neo_hookean_one_and_two_threads_give_identical_bits() {
-    assert_same(
-        &state_after(Some(LME_NEWMARK), 1, 1700),
-        &state_after(Some(LME_NEWMARK), 2, 1700),
-    );
+    let run = |threads| {
+        state_after(spec::<Two>("two_disks.ron", Some(lme_newmark())), threads, 1700)
+    };
+    assert_same(&run(1), &run(2));
+}
+
+#[test]
+fn three_dimensions_one_and_two_threads_give_identical_bits() {
+    // 2000 steps of 1 ms take the spheres through first contact (about t = 1.85 s).
+    let run = |threads| state_after(spec::<Three>("two_spheres.ron", None), threads, 2000);
+    assert_same(&run(1), &run(2));
+    // LME + Newmark + neo-Hookean, 50 steps: the 3D kd-tree, λ solves and transposed gathers.
+    let run = |threads| {
+        state_after(spec::<Three>("two_spheres.ron", Some(lme_newmark())), threads, 50)
+    };
+    assert_same(&run(1), &run(2));
 }

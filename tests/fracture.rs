@@ -1,15 +1,15 @@
-//! Fracture verification small enough for CI (`scenes/tension_softening.ron`): homogeneous
-//! uniaxial tension, where the stress is `E ε̇ t` in every particle, so the onset and the full
-//! failure of eigensoftening have exact times.
+//! Fracture verification small enough for CI (`scenes/tension_softening.ron` in 2D and
+//! `scenes/tension_softening_3d.ron` in 3D): homogeneous uniaxial tension, where the stress is
+//! `E ε̇ t` in every particle, so the onset and the full failure of eigensoftening have exact
+//! times.
 
 use fractum_engine::diagnostics::totals;
 use fractum_engine::prelude::*;
 use fractum_suite::{load, repo_root};
 
 /// Damage and onset strain of every particle after each step, in id order.
-fn history() -> Vec<Vec<(f64, f64)>> {
-    let mut built =
-        load(&repo_root().join("scenes/tension_softening.ron")).unwrap_or_else(|e| panic!("{e}"));
+fn history(scene: &str) -> Vec<Vec<(f64, f64)>> {
+    let mut built = load(&repo_root().join("scenes").join(scene)).unwrap_or_else(|e| panic!("{e}"));
     let sim = &mut built.simulation;
     let mut steps = Vec::new();
     while !sim.finished() {
@@ -27,9 +27,9 @@ fn history() -> Vec<Vec<(f64, f64)>> {
     steps
 }
 
-#[test]
-fn eigensoftening_onset_and_failure_happen_at_the_analytic_times() {
-    let steps = history();
+/// Onset and failure of every particle against the analytic steps.
+fn onset_and_failure_at_the_analytic_times(scene: &str) {
+    let steps = history(scene);
     let particles = steps[0].len();
     // E = 1e4 Pa, ε̇ = 0.1 /s, Δt = 1e-5 s: σ = 0.01 n after step n passes f_t = 1.005 Pa
     // at step 100.5, so the first step with σ > f_t is 101.
@@ -65,7 +65,8 @@ fn eigensoftening_onset_and_failure_happen_at_the_analytic_times() {
     // The field stays homogeneous, so every particle fails at the analytic step, except that
     // the column next to the prescribed end may fail one step early: its boundary nodes move at
     // the prescribed speed while interior node velocities come from the softening particles,
-    // which lag them by O(Δt). Measured: 16 of 320 particles at step 300, the rest at 301.
+    // which lag them by O(Δt). Measured: 16 of 320 particles at step 300, the rest at 301 (2D);
+    // 128 of 2560 (3D).
     let near = failures.iter().all(|f| f.abs_diff(failure_step) <= 1);
     assert!(near, "failures at steps {failures:?}");
     let on_time = failures.iter().filter(|f| **f == failure_step).count();
@@ -74,6 +75,16 @@ fn eigensoftening_onset_and_failure_happen_at_the_analytic_times() {
         "{on_time} of {} fail on time",
         failures.len()
     );
+}
+
+#[test]
+fn eigensoftening_onset_and_failure_happen_at_the_analytic_times() {
+    onset_and_failure_at_the_analytic_times("tension_softening.ron");
+}
+
+#[test]
+fn eigensoftening_onset_and_failure_happen_at_the_analytic_times_in_3d() {
+    onset_and_failure_at_the_analytic_times("tension_softening_3d.ron");
 }
 
 #[test]
@@ -104,7 +115,7 @@ fn eigensoftening_absorbs_the_work_its_traction_law_implies() {
     while !sim.finished() {
         sim.step().unwrap_or_else(|e| panic!("{e}"));
         // The right end moves at 0.1 m/s; the left end is held at rest and does no work.
-        work += sim.world.resource::<Reactions>().0[right].x * rate * sim.clock().dt;
+        work += sim.world.resource::<Reactions<Two>>().0[right].x * rate * sim.clock().dt;
     }
     let kinetic_change = totals(&mut sim.world).kinetic_energy - kinetic_start;
     let absorbed = work - kinetic_change;

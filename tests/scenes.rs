@@ -1,9 +1,9 @@
 //! Every shipped scene in `scenes/` loads, runs a few steps with finite state, and writes a CSV
 //! with the required columns and VTU frames that a VTK reader (vtkio) loads.
 
-use fractum_engine::output::BASE_COLUMNS;
+use fractum_engine::output::base_columns;
 use fractum_engine::run::run;
-use fractum_engine::scene::End;
+use fractum_engine::simulation::End;
 use fractum_suite::{load, ron_files, temp_dir};
 
 fn frame_point_count(path: &std::path::Path) -> usize {
@@ -47,7 +47,8 @@ fn every_shipped_scene_runs_a_few_steps() {
         assert_eq!(summary.steps, 5);
         let csv = std::fs::read_to_string(out.join("series.csv")).unwrap();
         let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
-        assert_eq!(&header[..BASE_COLUMNS.len()], &BASE_COLUMNS);
+        let base = base_columns(plan.dimension);
+        assert_eq!(&header[..base.len()], &base);
         let last: Vec<f64> = csv
             .lines()
             .last()

@@ -7,7 +7,7 @@
 //! boundary exerts on the body.
 
 use crate::components::{FIELDS, NodeMass, NodeVelocity};
-use crate::dim::{DIM, Vector};
+use crate::dim::{Dim, VectorOps};
 use bevy_ecs::prelude::Resource;
 
 /// A function of time, linear between points and constant beyond the first and last.
@@ -75,15 +75,30 @@ impl PiecewiseLinear {
     }
 }
 
+/// The most components a velocity has (three; a 2D region leaves the last one `None`).
+pub const MAX_COMPONENTS: usize = 3;
+
 /// One named region of nodes and the velocity components it holds.
 #[derive(Clone, Debug, PartialEq)]
 pub struct BoundaryRegion {
-    /// Name from the scene, used for the `reaction_<name>_x/y` columns.
+    /// Name from the scene, used for the `reaction_<name>_x/y/z` columns.
     pub name: String,
     /// Linear indices of the nodes in the region.
     pub nodes: Vec<u32>,
-    /// Prescribed velocity per component; `None` leaves that component free.
-    pub velocity: [Option<PiecewiseLinear>; DIM],
+    /// Prescribed velocity per component (x, y, z); `None` leaves that component free. In 2D
+    /// the z entry is always `None`.
+    pub velocity: [Option<PiecewiseLinear>; MAX_COMPONENTS],
+}
+
+impl BoundaryRegion {
+    /// A region holding every component of its nodes at rest.
+    pub fn fixed(name: &str, nodes: Vec<u32>) -> Self {
+        Self {
+            name: name.to_string(),
+            nodes,
+            velocity: std::array::from_fn(|_| Some(PiecewiseLinear::constant(0.0))),
+        }
+    }
 }
 
 /// All boundary regions of the scene, applied in scene order.
@@ -94,13 +109,19 @@ pub struct BoundaryConditions {
 }
 
 /// Reaction force of each region over the last step that measured it, in region order.
-#[derive(Resource, Clone, Debug, Default, PartialEq)]
-pub struct Reactions(pub Vec<Vector>);
+#[derive(Resource, Clone, Debug, PartialEq)]
+pub struct Reactions<D: Dim>(pub Vec<D::Vector>);
+
+impl<D: Dim> Default for Reactions<D> {
+    fn default() -> Self {
+        Self(Vec::new())
+    }
+}
 
 impl BoundaryConditions {
-    /// For each of `node_count` nodes, which velocity components some region holds.
-    pub fn held_mask(&self, node_count: usize) -> Vec<[bool; DIM]> {
-        let mut mask = vec![[false; DIM]; node_count];
+    /// For each of `node_count` nodes, which velocity components (x, y, z) some region holds.
+    pub fn held_mask(&self, node_count: usize) -> Vec<[bool; MAX_COMPONENTS]> {
+        let mut mask = vec![[false; MAX_COMPONENTS]; node_count];
         for region in &self.regions {
             for &node in &region.nodes {
                 for (c, held) in region.velocity.iter().enumerate() {
@@ -116,21 +137,22 @@ impl BoundaryConditions {
     /// With `measure = Some((dt, reactions))`, also records the reaction of each region. A node
     /// in several regions is held by each in turn, so the last listed region wins and a component
     /// already held at the same value adds nothing to later regions.
-    pub fn enforce(
+    pub fn enforce<D: Dim>(
         &self,
         time: f64,
         masses: &[NodeMass],
-        velocities: &mut [NodeVelocity],
-        mut measure: Option<(f64, &mut Reactions)>,
+        velocities: &mut [NodeVelocity<D>],
+        mut measure: Option<(f64, &mut Reactions<D>)>,
     ) {
         if let Some((_, reactions)) = measure.as_mut() {
             reactions.0.clear();
-            reactions.0.resize(self.regions.len(), Vector::ZERO);
+            reactions.0.resize(self.regions.len(), D::Vector::ZERO);
         }
         for (r, region) in self.regions.iter().enumerate() {
-            let held: [Option<f64>; DIM] =
+            let held: [Option<f64>; MAX_COMPONENTS] =
                 std::array::from_fn(|c| region.velocity[c].as_ref().map(|f| f.eval(time)));
-            let mut reaction = Vector::ZERO;
+            let held = &held[..D::N];
+            let mut reaction = D::Vector::ZERO;
             for &node in &region.nodes {
                 let node = node as usize;
                 for field in 0..FIELDS {
@@ -154,6 +176,8 @@ impl BoundaryConditions {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dim::{Three, Two};
+    use glam::{DVec2, DVec3};
 
     #[test]
     fn piecewise_linear_interpolates_and_clamps() {
@@ -177,19 +201,40 @@ mod tests {
             regions: vec![BoundaryRegion {
                 name: "left".into(),
                 nodes: vec![0],
-                velocity: [Some(PiecewiseLinear::constant(0.0)), None],
+                velocity: [Some(PiecewiseLinear::constant(0.0)), None, None],
             }],
         };
         let masses = [NodeMass([2.0, 0.0]), NodeMass([1.0, 0.0])];
         let mut velocities = [
-            NodeVelocity([Vector::new(-0.5, 0.3), Vector::ZERO]),
-            NodeVelocity([Vector::new(-0.5, 0.3), Vector::ZERO]),
+            NodeVelocity::<Two>([DVec2::new(-0.5, 0.3), DVec2::ZERO]),
+            NodeVelocity([DVec2::new(-0.5, 0.3), DVec2::ZERO]),
         ];
         let mut reactions = Reactions::default();
         bcs.enforce(0.0, &masses, &mut velocities, Some((0.1, &mut reactions)));
-        assert_eq!(velocities[0].0[0], Vector::new(0.0, 0.3));
-        assert_eq!(velocities[1].0[0], Vector::new(-0.5, 0.3));
+        assert_eq!(velocities[0].0[0], DVec2::new(0.0, 0.3));
+        assert_eq!(velocities[1].0[0], DVec2::new(-0.5, 0.3));
         // Holding 2 kg moving at -0.5 m/s to rest over 0.1 s takes +10 N along x.
-        assert_eq!(reactions.0, vec![Vector::new(10.0, 0.0)]);
+        assert_eq!(reactions.0, vec![DVec2::new(10.0, 0.0)]);
+    }
+
+    #[test]
+    fn a_3d_region_holds_the_z_component_too() {
+        let bcs = BoundaryConditions {
+            regions: vec![BoundaryRegion {
+                name: "lid".into(),
+                nodes: vec![1],
+                velocity: [None, None, Some(PiecewiseLinear::constant(-1.0))],
+            }],
+        };
+        let masses = [NodeMass([1.0, 0.0]), NodeMass([4.0, 1.0])];
+        let v = DVec3::new(0.1, 0.2, 0.3);
+        let mut velocities = [NodeVelocity::<Three>([v, v]), NodeVelocity([v, v])];
+        let mut reactions = Reactions::default();
+        bcs.enforce(0.0, &masses, &mut velocities, Some((0.5, &mut reactions)));
+        assert_eq!(velocities[1].0, [DVec3::new(0.1, 0.2, -1.0); 2]);
+        assert_eq!(velocities[0].0[0], v);
+        // (4 + 1) kg from +0.3 to −1 m/s over 0.5 s.
+        assert!((reactions.0[0] - DVec3::new(0.0, 0.0, -13.0)).length() < 1e-12);
+        assert_eq!(bcs.held_mask(2)[1], [false, false, true]);
     }
 }

@@ -4,11 +4,14 @@
 //! by one of them. Components are never added or removed during a run (that would split the
 //! storage tables): state changes are written into fields.
 //!
+//! Components that hold vectors or tensors are generic over the dimension `D` ([`Dim`]): a 2D
+//! scene's particles carry `Position<Two>`, a 3D scene's `Position<Three>`.
+//!
 //! Nodes carry [`FIELDS`] velocity fields from the start. A single-field pipeline uses field 0;
 //! damage-field-gradient partitioning and contact (a later stage of the work) spread material
 //! over both.
 
-use crate::dim::{Matrix, SymTensor, Vector};
+use crate::dim::{Dim, MatrixOps, SymOps};
 use bevy_ecs::prelude::Component;
 
 /// Number of velocity fields every node carries.
@@ -24,15 +27,15 @@ pub struct ParticleId(pub u32);
 
 /// Current position.
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
-pub struct Position(pub Vector);
+pub struct Position<D: Dim>(pub D::Vector);
 
 /// Current velocity.
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
-pub struct Velocity(pub Vector);
+pub struct Velocity<D: Dim>(pub D::Vector);
 
 /// Current acceleration (used by integrators that carry it between steps).
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
-pub struct Acceleration(pub Vector);
+pub struct Acceleration<D: Dim>(pub D::Vector);
 
 /// Mass (constant).
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
@@ -48,21 +51,33 @@ pub struct InitialVolume(pub f64);
 
 /// Deformation gradient F.
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
-pub struct DeformationGradient(pub Matrix);
+pub struct DeformationGradient<D: Dim>(pub D::Matrix);
 
-impl Default for DeformationGradient {
+impl<D: Dim> Default for DeformationGradient<D> {
     fn default() -> Self {
-        Self(Matrix::IDENTITY)
+        Self(D::Matrix::IDENTITY)
     }
 }
 
-/// Cauchy stress (plane strain, `zz` kept).
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
-pub struct Stress(pub SymTensor);
+/// Cauchy stress (in plane strain with `zz` kept).
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct Stress<D: Dim>(pub D::Sym);
+
+impl<D: Dim> Default for Stress<D> {
+    fn default() -> Self {
+        Self(D::Sym::ZERO)
+    }
+}
 
 /// Small-strain measure accumulated from the strain increments.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
-pub struct Strain(pub SymTensor);
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct Strain<D: Dim>(pub D::Sym);
+
+impl<D: Dim> Default for Strain<D> {
+    fn default() -> Self {
+        Self(D::Sym::ZERO)
+    }
+}
 
 /// Stored elastic energy per unit reference volume, written by the stress system.
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
@@ -98,51 +113,81 @@ pub struct ContactGroup(pub u8);
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct Node;
 
-/// Linear node number (`i + j * nodes_x`); equals the node's row in its storage table.
+/// Linear node number (`i + nx (j + ny k)`); equals the node's row in its storage table.
 #[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
 pub struct NodeIndex(pub u32);
 
 /// Node position (fixed for a background grid).
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
-pub struct NodePosition(pub Vector);
+pub struct NodePosition<D: Dim>(pub D::Vector);
 
 /// Lumped mass of each velocity field.
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
 pub struct NodeMass(pub [f64; FIELDS]);
 
 /// Momentum of each velocity field.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
-pub struct NodeMomentum(pub [Vector; FIELDS]);
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct NodeMomentum<D: Dim>(pub [D::Vector; FIELDS]);
+
+impl<D: Dim> Default for NodeMomentum<D> {
+    fn default() -> Self {
+        Self([D::Vector::default(); FIELDS])
+    }
+}
 
 /// Velocity of each velocity field.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
-pub struct NodeVelocity(pub [Vector; FIELDS]);
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct NodeVelocity<D: Dim>(pub [D::Vector; FIELDS]);
+
+impl<D: Dim> Default for NodeVelocity<D> {
+    fn default() -> Self {
+        Self([D::Vector::default(); FIELDS])
+    }
+}
 
 /// Acceleration of each velocity field over the current step.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
-pub struct NodeAcceleration(pub [Vector; FIELDS]);
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct NodeAcceleration<D: Dim>(pub [D::Vector; FIELDS]);
+
+impl<D: Dim> Default for NodeAcceleration<D> {
+    fn default() -> Self {
+        Self([D::Vector::default(); FIELDS])
+    }
+}
 
 /// Total (internal + external) force on each velocity field.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
-pub struct NodeForce(pub [Vector; FIELDS]);
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct NodeForce<D: Dim>(pub [D::Vector; FIELDS]);
+
+impl<D: Dim> Default for NodeForce<D> {
+    fn default() -> Self {
+        Self([D::Vector::default(); FIELDS])
+    }
+}
 
 /// Outward surface normal of each velocity field (for contact).
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
-pub struct NodeNormal(pub [Vector; FIELDS]);
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct NodeNormal<D: Dim>(pub [D::Vector; FIELDS]);
+
+impl<D: Dim> Default for NodeNormal<D> {
+    fn default() -> Self {
+        Self([D::Vector::default(); FIELDS])
+    }
+}
 
 /// Every component a particle is created with.
 #[derive(bevy_ecs::bundle::Bundle, Clone, Copy, Debug)]
-pub struct ParticleBundle {
+pub struct ParticleBundle<D: Dim> {
     /// Marker.
     pub marker: Particle,
     /// Stable id.
     pub id: ParticleId,
     /// Position.
-    pub position: Position,
+    pub position: Position<D>,
     /// Velocity.
-    pub velocity: Velocity,
+    pub velocity: Velocity<D>,
     /// Acceleration.
-    pub acceleration: Acceleration,
+    pub acceleration: Acceleration<D>,
     /// Mass.
     pub mass: Mass,
     /// Current volume.
@@ -150,11 +195,11 @@ pub struct ParticleBundle {
     /// Initial volume.
     pub initial_volume: InitialVolume,
     /// Deformation gradient.
-    pub deformation_gradient: DeformationGradient,
+    pub deformation_gradient: DeformationGradient<D>,
     /// Stress.
-    pub stress: Stress,
+    pub stress: Stress<D>,
     /// Strain.
-    pub strain: Strain,
+    pub strain: Strain<D>,
     /// Stored energy density.
     pub energy_density: StrainEnergyDensity,
     /// Wave speed.
@@ -171,9 +216,9 @@ pub struct ParticleBundle {
     pub group: ContactGroup,
 }
 
-impl ParticleBundle {
+impl<D: Dim> ParticleBundle<D> {
     /// An unstressed particle at rest with the given id, position, mass, volume and material.
-    pub fn new(id: u32, position: Vector, mass: f64, volume: f64, material: u16) -> Self {
+    pub fn new(id: u32, position: D::Vector, mass: f64, volume: f64, material: u16) -> Self {
         Self {
             marker: Particle,
             id: ParticleId(id),
@@ -199,30 +244,30 @@ impl ParticleBundle {
 
 /// Every component a grid node is created with.
 #[derive(bevy_ecs::bundle::Bundle, Clone, Copy, Debug)]
-pub struct NodeBundle {
+pub struct NodeBundle<D: Dim> {
     /// Marker.
     pub marker: Node,
     /// Linear index.
     pub index: NodeIndex,
     /// Position.
-    pub position: NodePosition,
+    pub position: NodePosition<D>,
     /// Field masses.
     pub mass: NodeMass,
     /// Field momenta.
-    pub momentum: NodeMomentum,
+    pub momentum: NodeMomentum<D>,
     /// Field velocities.
-    pub velocity: NodeVelocity,
+    pub velocity: NodeVelocity<D>,
     /// Field accelerations.
-    pub acceleration: NodeAcceleration,
+    pub acceleration: NodeAcceleration<D>,
     /// Field forces.
-    pub force: NodeForce,
+    pub force: NodeForce<D>,
     /// Field normals.
-    pub normal: NodeNormal,
+    pub normal: NodeNormal<D>,
 }
 
-impl NodeBundle {
+impl<D: Dim> NodeBundle<D> {
     /// An empty node with the given index and position.
-    pub fn new(index: u32, position: Vector) -> Self {
+    pub fn new(index: u32, position: D::Vector) -> Self {
         Self {
             marker: Node,
             index: NodeIndex(index),

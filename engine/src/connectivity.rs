@@ -7,14 +7,14 @@
 //! the transposed table (node → entries, in particle order), so each node's sum is always
 //! accumulated in the same order and the result is bitwise identical for any thread count.
 
-use crate::dim::Vector;
+use crate::dim::{Dim, VectorOps};
 use bevy_ecs::prelude::Resource;
 use rayon::prelude::*;
 use std::ops::AddAssign;
 
 /// Shape-function connectivity for the current particle positions.
-#[derive(Resource, Clone, Debug, Default)]
-pub struct Connectivity {
+#[derive(Resource, Clone, Debug)]
+pub struct Connectivity<D: Dim> {
     /// Row offsets: entries of particle row `p` are `row_offsets[p]..row_offsets[p + 1]`.
     pub row_offsets: Vec<usize>,
     /// Node index of each entry.
@@ -22,14 +22,27 @@ pub struct Connectivity {
     /// Shape function value `N_Ip` of each entry.
     pub weights: Vec<f64>,
     /// Shape function gradient `∇N_Ip` of each entry.
-    pub gradients: Vec<Vector>,
+    pub gradients: Vec<D::Vector>,
     /// Transposed offsets: entries touching node `I` are `node_offsets[I]..node_offsets[I + 1]`.
     pub node_offsets: Vec<usize>,
     /// For each transposed slot, the (entry, particle row) it refers to, in particle order.
     pub node_entries: Vec<(u32, u32)>,
 }
 
-impl Connectivity {
+impl<D: Dim> Default for Connectivity<D> {
+    fn default() -> Self {
+        Self {
+            row_offsets: Vec::new(),
+            nodes: Vec::new(),
+            weights: Vec::new(),
+            gradients: Vec::new(),
+            node_offsets: Vec::new(),
+            node_entries: Vec::new(),
+        }
+    }
+}
+
+impl<D: Dim> Connectivity<D> {
     /// Number of particle rows.
     pub fn particle_count(&self) -> usize {
         self.row_offsets.len().saturating_sub(1)
@@ -43,7 +56,7 @@ impl Connectivity {
     /// Replaces the tables from per-particle rows of `(node, N, ∇N)` and rebuilds the transpose.
     ///
     /// `rows` must be in particle-row order. `node_count` is the number of grid nodes.
-    pub fn rebuild(&mut self, rows: &[Vec<(u32, f64, Vector)>], node_count: usize) {
+    pub fn rebuild(&mut self, rows: &[Vec<(u32, f64, D::Vector)>], node_count: usize) {
         self.row_offsets.clear();
         self.row_offsets.push(0);
         let mut total = 0;
@@ -77,14 +90,14 @@ impl Connectivity {
         node_count: usize,
         fill: F,
     ) where
-        F: Fn(usize, &mut [u32], &mut [f64], &mut [Vector]) + Sync,
+        F: Fn(usize, &mut [u32], &mut [f64], &mut [D::Vector]) + Sync,
     {
         let entries = particles * width;
         self.row_offsets.clear();
         self.row_offsets.extend((0..=particles).map(|p| p * width));
         self.nodes.resize(entries, 0);
         self.weights.resize(entries, 0.0);
-        self.gradients.resize(entries, Vector::ZERO);
+        self.gradients.resize(entries, D::Vector::ZERO);
         self.nodes
             .par_chunks_mut(width)
             .zip(self.weights.par_chunks_mut(width))
@@ -143,10 +156,12 @@ impl Connectivity {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dim::Two;
+    use glam::DVec2;
 
-    fn sample() -> Connectivity {
+    fn sample() -> Connectivity<Two> {
         let mut c = Connectivity::default();
-        let g = Vector::ZERO;
+        let g = DVec2::ZERO;
         c.rebuild(
             &[
                 vec![(0, 0.5, g), (2, 0.5, g)],

@@ -4,10 +4,11 @@
 //! threads; they are only evaluated on output steps.
 
 use crate::components::{InitialVolume, Mass, Particle, StrainEnergyDensity, Velocity};
-use crate::dim::Vector;
+use crate::dim::{Dim, Dimension, VectorOps};
+use crate::with_dim;
 use bevy_ecs::prelude::*;
 
-/// Totals over all particles.
+/// Totals over all particles. Vectors have three components; the last is 0 in 2D.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Totals {
     /// Σ ½ m |v|².
@@ -15,7 +16,7 @@ pub struct Totals {
     /// Σ W V₀ (stored energy density times reference volume).
     pub strain_energy: f64,
     /// Σ m v.
-    pub momentum: Vector,
+    pub momentum: [f64; 3],
     /// Σ m.
     pub mass: f64,
 }
@@ -27,26 +28,40 @@ impl Totals {
     }
 
     /// Centre-of-mass velocity (zero for an empty system).
-    pub fn centre_of_mass_velocity(&self) -> Vector {
+    pub fn centre_of_mass_velocity(&self) -> [f64; 3] {
         if self.mass > 0.0 {
-            self.momentum / self.mass
+            self.momentum.map(|p| p / self.mass)
         } else {
-            Vector::ZERO
+            [0.0; 3]
         }
     }
 }
 
-/// Computes the totals of the current state.
-pub fn totals(world: &mut World) -> Totals {
-    let mut query = world
-        .query_filtered::<(&Mass, &Velocity, &StrainEnergyDensity, &InitialVolume), With<Particle>>(
-        );
-    let mut t = Totals::default();
+/// Computes the totals of the current state of a world built for dimension `D`.
+pub fn totals_of<D: Dim>(world: &mut World) -> Totals {
+    let mut query = world.query_filtered::<(
+        &Mass,
+        &Velocity<D>,
+        &StrainEnergyDensity,
+        &InitialVolume,
+    ), With<Particle>>();
+    let (mut kinetic, mut strain, mut momentum, mut mass) = (0.0, 0.0, D::Vector::ZERO, 0.0);
     for (m, v, w, v0) in query.iter(world) {
-        t.kinetic_energy += 0.5 * m.0 * v.0.length_squared();
-        t.strain_energy += w.0 * v0.0;
-        t.momentum += m.0 * v.0;
-        t.mass += m.0;
+        kinetic += 0.5 * m.0 * v.0.length_squared();
+        strain += w.0 * v0.0;
+        momentum += v.0 * m.0;
+        mass += m.0;
     }
-    t
+    Totals {
+        kinetic_energy: kinetic,
+        strain_energy: strain,
+        momentum: momentum.to_3d(),
+        mass,
+    }
+}
+
+/// Computes the totals of the current state (the world's [`Dimension`] says which).
+pub fn totals(world: &mut World) -> Totals {
+    let dimension = *world.resource::<Dimension>();
+    with_dim!(dimension, D => totals_of::<D>(world))
 }

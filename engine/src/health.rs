@@ -6,9 +6,8 @@ use crate::components::{
     Node, NodeForce, NodeIndex, NodeMass, NodeVelocity, Particle, ParticleId, Position, Stress,
     Velocity, Volume,
 };
-use crate::dim::Vector;
+use crate::dim::{Dim, SymOps, VectorOps};
 use crate::resources::{Grid, SimClock};
-use crate::scene::LeaveGrid;
 use crate::stage::Stage;
 use bevy_ecs::prelude::*;
 use rayon::prelude::*;
@@ -72,37 +71,57 @@ pub fn single_table<I: IntoIterator, E: std::fmt::Debug>(
     first
 }
 
-fn fmt_vec(v: Vector) -> String {
-    format!("({:e}, {:e})", v.x, v.y)
+/// What happens to a particle that leaves the grid.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LeaveGrid {
+    /// Stop the run, naming the particle and its position (default).
+    #[default]
+    Stop,
+    /// Remove the particle (its mass and momentum leave the system) and go on; the count is
+    /// reported at the end of the run.
+    Remove,
 }
 
-type ParticleCheckQuery<'w, 's> = Query<
+/// `(x, y)` or `(x, y, z)` in scientific notation, for messages.
+pub fn fmt_vector<V: VectorOps>(v: V, dimensions: usize) -> String {
+    let parts: Vec<String> = v.to_3d()[..dimensions]
+        .iter()
+        .map(|c| format!("{c:e}"))
+        .collect();
+    format!("({})", parts.join(", "))
+}
+
+fn fmt_vec<D: Dim>(v: D::Vector) -> String {
+    fmt_vector(v, D::N)
+}
+
+type ParticleCheckQuery<'w, 's, D> = Query<
     'w,
     's,
     (
         &'static ParticleId,
-        &'static Position,
-        &'static Velocity,
-        &'static Stress,
+        &'static Position<D>,
+        &'static Velocity<D>,
+        &'static Stress<D>,
         &'static Volume,
     ),
     With<Particle>,
 >;
-type NodeCheckQuery<'w, 's> = Query<
+type NodeCheckQuery<'w, 's, D> = Query<
     'w,
     's,
     (
         &'static NodeIndex,
         &'static NodeMass,
-        &'static NodeVelocity,
-        &'static NodeForce,
+        &'static NodeVelocity<D>,
+        &'static NodeForce<D>,
     ),
     With<Node>,
 >;
 
-fn first_bad_particle(
-    particles: &ParticleCheckQuery,
-    grid: &Grid,
+fn first_bad_particle<D: Dim>(
+    particles: &ParticleCheckQuery<D>,
+    grid: &Grid<D>,
     outside_allowed: bool,
 ) -> Option<String> {
     let (ids, positions, velocities, stresses, volumes) =
@@ -119,37 +138,37 @@ fn first_bad_particle(
     })?;
     let (id, x, v) = (ids[bad].0, positions[bad].0, velocities[bad].0);
     Some(if !x.is_finite() {
-        format!("particle {id} has a non-finite position {}", fmt_vec(x))
+        format!("particle {id} has a non-finite position {}", fmt_vec::<D>(x))
     } else if !grid.contains(x) {
         format!(
             "particle {id} left the grid: position {}, velocity {}, grid box {} to {}",
-            fmt_vec(x),
-            fmt_vec(v),
-            fmt_vec(lo),
-            fmt_vec(hi)
+            fmt_vec::<D>(x),
+            fmt_vec::<D>(v),
+            fmt_vec::<D>(lo),
+            fmt_vec::<D>(hi)
         )
     } else if !v.is_finite() {
         format!(
             "particle {id} at {} has a non-finite velocity {}",
-            fmt_vec(x),
-            fmt_vec(v)
+            fmt_vec::<D>(x),
+            fmt_vec::<D>(v)
         )
     } else if !stresses[bad].0.is_finite() {
         format!(
             "particle {id} at {} has a non-finite stress {:?}",
-            fmt_vec(x),
+            fmt_vec::<D>(x),
             stresses[bad].0
         )
     } else {
         format!(
             "particle {id} at {} has an invalid volume {:e}",
-            fmt_vec(x),
+            fmt_vec::<D>(x),
             volumes[bad].0
         )
     })
 }
 
-fn first_bad_node(nodes: &NodeCheckQuery) -> Option<String> {
+fn first_bad_node<D: Dim>(nodes: &NodeCheckQuery<D>) -> Option<String> {
     let (indices, masses, velocities, forces) = single_table(nodes.contiguous_iter(), "nodes")?;
     let bad = (0..indices.len()).into_par_iter().find_first(|&n| {
         !(masses[n].0.iter().all(|m| m.is_finite())
@@ -165,15 +184,15 @@ fn first_bad_node(nodes: &NodeCheckQuery) -> Option<String> {
 /// The check system the engine runs after `stage`.
 // The "complex type" is the returned system's parameter list, spelled out as bevy needs it.
 #[allow(clippy::type_complexity)]
-pub fn stage_check(
+pub fn stage_check<D: Dim>(
     stage: Stage,
 ) -> impl FnMut(
     Res<SimClock>,
-    Res<Grid>,
+    Res<Grid<D>>,
     Option<Res<LeaveGrid>>,
     ResMut<Health>,
-    ParticleCheckQuery,
-    NodeCheckQuery,
+    ParticleCheckQuery<D>,
+    NodeCheckQuery<D>,
 ) {
     move |clock, grid, policy, mut health, particles, nodes| {
         let outside_allowed = policy.is_some_and(|p| *p == LeaveGrid::Remove);
@@ -194,23 +213,23 @@ pub fn stage_check(
 pub struct EscapedParticles {
     /// How many so far.
     pub count: u64,
-    /// Id and position of the first one removed.
-    pub first: Option<(u32, Vector)>,
+    /// Id and position (x, y, z; z = 0 in 2D) of the first one removed.
+    pub first: Option<(u32, [f64; 3])>,
 }
 
 /// Despawns the particles outside the grid (run after advection under [`LeaveGrid::Remove`]).
 /// The removal takes effect at the end of the step; particle rows are renumbered, which every
 /// system handles because per-row state is rebuilt when the particle count changes.
-pub fn remove_escaped_particles(
-    grid: Res<Grid>,
+pub fn remove_escaped_particles<D: Dim>(
+    grid: Res<Grid<D>>,
     mut escaped: ResMut<EscapedParticles>,
-    particles: Query<(Entity, &ParticleId, &Position), With<Particle>>,
+    particles: Query<(Entity, &ParticleId, &Position<D>), With<Particle>>,
     mut commands: Commands,
 ) {
     for (entity, id, x) in &particles {
         if !grid.contains(x.0) && x.0.is_finite() {
             escaped.count += 1;
-            escaped.first.get_or_insert((id.0, x.0));
+            escaped.first.get_or_insert((id.0, x.0.to_3d()));
             commands.entity(entity).despawn();
         }
     }

@@ -6,6 +6,9 @@
 //! validation, the simulation loop, output writers, diagnostics, and test helpers.
 //! Algorithms live in `fractum-systems` (or in a user's crate) and plug in through
 //! [`registry::Registry`].
+//!
+//! Everything is generic over the number of space dimensions ([`dim::Dim`]): one source serves
+//! 2D plane strain and 3D, and a scene's grid decides which is instantiated.
 
 pub mod boundary;
 pub mod components;
@@ -31,13 +34,19 @@ pub mod prelude {
     pub use crate::boundary::{BoundaryConditions, Reactions};
     pub use crate::components::*;
     pub use crate::connectivity::Connectivity;
-    pub use crate::dim::{Matrix, SymTensor, Vector};
+    pub use crate::dim::{
+        lattice_range,
+        Dim, Dimension, Lattice, Matrix, MatrixOps, SymOps, SymTensor, SymTensor2, SymTensor3,
+        Three, Two, Vector, VectorOps,
+    };
     pub use crate::health::single_table;
     pub use crate::neighbourhood::Neighbourhoods;
     pub use crate::registry::{Installer, ParamDoc, Params, Registration, Registry};
-    pub use crate::resources::{BodyForce, Grid, Material, Materials, SimClock};
+    pub use crate::resources::{BodyForce, Grid, Material, Materials, SimClock, Thickness};
     pub use crate::scene::SceneError;
     pub use crate::series::SeriesColumns;
     pub use crate::stage::Stage;
+    pub use crate::with_dim;
     pub use bevy_ecs::prelude::*;
+    pub use glam::{DMat2, DMat3, DVec2, DVec3};
 }

@@ -6,6 +6,7 @@
 //! and a [`Params`] holding the raw RON of the pipeline entry's `params`, which it parses into
 //! its own typed struct. Users register their own algorithms from their own crates the same way.
 
+use crate::dim::Dimension;
 use crate::resources::TimeStepLimit;
 use crate::scene::{Location, SceneError, parse_fragment};
 use crate::series::SeriesColumns;
@@ -139,6 +140,12 @@ impl<'a> Installer<'a> {
     /// The stage this installer adds to.
     pub fn stage(&self) -> Stage {
         self.stage
+    }
+
+    /// The number of space dimensions of the scene being built: install the systems
+    /// instantiated for it, e.g. `with_dim!(installer.dimension(), D => installer.add_systems(my_system::<D>))`.
+    pub fn dimension(&self) -> Dimension {
+        *self.world.resource::<Dimension>()
     }
 
     /// Adds systems to this installer's stage (and only there).

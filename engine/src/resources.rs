@@ -1,6 +1,6 @@
 //! Resources shared by the whole step: clock, grid geometry, materials, body force.
 
-use crate::dim::Vector;
+use crate::dim::{Dim, Lattice, VectorOps};
 use bevy_ecs::prelude::Resource;
 
 /// Simulation clock. `step` counts completed steps; `dt` is the size of the step being taken.
@@ -16,68 +16,97 @@ pub struct SimClock {
 
 /// Uniform background grid over an axis-aligned box.
 #[derive(Resource, Clone, Copy, Debug, PartialEq)]
-pub struct Grid {
+pub struct Grid<D: Dim> {
     /// Lower corner.
-    pub min: Vector,
+    pub min: D::Vector,
     /// Node spacing `h`.
     pub spacing: f64,
-    /// Number of cells along x and y.
-    pub cells: [usize; 2],
+    /// Number of cells along each axis.
+    pub cells: D::Cell,
 }
 
-impl Grid {
+impl<D: Dim> Grid<D> {
     /// Upper corner.
-    pub fn max(&self) -> Vector {
-        self.min + Vector::new(self.cells[0] as f64, self.cells[1] as f64) * self.spacing
+    pub fn max(&self) -> D::Vector {
+        self.min + D::Vector::from_fn(|a| self.cells[a] as f64) * self.spacing
     }
 
-    /// Nodes along x and y.
-    pub fn nodes_per_axis(&self) -> [usize; 2] {
-        [self.cells[0] + 1, self.cells[1] + 1]
+    /// Nodes along each axis.
+    pub fn nodes_per_axis(&self) -> D::Cell {
+        D::Cell::from_fn(|a| self.cells[a] + 1)
     }
 
     /// Total node count.
     pub fn node_count(&self) -> usize {
-        let [nx, ny] = self.nodes_per_axis();
-        nx * ny
+        self.nodes_per_axis().product()
     }
 
-    /// Linear index of node (i, j).
-    pub fn node_index(&self, i: usize, j: usize) -> usize {
-        i + j * self.nodes_per_axis()[0]
+    /// Total cell count.
+    pub fn cell_count(&self) -> usize {
+        self.cells.product()
+    }
+
+    /// Linear index `i + nx (j + ny k)` of the node with lattice coordinates `node`.
+    pub fn node_index(&self, node: D::Cell) -> usize {
+        let counts = self.nodes_per_axis();
+        (0..D::N)
+            .rev()
+            .fold(0, |index, a| index * counts[a] + node[a])
+    }
+
+    /// Lattice coordinates of the node with linear index `index`.
+    pub fn node_lattice(&self, index: usize) -> D::Cell {
+        let counts = self.nodes_per_axis();
+        let mut rest = index;
+        D::Cell::from_fn(|a| {
+            let coordinate = rest % counts[a];
+            rest /= counts[a];
+            coordinate
+        })
     }
 
     /// Position of the node with linear index `index`.
-    pub fn node_position(&self, index: usize) -> Vector {
-        let nx = self.nodes_per_axis()[0];
-        let (i, j) = (index % nx, index / nx);
-        self.min + Vector::new(i as f64, j as f64) * self.spacing
+    pub fn node_position(&self, index: usize) -> D::Vector {
+        let node = self.node_lattice(index);
+        self.min + D::Vector::from_fn(|a| node[a] as f64) * self.spacing
     }
 
-    /// Cell (i, j) containing `x`, or `None` when `x` lies outside the grid box.
-    pub fn cell_of(&self, x: Vector) -> Option<[usize; 2]> {
+    /// Cell containing `x`, or `None` when `x` lies outside the grid box. A point exactly on
+    /// the upper boundary belongs to the last cell.
+    pub fn cell_of(&self, x: D::Vector) -> Option<D::Cell> {
         let local = (x - self.min) / self.spacing;
-        if !(local.x >= 0.0 && local.y >= 0.0) {
-            return None;
+        let mut cell = D::Cell::default();
+        for a in 0..D::N {
+            // Also rejects NaN.
+            if !(local[a] >= 0.0) {
+                return None;
+            }
+            let mut i = local[a].floor() as usize;
+            if i == self.cells[a] && local[a] == self.cells[a] as f64 {
+                i -= 1;
+            }
+            if i >= self.cells[a] {
+                return None;
+            }
+            cell[a] = i;
         }
-        let (i, j) = (local.x.floor() as usize, local.y.floor() as usize);
-        // A point exactly on the upper boundary belongs to the last cell.
-        let i = if i == self.cells[0] && local.x == self.cells[0] as f64 {
-            i - 1
-        } else {
-            i
-        };
-        let j = if j == self.cells[1] && local.y == self.cells[1] as f64 {
-            j - 1
-        } else {
-            j
-        };
-        (i < self.cells[0] && j < self.cells[1]).then_some([i, j])
+        Some(cell)
     }
 
     /// True when `x` lies inside the grid box (boundary included).
-    pub fn contains(&self, x: Vector) -> bool {
+    pub fn contains(&self, x: D::Vector) -> bool {
         self.cell_of(x).is_some()
+    }
+}
+
+/// The out-of-plane thickness of a 2D scene (m): particle volumes, and so masses, forces and
+/// energies, are for this thickness. 1 in 3D, where volumes are volumes.
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+pub struct Thickness(pub f64);
+
+impl Default for Thickness {
+    fn default() -> Self {
+        Self(1.0)
     }
 }
 
@@ -95,6 +124,16 @@ pub struct Material {
 }
 
 impl Material {
+    /// A material named `name` with density, Young's modulus and Poisson's ratio.
+    pub fn new(name: &str, density: f64, youngs_modulus: f64, poisson_ratio: f64) -> Self {
+        Self {
+            name: name.to_string(),
+            density,
+            youngs_modulus,
+            poisson_ratio,
+        }
+    }
+
     /// Lamé constants (λ, μ).
     pub fn lame(&self) -> (f64, f64) {
         let (e, nu) = (self.youngs_modulus, self.poisson_ratio);
@@ -103,7 +142,8 @@ impl Material {
         (lambda, mu)
     }
 
-    /// Plane-strain dilatational (P-) wave speed `sqrt((λ + 2μ)/ρ)`, the fastest signal.
+    /// Dilatational (P-) wave speed `sqrt((λ + 2μ)/ρ)`, the fastest signal (the same in plane
+    /// strain and in 3D).
     pub fn wave_speed(&self) -> f64 {
         let (lambda, mu) = self.lame();
         ((lambda + 2.0 * mu) / self.density).sqrt()
@@ -124,7 +164,7 @@ impl Materials {
 /// How much of the central-difference stable time step the installed systems allow.
 ///
 /// The engine's limit is `h / (√d (c + |v|))`: the central-difference limit of a lumped-mass
-/// bilinear grid in `d` dimensions. An integrator with a smaller stability region lowers
+/// multilinear grid in `d` dimensions. An integrator with a smaller stability region lowers
 /// `factor` at install (through [`crate::registry::Installer::restrict_time_step`]) and says why.
 #[derive(Resource, Clone, Debug, PartialEq)]
 pub struct TimeStepLimit {
@@ -144,10 +184,11 @@ impl Default for TimeStepLimit {
 }
 
 impl TimeStepLimit {
-    /// The stable step for spacing `h` and fastest signal speed `speed` (wave plus material).
-    pub fn stable_step(&self, h: f64, speed: f64) -> f64 {
+    /// The stable step in `dimensions` dimensions for spacing `h` and fastest signal speed
+    /// `speed` (wave plus material): `factor · h / (√d · speed)`.
+    pub fn stable_step(&self, dimensions: usize, h: f64, speed: f64) -> f64 {
         if speed > 0.0 {
-            self.factor * h / ((crate::dim::DIM as f64).sqrt() * speed)
+            self.factor * h / ((dimensions as f64).sqrt() * speed)
         } else {
             f64::INFINITY
         }
@@ -156,39 +197,62 @@ impl TimeStepLimit {
 
 /// Uniform body force per unit mass (an acceleration, e.g. gravity).
 #[derive(Resource, Clone, Copy, Debug, Default, PartialEq)]
-pub struct BodyForce(pub Vector);
+pub struct BodyForce<D: Dim>(pub D::Vector);
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dim::{Three, Two};
+    use glam::{DVec2, DVec3};
 
     #[test]
     fn grid_indexing_round_trips() {
-        let grid = Grid {
-            min: Vector::new(-1.0, 0.0),
+        let grid = Grid::<Two> {
+            min: DVec2::new(-1.0, 0.0),
             spacing: 0.5,
             cells: [4, 2],
         };
         assert_eq!(grid.node_count(), 15);
-        assert_eq!(grid.max(), Vector::new(1.0, 1.0));
-        assert_eq!(
-            grid.node_position(grid.node_index(2, 1)),
-            Vector::new(0.0, 0.5)
-        );
-        assert_eq!(grid.cell_of(Vector::new(1.0, 1.0)), Some([3, 1]));
-        assert_eq!(grid.cell_of(Vector::new(-0.99, 0.01)), Some([0, 0]));
-        assert_eq!(grid.cell_of(Vector::new(1.01, 0.5)), None);
-        assert_eq!(grid.cell_of(Vector::new(0.0, f64::NAN)), None);
+        assert_eq!(grid.max(), DVec2::new(1.0, 1.0));
+        assert_eq!(grid.node_index([2, 1]), 7);
+        assert_eq!(grid.node_position(7), DVec2::new(0.0, 0.5));
+        assert_eq!(grid.cell_of(DVec2::new(1.0, 1.0)), Some([3, 1]));
+        assert_eq!(grid.cell_of(DVec2::new(-0.99, 0.01)), Some([0, 0]));
+        assert_eq!(grid.cell_of(DVec2::new(1.01, 0.5)), None);
+        assert_eq!(grid.cell_of(DVec2::new(0.0, f64::NAN)), None);
+    }
+
+    #[test]
+    fn grid_indexing_round_trips_in_3d() {
+        let grid = Grid::<Three> {
+            min: DVec3::new(0.0, -1.0, 2.0),
+            spacing: 0.25,
+            cells: [4, 2, 3],
+        };
+        assert_eq!(grid.node_count(), 5 * 3 * 4);
+        assert_eq!(grid.cell_count(), 24);
+        for index in 0..grid.node_count() {
+            assert_eq!(grid.node_index(grid.node_lattice(index)), index);
+        }
+        assert_eq!(grid.node_index([1, 2, 3]), 1 + 5 * (2 + 3 * 3));
+        assert_eq!(grid.node_position(grid.node_index([1, 2, 3])), DVec3::new(0.25, -0.5, 2.75));
+        assert_eq!(grid.max(), DVec3::new(1.0, -0.5, 2.75));
+        assert_eq!(grid.cell_of(grid.max()), Some([3, 1, 2]));
+        assert_eq!(grid.cell_of(DVec3::new(0.3, -0.9, 2.0)), Some([1, 0, 0]));
+        assert_eq!(grid.cell_of(DVec3::new(0.3, -0.9, 1.99)), None);
     }
 
     #[test]
     fn wave_speed_reduces_to_bar_speed_without_poisson_effect() {
-        let m = Material {
-            name: "bar".into(),
-            density: 1.0,
-            youngs_modulus: 100.0,
-            poisson_ratio: 0.0,
-        };
+        let m = Material::new("bar", 1.0, 100.0, 0.0);
         assert!((m.wave_speed() - 10.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn stable_step_follows_the_square_root_of_the_dimension() {
+        let limit = TimeStepLimit::default();
+        assert_eq!(limit.stable_step(2, 1.0, 1.0), 1.0 / 2f64.sqrt());
+        assert_eq!(limit.stable_step(3, 1.0, 1.0), 1.0 / 3f64.sqrt());
+        assert_eq!(limit.stable_step(3, 1.0, 0.0), f64::INFINITY);
     }
 }

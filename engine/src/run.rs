@@ -1,12 +1,15 @@
 //! The run loop: step to the end, writing frames and time-series rows on schedule.
 
-use crate::boundary::Reactions;
+use crate::boundary::{BoundaryConditions, Reactions};
 use crate::components::{
-    BodyId, Damage, Mass, MaterialId, Particle, ParticleId, Position, StrainEnergyDensity, Stress,
-    Velocity, Volume,
+    Acceleration, BodyId, Damage, Mass, MaterialId, Particle, ParticleId, Position,
+    StrainEnergyDensity, Stress, Velocity, Volume,
 };
-use crate::diagnostics::totals;
+use crate::diagnostics::{Totals, totals};
+use crate::dim::{Dim, Dimension, SymOps, VectorOps};
 use crate::health::Blowup;
+use crate::resources::SimClock;
+use crate::with_dim;
 use crate::output::{
     OutputPlan, ParticleFrame, ProbeKind, SeriesWriter, write_particle_frame, write_pvd,
 };
@@ -65,17 +68,23 @@ fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> RunError + '_ {
     }
 }
 
-/// Collects the particle state for a VTU frame.
+/// Collects the particle state for a VTU frame (the world's [`Dimension`] says which
+/// components it has).
 pub fn particle_frame(world: &mut World) -> ParticleFrame {
+    let dimension = *world.resource::<Dimension>();
+    with_dim!(dimension, D => particle_frame_of::<D>(world))
+}
+
+fn particle_frame_of<D: Dim>(world: &mut World) -> ParticleFrame {
     let mut query = world.query_filtered::<(
         &ParticleId,
         &BodyId,
         &MaterialId,
-        &Position,
-        &Velocity,
+        &Position<D>,
+        &Velocity<D>,
         &Mass,
         &Volume,
-        &Stress,
+        &Stress<D>,
         &Damage,
         &StrainEnergyDensity,
     ), With<Particle>>();
@@ -84,11 +93,11 @@ pub fn particle_frame(world: &mut World) -> ParticleFrame {
         f.id.push(id.0);
         f.body.push(body.0);
         f.material.push(material.0);
-        f.position.push(x.0);
-        f.velocity.push(v.0);
+        f.position.push(x.0.to_3d());
+        f.velocity.push(v.0.to_3d());
         f.mass.push(m.0);
         f.volume.push(vol.0);
-        f.stress.push(s.0);
+        f.stress.push(s.0.as_3x3());
         f.damage.push(d.0);
         f.strain_energy_density.push(w.0);
     }
@@ -97,44 +106,50 @@ pub fn particle_frame(world: &mut World) -> ParticleFrame {
 
 /// The values of one `series.csv` row after the step column.
 pub fn series_row(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
+    with_dim!(plan.dimension, D => series_row_of::<D>(world, plan))
+}
+
+/// The value of one probe, one entry per axis.
+fn probe_value<D: Dim>(world: &mut World, probe: &ProbeKind, totals: &Totals) -> D::Vector {
+    let time = world.resource::<SimClock>().time;
+    match probe {
+        ProbeKind::Reaction { index, .. } => world
+            .resource::<Reactions<D>>()
+            .0
+            .get(*index)
+            .copied()
+            .unwrap_or_default(),
+        ProbeKind::CentreOfMassVelocity => {
+            let v = totals.centre_of_mass_velocity();
+            D::Vector::from_fn(|a| v[a])
+        }
+        ProbeKind::Force { index, .. } => {
+            let mut query =
+                world.query_filtered::<(&BodyId, &Mass, &Acceleration<D>), With<Particle>>();
+            query
+                .iter(world)
+                .filter(|(b, _, _)| b.0 == *index)
+                .fold(D::Vector::ZERO, |f, (_, m, a)| f + a.0 * m.0)
+        }
+        ProbeKind::Displacement { index, .. } => {
+            let region = &world.resource::<BoundaryConditions>().regions[*index];
+            D::Vector::from_fn(|a| {
+                region.velocity[a]
+                    .as_ref()
+                    .map_or(0.0, |f| f.integral(time))
+            })
+        }
+    }
+}
+
+fn series_row_of<D: Dim>(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
     let t = totals(world);
-    let time = world.resource::<crate::resources::SimClock>().time;
-    let mut row = vec![
-        time,
-        t.kinetic_energy,
-        t.strain_energy,
-        t.total_energy(),
-        t.momentum.x,
-        t.momentum.y,
-    ];
+    let time = world.resource::<SimClock>().time;
+    let mut row = vec![time, t.kinetic_energy, t.strain_energy, t.total_energy()];
+    row.extend_from_slice(&t.momentum[..D::N]);
     for probe in &plan.probes {
-        let value = match probe {
-            ProbeKind::Reaction { index, .. } => world
-                .resource::<Reactions>()
-                .0
-                .get(*index)
-                .copied()
-                .unwrap_or_default(),
-            ProbeKind::CentreOfMassVelocity => t.centre_of_mass_velocity(),
-            ProbeKind::Force { index, .. } => {
-                let mut query = world.query_filtered::<(&BodyId, &Mass, &crate::components::Acceleration), With<Particle>>();
-                query
-                    .iter(world)
-                    .filter(|(b, _, _)| b.0 == *index)
-                    .fold(crate::dim::Vector::ZERO, |f, (_, m, a)| f + m.0 * a.0)
-            }
-            ProbeKind::Displacement { index, .. } => {
-                let bcs = world.resource::<crate::boundary::BoundaryConditions>();
-                let region = &bcs.regions[*index];
-                let along = |c: usize| {
-                    region.velocity[c]
-                        .as_ref()
-                        .map_or(0.0, |f| f.integral(time))
-                };
-                crate::dim::Vector::new(along(0), along(1))
-            }
-        };
-        row.extend([value.x, value.y]);
+        let value = probe_value::<D>(world, probe, &t);
+        row.extend((0..D::N).map(|a| value[a]));
     }
     if let Some(extra) = world.get_resource::<crate::series::SeriesColumns>() {
         row.extend(plan.system_columns.iter().map(|name| {

@@ -1,12 +1,31 @@
 //! [`Simulation`]: the world, the step schedule, the clock and the thread pool.
 
-use crate::components::{MaterialId, Particle, Velocity, WaveSpeed};
+use crate::components::{MaterialId, Particle, ParticleId, Velocity, WaveSpeed};
+use crate::dim::{Dim, Dimension, VectorOps};
 use crate::health::{Blowup, Health, healthy, stage_check};
 use crate::resources::{Grid, Materials, SimClock, TimeStepLimit};
-use crate::scene::{End, TimeStep};
 use crate::stage::{Stage, StageCheck, configure_stages};
+use crate::with_dim;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::{LogLevel, ScheduleBuildSettings, ScheduleLabel, SingleThreadedExecutor};
+
+/// How the size of each step is chosen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TimeStep {
+    /// A fixed step in seconds; must not exceed the stable limit.
+    Fixed(f64),
+    /// A fraction in (0, 1] of the stable limit, re-evaluated every step.
+    Cfl(f64),
+}
+
+/// When a run ends.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum End {
+    /// Simulated time in seconds.
+    Time(f64),
+    /// Number of steps.
+    Steps(u64),
+}
 
 /// Label of the one schedule that takes a step.
 #[derive(ScheduleLabel, Clone, Debug, PartialEq, Eq, Hash)]
@@ -31,9 +50,13 @@ pub fn step_schedule() -> Schedule {
 
 /// Puts the engine's health check after each of `stages` (the stages that have systems: an
 /// empty stage changes nothing, so checking after it would only repeat the previous check).
-pub fn add_stage_checks(schedule: &mut Schedule, stages: impl IntoIterator<Item = Stage>) {
+pub fn add_stage_checks<D: Dim>(schedule: &mut Schedule, stages: impl IntoIterator<Item = Stage>) {
     for stage in stages {
-        schedule.add_systems(stage_check(stage).in_set(StageCheck(stage)).run_if(healthy));
+        schedule.add_systems(
+            stage_check::<D>(stage)
+                .in_set(StageCheck(stage))
+                .run_if(healthy),
+        );
     }
 }
 
@@ -52,6 +75,7 @@ pub fn initialize_schedule(schedule: &mut Schedule, world: &mut World) -> Result
 pub struct Simulation {
     /// All entities and resources.
     pub world: World,
+    dimension: Dimension,
     schedule: Schedule,
     pool: Option<rayon::ThreadPool>,
     time_step: TimeStep,
@@ -61,17 +85,20 @@ pub struct Simulation {
 }
 
 impl Simulation {
-    /// Wraps a built world and schedule; initialises the schedule (see [`initialize_schedule`]).
-    pub fn new(
+    /// Wraps a world built for dimension `D` and its schedule; initialises the schedule (see
+    /// [`initialize_schedule`]).
+    pub fn new<D: Dim>(
         mut world: World,
         mut schedule: Schedule,
         time_step: TimeStep,
         end: End,
     ) -> Result<Self, String> {
         world.init_resource::<SimClock>();
+        world.insert_resource(D::DIMENSION);
         initialize_schedule(&mut schedule, &mut world)?;
         Ok(Self {
             world,
+            dimension: D::DIMENSION,
             schedule,
             pool: None,
             time_step,
@@ -95,6 +122,11 @@ impl Simulation {
         self.pool
             .as_ref()
             .map_or_else(rayon::current_num_threads, |p| p.current_num_threads())
+    }
+
+    /// The number of space dimensions of the scene.
+    pub fn dimension(&self) -> Dimension {
+        self.dimension
     }
 
     /// The clock.
@@ -141,7 +173,12 @@ impl Simulation {
 
     /// The largest stable step for the current state (see [`stable_time_step`]).
     pub fn stable_time_step(&mut self) -> f64 {
-        stable_time_step(&mut self.world)
+        self.stability().dt
+    }
+
+    /// The stable step for the current state and the particle that sets it.
+    pub fn stability(&mut self) -> StableStep {
+        with_dim!(self.dimension, D => stable_time_step::<D>(&mut self.world))
     }
 
     /// The size of the next step under the scene's rule, clipped to land on the end time.
@@ -188,30 +225,56 @@ impl Simulation {
     }
 }
 
-/// The stable step [`TimeStepLimit::stable_step`] for the fastest particle signal
-/// `max_p (c_p + |v_p|)`, with `c_p` the particle's current wave speed, or its material's
-/// small-strain wave speed when no stress system has set one.
-pub fn stable_time_step(world: &mut World) -> f64 {
-    let h = world.resource::<Grid>().spacing;
+/// The stable step and what limits it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StableStep {
+    /// The largest stable step (s).
+    pub dt: f64,
+    /// Number of space dimensions `d` in `h / (√d (c + |v|))`.
+    pub dimensions: usize,
+    /// Grid spacing `h` (m).
+    pub spacing: f64,
+    /// The fastest signal `max_p (c_p + |v_p|)` (m/s).
+    pub speed: f64,
+    /// Id and material index of the particle with the fastest signal.
+    pub particle: Option<(u32, u16)>,
+    /// The fraction of the central-difference limit the installed systems allow.
+    pub limit: TimeStepLimit,
+}
+
+/// The one rule for the stable step: [`TimeStepLimit::stable_step`] for the fastest particle
+/// signal `max_p (c_p + |v_p|)`, with `c_p` the particle's current wave speed, or its material's
+/// small-strain wave speed when no stress system has set one. Validation checks a fixed step
+/// against it and CFL steps follow it.
+pub fn stable_time_step<D: Dim>(world: &mut World) -> StableStep {
+    let h = world.resource::<Grid<D>>().spacing;
     let speeds: Vec<f64> = world
         .resource::<Materials>()
         .0
         .iter()
         .map(|m| m.wave_speed())
         .collect();
-    let fastest = world
-        .query_filtered::<(&MaterialId, &WaveSpeed, &Velocity), With<Particle>>()
-        .iter(world)
-        .map(|(m, c, v)| {
-            let c = if c.0 > 0.0 {
-                c.0
-            } else {
-                speeds.get(m.0 as usize).copied().unwrap_or(0.0)
-            };
-            c + v.0.length()
-        })
-        .fold(0.0, f64::max);
-    world
-        .get_resource_or_init::<TimeStepLimit>()
-        .stable_step(h, fastest)
+    let mut fastest = (0.0, None);
+    let mut query = world
+        .query_filtered::<(&ParticleId, &MaterialId, &WaveSpeed, &Velocity<D>), With<Particle>>();
+    for (id, m, c, v) in query.iter(world) {
+        let c = if c.0 > 0.0 {
+            c.0
+        } else {
+            speeds.get(m.0 as usize).copied().unwrap_or(0.0)
+        };
+        let speed = c + v.0.length();
+        if speed > fastest.0 {
+            fastest = (speed, Some((id.0, m.0)));
+        }
+    }
+    let limit = world.get_resource_or_init::<TimeStepLimit>().clone();
+    StableStep {
+        dt: limit.stable_step(D::N, h, fastest.0),
+        dimensions: D::N,
+        spacing: h,
+        speed: fastest.0,
+        particle: fastest.1,
+        limit,
+    }
 }

@@ -1,75 +1,96 @@
-//! Helpers for testing one system alone on a tiny world.
+//! Helpers for testing one system alone on a tiny world, in either dimension.
 //!
 //! ```
 //! use fractum_engine::prelude::*;
 //! use fractum_engine::testing::*;
 //!
 //! // A 2×2-cell grid of spacing 0.5, one particle, one step of 1 ms.
-//! let mut world = tiny_world(2, 0.5, 1e-3);
-//! spawn_particle(&mut world, Vector::new(0.3, 0.6), Vector::new(1.0, 0.0), 2.0, 0.25);
-//! run_system(&mut world, |mut q: Query<&mut Velocity, With<Particle>>| {
+//! let mut world = tiny_world::<Two>(2, 0.5, 1e-3);
+//! spawn_particle(&mut world, DVec2::new(0.3, 0.6), DVec2::new(1.0, 0.0), 2.0, 0.25);
+//! run_system(&mut world, |mut q: Query<&mut Velocity<Two>, With<Particle>>| {
 //!     for mut v in &mut q {
 //!         v.0 *= 2.0;
 //!     }
 //! });
-//! assert_eq!(particle_values::<Velocity>(&mut world)[0].0, Vector::new(2.0, 0.0));
+//! assert_eq!(particle_values::<Velocity<Two>>(&mut world)[0].0, DVec2::new(2.0, 0.0));
 //! ```
+//!
+//! The same test in 3D is `tiny_world::<Three>` with `DVec3` positions.
 
 use crate::boundary::{BoundaryConditions, Reactions};
 use crate::components::{NodeBundle, NodeIndex, Particle, ParticleBundle, ParticleId};
 use crate::connectivity::Connectivity;
-use crate::dim::Vector;
+use crate::dim::{Dim, Lattice, Three, Two, VectorOps};
 use crate::health::Health;
-use crate::resources::{BodyForce, Grid, Material, Materials, SimClock};
+use crate::resources::{BodyForce, Grid, Material, Materials, SimClock, Thickness};
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::ScheduleConfigs;
 use bevy_ecs::system::ScheduleSystem;
+use glam::{DVec2, DVec3};
 
 /// The material of [`tiny_world`]: E = 100 Pa, ν = 0.25, ρ = 1 kg/m³.
 pub fn test_material() -> Material {
-    Material {
-        name: "test".into(),
-        density: 1.0,
-        youngs_modulus: 100.0,
-        poisson_ratio: 0.25,
-    }
+    Material::new("test", 1.0, 100.0, 0.25)
 }
 
-/// A world with an `n × n`-cell grid of spacing `h` at the origin, its nodes, one material
-/// ([`test_material`]), a clock with step `dt`, no body force and no boundary conditions.
-pub fn tiny_world(n: usize, h: f64, dt: f64) -> World {
-    let grid = Grid {
-        min: Vector::ZERO,
+/// A world with an `n × n` (× `n`)-cell grid of spacing `h` at the origin in dimension `D`, its
+/// nodes, one material ([`test_material`]), a clock with step `dt`, no body force and no
+/// boundary conditions.
+pub fn tiny_world<D: Dim>(n: usize, h: f64, dt: f64) -> World {
+    let grid = Grid::<D> {
+        min: D::Vector::ZERO,
         spacing: h,
-        cells: [n, n],
+        cells: D::Cell::from_fn(|_| n),
     };
     let mut world = World::new();
     world.insert_resource(grid);
+    world.insert_resource(D::DIMENSION);
     world.insert_resource(SimClock {
         step: 0,
         time: 0.0,
         dt,
     });
     world.insert_resource(Materials(vec![test_material()]));
-    world.insert_resource(BodyForce::default());
+    world.insert_resource(Thickness::default());
+    world.insert_resource(BodyForce::<D>::default());
     world.insert_resource(BoundaryConditions::default());
-    world.insert_resource(Reactions::default());
-    world.insert_resource(Connectivity::default());
+    world.insert_resource(Reactions::<D>::default());
+    world.insert_resource(Connectivity::<D>::default());
     world.insert_resource(Health::default());
     let nodes: Vec<_> = (0..grid.node_count())
-        .map(|i| NodeBundle::new(i as u32, grid.node_position(i)))
+        .map(|i| NodeBundle::<D>::new(i as u32, grid.node_position(i)))
         .collect();
     world.spawn_batch(nodes);
     world
 }
 
-/// Spawns a particle of material 0 with the next free id.
-pub fn spawn_particle(world: &mut World, x: Vector, v: Vector, mass: f64, volume: f64) -> Entity {
+/// A vector type that says which dimension it belongs to, so that test helpers can infer it.
+pub trait SpaceVector: Copy {
+    /// The dimension whose vectors these are.
+    type D: Dim<Vector = Self>;
+}
+
+impl SpaceVector for DVec2 {
+    type D = Two;
+}
+
+impl SpaceVector for DVec3 {
+    type D = Three;
+}
+
+/// Spawns a particle of material 0 with the next free id at `x` with velocity `v`.
+pub fn spawn_particle<V: SpaceVector>(
+    world: &mut World,
+    x: V,
+    v: V,
+    mass: f64,
+    volume: f64,
+) -> Entity {
     let id = world
         .query_filtered::<(), With<Particle>>()
         .iter(world)
         .count() as u32;
-    let mut bundle = ParticleBundle::new(id, x, mass, volume, 0);
+    let mut bundle = ParticleBundle::<V::D>::new(id, x, mass, volume, 0);
     bundle.velocity.0 = v;
     world.spawn(bundle).id()
 }

@@ -1,38 +1,38 @@
-//! Criterion benchmarks of the hot numerical kernels, each alone and outside the ECS:
-//! LME shape functions at one point, the bilinear row, a particle-to-grid scatter, a
-//! grid-to-particle gather and the two stress updates. Run with `cargo bench -p fractum-systems`.
+//! Criterion benchmarks of the hot numerical kernels, each alone and outside the ECS, in 2D
+//! and 3D: LME shape functions at one point, the multilinear rows, a particle-to-grid scatter, a
+//! grid-to-particle gather, the two stress updates and 3×3 principal values. Run with
+//! `cargo bench -p fractum-systems`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use fractum_engine::connectivity::Connectivity;
+use fractum_engine::dim::lattice_range;
 use fractum_engine::prelude::*;
-use fractum_systems::basis::linear::bilinear_row;
+use fractum_systems::basis::linear::{fill_multilinear_row, nodes_per_particle};
 use fractum_systems::basis::lme_kernel::{LmeScratch, LmeSettings, lme_solve, support_radius};
 use fractum_systems::stress::linear_elastic::{ElasticState, update_elastic};
 use fractum_systems::stress::neo_hookean::neo_hookean_stress_of;
 use fractum_systems::transfer::interpolate;
 use std::hint::black_box;
 
-fn grid(cells: usize) -> Grid {
+fn grid<D: Dim>(cells: usize) -> Grid<D> {
     Grid {
-        min: Vector::ZERO,
+        min: D::Vector::ZERO,
         spacing: 1.0 / cells as f64,
-        cells: [cells, cells],
+        cells: D::Cell::from_fn(|_| cells),
     }
 }
 
-/// Particles at 2 × 2 per cell over the whole grid.
-fn particles(g: &Grid) -> Vec<Vector> {
+/// Particles at 2 per cell per direction over the whole grid.
+fn particles<D: Dim>(g: &Grid<D>) -> Vec<D::Vector> {
     let h = g.spacing;
-    (0..2 * g.cells[1])
-        .flat_map(|j| {
-            (0..2 * g.cells[0])
-                .map(move |i| Vector::new((i as f64 + 0.5) * h / 2.0, (j as f64 + 0.5) * h / 2.0))
-        })
+    let counts = D::Cell::from_fn(|a| 2 * g.cells[a]);
+    lattice_range(D::Cell::default(), counts)
+        .map(|k| D::Vector::from_fn(|a| (k[a] as f64 + 0.5) * h / 2.0))
         .collect()
 }
 
-fn lme_point(c: &mut Criterion) {
-    let g = grid(50);
+fn lme_point<D: Dim>(c: &mut Criterion, cells: usize) {
+    let g = grid::<D>(cells);
     let h = g.spacing;
     let settings = LmeSettings {
         beta: 3.5 / (h * h),
@@ -40,21 +40,22 @@ fn lme_point(c: &mut Criterion) {
         length_scale: h,
         max_iterations: 50,
     };
-    let x = Vector::new(0.503, 0.498);
+    let x = D::Vector::from_fn(|a| 0.503 - 0.005 * a as f64);
     let radius = support_radius(settings.beta, 1e-6);
-    let nodes: Vec<Vector> = (0..g.node_count())
+    let nodes: Vec<D::Vector> = (0..g.node_count())
         .map(|i| g.node_position(i))
         .filter(|n| (*n - x).length() <= radius)
         .collect();
     let mut scratch = LmeScratch::default();
-    let (warm, _, _) = lme_solve(x, &nodes, &settings, Vector::ZERO, &mut scratch).unwrap();
-    c.bench_function("lme_solve cold (13 nodes)", |b| {
-        b.iter(|| lme_solve(black_box(x), &nodes, &settings, Vector::ZERO, &mut scratch).unwrap())
+    let (warm, _, _) = lme_solve::<D>(x, &nodes, &settings, D::Vector::ZERO, &mut scratch).unwrap();
+    let label = format!("{}D, {} nodes", D::N, nodes.len());
+    c.bench_function(&format!("lme_solve cold ({label})"), |b| {
+        b.iter(|| lme_solve::<D>(black_box(x), &nodes, &settings, D::Vector::ZERO, &mut scratch).unwrap())
     });
-    c.bench_function("lme_solve warm (13 nodes)", |b| {
+    c.bench_function(&format!("lme_solve warm ({label})"), |b| {
         b.iter(|| {
-            lme_solve(
-                black_box(x + Vector::splat(1e-4 * h)),
+            lme_solve::<D>(
+                black_box(x + D::Vector::splat(1e-4 * h)),
                 &nodes,
                 &settings,
                 warm,
@@ -65,63 +66,75 @@ fn lme_point(c: &mut Criterion) {
     });
 }
 
-fn transfers(c: &mut Criterion) {
-    let g = grid(158); // about 100k particles
+fn transfers<D: Dim>(c: &mut Criterion, cells: usize) {
+    let g = grid::<D>(cells);
     let xs = particles(&g);
-    let mut conn = Connectivity::default();
-    c.bench_function("bilinear rows + transpose (100k particles)", |b| {
+    let label = format!("{}D, {}k particles", D::N, xs.len() / 1000);
+    let mut conn = Connectivity::<D>::default();
+    c.bench_function(&format!("multilinear rows + transpose ({label})"), |b| {
         b.iter(|| {
-            conn.fill_fixed_width(xs.len(), 4, g.node_count(), |p, n, w, gr| {
-                for (k, (node, weight, gradient)) in
-                    bilinear_row(&g, xs[p]).unwrap().into_iter().enumerate()
-                {
-                    n[k] = node;
-                    w[k] = weight;
-                    gr[k] = gradient;
-                }
+            conn.fill_fixed_width(xs.len(), nodes_per_particle::<D>(), g.node_count(), |p, n, w, gr| {
+                fill_multilinear_row(&g, xs[p], n, w, gr);
             })
         })
     });
     let masses = vec![1.0; xs.len()];
     let mut node_mass = vec![0.0; g.node_count()];
-    c.bench_function("scatter mass to nodes (100k particles)", |b| {
+    c.bench_function(&format!("scatter mass to nodes ({label})"), |b| {
         b.iter(|| conn.scatter_to_nodes(&mut node_mass, |e, p| conn.weights[e] * masses[p]))
     });
-    let accelerations =
-        vec![NodeAcceleration([Vector::new(1.0, 2.0), Vector::ZERO]); g.node_count()];
-    let velocities = vec![NodeVelocity([Vector::new(0.5, 0.1), Vector::ZERO]); g.node_count()];
-    c.bench_function("gather to particles (100k particles)", |b| {
+    let v = D::Vector::from_fn(|a| 0.5 - 0.2 * a as f64);
+    let accelerations = vec![NodeAcceleration::<D>([v * 2.0, D::Vector::ZERO]); g.node_count()];
+    let velocities = vec![NodeVelocity::<D>([v, D::Vector::ZERO]); g.node_count()];
+    c.bench_function(&format!("gather to particles ({label})"), |b| {
         b.iter(|| {
             (0..xs.len())
-                .map(|p| interpolate(&conn, &accelerations, &velocities, p).0.x)
+                .map(|p| interpolate(&conn, &accelerations, &velocities, p).0[0])
                 .sum::<f64>()
         })
     });
 }
 
-fn stress(c: &mut Criterion) {
-    let state = ElasticState {
-        stress: SymTensor::ZERO,
-        strain: SymTensor::ZERO,
-        deformation_gradient: Matrix::IDENTITY,
+fn stress<D: Dim>(c: &mut Criterion) {
+    let state = ElasticState::<D> {
+        stress: D::Sym::ZERO,
+        strain: D::Sym::ZERO,
+        deformation_gradient: D::Matrix::IDENTITY,
         volume: 1.0,
         energy_density: 0.0,
     };
-    let l = Matrix::from_cols(Vector::new(0.1, 0.02), Vector::new(-0.03, 0.05));
-    c.bench_function("linear elastic update (one particle)", |b| {
-        b.iter(|| update_elastic(black_box(&state), l, 1e-3, (40.0, 40.0), 1.0))
+    let grad = |i: usize, j: usize| [[0.1, -0.03, 0.01], [0.02, 0.05, 0.0], [-0.02, 0.01, 0.04]][i][j];
+    let l = D::Matrix::from_fn(grad);
+    c.bench_function(&format!("linear elastic update ({}D, one particle)", D::N), |b| {
+        b.iter(|| update_elastic::<D>(black_box(&state), l, 1e-3, (40.0, 40.0), 1.0))
     });
-    let f = Matrix::from_cols(Vector::new(1.01, 0.02), Vector::new(-0.03, 0.99));
-    c.bench_function("neo-Hookean stress (one particle)", |b| {
-        b.iter(|| neo_hookean_stress_of(black_box(f), 40.0, 40.0))
+    let f = D::Matrix::IDENTITY + D::Matrix::from_fn(grad) * 0.1;
+    c.bench_function(&format!("neo-Hookean stress ({}D, one particle)", D::N), |b| {
+        b.iter(|| neo_hookean_stress_of::<D>(black_box(f), 40.0, 40.0))
     });
+    let s = D::Sym::from_fn(|i, j| grad(i, j) + grad(j, i));
+    c.bench_function(&format!("largest principal value ({}D)", D::N), |b| {
+        b.iter(|| black_box(s).largest_principal())
+    });
+}
+
+fn two_dimensions(c: &mut Criterion) {
+    lme_point::<Two>(c, 50);
+    transfers::<Two>(c, 158); // about 100k particles
+    stress::<Two>(c);
+}
+
+fn three_dimensions(c: &mut Criterion) {
+    lme_point::<Three>(c, 20);
+    transfers::<Three>(c, 23); // about 100k particles
+    stress::<Three>(c);
 }
 
 // The macro generates an undocumented function.
 #[allow(missing_docs)]
 mod group {
     use super::*;
-    criterion_group!(benches, lme_point, transfers, stress);
+    criterion_group!(benches, two_dimensions, three_dimensions);
 }
 use group::benches;
 criterion_main!(benches);

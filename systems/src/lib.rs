@@ -14,6 +14,7 @@ pub mod damage;
 pub mod neighbour;
 pub mod predictor;
 pub mod stress;
+pub mod spatial;
 pub mod transfer;
 
 /// Every stock registration.

@@ -1,11 +1,14 @@
 //! `fractum bench`: particle-steps per second of the stock pipelines on a generated scene.
 //!
-//! The scene is a square elastic block filled with 2 × 2 particles per cell, vibrating in a
-//! sine velocity profile, on a grid with a margin of four cells; no output is written. One
-//! warm-up step (cold LME multipliers, first neighbour search) is excluded from the timing.
+//! The scene is a square (2D) or cubic (3D) elastic block filled with 2 particles per cell per
+//! direction, vibrating in a sine velocity profile, on a grid with a margin of four cells; no
+//! output is written. It is built in code with the scene builder. One warm-up step (cold LME
+//! multipliers, first neighbour search) is excluded from the timing.
 
+use fractum_engine::prelude::*;
 use fractum_engine::registry::Registry;
-use fractum_engine::scene::{SceneFile, build_simulation};
+use fractum_engine::scene::{Body, InitialVelocity, Output, Shape, Spec};
+use fractum_engine::simulation::{End, TimeStep};
 use std::fmt::Write as _;
 use std::time::Instant;
 
@@ -34,62 +37,77 @@ impl BenchPipeline {
         }
     }
 
-    fn entries(self) -> String {
-        // Linear + USL with a neighbour builder and eigensoftening whose strength is too high
-        // to crack, so every step evaluates the non-local stress of every particle.
-        let softening = |neighbour: &str| {
-            format!(
-                r#"(system: "{neighbour}", params: (c_epsilon: 2.0)), (system: "basis/linear"),
-                   (system: "predictor/usl"), (system: "stress/linear_elastic"),
-                   (system: "damage/eigensoftening", params: (tensile_strength: 1.0e12,
-                       fracture_energy: 100.0, band_width: 0.02)),
-                   (system: "advection/usl")"#
+    /// The pipeline's systems, with their parameters.
+    fn systems<D: Dim>(self, spec: Spec<D>) -> Spec<D> {
+        let usl = |spec: Spec<D>| {
+            spec.system("basis/linear")
+                .system("predictor/usl")
+                .system("stress/linear_elastic")
+                .system("advection/usl")
+        };
+        // Strength too high to crack, so every step evaluates the non-local stress of every
+        // particle.
+        let softening = |spec: Spec<D>, neighbour: &str| {
+            usl(spec.system_with(neighbour, "(c_epsilon: 2.0)")).system_with(
+                "damage/eigensoftening",
+                "(tensile_strength: 1.0e12, fracture_energy: 100.0, band_width: 0.02)",
             )
         };
         match self {
-            BenchPipeline::LinearUsl => r#"(system: "basis/linear"), (system: "predictor/usl"),
-                   (system: "stress/linear_elastic"), (system: "advection/usl")"#
-                .to_string(),
-            BenchPipeline::LmeNewmark => {
-                r#"(system: "basis/lme", params: (gamma: 3.5)), (system: "predictor/newmark"),
-                   (system: "stress/linear_elastic"), (system: "corrector/newmark"),
-                   (system: "advection/newmark")"#
-                    .to_string()
-            }
-            BenchPipeline::KdtreeSoftening => softening("neighbour/kdtree"),
-            BenchPipeline::NodeLinkedSoftening => softening("neighbour/node_linked"),
+            BenchPipeline::LinearUsl => usl(spec),
+            BenchPipeline::LmeNewmark => spec
+                .system_with("basis/lme", "(gamma: 3.5)")
+                .system("predictor/newmark")
+                .system("stress/linear_elastic")
+                .system("corrector/newmark")
+                .system("advection/newmark"),
+            BenchPipeline::KdtreeSoftening => softening(spec, "neighbour/kdtree"),
+            BenchPipeline::NodeLinkedSoftening => softening(spec, "neighbour/node_linked"),
         }
     }
 }
 
-/// The benchmark scene with about `particles` particles.
-pub fn bench_scene(pipeline: BenchPipeline, particles: usize) -> String {
-    let cells = ((particles as f64 / 4.0).sqrt().round() as usize).max(1);
+/// The benchmark block with about `particles` particles in dimension `D`.
+pub fn bench_spec<D: Dim>(pipeline: BenchPipeline, particles: usize) -> Spec<D> {
+    let per_cell = (1usize << D::N) as f64;
+    let cells = ((particles as f64 / per_cell).powf(1.0 / D::N as f64).round() as usize).max(1);
     let h = 0.01;
     let margin = 4.0 * h;
     let side = cells as f64 * h;
-    format!(
-        r#"(
-    title: "benchmark block, {particles} particles, {name}",
-    time: (step: Cfl(0.5), end: Steps(1000000)),
-    grid: (min: (0.0, 0.0), max: ({g}, {g}), spacing: {h}),
-    materials: {{ "elastic": (density: 1000.0, youngs_modulus: 1.0e6, poisson_ratio: 0.3) }},
-    bodies: [(
-        shape: Rectangle(min: ({m}, {m}), max: ({e}, {e})),
-        material: "elastic",
-        particles_per_cell: 2,
-        velocity: Sine(amplitude: (0.1, 0.05), axis: X, wavelength: {w}, origin: {m}),
-    )],
-    output: (vtu_every: 0, csv_every: 0),
-    pipeline: [{entries}],
-)"#,
-        name = pipeline.name(),
-        g = side + 2.0 * margin,
-        m = margin,
-        e = margin + side,
-        w = 2.0 * side,
-        entries = pipeline.entries(),
-    )
+    let grid = Grid::<D> {
+        min: D::Vector::ZERO,
+        spacing: h,
+        cells: D::Cell::from_fn(|_| cells + 8),
+    };
+    // Decreasing amplitudes along y (and z) so no two components are alike.
+    let amplitude = D::Vector::from_fn(|a| 0.1 / (1 << a) as f64);
+    let shape = match D::N {
+        2 => Shape::Rectangle {
+            min: DVec2::splat(margin),
+            max: DVec2::splat(margin + side),
+        },
+        _ => Shape::Box {
+            min: DVec3::splat(margin),
+            max: DVec3::splat(margin + side),
+        },
+    };
+    let spec = Spec::new(grid)
+        .named("<bench>")
+        .title(&format!("benchmark block, {particles} particles, {}", pipeline.name()))
+        .time(TimeStep::Cfl(0.5), End::Steps(1_000_000))
+        .material(Material::new("elastic", 1000.0, 1.0e6, 0.3))
+        .body(Body::new(shape, "elastic").velocity(InitialVelocity::Sine {
+            amplitude,
+            axis: 0,
+            wavelength: 2.0 * side,
+            origin: margin,
+        }))
+        .output(Output {
+            vtu_every: 0,
+            csv_every: 0,
+            ..Output::default()
+        });
+    pipeline.systems(spec)
 }
 
 /// One measurement.
@@ -97,6 +115,8 @@ pub fn bench_scene(pipeline: BenchPipeline, particles: usize) -> String {
 pub struct BenchResult {
     /// Pipeline.
     pub pipeline: BenchPipeline,
+    /// Dimension of the block.
+    pub dimension: Dimension,
     /// Particles in the scene.
     pub particles: usize,
     /// Threads.
@@ -114,30 +134,41 @@ impl BenchResult {
     }
 }
 
-/// Runs one measurement: build, one warm-up step, then `steps` timed steps.
-pub fn measure(
-    registry: &Registry,
-    pipeline: BenchPipeline,
-    particles: usize,
-    threads: usize,
-    steps: u64,
-) -> Result<BenchResult, String> {
-    let file =
-        SceneFile::parse("<bench>", bench_scene(pipeline, particles)).map_err(|e| e.to_string())?;
-    let mut built = build_simulation(&file, registry).map_err(|e| e.to_string())?;
-    let sim = &mut built.simulation;
-    sim.set_threads(threads).map_err(|e| e.to_string())?;
+/// What to measure.
+#[derive(Clone, Copy, Debug)]
+pub struct BenchCase {
+    /// Pipeline.
+    pub pipeline: BenchPipeline,
+    /// Dimension of the block.
+    pub dimension: Dimension,
+    /// About this many particles.
+    pub particles: usize,
+    /// Threads.
+    pub threads: usize,
+    /// Timed steps.
+    pub steps: u64,
+}
+
+/// Runs one measurement: build, one warm-up step, then `case.steps` timed steps.
+pub fn measure(registry: &Registry, case: BenchCase) -> Result<BenchResult, String> {
+    let built = with_dim!(case.dimension, D => {
+        bench_spec::<D>(case.pipeline, case.particles).build(registry)
+    })
+    .map_err(|e| e.to_string())?;
+    let mut sim = built.simulation;
+    sim.set_threads(case.threads).map_err(|e| e.to_string())?;
     let count = sim.particle_count();
     sim.step().map_err(|e| e.to_string())?;
     let started = Instant::now();
-    for _ in 0..steps {
+    for _ in 0..case.steps {
         sim.step().map_err(|e| e.to_string())?;
     }
     Ok(BenchResult {
-        pipeline,
+        pipeline: case.pipeline,
+        dimension: case.dimension,
         particles: count,
-        threads,
-        steps,
+        threads: case.threads,
+        steps: case.steps,
         seconds: started.elapsed().as_secs_f64(),
     })
 }
@@ -150,13 +181,17 @@ pub fn default_steps(particles: usize) -> u64 {
 /// Markdown table of results.
 pub fn table(results: &[BenchResult]) -> String {
     let mut out = String::from(
-        "| pipeline | particles | threads | steps | wall (s) | particle-steps/s |\n| --- | --- | --- | --- | --- | --- |\n",
+        "| pipeline | dim | particles | threads | steps | wall (s) | particle-steps/s |\n| --- | --- | --- | --- | --- | --- | --- |\n",
     );
     for r in results {
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {} | {:.3} | {:.3e} |",
+            "| {} | {} | {} | {} | {} | {:.3} | {:.3e} |",
             r.pipeline.name(),
+            match r.dimension {
+                Dimension::Two => "2D",
+                Dimension::Three => "3D",
+            },
             r.particles,
             r.threads,
             r.steps,
@@ -180,9 +215,18 @@ mod tests {
             BenchPipeline::KdtreeSoftening,
             BenchPipeline::NodeLinkedSoftening,
         ] {
-            let result = measure(&registry, pipeline, 400, 1, 2).unwrap();
-            assert_eq!(result.particles, 400);
-            assert!(result.rate() > 0.0);
+            for (dimension, particles) in [(Dimension::Two, 400), (Dimension::Three, 512)] {
+                let case = BenchCase {
+                    pipeline,
+                    dimension,
+                    particles,
+                    threads: 1,
+                    steps: 2,
+                };
+                let result = measure(&registry, case).unwrap();
+                assert_eq!(result.particles, particles);
+                assert!(result.rate() > 0.0);
+            }
         }
     }
 }

@@ -12,11 +12,15 @@
 pub mod bench;
 pub mod plot;
 
-use bench::{BenchPipeline, default_steps, measure, table};
+use bench::{BenchCase, BenchPipeline, default_steps, measure, table};
 use clap::{Parser, Subcommand, ValueEnum};
+use fractum_engine::dim::{Dim, Dimension};
 use fractum_engine::registry::Registry;
+use fractum_engine::resources::{Grid, Materials, Thickness};
 use fractum_engine::run::{RunError, RunSummary, run};
-use fractum_engine::scene::{Built, End, SceneError, SceneFile, TimeStep, build_simulation};
+use fractum_engine::scene::{Built, SceneError, SceneFile, build_simulation};
+use fractum_engine::simulation::{End, TimeStep};
+use fractum_engine::with_dim;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::ffi::OsString;
 use std::fmt::Write as _;
@@ -105,6 +109,9 @@ pub enum Command {
         /// Pipelines to measure.
         #[arg(long, value_enum, value_delimiter = ',', default_values = ["linear-usl", "lme-newmark"])]
         pipeline: Vec<PipelineArg>,
+        /// Dimensions of the block (2 and/or 3).
+        #[arg(long, value_delimiter = ',', default_values = ["2", "3"], value_parser = clap::value_parser!(u8).range(2..=3))]
+        dimensions: Vec<u8>,
         /// Particle counts.
         #[arg(long, value_delimiter = ',', default_values = ["10000", "100000", "1000000"])]
         particles: Vec<usize>,
@@ -154,13 +161,27 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
         Command::Curve { csv, x, y, from } => curve_command(&csv, &x, &y, from),
         Command::Bench {
             pipeline,
+            dimensions,
             particles,
             threads,
             steps,
-        } => bench_command(&pipeline, &particles, &threads, steps, registry),
+        } => {
+            let dimensions: Vec<Dimension> = dimensions
+                .iter()
+                .filter_map(|d| Dimension::of_count(*d as usize))
+                .collect();
+            let grid = BenchGrid {
+                pipelines: &pipeline,
+                dimensions: &dimensions,
+                particles: &particles,
+                threads: &threads,
+                steps,
+            };
+            bench_command(&grid, registry)
+        }
         Command::Check { scene } => match load(&scene, registry) {
-            Ok((file, mut built)) => {
-                print!("{}", check_report(&file, &mut built));
+            Ok((_, mut built)) => {
+                print!("{}", check_report(&mut built));
                 0
             }
             Err(e) => report_scene_error(&e),
@@ -227,40 +248,61 @@ fn curve_command(csv: &Path, x: &str, y: &str, from: f64) -> i32 {
     }
 }
 
-fn bench_command(
-    pipelines: &[PipelineArg],
-    particles: &[usize],
-    threads: &[usize],
+/// Every combination `fractum bench` measures.
+struct BenchGrid<'a> {
+    pipelines: &'a [PipelineArg],
+    dimensions: &'a [Dimension],
+    particles: &'a [usize],
+    threads: &'a [usize],
     steps: Option<u64>,
-    registry: &Registry,
-) -> i32 {
-    let mut results = Vec::new();
-    for &pipeline in pipelines {
-        let pipeline = match pipeline {
-            PipelineArg::LinearUsl => BenchPipeline::LinearUsl,
-            PipelineArg::LmeNewmark => BenchPipeline::LmeNewmark,
-            PipelineArg::KdtreeSoftening => BenchPipeline::KdtreeSoftening,
-            PipelineArg::NodeLinkedSoftening => BenchPipeline::NodeLinkedSoftening,
-        };
-        for &n in particles {
-            for &t in threads {
-                let steps = steps.unwrap_or_else(|| default_steps(n));
-                match measure(registry, pipeline, n, t.max(1), steps) {
-                    Ok(result) => {
-                        eprintln!(
-                            "{} {} particles, {} threads: {:.3e} particle-steps/s",
-                            pipeline.name(),
-                            result.particles,
-                            result.threads,
-                            result.rate()
-                        );
-                        results.push(result);
-                    }
-                    Err(e) => {
-                        eprintln!("error: {e}");
-                        return EXIT_BLOWUP;
+}
+
+impl BenchGrid<'_> {
+    fn cases(&self) -> Vec<BenchCase> {
+        let mut cases = Vec::new();
+        for &pipeline in self.pipelines {
+            let pipeline = match pipeline {
+                PipelineArg::LinearUsl => BenchPipeline::LinearUsl,
+                PipelineArg::LmeNewmark => BenchPipeline::LmeNewmark,
+                PipelineArg::KdtreeSoftening => BenchPipeline::KdtreeSoftening,
+                PipelineArg::NodeLinkedSoftening => BenchPipeline::NodeLinkedSoftening,
+            };
+            for &dimension in self.dimensions {
+                for &particles in self.particles {
+                    for &threads in self.threads {
+                        cases.push(BenchCase {
+                            pipeline,
+                            dimension,
+                            particles,
+                            threads: threads.max(1),
+                            steps: self.steps.unwrap_or_else(|| default_steps(particles)),
+                        });
                     }
                 }
+            }
+        }
+        cases
+    }
+}
+
+fn bench_command(grid: &BenchGrid, registry: &Registry) -> i32 {
+    let mut results = Vec::new();
+    for case in grid.cases() {
+        match measure(registry, case) {
+            Ok(result) => {
+                eprintln!(
+                    "{} {} {} particles, {} threads: {:.3e} particle-steps/s",
+                    result.pipeline.name(),
+                    result.dimension.describe(),
+                    result.particles,
+                    result.threads,
+                    result.rate()
+                );
+                results.push(result);
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                return EXIT_BLOWUP;
             }
         }
     }
@@ -311,41 +353,56 @@ fn describe_step(step: TimeStep, limit: f64) -> String {
     }
 }
 
+/// `(x, y)` or `(x, y, z)` with plain number formatting.
+fn point<D: Dim>(v: D::Vector) -> String {
+    use fractum_engine::dim::VectorOps;
+    let parts: Vec<String> = v.to_3d()[..D::N].iter().map(|c| c.to_string()).collect();
+    format!("({})", parts.join(", "))
+}
+
+/// The grid line of `fractum check`.
+fn grid_line<D: Dim>(built: &mut Built) -> String {
+    let grid = *built.simulation.world.resource::<Grid<D>>();
+    let cells: Vec<String> = grid.cells.as_ref().iter().map(|c| c.to_string()).collect();
+    format!(
+        "{} cells, h = {} m, {} nodes, box {} to {}",
+        cells.join(" x "),
+        grid.spacing,
+        grid.node_count(),
+        point::<D>(grid.min),
+        point::<D>(grid.max())
+    )
+}
+
 /// The `fractum check` summary of a valid scene.
-pub fn check_report(file: &SceneFile, built: &mut Built) -> String {
-    let scene = &file.scene;
+pub fn check_report(built: &mut Built) -> String {
+    let summary = built.summary.clone();
     let sim = &mut built.simulation;
-    let grid = *sim.world.resource::<fractum_engine::resources::Grid>();
     let limit = sim.stable_time_step();
+    let dimension = sim.dimension();
     let mut out = String::new();
     let _ = writeln!(
         out,
         "scene      {}{}",
-        file.name,
-        if scene.title.is_empty() {
+        summary.source,
+        if summary.title.is_empty() {
             String::new()
         } else {
-            format!(" - {}", scene.title)
+            format!(" - {}", summary.title)
         }
     );
-    let _ = writeln!(
-        out,
-        "grid       {} x {} cells, h = {} m, {} nodes, box ({}, {}) to ({}, {})",
-        grid.cells[0],
-        grid.cells[1],
-        grid.spacing,
-        grid.node_count(),
-        grid.min.x,
-        grid.min.y,
-        grid.max().x,
-        grid.max().y
-    );
-    let counts: Vec<String> = scene
+    let thickness = match dimension {
+        Dimension::Two => format!(", thickness {} m", sim.world.resource::<Thickness>().0),
+        Dimension::Three => String::new(),
+    };
+    let _ = writeln!(out, "dimension  {}{thickness}", dimension.describe());
+    let grid = with_dim!(dimension, D => grid_line::<D>(built));
+    let sim = &mut built.simulation;
+    let _ = writeln!(out, "grid       {grid}");
+    let counts: Vec<String> = summary
         .bodies
         .iter()
-        .zip(&built.body_particles)
-        .enumerate()
-        .map(|(b, (body, n))| format!("{}: {n}", body.name.clone().unwrap_or(format!("body {b}"))))
+        .map(|(name, n)| format!("{name}: {n}"))
         .collect();
     let _ = writeln!(
         out,
@@ -353,11 +410,7 @@ pub fn check_report(file: &SceneFile, built: &mut Built) -> String {
         sim.particle_count(),
         counts.join(", ")
     );
-    for m in &sim
-        .world
-        .resource::<fractum_engine::resources::Materials>()
-        .0
-    {
+    for m in &sim.world.resource::<Materials>().0 {
         let _ = writeln!(
             out,
             "material   {}: density {} kg/m3, E {} Pa, nu {}, wave speed {:.4e} m/s",
@@ -372,13 +425,11 @@ pub fn check_report(file: &SceneFile, built: &mut Built) -> String {
         End::Time(t) => format!("end at t = {t} s"),
         End::Steps(n) => format!("end after {n} steps"),
     };
-    let _ = writeln!(
-        out,
-        "time       {}; {end}",
-        describe_step(scene.time.step, limit)
-    );
-    for b in &scene.boundaries {
-        let _ = writeln!(out, "boundary   {}: {:?}", b.name, b.condition);
+    if let Some(step) = summary.time_step {
+        let _ = writeln!(out, "time       {}; {end}", describe_step(step, limit));
+    }
+    for (name, condition) in &summary.boundaries {
+        let _ = writeln!(out, "boundary   {name}: {condition}");
     }
     let _ = writeln!(out, "pipeline");
     for (stage, names) in &built.pipeline.by_stage {

@@ -12,9 +12,13 @@ pub use csv::SeriesWriter;
 pub use pvd::write_pvd;
 pub use vtu::{ParticleFrame, write_particle_frame};
 
+use crate::dim::Dimension;
+
 /// What a run writes, from the scene's `output` section.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct OutputPlan {
+    /// The scene's dimension: vector columns get one column per axis.
+    pub dimension: Dimension,
     /// VTU frame every this many steps (0: none).
     pub vtu_every: u64,
     /// CSV row every this many steps (0: first and last only).
@@ -25,6 +29,20 @@ pub struct OutputPlan {
     pub last_good_frame: bool,
     /// Columns published by systems, after the probes.
     pub system_columns: Vec<String>,
+}
+
+impl OutputPlan {
+    /// A plan with no frames, a CSV row every step, no probes and no system columns.
+    pub fn new(dimension: Dimension) -> Self {
+        Self {
+            dimension,
+            vtu_every: 0,
+            csv_every: 1,
+            probes: Vec::new(),
+            last_good_frame: true,
+            system_columns: Vec::new(),
+        }
+    }
 }
 
 /// A resolved probe.
@@ -55,7 +73,20 @@ pub enum ProbeKind {
     },
 }
 
-/// The columns every `series.csv` starts with.
+impl ProbeKind {
+    /// The column-name stem; one column per axis follows it (`reaction_base` → `reaction_base_x`).
+    pub fn stem(&self) -> String {
+        match self {
+            ProbeKind::Reaction { name, .. } => format!("reaction_{name}"),
+            ProbeKind::CentreOfMassVelocity => "com_velocity".into(),
+            ProbeKind::Force { name, .. } => format!("force_{name}"),
+            ProbeKind::Displacement { name, .. } => format!("displacement_{name}"),
+        }
+    }
+}
+
+/// The columns every `series.csv` starts with, in 2D; 3D adds `momentum_z` (see
+/// [`base_columns`]).
 pub const BASE_COLUMNS: [&str; 7] = [
     "step",
     "time",
@@ -66,31 +97,56 @@ pub const BASE_COLUMNS: [&str; 7] = [
     "momentum_y",
 ];
 
+/// One column per axis: `stem_x`, `stem_y` (and `stem_z` in 3D).
+pub fn axis_columns(stem: &str, dimension: Dimension) -> Vec<String> {
+    dimension
+        .axes()
+        .iter()
+        .map(|axis| format!("{stem}_{axis}"))
+        .collect()
+}
+
+/// The columns every `series.csv` of a scene of `dimension` starts with.
+pub fn base_columns(dimension: Dimension) -> Vec<String> {
+    let mut columns: Vec<String> = BASE_COLUMNS[..5].iter().map(|c| c.to_string()).collect();
+    columns.extend(axis_columns("momentum", dimension));
+    columns
+}
+
 impl OutputPlan {
-    /// All CSV column names, base columns first, then two per probe.
+    /// All CSV column names: base columns, then one per axis for each probe, then the system
+    /// columns.
     pub fn columns(&self) -> Vec<String> {
-        let mut columns: Vec<String> = BASE_COLUMNS.iter().map(|c| c.to_string()).collect();
+        let mut columns = base_columns(self.dimension);
         for probe in &self.probes {
-            match probe {
-                ProbeKind::Reaction { name, .. } => {
-                    columns.push(format!("reaction_{name}_x"));
-                    columns.push(format!("reaction_{name}_y"));
-                }
-                ProbeKind::CentreOfMassVelocity => {
-                    columns.push("com_velocity_x".into());
-                    columns.push("com_velocity_y".into());
-                }
-                ProbeKind::Force { name, .. } => {
-                    columns.push(format!("force_{name}_x"));
-                    columns.push(format!("force_{name}_y"));
-                }
-                ProbeKind::Displacement { name, .. } => {
-                    columns.push(format!("displacement_{name}_x"));
-                    columns.push(format!("displacement_{name}_y"));
-                }
-            }
+            columns.extend(axis_columns(&probe.stem(), self.dimension));
         }
         columns.extend(self.system_columns.iter().cloned());
         columns
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn columns_have_one_entry_per_axis() {
+        let mut plan = OutputPlan::new(Dimension::Two);
+        plan.probes.push(ProbeKind::Reaction {
+            name: "base".into(),
+            index: 0,
+        });
+        plan.system_columns.push("failed_particles".into());
+        assert_eq!(
+            plan.columns().join(","),
+            "step,time,kinetic_energy,strain_energy,total_energy,momentum_x,momentum_y,\
+             reaction_base_x,reaction_base_y,failed_particles"
+        );
+        plan.dimension = Dimension::Three;
+        let columns = plan.columns();
+        assert_eq!(columns[7], "momentum_z");
+        assert_eq!(&columns[8..11], ["reaction_base_x", "reaction_base_y", "reaction_base_z"]);
+        assert_eq!(base_columns(Dimension::Two), BASE_COLUMNS);
     }
 }

@@ -6,13 +6,13 @@
 //! every VTK reader accept it.
 
 use super::atomic::write_atomically;
-use crate::dim::{SymTensor, Vector, to_3d};
 use base64::Engine as _;
 use base64::engine::general_purpose::STANDARD as BASE64;
 use std::fmt::Write;
 use std::path::Path;
 
-/// Particle data of one frame, in particle-id order.
+/// Particle data of one frame, in particle-table order. Vectors have three components (z = 0
+/// in 2D) and stresses nine (plane strain: `xz = yz = 0`, `zz` kept), as VTK expects.
 #[derive(Clone, Debug, Default)]
 pub struct ParticleFrame {
     /// Particle ids.
@@ -22,15 +22,15 @@ pub struct ParticleFrame {
     /// Material index.
     pub material: Vec<u16>,
     /// Positions.
-    pub position: Vec<Vector>,
+    pub position: Vec<[f64; 3]>,
     /// Velocities.
-    pub velocity: Vec<Vector>,
+    pub velocity: Vec<[f64; 3]>,
     /// Masses.
     pub mass: Vec<f64>,
     /// Current volumes.
     pub volume: Vec<f64>,
-    /// Cauchy stresses.
-    pub stress: Vec<SymTensor>,
+    /// Cauchy stresses, row-major 3×3.
+    pub stress: Vec<[f64; 9]>,
     /// Damage.
     pub damage: Vec<f64>,
     /// Stored energy per unit reference volume.
@@ -100,7 +100,7 @@ pub fn write_particle_frame(path: &Path, frame: &ParticleFrame) -> std::io::Resu
         Some("velocity"),
         "Float64",
         3,
-        f64_bytes(frame.velocity.iter().flat_map(|v| to_3d(*v))),
+        f64_bytes(frame.velocity.iter().flatten().copied()),
     );
     out.array(
         Some("mass"),
@@ -118,7 +118,7 @@ pub fn write_particle_frame(path: &Path, frame: &ParticleFrame) -> std::io::Resu
         Some("stress"),
         "Float64",
         9,
-        f64_bytes(frame.stress.iter().flat_map(|s| s.as_3x3())),
+        f64_bytes(frame.stress.iter().flatten().copied()),
     );
     out.array(
         Some("damage"),
@@ -137,7 +137,7 @@ pub fn write_particle_frame(path: &Path, frame: &ParticleFrame) -> std::io::Resu
         None,
         "Float64",
         3,
-        f64_bytes(frame.position.iter().flat_map(|v| to_3d(*v))),
+        f64_bytes(frame.position.iter().flatten().copied()),
     );
     out.xml.push_str("      </Points>\n      <Cells>\n");
     out.array(Some("connectivity"), "Int64", 1, i64_bytes(0..n as i64));

@@ -63,6 +63,16 @@ impl SceneError {
         }
     }
 
+    /// An error about `field` of a scene that has no text to point into (built in code).
+    pub fn unplaced(source: &str, field: &str, message: impl Into<String>) -> Self {
+        Self {
+            file: source.to_string(),
+            location: None,
+            field: field.to_string(),
+            message: message.into(),
+        }
+    }
+
     /// An error about the file as a whole (e.g. it cannot be read).
     pub fn whole_file(file: &str, message: impl Into<String>) -> Self {
         Self {

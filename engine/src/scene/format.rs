@@ -1,14 +1,51 @@
 //! The scene file format: plain serde structs, every one rejecting unknown fields.
 //!
-//! A scene is one RON value of type [`Scene`]. See `scenes/` for examples and ARCHITECTURE.md
-//! for the meaning of each section. Units are SI throughout.
+//! A scene is one RON value of type [`Scene`]. This module only describes what a file may
+//! say; `validate.rs` turns it into a checked [`super::Spec`], which is what the engine builds
+//! from. SCENES.md documents every field (a test keeps the two in step). Units are SI.
+//!
+//! Coordinates are tuples of two numbers in a 2D scene and three in a 3D one; the grid's
+//! corners decide which, and every other coordinate of the scene must agree.
 
 use ron::value::RawValue;
 use serde::Deserialize;
+use serde::de::{Deserializer, SeqAccess, Visitor};
 use std::collections::BTreeMap;
+use std::fmt;
 
-/// A 2D point or vector written as `(x, y)`.
-pub type Pair = (f64, f64);
+/// A RON tuple of two or three items, `(x, y)` or `(x, y, z)`: the dimension is checked
+/// against the scene's when the scene is validated.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tuple<T>(pub Vec<T>);
+
+/// A point or vector: `(x, y)` in 2D, `(x, y, z)` in 3D.
+pub type Coords = Tuple<f64>;
+
+impl<'de, T: Deserialize<'de>> Deserialize<'de> for Tuple<T> {
+    fn deserialize<De: Deserializer<'de>>(deserializer: De) -> Result<Self, De::Error> {
+        struct TupleVisitor<T>(std::marker::PhantomData<T>);
+        impl<'de, T: Deserialize<'de>> Visitor<'de> for TupleVisitor<T> {
+            type Value = Tuple<T>;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a tuple of 2 values (x, y) or 3 values (x, y, z)")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Tuple<T>, A::Error> {
+                let mut items = Vec::new();
+                while let Some(item) = seq.next_element()? {
+                    items.push(item);
+                    if items.len() > 3 {
+                        return Err(serde::de::Error::invalid_length(items.len(), &self));
+                    }
+                }
+                if items.len() < 2 {
+                    return Err(serde::de::Error::invalid_length(items.len(), &self));
+                }
+                Ok(Tuple(items))
+            }
+        }
+        deserializer.deserialize_tuple(3, TupleVisitor(std::marker::PhantomData))
+    }
+}
 
 /// The whole scene.
 #[derive(Debug, Deserialize)]
@@ -22,8 +59,12 @@ pub struct Scene {
     pub units: Units,
     /// Time stepping and end of the run.
     pub time: TimeSpec,
-    /// Background grid.
+    /// Background grid; its corners decide the dimension.
     pub grid: GridSpec,
+    /// Out-of-plane thickness of a 2D scene in m (default 1): masses, forces and energies in
+    /// the outputs are for this thickness.
+    #[serde(default)]
+    pub thickness: Option<f64>,
     /// Materials by name.
     pub materials: BTreeMap<String, MaterialSpec>,
     /// Bodies seeded with particles.
@@ -31,9 +72,9 @@ pub struct Scene {
     /// Essential boundary conditions on node regions.
     #[serde(default)]
     pub boundaries: Vec<BoundarySpec>,
-    /// Body force per unit mass (an acceleration), e.g. `(0.0, -9.81)`.
+    /// Body force per unit mass (an acceleration), e.g. `(0.0, -9.81)`; zero by default.
     #[serde(default)]
-    pub body_force: Pair,
+    pub body_force: Option<Coords>,
     /// What to write and how often.
     #[serde(default)]
     pub output: OutputSpec,
@@ -41,7 +82,7 @@ pub struct Scene {
     #[serde(default)]
     pub safety: SafetySpec,
     /// The systems of the step, by name, each with its own parameters.
-    pub pipeline: Vec<PipelineEntry>,
+    pub pipeline: Vec<PipelineEntrySpec>,
 }
 
 /// Unit system of every number in the scene.
@@ -58,16 +99,16 @@ pub enum Units {
 #[serde(deny_unknown_fields)]
 pub struct TimeSpec {
     /// How the step size is chosen.
-    pub step: TimeStep,
+    pub step: TimeStepSpec,
     /// When the run ends.
-    pub end: End,
+    pub end: EndSpec,
 }
 
 /// Step size rule.
 #[derive(Debug, Deserialize, Clone, Copy, PartialEq)]
 #[serde(deny_unknown_fields)]
-pub enum TimeStep {
-    /// A fixed step in seconds; must not exceed the stable limit `h / (c + |v|)`.
+pub enum TimeStepSpec {
+    /// A fixed step in seconds; must not exceed the stable limit `h / (√d (c + |v|))`.
     Fixed(f64),
     /// A fraction in (0, 1] of the stable limit, re-evaluated every step.
     Cfl(f64),
@@ -76,7 +117,7 @@ pub enum TimeStep {
 /// End of the run.
 #[derive(Debug, Deserialize, Clone, Copy, PartialEq)]
 #[serde(deny_unknown_fields)]
-pub enum End {
+pub enum EndSpec {
     /// Simulated time in seconds.
     Time(f64),
     /// Number of steps.
@@ -87,10 +128,10 @@ pub enum End {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GridSpec {
-    /// Lower corner.
-    pub min: Pair,
-    /// Upper corner; `max − min` must be a whole number of cells.
-    pub max: Pair,
+    /// Lower corner: `(x, y)` makes a 2D scene, `(x, y, z)` a 3D one.
+    pub min: Coords,
+    /// Upper corner; `max − min` must be a whole number of cells along each axis.
+    pub max: Coords,
     /// Node spacing.
     pub spacing: f64,
 }
@@ -111,11 +152,11 @@ pub struct MaterialSpec {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BodySpec {
-    /// Optional name, shown by `fractum check`.
+    /// Optional name, shown by `fractum check` and used by `Force` probes.
     #[serde(default)]
     pub name: Option<String>,
     /// Region the particles fill.
-    pub shape: Shape,
+    pub shape: ShapeSpec,
     /// Name of a material in `materials`.
     pub material: String,
     /// Particles per cell along each direction.
@@ -124,44 +165,82 @@ pub struct BodySpec {
     /// Where particles sit inside a cell.
     #[serde(default)]
     pub placement: Placement,
-    /// Initial velocity.
+    /// Initial velocity (at rest by default).
     #[serde(default)]
-    pub velocity: InitialVelocity,
+    pub velocity: Option<VelocitySpec>,
     /// Contact group (for contact algorithms).
     #[serde(default)]
     pub contact_group: u8,
     /// Existing cracks: particles of this body inside any of these shapes start failed
     /// (damage 1: they keep their mass and carry no stress).
     #[serde(default)]
-    pub cracks: Vec<Shape>,
+    pub cracks: Vec<ShapeSpec>,
 }
 
 fn default_particles_per_cell() -> u32 {
     2
 }
 
-/// Geometric shapes a body can take.
+/// Geometric shapes a body (or an initial crack) can take: the first three in 2D scenes, the
+/// others in 3D scenes.
 #[derive(Debug, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
-pub enum Shape {
-    /// Axis-aligned rectangle.
+pub enum ShapeSpec {
+    /// 2D: axis-aligned rectangle.
     Rectangle {
         /// Lower corner.
-        min: Pair,
+        min: Coords,
         /// Upper corner.
-        max: Pair,
+        max: Coords,
     },
-    /// Disk.
+    /// 2D: disk.
     Disk {
         /// Centre.
-        center: Pair,
+        center: Coords,
         /// Radius.
         radius: f64,
     },
-    /// Simple polygon (vertices in order, either orientation).
+    /// 2D: simple polygon (vertices in order, either orientation).
     Polygon {
         /// Vertices.
-        vertices: Vec<Pair>,
+        vertices: Vec<Coords>,
+    },
+    /// 3D: axis-aligned box.
+    Box {
+        /// Lower corner.
+        min: Coords,
+        /// Upper corner.
+        max: Coords,
+    },
+    /// 3D: sphere.
+    Sphere {
+        /// Centre.
+        center: Coords,
+        /// Radius.
+        radius: f64,
+    },
+    /// 3D: circular cylinder along a coordinate axis.
+    Cylinder {
+        /// Centre (the midpoint of the axis).
+        center: Coords,
+        /// Direction of the axis.
+        axis: Axis,
+        /// Radius.
+        radius: f64,
+        /// Length along the axis.
+        length: f64,
+    },
+    /// 3D: a polygon extruded along a coordinate axis.
+    Prism {
+        /// Vertices in the plane across the axis, as the two other coordinates in x, y, z
+        /// order: `(y, z)` for axis X, `(x, z)` for Y, `(x, y)` for Z.
+        vertices: Vec<Coords>,
+        /// Direction of extrusion.
+        axis: Axis,
+        /// Coordinate along the axis where the prism starts.
+        min: f64,
+        /// Coordinate along the axis where it ends.
+        max: f64,
     },
 }
 
@@ -179,14 +258,14 @@ pub enum Placement {
 /// Initial velocity of a body.
 #[derive(Debug, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
-pub enum InitialVelocity {
+pub enum VelocitySpec {
     /// The same velocity everywhere.
-    Uniform(Pair),
+    Uniform(Coords),
     /// A sine profile along one axis: `v(x) = amplitude · sin(2π (x_axis − origin) / wavelength)`.
     /// The first axial mode of a bar of length L fixed at x = 0 is `wavelength: 4L`.
     Sine {
         /// Velocity at the crests.
-        amplitude: Pair,
+        amplitude: Coords,
         /// Coordinate the profile varies along.
         axis: Axis,
         /// Wavelength (m).
@@ -196,122 +275,42 @@ pub enum InitialVelocity {
         origin: f64,
     },
     /// A linear field `v(x) = G (x − origin)`, e.g. homogeneous stretching; `gradient` is
-    /// `((∂vx/∂x, ∂vx/∂y), (∂vy/∂x, ∂vy/∂y))`.
+    /// written row by row, `((∂vx/∂x, ∂vx/∂y), (∂vy/∂x, ∂vy/∂y))` in 2D.
     Linear {
         /// Velocity gradient, row by row.
-        gradient: (Pair, Pair),
-        /// Point where the velocity is zero.
+        gradient: Tuple<Coords>,
+        /// Point where the velocity is zero (the origin by default).
         #[serde(default)]
-        origin: Pair,
+        origin: Option<Coords>,
     },
-}
-
-impl InitialVelocity {
-    /// The velocity at `(x, y)`.
-    pub fn at(&self, x: f64, y: f64) -> Pair {
-        match self {
-            InitialVelocity::Uniform(v) => *v,
-            InitialVelocity::Sine {
-                amplitude,
-                axis,
-                wavelength,
-                origin,
-            } => {
-                let s = match axis {
-                    Axis::X => x,
-                    Axis::Y => y,
-                };
-                let factor = (2.0 * std::f64::consts::PI * (s - origin) / wavelength).sin();
-                (amplitude.0 * factor, amplitude.1 * factor)
-            }
-            InitialVelocity::Linear { gradient, origin } => {
-                let (dx, dy) = (x - origin.0, y - origin.1);
-                (
-                    gradient.0.0 * dx + gradient.0.1 * dy,
-                    gradient.1.0 * dx + gradient.1.1 * dy,
-                )
-            }
-        }
-    }
-
-    /// The largest speed the profile can give within `extent` of its origin (for the linear
-    /// field; the others are bounded everywhere).
-    pub fn max_speed(&self, extent: f64) -> f64 {
-        match self {
-            Self::Uniform(v) | Self::Sine { amplitude: v, .. } => v.0.hypot(v.1),
-            Self::Linear { gradient, .. } => {
-                let norm = (gradient.0.0.powi(2)
-                    + gradient.0.1.powi(2)
-                    + gradient.1.0.powi(2)
-                    + gradient.1.1.powi(2))
-                .sqrt();
-                norm * extent
-            }
-        }
-    }
-
-    /// True when every number is finite (and a wavelength positive).
-    pub fn is_valid(&self) -> bool {
-        match self {
-            Self::Uniform(v) => v.0.is_finite() && v.1.is_finite(),
-            Self::Sine {
-                amplitude,
-                wavelength,
-                origin,
-                ..
-            } => {
-                amplitude.0.is_finite()
-                    && amplitude.1.is_finite()
-                    && origin.is_finite()
-                    && wavelength.is_finite()
-                    && *wavelength > 0.0
-            }
-            Self::Linear { gradient, origin } => [
-                gradient.0.0,
-                gradient.0.1,
-                gradient.1.0,
-                gradient.1.1,
-                origin.0,
-                origin.1,
-            ]
-            .iter()
-            .all(|v| v.is_finite()),
-        }
-    }
-}
-
-impl Default for InitialVelocity {
-    fn default() -> Self {
-        Self::Uniform((0.0, 0.0))
-    }
 }
 
 /// A named essential boundary condition on a region of nodes.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoundarySpec {
-    /// Name; used in the `reaction_<name>_x/y` probe columns.
+    /// Name; used in the `reaction_<name>_x/y/z` probe columns.
     pub name: String,
     /// Which nodes.
-    pub nodes: Region,
+    pub nodes: RegionSpec,
     /// What is held.
-    pub condition: Condition,
+    pub condition: ConditionSpec,
 }
 
 /// A region of grid nodes.
 #[derive(Debug, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
-pub enum Region {
+pub enum RegionSpec {
     /// Nodes inside the box, boundary included.
     Box {
         /// Lower corner.
-        min: Pair,
+        min: Coords,
         /// Upper corner.
-        max: Pair,
+        max: Coords,
     },
 }
 
-/// An axis.
+/// A coordinate axis.
 #[derive(Debug, Deserialize, Clone, Copy, PartialEq, Eq)]
 #[serde(deny_unknown_fields)]
 pub enum Axis {
@@ -319,15 +318,28 @@ pub enum Axis {
     X,
     /// y.
     Y,
+    /// z (3D only).
+    Z,
+}
+
+impl Axis {
+    /// Index of the axis: 0, 1 or 2.
+    pub fn index(self) -> usize {
+        match self {
+            Axis::X => 0,
+            Axis::Y => 1,
+            Axis::Z => 2,
+        }
+    }
 }
 
 /// What a boundary region holds.
 #[derive(Debug, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
-pub enum Condition {
-    /// Both velocity components zero.
+pub enum ConditionSpec {
+    /// Every velocity component zero.
     Fixed,
-    /// Velocity component along `normal` zero, the other free.
+    /// Velocity component along `normal` zero, the others free.
     Roller {
         /// Direction of the held component.
         normal: Axis,
@@ -337,10 +349,13 @@ pub enum Condition {
     Velocity {
         /// x component.
         #[serde(default)]
-        x: Option<Vec<Pair>>,
+        x: Option<Vec<(f64, f64)>>,
         /// y component.
         #[serde(default)]
-        y: Option<Vec<Pair>>,
+        y: Option<Vec<(f64, f64)>>,
+        /// z component (3D only).
+        #[serde(default)]
+        z: Option<Vec<(f64, f64)>>,
     },
 }
 
@@ -383,20 +398,20 @@ impl Default for OutputSpec {
     }
 }
 
-/// An extra time-series quantity.
+/// An extra time-series quantity, one column per axis.
 #[derive(Debug, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub enum Probe {
-    /// Force the named boundary region exerts on the body: `reaction_<name>_x`, `_y`.
+    /// Force the named boundary region exerts on the body: `reaction_<name>_x`, `_y` (`_z`).
     Reaction(String),
-    /// Centre-of-mass velocity of all particles: `com_velocity_x`, `com_velocity_y`.
+    /// Centre-of-mass velocity of all particles: `com_velocity_x`, `_y` (`_z`).
     CentreOfMassVelocity,
     /// Net force on the named body, `Σ m_p a_p` over its particles: `force_<name>_x`, `_y`
-    /// (e.g. the impact force on a hammer is minus this).
+    /// (`_z`) (e.g. the impact force on a hammer is minus this).
     Force(String),
     /// Displacement the named region's prescribed velocity has imposed so far (its time
     /// integral; zero for components the region holds at rest or leaves free):
-    /// `displacement_<name>_x`, `_y`.
+    /// `displacement_<name>_x`, `_y` (`_z`).
     Displacement(String),
 }
 
@@ -406,13 +421,13 @@ pub enum Probe {
 pub struct SafetySpec {
     /// What happens to a particle that leaves the grid.
     #[serde(default)]
-    pub on_leave_grid: LeaveGrid,
+    pub on_leave_grid: LeaveGridSpec,
 }
 
 /// What happens to a particle that leaves the grid.
-#[derive(Debug, Default, Deserialize, Clone, Copy, PartialEq, Eq, bevy_ecs::prelude::Resource)]
+#[derive(Debug, Default, Deserialize, Clone, Copy, PartialEq, Eq)]
 #[serde(deny_unknown_fields)]
-pub enum LeaveGrid {
+pub enum LeaveGridSpec {
     /// Stop the run, naming the particle and its position (default).
     #[default]
     Stop,
@@ -424,7 +439,7 @@ pub enum LeaveGrid {
 /// One system of the pipeline.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct PipelineEntry {
+pub struct PipelineEntrySpec {
     /// Registered name, `stage/algorithm`.
     pub system: String,
     /// The system's own parameters, parsed by its installer.

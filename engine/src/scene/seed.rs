@@ -1,57 +1,9 @@
 //! Seeding bodies with particles: cell by cell, at sub-cell centres or Gauss points.
 
-use super::format::{Placement, Shape};
-use crate::dim::{Vector, cell_volume};
+use super::format::Placement;
+use super::shape::Shape;
+use crate::dim::{Dim, Lattice, VectorOps, cell_volume, lattice_range};
 use crate::resources::Grid;
-
-/// True when `x` lies inside `shape` (boundary included for rectangles and disks; even-odd rule
-/// for polygons).
-pub fn point_in_shape(shape: &Shape, x: Vector) -> bool {
-    match shape {
-        Shape::Rectangle { min, max } => {
-            x.x >= min.0 && x.x <= max.0 && x.y >= min.1 && x.y <= max.1
-        }
-        Shape::Disk { center, radius } => {
-            (x - Vector::new(center.0, center.1)).length_squared() <= radius * radius
-        }
-        Shape::Polygon { vertices } => {
-            let mut inside = false;
-            let n = vertices.len();
-            for k in 0..n {
-                let a = Vector::new(vertices[k].0, vertices[k].1);
-                let b = Vector::new(vertices[(k + 1) % n].0, vertices[(k + 1) % n].1);
-                if (a.y > x.y) != (b.y > x.y) {
-                    let crossing = a.x + (x.y - a.y) * (b.x - a.x) / (b.y - a.y);
-                    if x.x < crossing {
-                        inside = !inside;
-                    }
-                }
-            }
-            inside
-        }
-    }
-}
-
-/// Axis-aligned bounding box of a shape.
-pub fn shape_bounds(shape: &Shape) -> (Vector, Vector) {
-    match shape {
-        Shape::Rectangle { min, max } => (Vector::new(min.0, min.1), Vector::new(max.0, max.1)),
-        Shape::Disk { center, radius } => {
-            let c = Vector::new(center.0, center.1);
-            (c - Vector::splat(*radius), c + Vector::splat(*radius))
-        }
-        Shape::Polygon { vertices } => vertices.iter().fold(
-            (
-                Vector::splat(f64::INFINITY),
-                Vector::splat(f64::NEG_INFINITY),
-            ),
-            |(lo, hi), v| {
-                let v = Vector::new(v.0, v.1);
-                (lo.min(v), hi.max(v))
-            },
-        ),
-    }
-}
 
 /// Reference coordinates in [−1, 1] and weights (summing to 2) of the points along one direction.
 pub fn cell_points(placement: Placement, per_direction: u32) -> Option<Vec<(f64, f64)>> {
@@ -77,38 +29,42 @@ pub fn cell_points(placement: Placement, per_direction: u32) -> Option<Vec<(f64,
     }
 }
 
-/// Positions and volumes of the particles of `shape`, cell by cell in row-major cell order.
+/// Positions and volumes of the particles of `shape`, cell by cell in the order of cell
+/// indices (first axis fastest), `per_direction` points along each axis of every cell.
+/// In 2D the volumes are for the out-of-plane `thickness`.
 ///
 /// Returns an empty list when `placement` does not support `per_direction` points (checked by
 /// the scene validation before seeding).
-pub fn particles_in_shape(
+pub fn particles_in_shape<D: Dim>(
     shape: &Shape,
-    grid: &Grid,
+    grid: &Grid<D>,
     per_direction: u32,
     placement: Placement,
-) -> Vec<(Vector, f64)> {
+    thickness: f64,
+) -> Vec<(D::Vector, f64)> {
     let Some(points) = cell_points(placement, per_direction) else {
         return Vec::new();
     };
-    let (lo, hi) = shape_bounds(shape);
+    let (lo, hi) = shape.bounds();
+    let (lo, hi) = (D::Vector::from_fn(|a| lo[a]), D::Vector::from_fn(|a| hi[a]));
     let h = grid.spacing;
-    let first = ((lo - grid.min) / h).floor().max(Vector::ZERO);
+    let first = ((lo - grid.min) / h).floor().max(D::Vector::ZERO);
     let last = ((hi - grid.min) / h).ceil();
-    let (i0, j0) = (first.x as usize, first.y as usize);
-    let i1 = (last.x.max(0.0) as usize).min(grid.cells[0]);
-    let j1 = (last.y.max(0.0) as usize).min(grid.cells[1]);
-    let quarter_cell = cell_volume(h) / 4.0;
+    let first = D::Cell::from_fn(|a| first[a] as usize);
+    let last = D::Cell::from_fn(|a| (last[a].max(0.0) as usize).min(grid.cells[a]));
+    // Each point of the tensor-product rule stands for (h/2)^d times its weights.
+    let sub_cell = cell_volume::<D>(h) / (1usize << D::N) as f64;
+    let in_cell: Vec<D::Cell> =
+        lattice_range(D::Cell::default(), D::Cell::from_fn(|_| points.len())).collect();
     let mut out = Vec::new();
-    for j in j0..j1 {
-        for i in i0..i1 {
-            let centre = grid.min + (Vector::new(i as f64, j as f64) + 0.5) * h;
-            for &(sy, wy) in &points {
-                for &(sx, wx) in &points {
-                    let x = centre + Vector::new(sx, sy) * (0.5 * h);
-                    if point_in_shape(shape, x) {
-                        out.push((x, quarter_cell * wx * wy));
-                    }
-                }
+    for cell in lattice_range(first, last) {
+        let corner = D::Vector::from_fn(|a| cell[a] as f64);
+        let centre = grid.min + (corner + D::Vector::splat(0.5)) * h;
+        for k in &in_cell {
+            let x = centre + D::Vector::from_fn(|a| points[k[a]].0) * (0.5 * h);
+            if shape.contains(x.to_3d().into()) {
+                let volume = (0..D::N).fold(sub_cell, |v, a| v * points[k[a]].1);
+                out.push((x, volume * thickness));
             }
         }
     }
@@ -118,44 +74,56 @@ pub fn particles_in_shape(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn unit_grid() -> Grid {
-        Grid {
-            min: Vector::ZERO,
-            spacing: 0.25,
-            cells: [4, 4],
-        }
-    }
+    use crate::dim::{Three, Two};
+    use glam::{DVec2, DVec3};
 
     #[test]
     fn rectangle_filling_whole_cells_has_exact_volume() {
+        let grid = Grid::<Two> {
+            min: DVec2::ZERO,
+            spacing: 0.25,
+            cells: [4, 4],
+        };
         let shape = Shape::Rectangle {
-            min: (0.0, 0.0),
-            max: (0.5, 1.0),
+            min: DVec2::ZERO,
+            max: DVec2::new(0.5, 1.0),
         };
         for placement in [Placement::Uniform, Placement::Gauss] {
             for n in 1..=3 {
-                let particles = particles_in_shape(&shape, &unit_grid(), n, placement);
+                let particles = particles_in_shape(&shape, &grid, n, placement, 1.0);
                 assert_eq!(particles.len(), (8 * n * n) as usize);
                 let volume: f64 = particles.iter().map(|p| p.1).sum();
                 assert!((volume - 0.5).abs() < 1e-14, "{placement:?} {n}: {volume}");
             }
         }
+        let thin = particles_in_shape(&shape, &grid, 2, Placement::Uniform, 0.1);
+        let volume: f64 = thin.iter().map(|p| p.1).sum();
+        assert!((volume - 0.05).abs() < 1e-15);
     }
 
     #[test]
-    fn polygon_and_disk_membership() {
-        let triangle = Shape::Polygon {
-            vertices: vec![(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)],
+    fn box_filling_whole_cells_has_exact_volume_in_3d() {
+        let grid = Grid::<Three> {
+            min: DVec3::ZERO,
+            spacing: 0.25,
+            cells: [4, 4, 4],
         };
-        assert!(point_in_shape(&triangle, Vector::new(0.2, 0.2)));
-        assert!(!point_in_shape(&triangle, Vector::new(0.6, 0.6)));
-        let disk = Shape::Disk {
-            center: (0.5, 0.5),
-            radius: 0.25,
+        let shape = Shape::Box {
+            min: DVec3::ZERO,
+            max: DVec3::new(0.5, 1.0, 0.25),
         };
-        assert!(point_in_shape(&disk, Vector::new(0.5, 0.74)));
-        assert!(!point_in_shape(&disk, Vector::new(0.3, 0.3)));
-        assert_eq!(shape_bounds(&disk).1, Vector::new(0.75, 0.75));
+        for placement in [Placement::Uniform, Placement::Gauss] {
+            for n in 1..=3 {
+                let particles = particles_in_shape(&shape, &grid, n, placement, 1.0);
+                assert_eq!(particles.len(), (8 * n * n * n) as usize);
+                let volume: f64 = particles.iter().map(|p| p.1).sum();
+                assert!((volume - 0.125).abs() < 1e-15, "{placement:?} {n}: {volume}");
+                assert!(particles.iter().all(|p| p.0.z > 0.0 && p.0.z < 0.25));
+            }
+        }
+        // The first particles run along x first.
+        let particles = particles_in_shape(&shape, &grid, 2, Placement::Uniform, 1.0);
+        assert_eq!(particles[0].0, DVec3::splat(0.0625));
+        assert_eq!(particles[1].0, DVec3::new(0.1875, 0.0625, 0.0625));
     }
 }

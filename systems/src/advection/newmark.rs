@@ -20,16 +20,16 @@ pub const REGISTRATION: Registration = Registration {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
-    installer.add_systems(newmark_advection);
+    with_dim!(installer.dimension(), D => installer.add_systems(newmark_advection::<D>));
     Ok(())
 }
 
 /// The `advection/newmark` system.
-pub fn newmark_advection(
+pub fn newmark_advection<D: Dim>(
     clock: Res<SimClock>,
-    connectivity: Res<Connectivity>,
-    nodes: NodeMotionQuery,
-    mut particles: AdvectedQuery,
+    connectivity: Res<Connectivity<D>>,
+    nodes: NodeMotionQuery<D>,
+    mut particles: AdvectedQuery<D>,
 ) {
     let dt = clock.dt;
     advect_particles(
@@ -37,8 +37,8 @@ pub fn newmark_advection(
         &nodes,
         &mut particles,
         |x, v, a_grid, v_grid| {
-            *v += dt * a_grid;
-            *x += dt * v_grid + 0.5 * dt * dt * a_grid;
+            *v += a_grid * dt;
+            *x += v_grid * dt + a_grid * (0.5 * dt * dt);
         },
     );
 }
@@ -49,28 +49,32 @@ mod tests {
     use crate::basis::linear::linear_basis;
     use fractum_engine::testing::*;
 
+    /// A particle in a uniform grid motion moves by `Δt v_I + ½ Δt² a` and speeds up by `Δt a`.
+    fn newmark_update<D: Dim>(x: D::Vector, v: D::Vector, a: D::Vector)
+    where
+        D::Vector: SpaceVector,
+    {
+        let mut world = tiny_world::<D>(2, 0.5, 0.1);
+        spawn_particle(&mut world, x, D::Vector::ONE, 1.0, 0.1);
+        let mut query = world.query::<(&mut NodeVelocity<D>, &mut NodeAcceleration<D>)>();
+        for (mut nv, mut na) in query.iter_mut(&mut world) {
+            nv.0[0] = v;
+            na.0[0] = a;
+        }
+        run_system(&mut world, (linear_basis::<D>, newmark_advection::<D>).chain());
+        let moved = particle_values::<Position<D>>(&mut world)[0].0;
+        let speed = particle_values::<Velocity<D>>(&mut world)[0].0;
+        assert!((moved - (x + v * 0.1 + a * 0.005)).length() < 1e-14, "{moved:?}");
+        assert!((speed - (D::Vector::ONE + a * 0.1)).length() < 1e-14, "{speed:?}");
+    }
+
     #[test]
     fn uniform_acceleration_moves_particles_by_the_newmark_update() {
-        let mut world = tiny_world(2, 0.5, 0.1);
-        spawn_particle(
-            &mut world,
-            Vector::new(0.3, 0.7),
-            Vector::new(1.0, 0.0),
-            1.0,
-            0.1,
+        newmark_update::<Two>(DVec2::new(0.3, 0.7), DVec2::new(2.0, 0.0), DVec2::new(0.0, -10.0));
+        newmark_update::<Three>(
+            DVec3::new(0.3, 0.7, 0.4),
+            DVec3::new(2.0, 0.0, 1.0),
+            DVec3::new(0.0, -10.0, 3.0),
         );
-        let mut query = world.query::<(&mut NodeVelocity, &mut NodeAcceleration)>();
-        for (mut v, mut a) in query.iter_mut(&mut world) {
-            v.0[0] = Vector::new(2.0, 0.0);
-            a.0[0] = Vector::new(0.0, -10.0);
-        }
-        run_system(&mut world, (linear_basis, newmark_advection).chain());
-        let x = particle_values::<Position>(&mut world)[0].0;
-        let v = particle_values::<Velocity>(&mut world)[0].0;
-        assert!(
-            (x - Vector::new(0.3 + 0.2, 0.7 - 0.05)).length() < 1e-14,
-            "{x}"
-        );
-        assert!((v - Vector::new(1.0, -1.0)).length() < 1e-14, "{v}");
     }
 }

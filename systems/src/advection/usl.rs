@@ -20,16 +20,16 @@ pub const REGISTRATION: Registration = Registration {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
-    installer.add_systems(usl_advection);
+    with_dim!(installer.dimension(), D => installer.add_systems(usl_advection::<D>));
     Ok(())
 }
 
 /// The `advection/usl` system.
-pub fn usl_advection(
+pub fn usl_advection<D: Dim>(
     clock: Res<SimClock>,
-    connectivity: Res<Connectivity>,
-    nodes: NodeMotionQuery,
-    mut particles: AdvectedQuery,
+    connectivity: Res<Connectivity<D>>,
+    nodes: NodeMotionQuery<D>,
+    mut particles: AdvectedQuery<D>,
 ) {
     let dt = clock.dt;
     advect_particles(
@@ -37,8 +37,8 @@ pub fn usl_advection(
         &nodes,
         &mut particles,
         |x, v, a_grid, v_grid| {
-            *v += dt * a_grid;
-            *x += dt * v_grid;
+            *v += a_grid * dt;
+            *x += v_grid * dt;
         },
     );
 }
@@ -49,37 +49,41 @@ mod tests {
     use crate::basis::linear::linear_basis;
     use fractum_engine::testing::*;
 
+    /// Particles in a uniform grid motion (node velocity `v`, acceleration `a`) move rigidly.
+    fn rigid_motion<D: Dim>(xs: [D::Vector; 2], v: D::Vector, a: D::Vector)
+    where
+        D::Vector: SpaceVector,
+    {
+        let mut world = tiny_world::<D>(2, 0.5, 0.1);
+        for x in xs {
+            spawn_particle(&mut world, x, D::Vector::ONE, 1.0, 0.1);
+        }
+        let mut query = world.query::<(&mut NodeVelocity<D>, &mut NodeAcceleration<D>)>();
+        for (mut nv, mut na) in query.iter_mut(&mut world) {
+            nv.0[0] = v;
+            na.0[0] = a;
+        }
+        run_system(&mut world, (linear_basis::<D>, usl_advection::<D>).chain());
+        let positions = particle_values::<Position<D>>(&mut world);
+        let velocities = particle_values::<Velocity<D>>(&mut world);
+        for (k, x) in xs.iter().enumerate() {
+            assert!((positions[k].0 - (*x + v * 0.1)).length() < 1e-14);
+            assert!((velocities[k].0 - (D::Vector::ONE + a * 0.1)).length() < 1e-14);
+        }
+        assert!((particle_values::<Acceleration<D>>(&mut world)[1].0 - a).length() < 1e-14);
+    }
+
     #[test]
     fn uniform_grid_motion_moves_particles_rigidly() {
-        let mut world = tiny_world(2, 0.5, 0.1);
-        spawn_particle(
-            &mut world,
-            Vector::new(0.3, 0.7),
-            Vector::new(1.0, 0.0),
-            1.0,
-            0.1,
+        rigid_motion::<Two>(
+            [DVec2::new(0.3, 0.7), DVec2::new(0.9, 0.1)],
+            DVec2::new(1.5, -0.5),
+            DVec2::new(5.0, -5.0),
         );
-        spawn_particle(
-            &mut world,
-            Vector::new(0.9, 0.1),
-            Vector::new(1.0, 0.0),
-            1.0,
-            0.1,
-        );
-        let mut query = world.query::<(&mut NodeVelocity, &mut NodeAcceleration)>();
-        for (mut v, mut a) in query.iter_mut(&mut world) {
-            v.0[0] = Vector::new(1.5, -0.5);
-            a.0[0] = Vector::new(5.0, -5.0);
-        }
-        run_system(&mut world, (linear_basis, usl_advection).chain());
-        let x = particle_values::<Position>(&mut world);
-        let v = particle_values::<Velocity>(&mut world);
-        assert!((x[0].0 - Vector::new(0.45, 0.65)).length() < 1e-14);
-        assert!((x[1].0 - Vector::new(1.05, 0.05)).length() < 1e-14);
-        assert!((v[0].0 - Vector::new(1.5, -0.5)).length() < 1e-14);
-        assert_eq!(
-            particle_values::<Acceleration>(&mut world)[1].0,
-            Vector::new(5.0, -5.0)
+        rigid_motion::<Three>(
+            [DVec3::new(0.3, 0.7, 0.2), DVec3::new(0.9, 0.1, 0.6)],
+            DVec3::new(1.5, -0.5, 0.25),
+            DVec3::new(5.0, -5.0, 2.0),
         );
     }
 }

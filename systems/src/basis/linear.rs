@@ -1,9 +1,10 @@
-//! Bilinear tent shape functions on the uniform background grid.
+//! Multilinear tent shape functions on the uniform background grid: bilinear in 2D, trilinear
+//! in 3D.
 //!
 //! - Stage: basis. Registration name: `basis/linear`.
-//! - Each particle is connected to the four nodes of the cell that contains it, with
-//!   `N_I(x) = (1 − |x − x_I|/h)(1 − |y − y_I|/h)` and its gradient (the standard MPM basis of
-//!   Sulsky et al.; the "Dirac delta" integration of eq. (1)–(4) in Homel & Herbold,
+//! - Each particle is connected to the 2^d nodes of the cell that contains it, with
+//!   `N_I(x) = Π_a (1 − |x_a − x_I,a|/h)` and its gradient (the standard MPM basis of Sulsky et
+//!   al.; the "Dirac delta" integration of eqs. (1)–(4) in Homel & Herbold,
 //!   dfg-partitioning-mpm.md §1.1).
 //! - Writes the [`Connectivity`] tables that every transfer reads.
 
@@ -12,7 +13,7 @@ use fractum_engine::prelude::*;
 /// Registration of `basis/linear`.
 pub const REGISTRATION: Registration = Registration {
     name: "basis/linear",
-    summary: "bilinear tent functions on the uniform grid (4 nodes per particle)",
+    summary: "multilinear tent functions on the uniform grid (4 nodes per particle in 2D, 8 in 3D)",
     params: &[],
     requires: &[],
     install,
@@ -20,53 +21,80 @@ pub const REGISTRATION: Registration = Registration {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
-    installer.add_systems(linear_basis);
+    with_dim!(installer.dimension(), D => installer.add_systems(linear_basis::<D>));
     Ok(())
 }
 
-/// Shape functions of the four nodes of the cell holding `x`: `(node, N, ∇N)`.
-///
-/// Returns `None` when `x` lies outside the grid.
-pub fn bilinear_row(grid: &Grid, x: Vector) -> Option<[(u32, f64, Vector); 4]> {
-    let [i, j] = grid.cell_of(x)?;
+/// Number of nodes each particle connects to: `2^d`.
+pub fn nodes_per_particle<D: Dim>() -> usize {
+    1 << D::N
+}
+
+/// Writes the shape functions of the `2^d` nodes of the cell holding `x` into the row slices
+/// (node, `N`, `∇N`), nodes in lattice order (first axis fastest). Returns `false`, with the
+/// row zeroed, when `x` lies outside the grid.
+pub fn fill_multilinear_row<D: Dim>(
+    grid: &Grid<D>,
+    x: D::Vector,
+    nodes: &mut [u32],
+    weights: &mut [f64],
+    gradients: &mut [D::Vector],
+) -> bool {
+    let Some(cell) = grid.cell_of(x) else {
+        nodes.fill(0);
+        weights.fill(0.0);
+        gradients.fill(D::Vector::ZERO);
+        return false;
+    };
     let h = grid.spacing;
-    let corner = grid.min + Vector::new(i as f64, j as f64) * h;
-    let xi = ((x - corner) / h).clamp(Vector::ZERO, Vector::ONE);
-    let (sx, sy) = (xi.x, xi.y);
-    let node = |di: usize, dj: usize| grid.node_index(i + di, j + dj) as u32;
-    Some([
-        (
-            node(0, 0),
-            (1.0 - sx) * (1.0 - sy),
-            Vector::new(-(1.0 - sy), -(1.0 - sx)) / h,
-        ),
-        (node(1, 0), sx * (1.0 - sy), Vector::new(1.0 - sy, -sx) / h),
-        (node(0, 1), (1.0 - sx) * sy, Vector::new(-sy, 1.0 - sx) / h),
-        (node(1, 1), sx * sy, Vector::new(sy, sx) / h),
-    ])
+    let corner = grid.min + D::Vector::from_fn(|a| cell[a] as f64) * h;
+    let xi = ((x - corner) / h).clamp(D::Vector::ZERO, D::Vector::ONE);
+    for k in 0..nodes_per_particle::<D>() {
+        // Bit a of k says whether the node is at the upper end of the cell along axis a.
+        let upper = |a: usize| (k >> a) & 1 == 1;
+        let factor = |a: usize| if upper(a) { xi[a] } else { 1.0 - xi[a] };
+        nodes[k] = grid.node_index(D::Cell::from_fn(|a| cell[a] + usize::from(upper(a)))) as u32;
+        weights[k] = (0..D::N).fold(1.0, |n, a| n * factor(a));
+        gradients[k] = D::Vector::from_fn(|a| {
+            let slope = if upper(a) { 1.0 } else { -1.0 };
+            let across = (0..D::N)
+                .filter(|b| *b != a)
+                .fold(1.0, |n, b| n * factor(b));
+            slope * across / h
+        });
+    }
+    true
+}
+
+/// The row of `x` as `(node, N, ∇N)` entries, or `None` outside the grid (an allocating
+/// convenience over [`fill_multilinear_row`]).
+pub fn multilinear_row<D: Dim>(grid: &Grid<D>, x: D::Vector) -> Option<Vec<(u32, f64, D::Vector)>> {
+    let width = nodes_per_particle::<D>();
+    let (mut nodes, mut weights, mut gradients) =
+        (vec![0; width], vec![0.0; width], vec![D::Vector::ZERO; width]);
+    fill_multilinear_row(grid, x, &mut nodes, &mut weights, &mut gradients).then(|| {
+        (0..width)
+            .map(|k| (nodes[k], weights[k], gradients[k]))
+            .collect()
+    })
 }
 
 /// The `basis/linear` system: rebuilds the connectivity for the current positions.
-pub fn linear_basis(
-    grid: Res<Grid>,
-    mut connectivity: ResMut<Connectivity>,
-    particles: Query<&Position, With<Particle>>,
+pub fn linear_basis<D: Dim>(
+    grid: Res<Grid<D>>,
+    mut connectivity: ResMut<Connectivity<D>>,
+    particles: Query<&Position<D>, With<Particle>>,
 ) {
     let positions = single_table(particles.contiguous_iter(), "particles").unwrap_or(&[]);
     let grid = *grid;
     connectivity.fill_fixed_width(
         positions.len(),
-        4,
+        nodes_per_particle::<D>(),
         grid.node_count(),
         |p, nodes, weights, gradients| {
-            // A particle outside the grid gets no support; the engine's health check stops the run
-            // before such a state is stepped.
-            let row = bilinear_row(&grid, positions[p].0).unwrap_or([(0, 0.0, Vector::ZERO); 4]);
-            for (k, (node, weight, gradient)) in row.into_iter().enumerate() {
-                nodes[k] = node;
-                weights[k] = weight;
-                gradients[k] = gradient;
-            }
+            // A particle outside the grid gets no support; the engine's health check stops the
+            // run before such a state is stepped.
+            fill_multilinear_row(&grid, positions[p].0, nodes, weights, gradients);
         },
     );
 }
@@ -76,51 +104,62 @@ mod tests {
     use super::*;
     use fractum_engine::testing::*;
 
+    /// Partition of unity, linear reproduction, Σ∇N = 0 and Σ x_I ⊗ ∇N_I = I at `x`.
+    fn check_consistency<D: Dim>(grid: &Grid<D>, x: D::Vector) {
+        let row = multilinear_row(grid, x).unwrap();
+        let sum: f64 = row.iter().map(|e| e.1).sum();
+        let first: D::Vector = row
+            .iter()
+            .map(|e| grid.node_position(e.0 as usize) * e.1)
+            .sum();
+        let grad_sum: D::Vector = row.iter().map(|e| e.2).sum();
+        let jacobian = row.iter().fold(D::Matrix::ZERO, |acc, e| {
+            acc + D::Matrix::outer(grid.node_position(e.0 as usize), e.2)
+        });
+        assert!((sum - 1.0).abs() < 1e-14);
+        assert!((first - x).length() < 1e-14);
+        assert!(grad_sum.length() < 1e-12);
+        assert!((jacobian - D::Matrix::IDENTITY).max_abs() < 1e-12);
+        assert!(row.iter().all(|e| e.1 >= 0.0));
+    }
+
     #[test]
-    fn row_is_a_partition_of_unity_that_reproduces_linear_fields() {
-        let grid = Grid {
-            min: Vector::new(-1.0, 2.0),
+    fn rows_are_a_partition_of_unity_that_reproduces_linear_fields() {
+        let grid = Grid::<Two> {
+            min: DVec2::new(-1.0, 2.0),
             spacing: 0.5,
             cells: [4, 4],
         };
         for x in [
-            Vector::new(-0.8, 2.1),
-            Vector::new(0.24, 3.49),
-            Vector::new(1.0, 4.0),
+            DVec2::new(-0.8, 2.1),
+            DVec2::new(0.24, 3.49),
+            DVec2::new(1.0, 4.0),
         ] {
-            let row = bilinear_row(&grid, x).unwrap();
-            let sum: f64 = row.iter().map(|e| e.1).sum();
-            let first: Vector = row
-                .iter()
-                .map(|e| e.1 * grid.node_position(e.0 as usize))
-                .sum();
-            let grad_sum: Vector = row.iter().map(|e| e.2).sum();
-            // Σ x_I ⊗ ∇N_I = identity.
-            let jacobian: Matrix = row
-                .iter()
-                .map(|e| fractum_engine::dim::outer(grid.node_position(e.0 as usize), e.2))
-                .fold(Matrix::ZERO, |a, b| a + b);
-            assert!((sum - 1.0).abs() < 1e-14);
-            assert!((first - x).length() < 1e-14);
-            assert!(grad_sum.length() < 1e-12);
-            assert!(
-                (jacobian - Matrix::IDENTITY)
-                    .abs()
-                    .to_cols_array()
-                    .iter()
-                    .all(|v| *v < 1e-12)
-            );
+            check_consistency(&grid, x);
         }
-        assert!(bilinear_row(&grid, Vector::new(1.1, 3.0)).is_none());
+        assert!(multilinear_row(&grid, DVec2::new(1.1, 3.0)).is_none());
+        let grid = Grid::<Three> {
+            min: DVec3::new(-1.0, 2.0, 0.5),
+            spacing: 0.5,
+            cells: [4, 4, 2],
+        };
+        for x in [
+            DVec3::new(-0.8, 2.1, 0.6),
+            DVec3::new(0.24, 3.49, 1.3),
+            DVec3::new(1.0, 4.0, 1.5),
+        ] {
+            check_consistency(&grid, x);
+        }
+        assert!(multilinear_row(&grid, DVec3::new(0.0, 3.0, 1.6)).is_none());
     }
 
     #[test]
     fn system_connects_each_particle_to_its_cell_nodes() {
-        let mut world = tiny_world(2, 0.5, 1e-3);
-        spawn_particle(&mut world, Vector::new(0.25, 0.25), Vector::ZERO, 1.0, 0.1);
-        spawn_particle(&mut world, Vector::new(0.75, 0.5), Vector::ZERO, 1.0, 0.1);
-        run_system(&mut world, linear_basis);
-        let c = world.resource::<Connectivity>();
+        let mut world = tiny_world::<Two>(2, 0.5, 1e-3);
+        spawn_particle(&mut world, DVec2::new(0.25, 0.25), DVec2::ZERO, 1.0, 0.1);
+        spawn_particle(&mut world, DVec2::new(0.75, 0.5), DVec2::ZERO, 1.0, 0.1);
+        run_system(&mut world, linear_basis::<Two>);
+        let c = world.resource::<Connectivity<Two>>();
         assert_eq!(c.particle_count(), 2);
         assert_eq!(&c.nodes[0..4], &[0, 1, 3, 4]);
         assert_eq!(&c.weights[0..4], &[0.25; 4]);
@@ -130,5 +169,17 @@ mod tests {
         // Node 4 (the centre) is touched by both particles, in particle order.
         let slots = &c.node_entries[c.node_offsets[4]..c.node_offsets[5]];
         assert_eq!(slots.iter().map(|s| s.1).collect::<Vec<_>>(), vec![0, 1]);
+    }
+
+    #[test]
+    fn system_connects_each_particle_to_the_eight_nodes_of_its_cell_in_3d() {
+        let mut world = tiny_world::<Three>(2, 0.5, 1e-3);
+        spawn_particle(&mut world, DVec3::splat(0.25), DVec3::ZERO, 1.0, 0.1);
+        run_system(&mut world, linear_basis::<Three>);
+        let c = world.resource::<Connectivity<Three>>();
+        // Nodes (i, j, k) ∈ {0, 1}³ of a 3 × 3 × 3 node lattice: i + 3 j + 9 k.
+        assert_eq!(&c.nodes[..], &[0, 1, 3, 4, 9, 10, 12, 13]);
+        assert_eq!(&c.weights[..], &[0.125; 8]);
+        assert_eq!(c.gradients[0], DVec3::splat(-0.5));
     }
 }

@@ -10,9 +10,10 @@
 //! it does not (irregular node sets, points near the hull of their nodes), a damped Newton
 //! method with a backtracking line search restarts from λ = 0; if that also fails, the caller
 //! gets an error rather than shape functions that are not a partition of unity.
+//!
+//! Generic over the dimension: λ, `r` are `d`-vectors and `J` is `d × d`.
 
-use fractum_engine::dim::outer;
-use fractum_engine::prelude::{Matrix, Vector};
+use fractum_engine::prelude::{Dim, MatrixOps, VectorOps};
 
 /// Solver settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -29,13 +30,13 @@ pub struct LmeSettings {
 
 /// Shape functions of one point.
 #[derive(Clone, Debug, PartialEq)]
-pub struct LmeSolution {
+pub struct LmeSolution<D: Dim> {
     /// The Lagrange multiplier λ*.
-    pub lambda: Vector,
+    pub lambda: D::Vector,
     /// `N_I`, in the order of the nodes given.
     pub values: Vec<f64>,
     /// `∇N_I`, in the same order.
-    pub gradients: Vec<Vector>,
+    pub gradients: Vec<D::Vector>,
     /// Newton iterations used (both attempts).
     pub iterations: usize,
 }
@@ -61,20 +62,20 @@ pub struct LmeScratch {
 
 /// `log Z`, `r` and `J` at one λ (the `N_I` are in a buffer beside it).
 #[derive(Clone, Copy, Debug)]
-struct Moments {
+struct Moments<D: Dim> {
     log_z: f64,
-    r: Vector,
-    j: Matrix,
+    r: D::Vector,
+    j: D::Matrix,
 }
 
 /// Evaluates the moments at `lambda`, writing `N_I` into `values`.
-fn moments(
-    x: Vector,
-    nodes: &[Vector],
+fn moments<D: Dim>(
+    x: D::Vector,
+    nodes: &[D::Vector],
     beta: f64,
-    lambda: Vector,
+    lambda: D::Vector,
     values: &mut Vec<f64>,
-) -> Moments {
+) -> Moments<D> {
     values.clear();
     // Exponents first, then shifted by the largest so that exp never overflows.
     values.extend(nodes.iter().map(|&xi| {
@@ -87,23 +88,23 @@ fn moments(
         *v = (*v - largest).exp();
         z += *v;
     }
-    let mut r = Vector::ZERO;
-    let mut second = Matrix::ZERO;
+    let mut r = D::Vector::ZERO;
+    let mut second = D::Matrix::ZERO;
     for (v, &xi) in values.iter_mut().zip(nodes) {
         *v /= z;
         let d = x - xi;
-        r += *v * d;
-        second += outer(d, d) * *v;
+        r += d * *v;
+        second += D::Matrix::outer(d, d) * *v;
     }
     Moments {
         log_z: z.ln() + largest,
         r,
-        j: second - outer(r, r),
+        j: second - D::Matrix::outer(r, r),
     }
 }
 
 /// The Newton step `−J⁻¹ r`, or `None` when J is singular or the step is not finite.
-fn newton_step(m: &Moments) -> Option<Vector> {
+fn newton_step<D: Dim>(m: &Moments<D>) -> Option<D::Vector> {
     let det = m.j.determinant();
     if !(det.is_finite() && det > f64::MIN_POSITIVE) {
         return None;
@@ -112,19 +113,19 @@ fn newton_step(m: &Moments) -> Option<Vector> {
     step.is_finite().then_some(step)
 }
 
-struct Problem<'a> {
-    x: Vector,
-    nodes: &'a [Vector],
+struct Problem<'a, D: Dim> {
+    x: D::Vector,
+    nodes: &'a [D::Vector],
     settings: &'a LmeSettings,
 }
 
-impl Problem<'_> {
+impl<D: Dim> Problem<'_, D> {
     fn goal(&self) -> f64 {
         self.settings.tolerance * self.settings.length_scale
     }
 
     /// Moments at `lambda` into the scratch's trial buffer.
-    fn trial(&self, lambda: Vector, scratch: &mut LmeScratch) -> Moments {
+    fn trial(&self, lambda: D::Vector, scratch: &mut LmeScratch) -> Moments<D> {
         moments(
             self.x,
             self.nodes,
@@ -135,7 +136,7 @@ impl Problem<'_> {
     }
 
     /// Moments at `lambda` into the scratch's current buffer.
-    fn current(&self, lambda: Vector, scratch: &mut LmeScratch) -> Moments {
+    fn current(&self, lambda: D::Vector, scratch: &mut LmeScratch) -> Moments<D> {
         moments(
             self.x,
             self.nodes,
@@ -148,7 +149,12 @@ impl Problem<'_> {
     /// One more Newton step if it still shrinks `|r|`: at quadratic convergence it takes the
     /// residual from the tolerance to round-off, which the gradient identities need because
     /// they carry `J⁻¹ r` and J is small near a node at large γ̂.
-    fn polish(&self, lambda: Vector, m: Moments, scratch: &mut LmeScratch) -> (Vector, Moments) {
+    fn polish(
+        &self,
+        lambda: D::Vector,
+        m: Moments<D>,
+        scratch: &mut LmeScratch,
+    ) -> (D::Vector, Moments<D>) {
         let Some(step) = newton_step(&m) else {
             return (lambda, m);
         };
@@ -166,9 +172,9 @@ impl Problem<'_> {
     /// Plain Newton from `start`; `Err(iterations)` when it does not converge.
     fn plain_newton(
         &self,
-        start: Vector,
+        start: D::Vector,
         scratch: &mut LmeScratch,
-    ) -> Result<(Vector, Moments, usize), usize> {
+    ) -> Result<(D::Vector, Moments<D>, usize), usize> {
         let mut lambda = start;
         for k in 0..self.settings.max_iterations {
             let m = self.current(lambda, scratch);
@@ -183,8 +189,11 @@ impl Problem<'_> {
 
     /// Damped Newton with Armijo backtracking on `log Z`, from λ = 0; steepest descent when J
     /// is singular. `Err(residual)` when it does not converge.
-    fn damped_newton(&self, scratch: &mut LmeScratch) -> Result<(Vector, Moments, usize), f64> {
-        let mut lambda = Vector::ZERO;
+    fn damped_newton(
+        &self,
+        scratch: &mut LmeScratch,
+    ) -> Result<(D::Vector, Moments<D>, usize), f64> {
+        let mut lambda = D::Vector::ZERO;
         let mut m = self.current(lambda, scratch);
         for k in 0..self.settings.max_iterations {
             if m.r.length() <= self.goal() {
@@ -195,13 +204,13 @@ impl Problem<'_> {
             let slope = m.r.dot(direction);
             let mut t = 1.0;
             loop {
-                let trial = self.trial(lambda + t * direction, scratch);
+                let trial = self.trial(lambda + direction * t, scratch);
                 // Sufficient decrease of log Z, or (once its changes drown in round-off near
                 // the minimum) a halving of the gradient norm.
                 let decreases = trial.log_z <= m.log_z + 1e-4 * t * slope;
                 let closer = trial.r.length() <= 0.5 * m.r.length();
                 if trial.log_z.is_finite() && (decreases || closer) {
-                    lambda += t * direction;
+                    lambda += direction * t;
                     m = trial;
                     std::mem::swap(&mut scratch.values, &mut scratch.trial);
                     break;
@@ -222,14 +231,14 @@ impl Problem<'_> {
 
 /// Solves for λ at `x` over `nodes`, warm-started from `lambda_guess`. On success `scratch.values`
 /// holds `N_I` and the result carries λ, `J⁻¹` and the iterations used.
-pub fn lme_solve(
-    x: Vector,
-    nodes: &[Vector],
+pub fn lme_solve<D: Dim>(
+    x: D::Vector,
+    nodes: &[D::Vector],
     settings: &LmeSettings,
-    lambda_guess: Vector,
+    lambda_guess: D::Vector,
     scratch: &mut LmeScratch,
-) -> Result<(Vector, Matrix, usize), LmeFailure> {
-    let problem = Problem { x, nodes, settings };
+) -> Result<(D::Vector, D::Matrix, usize), LmeFailure> {
+    let problem = Problem::<D> { x, nodes, settings };
     let (lambda, m, iterations) = match problem.plain_newton(lambda_guess, scratch) {
         Ok(found) => found,
         Err(spent) => problem
@@ -245,26 +254,31 @@ pub fn lme_solve(
 }
 
 /// `∇N_I = −N_I J⁻¹ (x − x_I)` (eq. 8).
-pub fn lme_gradient(x: Vector, node: Vector, value: f64, j_inverse: Matrix) -> Vector {
-    -value * (j_inverse * (x - node))
+pub fn lme_gradient<D: Dim>(
+    x: D::Vector,
+    node: D::Vector,
+    value: f64,
+    j_inverse: D::Matrix,
+) -> D::Vector {
+    -((j_inverse * (x - node)) * value)
 }
 
 /// LME shape functions at `x` over `nodes`, warm-started from `lambda_guess` (allocating
 /// convenience over [`lme_solve`]).
-pub fn lme_shape_functions(
-    x: Vector,
-    nodes: &[Vector],
+pub fn lme_shape_functions<D: Dim>(
+    x: D::Vector,
+    nodes: &[D::Vector],
     settings: &LmeSettings,
-    lambda_guess: Vector,
-) -> Result<LmeSolution, LmeFailure> {
+    lambda_guess: D::Vector,
+) -> Result<LmeSolution<D>, LmeFailure> {
     let mut scratch = LmeScratch::default();
     let (lambda, j_inverse, iterations) =
-        lme_solve(x, nodes, settings, lambda_guess, &mut scratch)?;
+        lme_solve::<D>(x, nodes, settings, lambda_guess, &mut scratch)?;
     let gradients = scratch
         .values
         .iter()
         .zip(nodes)
-        .map(|(&n, &xi)| lme_gradient(x, xi, n, j_inverse))
+        .map(|(&n, &xi)| lme_gradient::<D>(x, xi, n, j_inverse))
         .collect();
     Ok(LmeSolution {
         lambda,
@@ -282,6 +296,8 @@ pub fn support_radius(beta: f64, tolerance: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fractum_engine::dim::lattice_range;
+    use fractum_engine::prelude::{DVec2, DVec3, Lattice, Three, Two};
     use proptest::prelude::*;
 
     /// Node coordinates along one axis: 0, then steps of `spacing(i)`.
@@ -295,10 +311,10 @@ mod tests {
             .collect()
     }
 
-    fn grid_nodes(coords: &[f64]) -> Vec<Vector> {
-        coords
-            .iter()
-            .flat_map(|&y| coords.iter().map(move |&x| Vector::new(x, y)))
+    /// The tensor-product node set of `coords` along every axis.
+    fn grid_nodes<D: Dim>(coords: &[f64]) -> Vec<D::Vector> {
+        lattice_range(D::Cell::default(), D::Cell::from_fn(|_| coords.len()))
+            .map(|ijk| D::Vector::from_fn(|a| coords[ijk[a]]))
             .collect()
     }
 
@@ -310,37 +326,33 @@ mod tests {
             .map_or(1.0, |w| w[1] - w[0])
     }
 
-    fn support(x: Vector, all: &[Vector], radius: f64) -> Vec<Vector> {
+    fn support<D: Dim>(x: D::Vector, all: &[D::Vector], radius: f64) -> Vec<D::Vector> {
         all.iter()
             .copied()
             .filter(|xi| (x - *xi).length() <= radius)
             .collect()
     }
 
-    fn check_consistency(x: Vector, nodes: &[Vector], s: &LmeSettings) {
-        let sol = lme_shape_functions(x, nodes, s, Vector::ZERO).expect("converges");
+    fn check_consistency<D: Dim>(x: D::Vector, nodes: &[D::Vector], s: &LmeSettings) {
+        let sol = lme_shape_functions::<D>(x, nodes, s, D::Vector::ZERO).expect("converges");
         let unity: f64 = sol.values.iter().sum();
-        let reproduced: Vector = sol.values.iter().zip(nodes).map(|(n, xi)| *n * *xi).sum();
-        let gradient_sum: Vector = sol.gradients.iter().copied().sum();
+        let reproduced: D::Vector = sol.values.iter().zip(nodes).map(|(n, xi)| *xi * *n).sum();
+        let gradient_sum: D::Vector = sol.gradients.iter().copied().sum();
         let jacobian = sol
             .gradients
             .iter()
             .zip(nodes)
-            .fold(Matrix::ZERO, |acc, (g, xi)| acc + outer(*xi, *g));
+            .fold(D::Matrix::ZERO, |acc, (g, xi)| acc + D::Matrix::outer(*xi, *g));
         assert!((unity - 1.0).abs() < 1e-10, "partition of unity: {unity}");
         assert!(
             (reproduced - x).length() < 1e-10,
-            "linear reproduction: {reproduced} vs {x}"
+            "linear reproduction: {reproduced:?} vs {x:?}"
         );
         assert!(
             gradient_sum.length() < 1e-10 / s.length_scale,
-            "Σ∇N = {gradient_sum}"
+            "Σ∇N = {gradient_sum:?}"
         );
-        let identity_error = (jacobian - Matrix::IDENTITY)
-            .to_cols_array()
-            .iter()
-            .map(|v| v.abs())
-            .fold(0.0, f64::max);
+        let identity_error = (jacobian - D::Matrix::IDENTITY).max_abs();
         assert!(
             identity_error < 1e-10,
             "Σ x_I ⊗ ∇N_I − I = {identity_error}"
@@ -357,68 +369,98 @@ mod tests {
         }
     }
 
+    /// A point `offset` (fractions of a cell) into the interior of a uniform grid of 20 cells.
+    fn uniform_case<D: Dim>(offset: D::Vector, gamma: f64) {
+        let h = 0.1;
+        let nodes = grid_nodes::<D>(&coordinates(|_| h, 20));
+        let x = D::Vector::splat(0.6) + offset * h;
+        let s = settings(gamma, h);
+        let near = support::<D>(x, &nodes, support_radius(s.beta, 1e-6));
+        check_consistency::<D>(x, &near, &s);
+    }
+
+    /// A point at fractions `at` of a graded grid whose spacing grows by 15% per node.
+    fn graded_case<D: Dim>(at: D::Vector, gamma: f64, cells: usize) {
+        let coords = coordinates(|i| 0.05 * 1.15f64.powi(i as i32), cells);
+        let nodes = grid_nodes::<D>(&coords);
+        let x = at * coords[coords.len() - 1];
+        // β from the local spacing: the coarsest of the cells the point sits in.
+        let local_h = (0..D::N)
+            .map(|a| local_spacing(&coords, x[a]))
+            .fold(0.0, f64::max);
+        let s = settings(gamma, local_h);
+        let radius = support_radius(s.beta, 1e-6).max(1.5 * local_h);
+        check_consistency::<D>(x, &support::<D>(x, &nodes, radius), &s);
+    }
+
     proptest! {
         #[test]
         fn consistent_on_a_uniform_grid(px in 0.0f64..1.0, py in 0.0f64..1.0, gamma in 0.8f64..6.0) {
-            let h = 0.1;
-            let nodes = grid_nodes(&coordinates(|_| h, 20));
-            let x = Vector::new(0.5 + px * h, 0.7 + py * h);
-            let s = settings(gamma, h);
-            check_consistency(x, &support(x, &nodes, support_radius(s.beta, 1e-6)), &s);
+            uniform_case::<Two>(DVec2::new(px, py), gamma);
         }
 
         #[test]
         fn consistent_on_a_graded_grid(px in 0.05f64..0.95, py in 0.05f64..0.95, gamma in 0.8f64..4.0) {
-            // Spacing grows by 15% per node: 0.05 at the left/bottom, 0.43 at the right/top.
-            let coords = coordinates(|i| 0.05 * 1.15f64.powi(i as i32), 16);
-            let nodes = grid_nodes(&coords);
-            let extent = coords[coords.len() - 1];
-            let x = Vector::new(px * extent, py * extent);
-            // β from the local spacing: the coarser of the two cells the point sits in.
-            let local_h = local_spacing(&coords, x.x).max(local_spacing(&coords, x.y));
-            let s = settings(gamma, local_h);
-            check_consistency(x, &support(x, &nodes, support_radius(s.beta, 1e-6).max(1.5 * local_h)), &s);
+            // Spacing from 0.05 at the left/bottom to 0.43 at the right/top.
+            graded_case::<Two>(DVec2::new(px, py), gamma, 16);
+        }
+
+        #[test]
+        fn consistent_on_a_uniform_grid_in_3d(px in 0.0f64..1.0, py in 0.0f64..1.0, pz in 0.0f64..1.0, gamma in 0.8f64..6.0) {
+            uniform_case::<Three>(DVec3::new(px, py, pz), gamma);
+        }
+
+        #[test]
+        fn consistent_on_a_graded_grid_in_3d(px in 0.05f64..0.95, py in 0.05f64..0.95, pz in 0.05f64..0.95, gamma in 0.8f64..4.0) {
+            graded_case::<Three>(DVec3::new(px, py, pz), gamma, 12);
         }
     }
 
     #[test]
     fn warm_start_converges_in_fewer_iterations() {
         let h = 0.1;
-        let nodes = grid_nodes(&coordinates(|_| h, 20));
+        let nodes = grid_nodes::<Two>(&coordinates(|_| h, 20));
         let s = settings(2.0, h);
-        let x = Vector::new(1.03, 0.98);
-        let near = support(x, &nodes, support_radius(s.beta, 1e-6));
-        let cold = lme_shape_functions(x, &near, &s, Vector::ZERO).unwrap();
-        let warm = lme_shape_functions(x, &near, &s, cold.lambda).unwrap();
+        let x = DVec2::new(1.03, 0.98);
+        let near = support::<Two>(x, &nodes, support_radius(s.beta, 1e-6));
+        let cold = lme_shape_functions::<Two>(x, &near, &s, DVec2::ZERO).unwrap();
+        let warm = lme_shape_functions::<Two>(x, &near, &s, cold.lambda).unwrap();
         assert!(warm.iterations < cold.iterations || cold.iterations == 0);
         assert_eq!(warm.iterations, 0);
     }
 
     #[test]
     fn a_point_outside_the_hull_of_its_nodes_is_a_reported_failure() {
-        let nodes = [
-            Vector::new(0.0, 0.0),
-            Vector::new(1.0, 0.0),
-            Vector::new(0.0, 1.0),
-        ];
+        let nodes = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0)];
         let s = settings(2.0, 1.0);
         let failure =
-            lme_shape_functions(Vector::new(2.0, 2.0), &nodes, &s, Vector::ZERO).unwrap_err();
+            lme_shape_functions::<Two>(DVec2::new(2.0, 2.0), &nodes, &s, DVec2::ZERO).unwrap_err();
         assert_eq!(failure.nodes, 3);
         assert!(failure.residual > 0.1);
+        let nodes = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
+        let failure =
+            lme_shape_functions::<Three>(DVec3::splat(1.0), &nodes, &s, DVec3::ZERO).unwrap_err();
+        assert_eq!(failure.nodes, 4);
+    }
+
+    /// At a cell centre, large γ̂ gives the multilinear interpolant: 1/2^d on the cell's corners.
+    fn tends_to_multilinear<D: Dim>() {
+        let h = 1.0;
+        let nodes = grid_nodes::<D>(&coordinates(|_| h, 4));
+        let s = settings(30.0, h);
+        let x = D::Vector::splat(1.5);
+        let near = support::<D>(x, &nodes, 1.0);
+        let sol = lme_shape_functions::<D>(x, &near, &s, D::Vector::ZERO).unwrap();
+        let corner = 1.0 / (1 << D::N) as f64;
+        for (n, xi) in sol.values.iter().zip(&near) {
+            let expected = if (x - *xi).length() < 0.9 { corner } else { 0.0 };
+            assert!((n - expected).abs() < 1e-6, "{xi:?}: {n}");
+        }
     }
 
     #[test]
-    fn large_gamma_tends_to_the_bilinear_interpolant_at_cell_centres() {
-        let h = 1.0;
-        let nodes = grid_nodes(&coordinates(|_| h, 4));
-        let s = settings(30.0, h);
-        let x = Vector::new(1.5, 1.5);
-        let near = support(x, &nodes, 1.0);
-        let sol = lme_shape_functions(x, &near, &s, Vector::ZERO).unwrap();
-        for (n, xi) in sol.values.iter().zip(&near) {
-            let expected = if (x - *xi).length() < 0.8 { 0.25 } else { 0.0 };
-            assert!((n - expected).abs() < 1e-6, "{xi}: {n}");
-        }
+    fn large_gamma_tends_to_the_multilinear_interpolant_at_cell_centres() {
+        tends_to_multilinear::<Two>();
+        tends_to_multilinear::<Three>();
     }
 }

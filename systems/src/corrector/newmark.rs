@@ -26,43 +26,43 @@ pub const REGISTRATION: Registration = Registration {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
-    installer.add_systems(newmark_corrector);
+    with_dim!(installer.dimension(), D => installer.add_systems(newmark_corrector::<D>));
     Ok(())
 }
 
 /// Corrected velocity `ṽ + γ Δt f / m` of one node (zero for an empty node), before the
 /// boundary conditions are held.
-pub fn correct(mass: f64, predicted: Vector, force: Vector, gamma_dt: f64) -> Vector {
+pub fn correct<V: VectorOps>(mass: f64, predicted: V, force: V, gamma_dt: f64) -> V {
     if mass > 0.0 {
-        predicted + gamma_dt * force / mass
+        predicted + force * gamma_dt / mass
     } else {
-        Vector::ZERO
+        V::ZERO
     }
 }
 
-type NodeQuery<'w, 's> = Query<
+type NodeQuery<'w, 's, D> = Query<
     'w,
     's,
     (
         &'static NodeMass,
-        &'static mut NodeVelocity,
-        &'static mut NodeAcceleration,
-        &'static mut NodeForce,
+        &'static mut NodeVelocity<D>,
+        &'static mut NodeAcceleration<D>,
+        &'static mut NodeForce<D>,
     ),
     With<Node>,
 >;
 
 /// The `corrector/newmark` system.
 #[allow(clippy::too_many_arguments)]
-pub fn newmark_corrector(
+pub fn newmark_corrector<D: Dim>(
     clock: Res<SimClock>,
     params: Res<NewmarkParams>,
-    body_force: Res<BodyForce>,
+    body_force: Res<BodyForce<D>>,
     bcs: Res<BoundaryConditions>,
-    mut reactions: ResMut<Reactions>,
-    connectivity: Res<Connectivity>,
-    particles: ForceSourceQuery,
-    mut nodes: NodeQuery,
+    mut reactions: ResMut<Reactions<D>>,
+    connectivity: Res<Connectivity<D>>,
+    particles: ForceSourceQuery<D>,
+    mut nodes: NodeQuery<D>,
 ) {
     let Some(slices) = ParticleSlices::of(&particles) else {
         return;
@@ -72,13 +72,13 @@ pub fn newmark_corrector(
     else {
         return;
     };
-    let mut forces = vec![Vector::ZERO; node_mass.len()];
+    let mut forces = vec![D::Vector::ZERO; node_mass.len()];
     connectivity.scatter_to_nodes(&mut forces, |e, p| {
         force_contribution(&connectivity, &slices, body_force.0, e, p)
     });
     let gamma_dt = params.gamma * clock.dt;
-    let velocities: &mut [NodeVelocity] = &mut node_velocity;
-    let predicted: Vec<Vector> = velocities.iter().map(|v| v.0[0]).collect();
+    let velocities: &mut [NodeVelocity<D>] = &mut node_velocity;
+    let predicted: Vec<D::Vector> = velocities.iter().map(|v| v.0[0]).collect();
     for (i, v) in velocities.iter_mut().enumerate() {
         v.0[0] = correct(node_mass[i].0[0], predicted[i], forces[i], gamma_dt);
     }
@@ -89,18 +89,18 @@ pub fn newmark_corrector(
         Some((gamma_dt, &mut reactions)),
     );
     let held = bcs.held_mask(forces.len());
-    let (accelerations, stored_forces): (&mut [NodeAcceleration], &mut [NodeForce]) =
+    let (accelerations, stored_forces): (&mut [NodeAcceleration<D>], &mut [NodeForce<D>]) =
         (&mut node_acceleration, &mut node_force);
     for i in 0..forces.len() {
         let m = node_mass[i].0[0];
-        let mut f = if m > 0.0 { forces[i] } else { Vector::ZERO };
-        for (c, is_held) in held[i].iter().enumerate() {
+        let mut f = if m > 0.0 { forces[i] } else { D::Vector::ZERO };
+        for (c, is_held) in held[i][..D::N].iter().enumerate() {
             if *is_held {
                 f[c] = 0.0;
             }
         }
         stored_forces[i].0[0] = f;
-        accelerations[i].0[0] = if m > 0.0 { f / m } else { Vector::ZERO };
+        accelerations[i].0[0] = if m > 0.0 { f / m } else { D::Vector::ZERO };
     }
 }
 
@@ -108,25 +108,18 @@ pub fn newmark_corrector(
 mod tests {
     use super::*;
     use crate::basis::linear::linear_basis;
-    use fractum_engine::boundary::{BoundaryRegion, PiecewiseLinear};
+    use fractum_engine::boundary::BoundaryRegion;
     use fractum_engine::testing::*;
 
     #[test]
     fn corrector_adds_gamma_dt_times_acceleration_and_holds_fixed_nodes() {
-        let mut world = tiny_world(2, 0.5, 0.1);
+        let mut world = tiny_world::<Two>(2, 0.5, 0.1);
         world.insert_resource(NewmarkParams { gamma: 0.5 });
-        world.insert_resource(BodyForce(Vector::new(0.0, -10.0)));
+        world.insert_resource(BodyForce::<Two>(DVec2::new(0.0, -10.0)));
         world.insert_resource(BoundaryConditions {
-            regions: vec![BoundaryRegion {
-                name: "corner".into(),
-                nodes: vec![0],
-                velocity: [
-                    Some(PiecewiseLinear::constant(0.0)),
-                    Some(PiecewiseLinear::constant(0.0)),
-                ],
-            }],
+            regions: vec![BoundaryRegion::fixed("corner", vec![0])],
         });
-        spawn_particle(&mut world, Vector::new(0.2, 0.2), Vector::ZERO, 4.0, 0.1);
+        spawn_particle(&mut world, DVec2::new(0.2, 0.2), DVec2::ZERO, 4.0, 0.1);
         let mut query = world.query::<(&NodeIndex, &mut NodeMass)>();
         for (i, mut m) in query.iter_mut(&mut world) {
             m.0[0] = if [0, 1, 3, 4].contains(&i.0) {
@@ -135,18 +128,34 @@ mod tests {
                 0.0
             };
         }
-        run_system(&mut world, (linear_basis, newmark_corrector).chain());
-        let velocities = node_values::<NodeVelocity>(&mut world);
-        let forces = node_values::<NodeForce>(&mut world);
+        run_system(&mut world, (linear_basis::<Two>, newmark_corrector::<Two>).chain());
+        let velocities = node_values::<NodeVelocity<Two>>(&mut world);
+        let forces = node_values::<NodeForce<Two>>(&mut world);
         // Node 4 (N = 0.16) carries 0.16 · 4 kg · g; with unit nodal mass v = γ Δt f / m.
-        assert!((velocities[4].0[0] - Vector::new(0.0, 0.05 * -6.4)).length() < 1e-12);
-        assert_eq!(velocities[0].0[0], Vector::ZERO);
+        assert!((velocities[4].0[0] - DVec2::new(0.0, 0.05 * -6.4)).length() < 1e-12);
+        assert_eq!(velocities[0].0[0], DVec2::ZERO);
         // The corner's reaction cancels its share of the weight: N_0 = 0.36.
-        let reaction = world.resource::<Reactions>().0[0];
+        let reaction = world.resource::<Reactions<Two>>().0[0];
         assert!(
-            (reaction - Vector::new(0.0, 0.36 * 40.0)).length() < 1e-12,
+            (reaction - DVec2::new(0.0, 0.36 * 40.0)).length() < 1e-12,
             "{reaction}"
         );
-        assert_eq!(forces[0].0[0], Vector::ZERO);
+        assert_eq!(forces[0].0[0], DVec2::ZERO);
+    }
+
+    #[test]
+    fn corrector_applies_the_body_force_along_z_in_3d() {
+        let mut world = tiny_world::<Three>(2, 0.5, 0.1);
+        world.insert_resource(NewmarkParams { gamma: 0.5 });
+        world.insert_resource(BodyForce::<Three>(DVec3::new(0.0, 0.0, -10.0)));
+        spawn_particle(&mut world, DVec3::splat(0.25), DVec3::ZERO, 8.0, 0.1);
+        let mut query = world.query::<&mut NodeMass>();
+        for mut m in query.iter_mut(&mut world) {
+            m.0[0] = 1.0;
+        }
+        run_system(&mut world, (linear_basis::<Three>, newmark_corrector::<Three>).chain());
+        let velocities = node_values::<NodeVelocity<Three>>(&mut world);
+        // Each of the 8 corners carries 1/8 of 8 kg · g = 10 N down; v = γ Δt f / m.
+        assert!((velocities[0].0[0] - DVec3::new(0.0, 0.0, -0.5)).length() < 1e-12);
     }
 }

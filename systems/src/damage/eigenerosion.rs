@@ -3,7 +3,7 @@
 //! - Stage: damage. Registration name: `damage/eigenerosion`. Needs a `neighbour/*` system.
 //! - eigensoftening-lme-mpm.md §2.3, eqs. (11)–(12), in the dimensionally consistent form of
 //!   the authors' implementation (NL-PartSol, `EigenErosion.c`): for an intact particle in
-//!   tension (largest principal stress > 0),
+//!   tension (largest principal stress > 0; in plane strain the in-plane one),
 //!   `G_p = C_ε h · Σ_{q∈B_ε, intact} V_q W_q / Σ_{q∈B_ε} V_q`: the neighbourhood's average
 //!   stored energy density times ε = C_ε h, an energy per unit crack area. (Read literally with
 //!   W per unit mass and a dimensionless C_ε, eq. (11) is not an energy per area.) Failed
@@ -63,7 +63,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         released: 0.0,
         columns,
     });
-    installer.add_systems(eigenerosion);
+    with_dim!(installer.dimension(), D => installer.add_systems(eigenerosion::<D>));
     Ok(())
 }
 
@@ -91,13 +91,13 @@ pub fn energy_release_rate(
     }
 }
 
-type ParticleQuery<'w, 's> = Query<
+type ParticleQuery<'w, 's, D> = Query<
     'w,
     's,
     (
         &'static Volume,
         &'static InitialVolume,
-        &'static Stress,
+        &'static Stress<D>,
         &'static StrainEnergyDensity,
         &'static mut Damage,
     ),
@@ -105,11 +105,11 @@ type ParticleQuery<'w, 's> = Query<
 >;
 
 /// The `damage/eigenerosion` system.
-pub fn eigenerosion(
+pub fn eigenerosion<D: Dim>(
     neighbourhoods: Res<Neighbourhoods>,
     mut state: ResMut<EigenerosionState>,
     mut columns: ResMut<SeriesColumns>,
-    mut particles: ParticleQuery,
+    mut particles: ParticleQuery<D>,
 ) {
     let Some((volume, v0, stress, energy, mut damage)) =
         single_table(particles.contiguous_iter_mut(), "particles")
@@ -124,7 +124,7 @@ pub fn eigenerosion(
     let fails: Vec<bool> = (0..volume.len())
         .into_par_iter()
         .map(|p| {
-            let tension = stress[p].0.in_plane_principal()[0] > 0.0;
+            let tension = stress[p].0.largest_principal() > 0.0;
             if previous[p].0 >= 1.0 || !tension || p >= neighbourhoods.particle_count() {
                 return false;
             }
@@ -161,7 +161,7 @@ mod tests {
 
     #[test]
     fn system_fails_the_particles_above_g_f_from_previous_step_state() {
-        let mut world = tiny_world(4, 0.25, 1e-3);
+        let mut world = tiny_world::<Two>(4, 0.25, 1e-3);
         let mut columns = SeriesColumns::default();
         let slots = [
             columns.declare("failed_particles"),
@@ -182,15 +182,15 @@ mod tests {
         {
             let p = spawn_particle(
                 &mut world,
-                Vector::new(0.1 + 0.2 * k as f64, 0.5),
-                Vector::ZERO,
+                DVec2::new(0.1 + 0.2 * k as f64, 0.5),
+                DVec2::ZERO,
                 1.0,
                 1.0,
             );
             world.get_mut::<StrainEnergyDensity>(p).unwrap().0 = w;
-            world.get_mut::<Stress>(p).unwrap().0.xx = sxx;
+            world.get_mut::<Stress<Two>>(p).unwrap().0.xx = sxx;
         }
-        run_system(&mut world, eigenerosion);
+        run_system(&mut world, eigenerosion::<Two>);
         // ε = 0.5. Particles 0, 1: G = 0.5 (0.5 + 0.3)/2 = 0.2; particle 2: 0.15; particle 3 has
         // G = 0.45 > G_F but is in compression.
         assert!(
@@ -204,7 +204,7 @@ mod tests {
                 w.0 = 0.8;
             }
         }
-        run_system(&mut world, eigenerosion);
+        run_system(&mut world, eigenerosion::<Two>);
         // Both 0 and 1 see G = 0.5 (0.8 + 0.3)/2 = 0.275 > 0.25 and fail in the same (Jacobi)
         // update.
         let d: Vec<f64> = particle_values::<Damage>(&mut world)
@@ -214,5 +214,37 @@ mod tests {
         assert_eq!(d, vec![1.0, 1.0, 0.0, 0.0]);
         let state = *world.resource::<EigenerosionState>();
         assert!((state.released - 1.1).abs() < 1e-12);
+    }
+
+    #[test]
+    fn only_tensile_points_erode_in_3d() {
+        let mut world = tiny_world::<Three>(4, 0.25, 1e-3);
+        let mut columns = SeriesColumns::default();
+        let slots = [columns.declare("failed"), columns.declare("dissipated")];
+        world.insert_resource(columns);
+        world.insert_resource(EigenerosionState {
+            fracture_energy: 0.1,
+            released: 0.0,
+            columns: slots,
+        });
+        let mut neighbourhoods = Neighbourhoods::default();
+        neighbourhoods.set_rows(&[vec![0], vec![1]], 0.5);
+        world.insert_resource(neighbourhoods);
+        // Both store W = 1 (G = 0.5 > G_F). Particle 0 is under pure shear in the y-z plane
+        // (principal values ±1: tensile); particle 1 under equal compression.
+        for (k, stress) in [
+            SymTensor3 { yz: 1.0, ..SymTensor3::ZERO },
+            SymTensor3::isotropic(-1.0),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let p = spawn_particle(&mut world, DVec3::splat(0.2 + 0.4 * k as f64), DVec3::ZERO, 1.0, 1.0);
+            world.get_mut::<StrainEnergyDensity>(p).unwrap().0 = 1.0;
+            world.get_mut::<Stress<Three>>(p).unwrap().0 = stress;
+        }
+        run_system(&mut world, eigenerosion::<Three>);
+        let d: Vec<f64> = particle_values::<Damage>(&mut world).iter().map(|d| d.0).collect();
+        assert_eq!(d, vec![1.0, 0.0]);
     }
 }

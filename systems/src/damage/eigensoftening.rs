@@ -3,8 +3,9 @@
 //! - Stage: damage. Registration name: `damage/eigensoftening`. Needs a `neighbour/*` system.
 //! - eigensoftening-lme-mpm.md §2.3 and Appendix B (Algorithm 2). For a particle not yet
 //!   cracking, the equivalent stress `σ_ε,p = Σ_{q∈B_ε, χ_q<1} m_q σ_q,I / Σ_{q∈B_ε} m_q`
-//!   (eq. 15, σ_I the largest principal stress). When it exceeds `f_t` the particle records its
-//!   largest principal strain `ε_f` (the crack onset). Afterwards
+//!   (eq. 15, σ_I the largest principal stress; in plane strain the larger in-plane one, the
+//!   only ones that open a through-thickness crack). When it exceeds `f_t` the particle records
+//!   its largest principal strain `ε_f` (the crack onset). Afterwards
 //!   `χ = min(1, max(χ_prev, χ_law((ε_I − ε_f) h_ε)))`: the opening `w = (ε_I − ε_f) h_ε`
 //!   (eq. 18) goes through the chosen softening law (eqs. 17, 19, 20). The internal force of
 //!   the particle is scaled by `1 − χ` by the force transfer (eq. 16).
@@ -166,16 +167,16 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         columns,
         materials,
     });
-    installer.add_systems(eigensoftening);
+    with_dim!(installer.dimension(), D => installer.add_systems(eigensoftening::<D>));
     Ok(())
 }
 
 /// Equivalent stress of eq. (15) over the neighbours of a particle: intact neighbours' largest
-/// principal stresses weighted by mass, over the mass of the whole neighbourhood.
+/// principal stresses `principal` weighted by mass, over the mass of the whole neighbourhood.
 pub fn equivalent_stress(
     neighbours: &[u32],
     mass: &[Mass],
-    stress: &[Stress],
+    principal: &[f64],
     damage: &[Damage],
 ) -> f64 {
     let (mut weighted, mut total) = (0.0, 0.0);
@@ -183,7 +184,7 @@ pub fn equivalent_stress(
         let q = q as usize;
         total += mass[q].0;
         if damage[q].0 < 1.0 {
-            weighted += mass[q].0 * stress[q].0.in_plane_principal()[0];
+            weighted += mass[q].0 * principal[q];
         }
     }
     if total > 0.0 { weighted / total } else { 0.0 }
@@ -209,15 +210,15 @@ pub fn soften(
     }
 }
 
-type ParticleQuery<'w, 's> = Query<
+type ParticleQuery<'w, 's, D> = Query<
     'w,
     's,
     (
         &'static Mass,
         &'static MaterialId,
         &'static InitialVolume,
-        &'static Stress,
-        &'static Strain,
+        &'static Stress<D>,
+        &'static Strain<D>,
         &'static mut Damage,
         &'static mut DamageHistory,
     ),
@@ -225,11 +226,11 @@ type ParticleQuery<'w, 's> = Query<
 >;
 
 /// The `damage/eigensoftening` system.
-pub fn eigensoftening(
+pub fn eigensoftening<D: Dim>(
     params: Res<EigensofteningParams>,
     neighbourhoods: Res<Neighbourhoods>,
     mut columns: ResMut<SeriesColumns>,
-    mut particles: ParticleQuery,
+    mut particles: ParticleQuery<D>,
 ) {
     let Some((mass, material, v0, stress, strain, mut damage, mut history)) =
         single_table(particles.contiguous_iter_mut(), "particles")
@@ -239,6 +240,11 @@ pub fn eigensoftening(
     let (damage, history): (&mut [Damage], &mut [DamageHistory]) = (&mut damage, &mut history);
     let law = params.law;
     let previous: &[Damage] = damage;
+    // Each particle's largest principal stress, once, for all the neighbourhoods it is in.
+    let principal: Vec<f64> = stress
+        .par_iter()
+        .map(|s| s.0.largest_principal())
+        .collect();
     let updated: Vec<(f64, f64)> = (0..mass.len())
         .into_par_iter()
         .map(|p| {
@@ -253,8 +259,8 @@ pub fn eigensoftening(
             } else {
                 &[]
             };
-            let sigma = equivalent_stress(neighbours, mass, stress, previous);
-            let strain_1 = strain[p].0.in_plane_principal()[0];
+            let sigma = equivalent_stress(neighbours, mass, &principal, previous);
+            let strain_1 = strain[p].0.largest_principal();
             soften(
                 (previous[p].0, history[p].0),
                 sigma,
@@ -312,28 +318,24 @@ mod tests {
     #[test]
     fn failed_neighbours_carry_mass_but_no_stress() {
         let mass = [Mass(1.0), Mass(1.0)];
-        let s = |xx| {
-            Stress(SymTensor {
-                xx,
-                yy: 0.0,
-                zz: 0.0,
-                xy: 0.0,
-            })
-        };
-        let stress = [s(2.0), s(4.0)];
+        let principal = [2.0, 4.0];
         assert_eq!(
-            equivalent_stress(&[0, 1], &mass, &stress, &[Damage(0.0), Damage(0.0)]),
+            equivalent_stress(&[0, 1], &mass, &principal, &[Damage(0.0), Damage(0.0)]),
             3.0
         );
         assert_eq!(
-            equivalent_stress(&[0, 1], &mass, &stress, &[Damage(0.0), Damage(1.0)]),
+            equivalent_stress(&[0, 1], &mass, &principal, &[Damage(0.0), Damage(1.0)]),
             1.0
         );
     }
 
-    #[test]
-    fn system_cracks_the_particles_whose_neighbourhood_is_overstressed() {
-        let mut world = tiny_world(4, 0.25, 1e-3);
+    /// Three particles; 0 and 1 are neighbours. `tension(s)` is a stress whose largest principal
+    /// value is `s`.
+    fn cracks_overstressed<D: Dim>(tension: impl Fn(f64) -> D::Sym)
+    where
+        D::Vector: SpaceVector,
+    {
+        let mut world = tiny_world::<D>(4, 0.25, 1e-3);
         let mut columns = SeriesColumns::default();
         let slots = [
             columns.declare("damaged_particles"),
@@ -350,28 +352,42 @@ mod tests {
         let mut neighbourhoods = Neighbourhoods::default();
         neighbourhoods.set_rows(&[vec![0, 1], vec![0, 1], vec![2]], 0.5);
         world.insert_resource(neighbourhoods);
-        for (k, sxx) in [(0, 1.5), (1, 1.0), (2, 0.5)] {
-            let p = spawn_particle(
-                &mut world,
-                Vector::new(0.1 + 0.2 * k as f64, 0.5),
-                Vector::ZERO,
-                1.0,
-                0.01,
-            );
-            world.get_mut::<Stress>(p).unwrap().0.xx = sxx;
-            world.get_mut::<Strain>(p).unwrap().0.xx = 1e-3;
+        for (k, s) in [(0, 1.5), (1, 1.0), (2, 0.5)] {
+            let x = D::Vector::from_fn(|a| if a == 0 { 0.1 + 0.2 * k as f64 } else { 0.5 });
+            let p = spawn_particle(&mut world, x, D::Vector::ZERO, 1.0, 0.01);
+            world.get_mut::<Stress<D>>(p).unwrap().0 = tension(s);
+            world.get_mut::<Strain<D>>(p).unwrap().0 = tension(1e-3);
         }
-        run_system(&mut world, eigensoftening);
+        run_system(&mut world, eigensoftening::<D>);
         let onset = particle_values::<DamageHistory>(&mut world);
-        // Particles 0 and 1 average 1.25 > f_t; particle 2 alone has 0.5.
-        assert_eq!(
-            onset.iter().map(|h| h.0).collect::<Vec<_>>(),
-            vec![1e-3, 1e-3, 0.0]
-        );
+        // Particles 0 and 1 average 1.25 > f_t and record their principal strain; particle 2
+        // alone has 0.5.
+        let expected = [1e-3, 1e-3, 0.0];
+        for (h, e) in onset.iter().zip(expected) {
+            assert!((h.0 - e).abs() < 1e-18, "{onset:?}");
+        }
         assert!(
             particle_values::<Damage>(&mut world)
                 .iter()
                 .all(|d| d.0 == 0.0)
         );
+    }
+
+    #[test]
+    fn system_cracks_the_particles_whose_neighbourhood_is_overstressed() {
+        cracks_overstressed::<Two>(|s| SymTensor2 {
+            xx: s,
+            ..SymTensor2::ZERO
+        });
+        // In 3D along a skew direction: every component s/3 is s n ⊗ n with n = (1, 1, 1)/√3,
+        // principal values (s, 0, 0).
+        cracks_overstressed::<Three>(|s| SymTensor3 {
+            xx: s / 3.0,
+            yy: s / 3.0,
+            zz: s / 3.0,
+            xy: s / 3.0,
+            yz: s / 3.0,
+            xz: s / 3.0,
+        });
     }
 }

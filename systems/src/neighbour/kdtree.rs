@@ -10,8 +10,8 @@
 //! - Lists are sorted, without duplicates, and include the particle itself.
 
 use super::{NeighbourParams, PARAM_DOCS, filter_row, parse_params};
+use crate::spatial::Spatial;
 use fractum_engine::prelude::*;
-use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
 
 /// Registration of `neighbour/kdtree`.
@@ -26,48 +26,58 @@ pub const REGISTRATION: Registration = Registration {
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     installer.insert_resource(parse_params(params)?);
     installer.init_resource::<Neighbourhoods>();
-    installer.init_resource::<KdTreeCandidates>();
-    installer.add_systems(kdtree_neighbours);
+    with_dim!(installer.dimension(), D => {
+        installer.init_resource::<KdTreeCandidates<D>>();
+        installer.add_systems(kdtree_neighbours::<D>);
+    });
     Ok(())
 }
 
 /// Candidate lists within ε(1 + skin) of where each particle was at the last build.
-#[derive(Resource, Clone, Debug, Default)]
-pub struct KdTreeCandidates {
+#[derive(Resource, Clone, Debug)]
+pub struct KdTreeCandidates<D: Dim> {
     /// Positions at the last build.
-    pub anchors: Vec<Vector>,
+    pub anchors: Vec<D::Vector>,
     /// Candidate rows per particle.
     pub candidates: Vec<Vec<u32>>,
 }
 
+impl<D: Dim> Default for KdTreeCandidates<D> {
+    fn default() -> Self {
+        Self {
+            anchors: Vec::new(),
+            candidates: Vec::new(),
+        }
+    }
+}
+
 /// Candidate lists for all particles from a fresh kd-tree.
-pub fn build_candidates(positions: &[Position], radius: f64) -> Vec<Vec<u32>> {
-    let points: Vec<[f64; 2]> = positions.iter().map(|p| [p.0.x, p.0.y]).collect();
-    let tree: ImmutableKdTree<f64, 2> = ImmutableKdTree::new_from_slice(&points);
+pub fn build_candidates<D: Spatial>(positions: &[Position<D>], radius: f64) -> Vec<Vec<u32>> {
+    let points: Vec<D::Vector> = positions.iter().map(|p| p.0).collect();
+    let tree = D::tree(&points);
     points
         .par_iter()
         .map(|x| {
-            tree.within_unsorted::<SquaredEuclidean>(x, radius * radius)
-                .into_iter()
-                .map(|n| n.item as u32)
-                .collect()
+            let mut found = Vec::new();
+            D::within(&tree, *x, radius, &mut found);
+            found
         })
         .collect()
 }
 
 /// The `neighbour/kdtree` system.
-pub fn kdtree_neighbours(
-    grid: Res<Grid>,
+pub fn kdtree_neighbours<D: Spatial>(
+    grid: Res<Grid<D>>,
     params: Res<NeighbourParams>,
-    mut state: ResMut<KdTreeCandidates>,
+    mut state: ResMut<KdTreeCandidates<D>>,
     mut neighbourhoods: ResMut<Neighbourhoods>,
-    particles: Query<(&Position, &BodyId), With<Particle>>,
+    particles: Query<(&Position<D>, &BodyId), With<Particle>>,
 ) {
     let (positions, bodies) =
         single_table(particles.contiguous_iter(), "particles").unwrap_or((&[], &[]));
     let epsilon = params.c_epsilon * grid.spacing;
     let skin = params.skin * epsilon;
-    let moved = |(anchor, x): (&Vector, &Position)| (x.0 - *anchor).length() > 0.5 * skin;
+    let moved = |(anchor, x): (&D::Vector, &Position<D>)| (x.0 - *anchor).length() > 0.5 * skin;
     let stale = state.anchors.len() != positions.len()
         || state
             .anchors
@@ -96,18 +106,18 @@ mod tests {
 
     #[test]
     fn lists_hold_the_particles_within_epsilon_including_self() {
-        let mut world = tiny_world(4, 0.25, 1e-3);
+        let mut world = tiny_world::<Two>(4, 0.25, 1e-3);
         world.insert_resource(NeighbourParams {
             c_epsilon: 1.0,
             skin: 0.25,
             same_body: false,
         });
         world.insert_resource(Neighbourhoods::default());
-        world.insert_resource(KdTreeCandidates::default());
+        world.insert_resource(KdTreeCandidates::<Two>::default());
         for x in [0.1, 0.3, 0.36, 0.7] {
-            spawn_particle(&mut world, Vector::new(x, 0.5), Vector::ZERO, 1.0, 0.01);
+            spawn_particle(&mut world, DVec2::new(x, 0.5), DVec2::ZERO, 1.0, 0.01);
         }
-        run_system(&mut world, kdtree_neighbours);
+        run_system(&mut world, kdtree_neighbours::<Two>);
         let n = world.resource::<Neighbourhoods>().clone();
         assert_eq!(n.radius, 0.25);
         assert_eq!(n.of(0), &[0, 1]);
@@ -116,16 +126,36 @@ mod tests {
         assert_eq!(n.of(3), &[3]);
         assert_eq!(n.rebuilds, 1);
         // A small move keeps the tree; the lists still follow the exact radius.
-        let mut q = world.query::<(&ParticleId, &mut Position)>();
+        let mut q = world.query::<(&ParticleId, &mut Position<Two>)>();
         for (id, mut x) in q.iter_mut(&mut world) {
             if id.0 == 2 {
                 x.0.x += 0.02;
             }
         }
-        run_system(&mut world, kdtree_neighbours);
+        run_system(&mut world, kdtree_neighbours::<Two>);
         let n = world.resource::<Neighbourhoods>().clone();
         assert_eq!(n.rebuilds, 1);
         assert_eq!(n.of(0), &[0, 1]);
         assert_eq!(n.of(2), &[1, 2]);
+    }
+
+    #[test]
+    fn lists_use_the_distance_in_3d() {
+        let mut world = tiny_world::<Three>(4, 0.25, 1e-3);
+        world.insert_resource(NeighbourParams {
+            c_epsilon: 1.0,
+            skin: 0.25,
+            same_body: false,
+        });
+        world.insert_resource(Neighbourhoods::default());
+        world.insert_resource(KdTreeCandidates::<Three>::default());
+        // Within 0.25 in x and y, but 0.3 apart along z.
+        spawn_particle(&mut world, DVec3::new(0.5, 0.5, 0.2), DVec3::ZERO, 1.0, 0.01);
+        spawn_particle(&mut world, DVec3::new(0.5, 0.5, 0.5), DVec3::ZERO, 1.0, 0.01);
+        spawn_particle(&mut world, DVec3::new(0.6, 0.5, 0.6), DVec3::ZERO, 1.0, 0.01);
+        run_system(&mut world, kdtree_neighbours::<Three>);
+        let n = world.resource::<Neighbourhoods>().clone();
+        assert_eq!(n.of(0), &[0]);
+        assert_eq!(n.of(1), &[1, 2]);
     }
 }

@@ -63,10 +63,10 @@ pub fn parse_params(params: &Params) -> Result<NeighbourParams, SceneError> {
 }
 
 /// Keeps the candidates of `p` within `radius` (and in `p`'s body when asked), ascending.
-pub fn filter_row(
+pub fn filter_row<D: Dim>(
     p: usize,
     candidates: impl Iterator<Item = u32>,
-    positions: &[Position],
+    positions: &[Position<D>],
     bodies: &[BodyId],
     radius: f64,
     same_body: bool,

@@ -3,12 +3,14 @@
 //! - Stage: neighbour. Registration name: `neighbour/node_linked`.
 //! - Algorithm 3: each particle is linked to its closest grid node `I₀`; each node keeps the
 //!   list of particles linked to it; the candidates of `p` are the particles linked to the nodes
-//!   near `I₀(p)`, then filtered to the radius ε. "Near" is every node within `ε + √2 h` of
-//!   `I₀(p)`: two particles within ε have closest nodes at most `ε + √2 h` apart, so no
-//!   neighbour is missed. Rebuilt every step, as in the paper; the lists equal those of
+//!   near `I₀(p)`, then filtered to the radius ε. "Near" is every node within `ε + √d h` of
+//!   `I₀(p)` (d the dimension): a particle is within `√d h/2` of its closest node, so two
+//!   particles within ε have closest nodes at most `ε + √d h` apart, and no neighbour is
+//!   missed. Rebuilt every step, as in the paper; the lists equal those of
 //!   `neighbour/kdtree` (same order, self included), so the two can be swapped to compare cost.
 
 use super::{NeighbourParams, PARAM_DOCS, filter_row, parse_params};
+use fractum_engine::dim::lattice_range;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 
@@ -24,65 +26,80 @@ pub const REGISTRATION: Registration = Registration {
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     installer.insert_resource(parse_params(params)?);
     installer.init_resource::<Neighbourhoods>();
-    installer.add_systems(node_linked_neighbours);
+    with_dim!(installer.dimension(), D => installer.add_systems(node_linked_neighbours::<D>));
     Ok(())
 }
 
-/// Closest node `(i, j)` of `x`.
-pub fn closest_node(grid: &Grid, x: Vector) -> [usize; 2] {
+/// Lattice coordinates of the node closest to `x`.
+pub fn closest_node<D: Dim>(grid: &Grid<D>, x: D::Vector) -> D::Cell {
     let local = ((x - grid.min) / grid.spacing).round();
-    let [nx, ny] = grid.nodes_per_axis();
-    [
-        (local.x.max(0.0) as usize).min(nx - 1),
-        (local.y.max(0.0) as usize).min(ny - 1),
-    ]
+    let counts = grid.nodes_per_axis();
+    D::Cell::from_fn(|a| (local[a].max(0.0) as usize).min(counts[a] - 1))
+}
+
+/// Lattice offsets of the nodes within `limit` node spacings of a node, in lattice order.
+pub fn near_offsets<D: Dim>(limit: f64) -> Vec<[isize; 3]> {
+    let reach = limit.floor() as isize;
+    let side = D::Cell::from_fn(|_| 2 * reach as usize + 1);
+    lattice_range(D::Cell::default(), side)
+        .map(|k| std::array::from_fn(|a| if a < D::N { k[a] as isize - reach } else { 0 }))
+        .filter(|d: &[isize; 3]| ((d.iter().map(|c| c * c).sum::<isize>()) as f64).sqrt() <= limit)
+        .collect()
+}
+
+/// Particle rows linked to each node: CSR offsets by node index and the members, in particle
+/// order (a counting sort).
+fn link_particles<D: Dim>(grid: &Grid<D>, linked: &[D::Cell]) -> (Vec<usize>, Vec<u32>) {
+    let node_count = grid.node_count();
+    let mut offsets = vec![0usize; node_count + 1];
+    for cell in linked {
+        offsets[grid.node_index(*cell) + 1] += 1;
+    }
+    for k in 0..node_count {
+        offsets[k + 1] += offsets[k];
+    }
+    let mut cursor = offsets.clone();
+    let mut members = vec![0u32; linked.len()];
+    for (p, cell) in linked.iter().enumerate() {
+        let node = grid.node_index(*cell);
+        members[cursor[node]] = p as u32;
+        cursor[node] += 1;
+    }
+    (offsets, members)
 }
 
 /// The `neighbour/node_linked` system.
-pub fn node_linked_neighbours(
-    grid: Res<Grid>,
+pub fn node_linked_neighbours<D: Dim>(
+    grid: Res<Grid<D>>,
     params: Res<NeighbourParams>,
     mut neighbourhoods: ResMut<Neighbourhoods>,
-    particles: Query<(&Position, &BodyId), With<Particle>>,
+    particles: Query<(&Position<D>, &BodyId), With<Particle>>,
 ) {
     let (positions, bodies) =
         single_table(particles.contiguous_iter(), "particles").unwrap_or((&[], &[]));
     let h = grid.spacing;
     let epsilon = params.c_epsilon * h;
-    let [nx, ny] = grid.nodes_per_axis();
-    // Particles linked to each node (CSR by counting sort, particle order kept).
-    let linked: Vec<[usize; 2]> = positions
+    let counts = grid.nodes_per_axis();
+    let linked: Vec<D::Cell> = positions
         .par_iter()
         .map(|x| closest_node(&grid, x.0))
         .collect();
-    let mut offsets = vec![0usize; nx * ny + 1];
-    for [i, j] in &linked {
-        offsets[i + j * nx + 1] += 1;
-    }
-    for k in 0..nx * ny {
-        offsets[k + 1] += offsets[k];
-    }
-    let mut cursor = offsets.clone();
-    let mut members = vec![0u32; positions.len()];
-    for (p, [i, j]) in linked.iter().enumerate() {
-        members[cursor[i + j * nx]] = p as u32;
-        cursor[i + j * nx] += 1;
-    }
-    // Node offsets within ε + √2 h.
-    let reach = ((epsilon + 2f64.sqrt() * h) / h).floor() as isize;
-    let limit = (epsilon + 2f64.sqrt() * h) / h;
-    let near: Vec<(isize, isize)> = (-reach..=reach)
-        .flat_map(|dj| (-reach..=reach).map(move |di| (di, dj)))
-        .filter(|(di, dj)| ((di * di + dj * dj) as f64).sqrt() <= limit)
-        .collect();
+    let (offsets, members) = link_particles(&grid, &linked);
+    let near = near_offsets::<D>((epsilon + (D::N as f64).sqrt() * h) / h);
     let rows: Vec<Vec<u32>> = (0..positions.len())
         .into_par_iter()
         .map(|p| {
-            let [i, j] = linked[p];
-            let candidates = near.iter().filter_map(|(di, dj)| {
-                let (a, b) = (i as isize + di, j as isize + dj);
-                (a >= 0 && b >= 0 && (a as usize) < nx && (b as usize) < ny)
-                    .then(|| a as usize + b as usize * nx)
+            let home = linked[p];
+            let candidates = near.iter().filter_map(|d| {
+                let mut node = home;
+                for a in 0..D::N {
+                    let c = home[a] as isize + d[a];
+                    if c < 0 || c as usize >= counts[a] {
+                        return None;
+                    }
+                    node[a] = c as usize;
+                }
+                Some(grid.node_index(node))
             });
             let candidates =
                 candidates.flat_map(|k| members[offsets[k]..offsets[k + 1]].iter().copied());
@@ -97,17 +114,21 @@ pub fn node_linked_neighbours(
 mod tests {
     use super::*;
     use crate::neighbour::kdtree::{KdTreeCandidates, kdtree_neighbours};
+    use crate::spatial::Spatial;
     use fractum_engine::testing::*;
 
-    #[test]
-    fn node_linked_lists_equal_the_kd_tree_lists() {
-        let mut world = tiny_world(10, 0.1, 1e-3);
+    /// Lists from both builders on a scattered cloud of `count` particles in the unit box.
+    fn same_lists<D: Spatial>(cells: usize, c_epsilon: f64, count: usize)
+    where
+        D::Vector: SpaceVector,
+    {
+        let mut world = tiny_world::<D>(cells, 1.0 / cells as f64, 1e-3);
         world.insert_resource(NeighbourParams {
-            c_epsilon: 1.7,
+            c_epsilon,
             skin: 0.25,
             same_body: false,
         });
-        world.insert_resource(KdTreeCandidates::default());
+        world.insert_resource(KdTreeCandidates::<D>::default());
         // A scattered cloud: a deterministic pseudo-random sequence.
         let mut seed = 12345u64;
         let mut next = || {
@@ -116,37 +137,43 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
-        for _ in 0..300 {
-            let x = Vector::new(next(), next());
-            spawn_particle(&mut world, x, Vector::ZERO, 1.0, 0.001);
+        for _ in 0..count {
+            let x = D::Vector::from_fn(|_| next());
+            spawn_particle(&mut world, x, D::Vector::ZERO, 1.0, 0.001);
         }
         world.insert_resource(Neighbourhoods::default());
-        run_system(&mut world, node_linked_neighbours);
+        run_system(&mut world, node_linked_neighbours::<D>);
         let linked = world.resource::<Neighbourhoods>().clone();
         world.insert_resource(Neighbourhoods::default());
-        run_system(&mut world, kdtree_neighbours);
+        run_system(&mut world, kdtree_neighbours::<D>);
         let kdtree = world.resource::<Neighbourhoods>().clone();
         assert_eq!(linked.offsets, kdtree.offsets);
         assert_eq!(linked.list, kdtree.list);
         assert!(
-            linked.list.len() > 3 * 300,
+            linked.list.len() > 3 * count,
             "the cloud is dense enough to test something"
         );
     }
 
     #[test]
+    fn node_linked_lists_equal_the_kd_tree_lists() {
+        same_lists::<Two>(10, 1.7, 300);
+        same_lists::<Three>(6, 1.2, 600);
+    }
+
+    #[test]
     fn same_body_keeps_bodies_apart() {
-        let mut world = tiny_world(4, 0.25, 1e-3);
+        let mut world = tiny_world::<Two>(4, 0.25, 1e-3);
         world.insert_resource(NeighbourParams {
             c_epsilon: 1.0,
             skin: 0.0,
             same_body: true,
         });
         world.insert_resource(Neighbourhoods::default());
-        let a = spawn_particle(&mut world, Vector::new(0.5, 0.5), Vector::ZERO, 1.0, 0.01);
-        spawn_particle(&mut world, Vector::new(0.6, 0.5), Vector::ZERO, 1.0, 0.01);
+        let a = spawn_particle(&mut world, DVec2::new(0.5, 0.5), DVec2::ZERO, 1.0, 0.01);
+        spawn_particle(&mut world, DVec2::new(0.6, 0.5), DVec2::ZERO, 1.0, 0.01);
         world.get_mut::<BodyId>(a).unwrap().0 = 1;
-        run_system(&mut world, node_linked_neighbours);
+        run_system(&mut world, node_linked_neighbours::<Two>);
         let n = world.resource::<Neighbourhoods>().clone();
         assert_eq!(n.of(0), &[0]);
         assert_eq!(n.of(1), &[1]);

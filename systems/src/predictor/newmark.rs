@@ -64,7 +64,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         ),
     );
     installer.insert_resource(parsed);
-    installer.add_systems(newmark_predictor);
+    with_dim!(installer.dimension(), D => installer.add_systems(newmark_predictor::<D>));
     Ok(())
 }
 
@@ -80,34 +80,43 @@ pub fn stability_factor(gamma: f64) -> f64 {
 }
 
 /// Nodal mass and predictor momentum contributed by entry `e` of particle `p` (eq. 1).
-pub fn predictor_contribution(
-    c: &Connectivity,
+pub fn predictor_contribution<D: Dim>(
+    c: &Connectivity<D>,
     mass: &[Mass],
-    velocity: &[Velocity],
-    acceleration: &[Acceleration],
+    velocity: &[Velocity<D>],
+    acceleration: &[Acceleration<D>],
     gamma_dt: (f64, f64),
     e: usize,
     p: usize,
-) -> NodeSums {
+) -> NodeSums<D> {
     let (gamma, dt) = gamma_dt;
     let nm = c.weights[e] * mass[p].0;
     NodeSums {
         mass: nm,
-        momentum: nm * (velocity[p].0 + (1.0 - gamma) * dt * acceleration[p].0),
-        force: Vector::ZERO,
+        momentum: (velocity[p].0 + acceleration[p].0 * ((1.0 - gamma) * dt)) * nm,
+        force: D::Vector::ZERO,
     }
 }
 
-type ParticleQuery<'w, 's> =
-    Query<'w, 's, (&'static Mass, &'static Velocity, &'static Acceleration), With<Particle>>;
+type ParticleQuery<'w, 's, D> = Query<
+    'w,
+    's,
+    (
+        &'static Mass,
+        &'static Velocity<D>,
+        &'static Acceleration<D>,
+    ),
+    With<Particle>,
+>;
+
 /// The `predictor/newmark` system.
-pub fn newmark_predictor(
+pub fn newmark_predictor<D: Dim>(
     clock: Res<SimClock>,
     params: Res<NewmarkParams>,
     bcs: Res<BoundaryConditions>,
-    connectivity: Res<Connectivity>,
-    particles: ParticleQuery,
-    mut nodes: NodeTransferQuery,
+    connectivity: Res<Connectivity<D>>,
+    particles: ParticleQuery<D>,
+    mut nodes: NodeTransferQuery<D>,
 ) {
     let Some((mass, velocity, acceleration)) =
         single_table(particles.contiguous_iter(), "particles")
@@ -128,18 +137,19 @@ pub fn newmark_predictor(
     // every access.
     let (node_mass, momentum, node_velocity): (
         &mut [NodeMass],
-        &mut [NodeMomentum],
-        &mut [NodeVelocity],
+        &mut [NodeMomentum<D>],
+        &mut [NodeVelocity<D>],
     ) = (&mut node_mass, &mut momentum, &mut node_velocity);
+    let zero = D::Vector::ZERO;
     for (i, s) in sums.iter().enumerate() {
         node_mass[i] = NodeMass([s.mass, 0.0]);
-        momentum[i] = NodeMomentum([s.momentum, Vector::ZERO]);
+        momentum[i] = NodeMomentum([s.momentum, zero]);
         let v = if s.mass > 0.0 {
             s.momentum / s.mass
         } else {
-            Vector::ZERO
+            zero
         };
-        node_velocity[i] = NodeVelocity([v, Vector::ZERO]);
+        node_velocity[i] = NodeVelocity([v, zero]);
     }
     node_acceleration.fill(NodeAcceleration::default());
     force.fill(NodeForce::default());
@@ -154,36 +164,38 @@ mod tests {
 
     #[test]
     fn predictor_carries_momentum_plus_the_old_acceleration_impulse() {
-        let mut world = tiny_world(2, 0.5, 0.1);
+        let mut world = tiny_world::<Two>(2, 0.5, 0.1);
         world.insert_resource(NewmarkParams { gamma: 0.5 });
-        let p = spawn_particle(
-            &mut world,
-            Vector::new(0.3, 0.6),
-            Vector::new(1.0, 0.0),
-            2.0,
-            0.1,
-        );
-        world.get_mut::<Acceleration>(p).unwrap().0 = Vector::new(0.0, -4.0);
-        spawn_particle(
-            &mut world,
-            Vector::new(0.7, 0.2),
-            Vector::new(0.0, 1.0),
-            1.0,
-            0.1,
-        );
-        run_system(&mut world, (linear_basis, newmark_predictor).chain());
+        let p = spawn_particle(&mut world, DVec2::new(0.3, 0.6), DVec2::new(1.0, 0.0), 2.0, 0.1);
+        world.get_mut::<Acceleration<Two>>(p).unwrap().0 = DVec2::new(0.0, -4.0);
+        spawn_particle(&mut world, DVec2::new(0.7, 0.2), DVec2::new(0.0, 1.0), 1.0, 0.1);
+        run_system(&mut world, (linear_basis::<Two>, newmark_predictor::<Two>).chain());
         let masses = node_values::<NodeMass>(&mut world);
-        let velocities = node_values::<NodeVelocity>(&mut world);
-        let momentum: Vector = masses
+        let velocities = node_values::<NodeVelocity<Two>>(&mut world);
+        let momentum: DVec2 = masses
             .iter()
             .zip(&velocities)
             .map(|(m, v)| m.0[0] * v.0[0])
             .sum();
         // 2 kg at (1, 0 − 0.5·0.1·4) plus 1 kg at (0, 1).
         assert!(
-            (momentum - Vector::new(2.0, -0.4 + 1.0)).length() < 1e-14,
+            (momentum - DVec2::new(2.0, -0.4 + 1.0)).length() < 1e-14,
             "{momentum}"
         );
         assert!((masses.iter().map(|m| m.0[0]).sum::<f64>() - 3.0).abs() < 1e-14);
+    }
+
+    #[test]
+    fn predictor_carries_the_z_component_in_3d() {
+        let mut world = tiny_world::<Three>(2, 0.5, 0.1);
+        world.insert_resource(NewmarkParams { gamma: 0.5 });
+        let p = spawn_particle(&mut world, DVec3::new(0.3, 0.6, 0.8), DVec3::Z, 2.0, 0.1);
+        world.get_mut::<Acceleration<Three>>(p).unwrap().0 = DVec3::new(0.0, 0.0, 4.0);
+        run_system(&mut world, (linear_basis::<Three>, newmark_predictor::<Three>).chain());
+        let masses = node_values::<NodeMass>(&mut world);
+        let velocities = node_values::<NodeVelocity<Three>>(&mut world);
+        let momentum: DVec3 = masses.iter().zip(&velocities).map(|(m, v)| v.0[0] * m.0[0]).sum();
+        // 2 kg at (0, 0, 1 + 0.5·0.1·4).
+        assert!((momentum - DVec3::new(0.0, 0.0, 2.4)).length() < 1e-14, "{momentum}");
     }
 }

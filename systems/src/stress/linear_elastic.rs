@@ -1,23 +1,22 @@
-//! Small-strain isotropic linear elasticity in plane strain.
+//! Small-strain isotropic linear elasticity, in plane strain (2D) or 3D.
 //!
 //! - Stage: stress. Registration name: `stress/linear_elastic`.
 //! - From the nodal velocity field left by the predictor (field 0), each particle's velocity
 //!   gradient `L_p = Σ_I v_I ⊗ ∇N_Ip` (dfg-partitioning-mpm.md eq. 7) gives the strain increment
 //!   `Δε = Δt sym(L_p)` (eigensoftening-lme-mpm.md Appendix A, step 4). Hooke's law in rate form,
-//!   `Δσ = λ tr(Δε) I + 2μ Δε`, with `Δε_zz = 0` and `σ_zz` kept (plane strain).
+//!   `Δσ = λ tr(Δε) I + 2μ Δε`; in 2D with `Δε_zz = 0` and `σ_zz` kept (plane strain).
 //! - Volume follows the strain increment, `V ← V (1 + tr Δε)` (Appendix A, step 5, written for
 //!   the volume: `ρ V = m` is constant); F follows `F ← (I + Δt L) F` (eq. 8).
 //! - Stored energy per unit reference volume accumulates the stress work of each step,
 //!   `ΔW = ½(σₙ + σₙ₊₁):Δε · V½/V₀`, so kinetic + stored energy is the scheme's own balance.
 
-use fractum_engine::dim::{SymTensor, outer};
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 
 /// Registration of `stress/linear_elastic`.
 pub const REGISTRATION: Registration = Registration {
     name: "stress/linear_elastic",
-    summary: "small-strain Hooke's law, plane strain (σ_zz kept), from the nodal velocity field",
+    summary: "small-strain Hooke's law (plane strain with σ_zz in 2D), from the nodal velocity field",
     params: &[],
     requires: &[],
     install,
@@ -25,37 +24,30 @@ pub const REGISTRATION: Registration = Registration {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
-    installer.add_systems(linear_elastic_stress);
+    with_dim!(installer.dimension(), D => installer.add_systems(linear_elastic_stress::<D>));
     Ok(())
 }
 
-/// `Δσ = λ tr(Δε) I + 2μ Δε` for a plane-strain increment (`Δε_zz = 0`).
-pub fn hooke_increment(strain_increment: &SymTensor, lambda: f64, mu: f64) -> SymTensor {
-    let volumetric = lambda * strain_increment.trace();
-    SymTensor {
-        xx: volumetric + 2.0 * mu * strain_increment.xx,
-        yy: volumetric + 2.0 * mu * strain_increment.yy,
-        zz: volumetric + 2.0 * mu * strain_increment.zz,
-        xy: 2.0 * mu * strain_increment.xy,
-    }
-}
-
 /// Velocity gradient `Σ v_I ⊗ ∇N_I` of particle row `p` from field 0 of the nodes.
-pub fn velocity_gradient(c: &Connectivity, node_velocity: &[NodeVelocity], p: usize) -> Matrix {
-    c.row(p).fold(Matrix::ZERO, |l, e| {
-        l + outer(node_velocity[c.nodes[e] as usize].0[0], c.gradients[e])
+pub fn velocity_gradient<D: Dim>(
+    c: &Connectivity<D>,
+    node_velocity: &[NodeVelocity<D>],
+    p: usize,
+) -> D::Matrix {
+    c.row(p).fold(D::Matrix::ZERO, |l, e| {
+        l + D::Matrix::outer(node_velocity[c.nodes[e] as usize].0[0], c.gradients[e])
     })
 }
 
 /// State of one particle that the update changes.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ElasticState {
+pub struct ElasticState<D: Dim> {
     /// Cauchy stress.
-    pub stress: SymTensor,
+    pub stress: D::Sym,
     /// Accumulated small strain.
-    pub strain: SymTensor,
+    pub strain: D::Sym,
     /// Deformation gradient.
-    pub deformation_gradient: Matrix,
+    pub deformation_gradient: D::Matrix,
     /// Current volume.
     pub volume: f64,
     /// Stored energy per unit reference volume.
@@ -69,17 +61,15 @@ pub struct ElasticState {
 /// the mid-step volume, per unit reference volume: `ΔW = ½(σₙ + σₙ₊₁):Δε · V½ / V₀`. That is the
 /// work the internal forces (which use the current volume) actually do, so kinetic plus stored
 /// energy is the scheme's own energy balance; for small strains it equals `½ σ:ε`.
-pub fn update_elastic(
-    state: &ElasticState,
-    l: Matrix,
+pub fn update_elastic<D: Dim>(
+    state: &ElasticState<D>,
+    l: D::Matrix,
     dt: f64,
     (lambda, mu): (f64, f64),
     initial_volume: f64,
-) -> ElasticState {
-    let increment = SymTensor::sym_of(l * dt);
-    let stress = state
-        .stress
-        .add_scaled(&hooke_increment(&increment, lambda, mu), 1.0);
+) -> ElasticState<D> {
+    let increment = D::Sym::sym_of(l * dt);
+    let stress = state.stress.add_scaled(&increment.hooke(lambda, mu), 1.0);
     let volume = state.volume * (1.0 + increment.trace());
     let mean_stress_x2 = state.stress.add_scaled(&stress, 1.0);
     let mid_volume_ratio = 0.5 * (state.volume + volume) / initial_volume;
@@ -87,21 +77,21 @@ pub fn update_elastic(
     ElasticState {
         stress,
         strain: state.strain.add_scaled(&increment, 1.0),
-        deformation_gradient: (Matrix::IDENTITY + l * dt) * state.deformation_gradient,
+        deformation_gradient: (D::Matrix::IDENTITY + l * dt) * state.deformation_gradient,
         volume,
         energy_density: state.energy_density + work,
     }
 }
 
-type ParticleQuery<'w, 's> = Query<
+type ParticleQuery<'w, 's, D> = Query<
     'w,
     's,
     (
         &'static MaterialId,
         &'static InitialVolume,
-        &'static mut Stress,
-        &'static mut Strain,
-        &'static mut DeformationGradient,
+        &'static mut Stress<D>,
+        &'static mut Strain<D>,
+        &'static mut DeformationGradient<D>,
         &'static mut Volume,
         &'static mut StrainEnergyDensity,
     ),
@@ -109,12 +99,12 @@ type ParticleQuery<'w, 's> = Query<
 >;
 
 /// The `stress/linear_elastic` system.
-pub fn linear_elastic_stress(
+pub fn linear_elastic_stress<D: Dim>(
     clock: Res<SimClock>,
     materials: Res<Materials>,
-    connectivity: Res<Connectivity>,
-    nodes: Query<&NodeVelocity, With<Node>>,
-    mut particles: ParticleQuery,
+    connectivity: Res<Connectivity<D>>,
+    nodes: Query<&NodeVelocity<D>, With<Node>>,
+    mut particles: ParticleQuery<D>,
 ) {
     let node_velocity = single_table(nodes.contiguous_iter(), "nodes").unwrap_or(&[]);
     let Some((material, initial_volume, mut stress, mut strain, mut f, mut volume, mut energy)) =
@@ -134,7 +124,7 @@ pub fn linear_elastic_stress(
         .enumerate()
         .for_each(|(p, ((((s, e), f), v), w))| {
             let l = velocity_gradient(c, node_velocity, p);
-            let before = ElasticState {
+            let before = ElasticState::<D> {
                 stress: s.0,
                 strain: e.0,
                 deformation_gradient: f.0,
@@ -157,26 +147,28 @@ mod tests {
     use crate::basis::linear::linear_basis;
     use fractum_engine::testing::*;
 
-    fn unstrained() -> ElasticState {
+    fn unstrained<D: Dim>() -> ElasticState<D> {
         ElasticState {
-            stress: SymTensor::ZERO,
-            strain: SymTensor::ZERO,
-            deformation_gradient: Matrix::IDENTITY,
+            stress: D::Sym::ZERO,
+            strain: D::Sym::ZERO,
+            deformation_gradient: D::Matrix::IDENTITY,
             volume: 1.0,
             energy_density: 0.0,
         }
     }
 
-    #[test]
-    fn uniaxial_strain_gives_plane_strain_hooke_stress() {
+    /// Uniaxial strain ε_xx = 1e-3: σ_xx = (λ + 2μ) ε, every other normal stress λ ε (in plane
+    /// strain that includes σ_zz), no shear.
+    fn uniaxial_strain<D: Dim>() {
         let (lambda, mu) = test_material().lame();
-        let state = unstrained();
-        // Stretch along x at rate 0.1/s for 0.01 s: ε_xx = 1e-3.
-        let l = Matrix::from_cols(Vector::new(0.1, 0.0), Vector::ZERO);
-        let after = update_elastic(&state, l, 0.01, (lambda, mu), 1.0);
-        assert!((after.stress.xx - (lambda + 2.0 * mu) * 1e-3).abs() < 1e-12);
-        assert!((after.stress.yy - lambda * 1e-3).abs() < 1e-12);
-        assert!((after.stress.zz - lambda * 1e-3).abs() < 1e-12);
+        // Stretch along x at rate 0.1/s for 0.01 s.
+        let l = D::Matrix::from_fn(|i, j| if i == 0 && j == 0 { 0.1 } else { 0.0 });
+        let after = update_elastic::<D>(&unstrained(), l, 0.01, (lambda, mu), 1.0);
+        assert!((after.stress.get(0, 0) - (lambda + 2.0 * mu) * 1e-3).abs() < 1e-12);
+        for i in 1..3 {
+            assert!((after.stress.get(i, i) - lambda * 1e-3).abs() < 1e-12);
+        }
+        assert_eq!(after.stress.get(0, 1), 0.0);
         assert!((after.volume - 1.001).abs() < 1e-15);
         // ½ σ:ε at the mid-step volume 1.0005.
         let half_sigma_eps = 0.5 * (lambda + 2.0 * mu) * 1e-6;
@@ -184,31 +176,58 @@ mod tests {
     }
 
     #[test]
+    fn uniaxial_strain_gives_hookes_stress_in_plane_strain_and_3d() {
+        uniaxial_strain::<Two>();
+        uniaxial_strain::<Three>();
+    }
+
+    #[test]
     fn rigid_rotation_rate_produces_no_stress() {
         let (lambda, mu) = test_material().lame();
-        let state = unstrained();
-        let spin = Matrix::from_cols(Vector::new(0.0, 1.0), Vector::new(-1.0, 0.0));
-        let after = update_elastic(&state, spin, 1e-3, (lambda, mu), 1.0);
-        assert_eq!(after.stress, SymTensor::ZERO);
+        let spin = DMat2::from_cols(DVec2::new(0.0, 1.0), DVec2::new(-1.0, 0.0));
+        let after = update_elastic::<Two>(&unstrained(), spin, 1e-3, (lambda, mu), 1.0);
+        assert_eq!(after.stress, SymTensor2::ZERO);
+        let spin = DMat3::from_cols(DVec3::new(0.0, 0.0, -2.0), DVec3::Z, DVec3::new(2.0, -1.0, 0.0));
+        let after = update_elastic::<Three>(&unstrained(), spin, 1e-3, (lambda, mu), 1.0);
+        assert_eq!(after.stress, SymTensor3::ZERO);
     }
 
     #[test]
     fn system_reads_a_linear_nodal_velocity_field() {
-        let mut world = tiny_world(2, 0.5, 0.01);
-        spawn_particle(&mut world, Vector::new(0.3, 0.7), Vector::ZERO, 1.0, 0.1);
+        let mut world = tiny_world::<Two>(2, 0.5, 0.01);
+        spawn_particle(&mut world, DVec2::new(0.3, 0.7), DVec2::ZERO, 1.0, 0.1);
         // Nodal velocity v = (0.2 x, −0.1 y): L = diag(0.2, −0.1) exactly for a bilinear basis.
-        let positions = node_values::<NodePosition>(&mut world);
-        let mut query = world.query::<(&NodeIndex, &mut NodeVelocity)>();
+        let positions = node_values::<NodePosition<Two>>(&mut world);
+        let mut query = world.query::<(&NodeIndex, &mut NodeVelocity<Two>)>();
         for (index, mut v) in query.iter_mut(&mut world) {
             let x = positions[index.0 as usize].0;
-            v.0[0] = Vector::new(0.2 * x.x, -0.1 * x.y);
+            v.0[0] = DVec2::new(0.2 * x.x, -0.1 * x.y);
         }
-        run_system(&mut world, (linear_basis, linear_elastic_stress).chain());
-        let strain = particle_values::<Strain>(&mut world)[0].0;
+        run_system(&mut world, (linear_basis::<Two>, linear_elastic_stress::<Two>).chain());
+        let strain = particle_values::<Strain<Two>>(&mut world)[0].0;
         assert!((strain.xx - 0.002).abs() < 1e-15 && (strain.yy + 0.001).abs() < 1e-15);
         assert!(strain.xy.abs() < 1e-15);
         let (lambda, mu) = test_material().lame();
-        let stress = particle_values::<Stress>(&mut world)[0].0;
+        let stress = particle_values::<Stress<Two>>(&mut world)[0].0;
         assert!((stress.xx - (lambda * 0.001 + 2.0 * mu * 0.002)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn system_reads_a_linear_nodal_velocity_field_in_3d() {
+        let mut world = tiny_world::<Three>(2, 0.5, 0.01);
+        spawn_particle(&mut world, DVec3::new(0.3, 0.7, 0.4), DVec3::ZERO, 1.0, 0.1);
+        // v = (0, 0, 0.3 x): L_zx = 0.3, a shear rate ε_xz = 0.15.
+        let positions = node_values::<NodePosition<Three>>(&mut world);
+        let mut query = world.query::<(&NodeIndex, &mut NodeVelocity<Three>)>();
+        for (index, mut v) in query.iter_mut(&mut world) {
+            v.0[0] = DVec3::new(0.0, 0.0, 0.3 * positions[index.0 as usize].0.x);
+        }
+        run_system(&mut world, (linear_basis::<Three>, linear_elastic_stress::<Three>).chain());
+        let strain = particle_values::<Strain<Three>>(&mut world)[0].0;
+        assert!((strain.xz - 0.0015).abs() < 1e-15 && strain.xx.abs() < 1e-15);
+        let (_, mu) = test_material().lame();
+        let stress = particle_values::<Stress<Three>>(&mut world)[0].0;
+        assert!((stress.xz - 2.0 * mu * 0.0015).abs() < 1e-12);
+        assert!(stress.trace().abs() < 1e-12);
     }
 }

@@ -1,0 +1,320 @@
+//! Shapes of bodies and initial cracks, as checked values: membership and bounding boxes.
+//!
+//! 2D shapes (rectangle, disk, polygon) look at x and y; 3D shapes (box, sphere, cylinder,
+//! prism) at x, y and z. Points are given with three coordinates (z = 0 in 2D); which shapes a
+//! scene may use is checked against its dimension when the scene is built.
+
+use crate::dim::Dimension;
+use glam::{DVec2, DVec3};
+
+/// A region of space a body fills.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Shape {
+    /// 2D: axis-aligned rectangle (boundary included).
+    Rectangle {
+        /// Lower corner.
+        min: DVec2,
+        /// Upper corner.
+        max: DVec2,
+    },
+    /// 2D: disk (boundary included).
+    Disk {
+        /// Centre.
+        center: DVec2,
+        /// Radius.
+        radius: f64,
+    },
+    /// 2D: simple polygon (even-odd rule).
+    Polygon {
+        /// Vertices in order.
+        vertices: Vec<DVec2>,
+    },
+    /// 3D: axis-aligned box (boundary included).
+    Box {
+        /// Lower corner.
+        min: DVec3,
+        /// Upper corner.
+        max: DVec3,
+    },
+    /// 3D: sphere (boundary included).
+    Sphere {
+        /// Centre.
+        center: DVec3,
+        /// Radius.
+        radius: f64,
+    },
+    /// 3D: circular cylinder along a coordinate axis (boundary included).
+    Cylinder {
+        /// Midpoint of the axis.
+        center: DVec3,
+        /// Axis index (0, 1, 2).
+        axis: usize,
+        /// Radius.
+        radius: f64,
+        /// Length along the axis.
+        length: f64,
+    },
+    /// 3D: polygon across a coordinate axis, extruded from `min` to `max` along it.
+    Prism {
+        /// Vertices, as the two other coordinates in x, y, z order.
+        vertices: Vec<DVec2>,
+        /// Axis index (0, 1, 2).
+        axis: usize,
+        /// Start along the axis.
+        min: f64,
+        /// End along the axis.
+        max: f64,
+    },
+}
+
+/// The two coordinates across `axis`, in x, y, z order.
+fn across(x: DVec3, axis: usize) -> DVec2 {
+    match axis {
+        0 => DVec2::new(x.y, x.z),
+        1 => DVec2::new(x.x, x.z),
+        _ => DVec2::new(x.x, x.y),
+    }
+}
+
+/// The point with `along` on `axis` and `plane` on the two others.
+fn compose(axis: usize, along: f64, plane: DVec2) -> DVec3 {
+    match axis {
+        0 => DVec3::new(along, plane.x, plane.y),
+        1 => DVec3::new(plane.x, along, plane.y),
+        _ => DVec3::new(plane.x, plane.y, along),
+    }
+}
+
+/// Even-odd rule.
+fn in_polygon(vertices: &[DVec2], x: DVec2) -> bool {
+    let mut inside = false;
+    let n = vertices.len();
+    for k in 0..n {
+        let (a, b) = (vertices[k], vertices[(k + 1) % n]);
+        if (a.y > x.y) != (b.y > x.y) {
+            let crossing = a.x + (x.y - a.y) * (b.x - a.x) / (b.y - a.y);
+            if x.x < crossing {
+                inside = !inside;
+            }
+        }
+    }
+    inside
+}
+
+fn polygon_bounds(vertices: &[DVec2]) -> (DVec2, DVec2) {
+    vertices.iter().fold(
+        (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+        |(lo, hi), v| (lo.min(*v), hi.max(*v)),
+    )
+}
+
+impl Shape {
+    /// The dimension of scene the shape belongs to.
+    pub fn dimension(&self) -> Dimension {
+        match self {
+            Shape::Rectangle { .. } | Shape::Disk { .. } | Shape::Polygon { .. } => Dimension::Two,
+            _ => Dimension::Three,
+        }
+    }
+
+    /// The variant's name, as a scene writes it.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Shape::Rectangle { .. } => "Rectangle",
+            Shape::Disk { .. } => "Disk",
+            Shape::Polygon { .. } => "Polygon",
+            Shape::Box { .. } => "Box",
+            Shape::Sphere { .. } => "Sphere",
+            Shape::Cylinder { .. } => "Cylinder",
+            Shape::Prism { .. } => "Prism",
+        }
+    }
+
+    /// `None` when the shape is well formed, else what was expected.
+    pub fn problem(&self) -> Option<&'static str> {
+        let positive = |r: f64| r.is_finite() && r > 0.0;
+        let valid = match self {
+            Shape::Rectangle { min, max } => min.is_finite() && max.is_finite() && max.cmpgt(*min).all(),
+            Shape::Box { min, max } => min.is_finite() && max.is_finite() && max.cmpgt(*min).all(),
+            Shape::Disk { center, radius } => center.is_finite() && positive(*radius),
+            Shape::Sphere { center, radius } => center.is_finite() && positive(*radius),
+            Shape::Cylinder {
+                center,
+                axis,
+                radius,
+                length,
+            } => center.is_finite() && *axis < 3 && positive(*radius) && positive(*length),
+            Shape::Polygon { vertices } => {
+                vertices.len() >= 3 && vertices.iter().all(|v| v.is_finite())
+            }
+            Shape::Prism {
+                vertices,
+                axis,
+                min,
+                max,
+            } => {
+                vertices.len() >= 3
+                    && vertices.iter().all(|v| v.is_finite())
+                    && *axis < 3
+                    && min.is_finite()
+                    && max.is_finite()
+                    && max > min
+            }
+        };
+        (!valid).then_some(match self {
+            Shape::Rectangle { .. } => "a rectangle with `max` above and to the right of `min`",
+            Shape::Box { .. } => "a box with `max` above `min` along every axis",
+            Shape::Disk { .. } => "a disk with a positive radius",
+            Shape::Sphere { .. } => "a sphere with a positive radius",
+            Shape::Cylinder { .. } => "a cylinder with a positive radius and length",
+            Shape::Polygon { .. } => "a polygon with at least 3 finite vertices",
+            Shape::Prism { .. } => "a prism with at least 3 finite vertices and `max` above `min`",
+        })
+    }
+
+    /// True when `x` (z = 0 for a 2D shape) lies inside the shape.
+    pub fn contains(&self, x: DVec3) -> bool {
+        match self {
+            Shape::Rectangle { min, max } => {
+                x.x >= min.x && x.x <= max.x && x.y >= min.y && x.y <= max.y
+            }
+            Shape::Disk { center, radius } => {
+                (x.truncate() - *center).length_squared() <= radius * radius
+            }
+            Shape::Polygon { vertices } => in_polygon(vertices, x.truncate()),
+            Shape::Box { min, max } => x.cmpge(*min).all() && x.cmple(*max).all(),
+            Shape::Sphere { center, radius } => (x - *center).length_squared() <= radius * radius,
+            Shape::Cylinder {
+                center,
+                axis,
+                radius,
+                length,
+            } => {
+                let along = (x[*axis] - center[*axis]).abs();
+                let radial = across(x, *axis) - across(*center, *axis);
+                along <= 0.5 * length && radial.length_squared() <= radius * radius
+            }
+            Shape::Prism {
+                vertices,
+                axis,
+                min,
+                max,
+            } => x[*axis] >= *min && x[*axis] <= *max && in_polygon(vertices, across(x, *axis)),
+        }
+    }
+
+    /// Axis-aligned bounding box (z = 0 for 2D shapes).
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        match self {
+            Shape::Rectangle { min, max } => (min.extend(0.0), max.extend(0.0)),
+            Shape::Disk { center, radius } => (
+                (*center - DVec2::splat(*radius)).extend(0.0),
+                (*center + DVec2::splat(*radius)).extend(0.0),
+            ),
+            Shape::Polygon { vertices } => {
+                let (lo, hi) = polygon_bounds(vertices);
+                (lo.extend(0.0), hi.extend(0.0))
+            }
+            Shape::Box { min, max } => (*min, *max),
+            Shape::Sphere { center, radius } => {
+                (*center - DVec3::splat(*radius), *center + DVec3::splat(*radius))
+            }
+            Shape::Cylinder {
+                center,
+                axis,
+                radius,
+                length,
+            } => {
+                let half = compose(*axis, 0.5 * length, DVec2::splat(*radius));
+                (*center - half, *center + half)
+            }
+            Shape::Prism {
+                vertices,
+                axis,
+                min,
+                max,
+            } => {
+                let (lo, hi) = polygon_bounds(vertices);
+                (compose(*axis, *min, lo), compose(*axis, *max, hi))
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn polygon_and_disk_membership() {
+        let triangle = Shape::Polygon {
+            vertices: vec![DVec2::ZERO, DVec2::X, DVec2::Y],
+        };
+        assert!(triangle.contains(DVec3::new(0.2, 0.2, 0.0)));
+        assert!(!triangle.contains(DVec3::new(0.6, 0.6, 0.0)));
+        let disk = Shape::Disk {
+            center: DVec2::splat(0.5),
+            radius: 0.25,
+        };
+        assert!(disk.contains(DVec3::new(0.5, 0.74, 0.0)));
+        assert!(!disk.contains(DVec3::new(0.3, 0.3, 0.0)));
+        assert_eq!(disk.bounds().1, DVec3::new(0.75, 0.75, 0.0));
+        assert_eq!(disk.dimension(), Dimension::Two);
+    }
+
+    #[test]
+    fn three_dimensional_shapes() {
+        let cylinder = Shape::Cylinder {
+            center: DVec3::new(1.0, 1.0, 1.0),
+            axis: 1,
+            radius: 0.5,
+            length: 2.0,
+        };
+        assert!(cylinder.contains(DVec3::new(1.4, 1.9, 1.2)));
+        assert!(!cylinder.contains(DVec3::new(1.4, 2.1, 1.2)));
+        assert!(!cylinder.contains(DVec3::new(1.4, 1.0, 1.4)));
+        assert_eq!(
+            cylinder.bounds(),
+            (DVec3::new(0.5, 0.0, 0.5), DVec3::new(1.5, 2.0, 1.5))
+        );
+        // A notched beam section across z, 0.1 deep.
+        let prism = Shape::Prism {
+            vertices: vec![
+                DVec2::new(0.0, 0.0),
+                DVec2::new(0.4, 0.0),
+                DVec2::new(0.4, 0.1),
+                DVec2::new(0.0, 0.1),
+            ],
+            axis: 2,
+            min: 0.0,
+            max: 0.1,
+        };
+        assert!(prism.contains(DVec3::new(0.2, 0.05, 0.05)));
+        assert!(!prism.contains(DVec3::new(0.2, 0.05, 0.15)));
+        assert_eq!(prism.bounds().1, DVec3::new(0.4, 0.1, 0.1));
+        // Across x the plane coordinates are (y, z).
+        let across_x = Shape::Prism {
+            vertices: vec![DVec2::ZERO, DVec2::new(1.0, 0.0), DVec2::new(0.0, 2.0)],
+            axis: 0,
+            min: -1.0,
+            max: 1.0,
+        };
+        assert!(across_x.contains(DVec3::new(0.5, 0.2, 0.2)));
+        assert!(!across_x.contains(DVec3::new(0.5, 0.2, 1.8)));
+        let sphere = Shape::Sphere {
+            center: DVec3::ZERO,
+            radius: 1.0,
+        };
+        assert!(sphere.contains(DVec3::new(0.5, 0.5, 0.5)));
+        assert!(!sphere.contains(DVec3::new(0.6, 0.6, 0.6)));
+        assert_eq!(sphere.dimension(), Dimension::Three);
+        assert!(
+            Shape::Box {
+                min: DVec3::ONE,
+                max: DVec3::ZERO
+            }
+            .problem()
+            .is_some()
+        );
+    }
+}

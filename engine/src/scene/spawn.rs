@@ -1,0 +1,399 @@
+//! From a checked [`Spec`] to a [`Simulation`]: spawning nodes and particles, resolving boundary
+//! regions and probes, installing the pipeline, and the last checks that need the world (a
+//! shape that seeds no particle, a region with no node, a fixed step above the stable limit).
+
+use super::format::Probe;
+use super::seed::particles_in_shape;
+use super::spec::{
+    Body, Boundary, Built, Condition, PipelineEntry, PipelineSummary, SceneSummary, Spec,
+};
+use super::{SceneError, Source};
+use crate::boundary::{BoundaryConditions, BoundaryRegion, PiecewiseLinear, Reactions};
+use crate::components::{BodyId, ContactGroup, Damage, NodeBundle, ParticleBundle, Velocity, WaveSpeed};
+use crate::connectivity::Connectivity;
+use crate::dim::{Dim, VectorOps};
+use crate::health::{LeaveGrid, remove_escaped_particles};
+use crate::output::{OutputPlan, ProbeKind};
+use crate::registry::{Installer, Registration, Registry};
+use crate::resources::{BodyForce, Grid, Materials, SimClock, Thickness};
+use crate::series::SeriesColumns;
+use crate::simulation::{Simulation, TimeStep, add_stage_checks, stable_time_step, step_schedule};
+use crate::stage::{Stage, StageCheck};
+use bevy_ecs::prelude::World;
+use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule};
+
+impl<D: Dim> Spec<D> {
+    /// Checks the spec, builds the world and the step schedule with systems from `registry`,
+    /// and checks what only the built world can tell.
+    pub fn build(self, registry: &Registry) -> Result<Built, SceneError> {
+        self.check()?;
+        let mut world = World::new();
+        world.insert_resource(self.grid);
+        world.insert_resource(D::DIMENSION);
+        world.insert_resource(Thickness(self.thickness));
+        spawn_nodes(&mut world, &self.grid);
+        let body_particles = self.spawn_bodies(&mut world)?;
+        let boundaries = self.boundary_conditions()?;
+        let output = self.output_plan()?;
+        world.insert_resource(Materials(self.materials.clone()));
+        world.insert_resource(BodyForce::<D>(self.body_force));
+        world.insert_resource(Reactions::<D>(vec![D::Vector::ZERO; boundaries.regions.len()]));
+        world.insert_resource(boundaries);
+        world.insert_resource(SimClock::default());
+        world.insert_resource(self.on_leave_grid);
+        world.init_resource::<Connectivity<D>>();
+        let mut schedule = step_schedule();
+        let pipeline = self.install_pipeline(registry, &mut schedule, &mut world)?;
+        let mut output = output;
+        output.system_columns = world
+            .get_resource::<SeriesColumns>()
+            .map(|c| c.names.clone())
+            .unwrap_or_default();
+        self.check_stable_step(&mut world)?;
+        add_stage_checks::<D>(
+            &mut schedule,
+            pipeline.by_stage.iter().map(|(stage, _)| *stage),
+        );
+        if self.on_leave_grid == LeaveGrid::Remove {
+            schedule.add_systems(remove_escaped_particles::<D>.in_set(StageCheck(Stage::Advection)));
+        }
+        let simulation = Simulation::new::<D>(world, schedule, self.time_step, self.end)
+            .map_err(|e| {
+                self.source.error(
+                    "pipeline",
+                    format!(
+                        "systems in one stage touch the same data without an order between \
+                         them; order them or split them into stages:\n{e}"
+                    ),
+                )
+            })?;
+        let summary = self.summary(&body_particles);
+        Ok(Built {
+            simulation,
+            pipeline,
+            output,
+            body_particles,
+            summary,
+        })
+    }
+
+    fn summary(&self, body_particles: &[usize]) -> SceneSummary {
+        SceneSummary {
+            source: self.source.name().to_string(),
+            title: self.title.clone(),
+            thickness: self.thickness,
+            bodies: self
+                .bodies
+                .iter()
+                .zip(body_particles)
+                .enumerate()
+                .map(|(b, (body, n))| (body.name.clone().unwrap_or(format!("body {b}")), *n))
+                .collect(),
+            boundaries: self
+                .boundaries
+                .iter()
+                .map(|r| (r.name.clone(), describe_condition::<D>(&r.condition)))
+                .collect(),
+            time_step: Some(self.time_step),
+        }
+    }
+
+    fn spawn_bodies(&self, world: &mut World) -> Result<Vec<usize>, SceneError> {
+        let mut counts = Vec::new();
+        let mut next_id: u32 = 0;
+        for (b, body) in self.bodies.iter().enumerate() {
+            let bundles = self.body_particles(b, body, &mut next_id)?;
+            counts.push(bundles.len());
+            world.spawn_batch(bundles);
+        }
+        Ok(counts)
+    }
+
+    fn body_particles(
+        &self,
+        b: usize,
+        body: &Body<D>,
+        next_id: &mut u32,
+    ) -> Result<Vec<ParticleBundle<D>>, SceneError> {
+        let material = self.material_index(&body.material, &format!("bodies[{b}].material"))?;
+        let seeded = particles_in_shape(
+            &body.shape,
+            &self.grid,
+            body.particles_per_cell,
+            body.placement,
+            self.thickness,
+        );
+        if seeded.is_empty() {
+            return Err(self.source.error(
+                &format!("bodies[{b}].shape"),
+                "no particle falls inside this shape; make it larger than a cell or use more \
+                 particles per cell",
+            ));
+        }
+        if (*next_id as usize).saturating_add(seeded.len()) > u32::MAX as usize {
+            return Err(self.source.error("bodies", "more than 2^32 particles"));
+        }
+        let m = &self.materials[material];
+        let (density, wave_speed) = (m.density, m.wave_speed());
+        Ok(seeded
+            .iter()
+            .map(|&(x, volume)| {
+                let mut p =
+                    ParticleBundle::<D>::new(*next_id, x, density * volume, volume, material as u16);
+                *next_id += 1;
+                p.velocity = Velocity(body.velocity.at(x));
+                p.body = BodyId(b as u16);
+                p.wave_speed = WaveSpeed(wave_speed);
+                if body.cracks.iter().any(|crack| crack.contains(x.to_3d().into())) {
+                    p.damage = Damage(1.0);
+                }
+                p.group = ContactGroup(body.contact_group);
+                p
+            })
+            .collect())
+    }
+
+    fn boundary_conditions(&self) -> Result<BoundaryConditions, SceneError> {
+        let regions = self
+            .boundaries
+            .iter()
+            .enumerate()
+            .map(|(r, region)| self.region(r, region))
+            .collect::<Result<_, _>>()?;
+        Ok(BoundaryConditions { regions })
+    }
+
+    fn region(&self, r: usize, region: &Boundary<D>) -> Result<BoundaryRegion, SceneError> {
+        let grid = &self.grid;
+        let tol = 1e-9 * grid.spacing;
+        let nodes: Vec<u32> = (0..grid.node_count())
+            .filter(|&i| {
+                let x = grid.node_position(i);
+                (0..D::N).all(|a| x[a] >= region.min[a] - tol && x[a] <= region.max[a] + tol)
+            })
+            .map(|i| i as u32)
+            .collect();
+        if nodes.is_empty() {
+            return Err(self.source.error(
+                &format!("boundaries[{r}].nodes"),
+                "no grid node lies in this box",
+            ));
+        }
+        let rest = || Some(PiecewiseLinear::constant(0.0));
+        let velocity = match &region.condition {
+            Condition::Fixed => std::array::from_fn(|a| if a < D::N { rest() } else { None }),
+            Condition::Roller { normal } => {
+                std::array::from_fn(|a| if a == *normal { rest() } else { None })
+            }
+            // Checked by `Spec::check`: each given list is a valid function.
+            Condition::Velocity(components) => std::array::from_fn(|a| {
+                components[a]
+                    .clone()
+                    .and_then(|points| PiecewiseLinear::new(points).ok())
+            }),
+        };
+        Ok(BoundaryRegion {
+            name: region.name.clone(),
+            nodes,
+            velocity,
+        })
+    }
+
+    fn output_plan(&self) -> Result<OutputPlan, SceneError> {
+        let mut probes = Vec::new();
+        for (k, probe) in self.output.probes.iter().enumerate() {
+            probes.push(match probe {
+                Probe::Reaction(name) => ProbeKind::Reaction {
+                    name: name.clone(),
+                    index: self.region_index(name, k)?,
+                },
+                Probe::CentreOfMassVelocity => ProbeKind::CentreOfMassVelocity,
+                Probe::Force(name) => ProbeKind::Force {
+                    name: name.clone(),
+                    index: self.body_index(name, k)? as u16,
+                },
+                Probe::Displacement(name) => ProbeKind::Displacement {
+                    name: name.clone(),
+                    index: self.region_index(name, k)?,
+                },
+            });
+        }
+        Ok(OutputPlan {
+            dimension: D::DIMENSION,
+            vtu_every: self.output.vtu_every,
+            csv_every: self.output.csv_every,
+            probes,
+            last_good_frame: self.output.last_good_frame,
+            system_columns: Vec::new(),
+        })
+    }
+
+    /// Where errors about pipeline entry `k` point: its place in the file when it is the
+    /// entry written there, otherwise nowhere in particular.
+    fn entry_source(&self, entry: &PipelineEntry) -> Source {
+        if entry.in_source {
+            self.source.clone()
+        } else {
+            Source::code(self.source.name())
+        }
+    }
+
+    fn install_pipeline(
+        &self,
+        registry: &Registry,
+        schedule: &mut Schedule,
+        world: &mut World,
+    ) -> Result<PipelineSummary, SceneError> {
+        let chosen = self.chosen_systems(registry)?;
+        let mut summary = PipelineSummary::default();
+        for stage in Stage::ORDER {
+            let names: Vec<String> = chosen
+                .iter()
+                .filter(|(_, r)| r.stage() == Some(stage))
+                .map(|(_, r)| r.name.to_string())
+                .collect();
+            if !names.is_empty() {
+                summary.by_stage.push((stage, names));
+            }
+        }
+        for (k, registration) in chosen {
+            let entry = &self.pipeline[k];
+            let source = self.entry_source(entry);
+            let params = source.params(entry.params.as_deref(), format!("pipeline[{k}].params"));
+            let stage = registration.stage().unwrap_or(Stage::PostStep);
+            let mut installer = Installer::new(stage, schedule, world);
+            (registration.install)(&mut installer, &params)?;
+        }
+        Ok(summary)
+    }
+
+    /// The registration of every entry, checked: known, listed once, required stages filled,
+    /// partners present.
+    fn chosen_systems<'r>(
+        &self,
+        registry: &'r Registry,
+    ) -> Result<Vec<(usize, &'r Registration)>, SceneError> {
+        let mut chosen: Vec<(usize, &Registration)> = Vec::new();
+        for (k, entry) in self.pipeline.iter().enumerate() {
+            let field = format!("pipeline[{k}].system");
+            let source = self.entry_source(entry);
+            let Some(registration) = registry.get(&entry.system) else {
+                return Err(source.error(
+                    &field,
+                    format!(
+                        "unknown system \"{}\"; known systems: {}",
+                        entry.system,
+                        registry.names().join(", ")
+                    ),
+                ));
+            };
+            if chosen.iter().any(|(_, r)| r.name == registration.name) {
+                return Err(source.error(
+                    &field,
+                    format!("system \"{}\" is listed twice", entry.system),
+                ));
+            }
+            chosen.push((k, registration));
+        }
+        for stage in Stage::REQUIRED {
+            if !chosen.iter().any(|(_, r)| r.stage() == Some(stage)) {
+                let options: Vec<_> = registry
+                    .iter()
+                    .filter(|r| r.stage() == Some(stage))
+                    .map(|r| r.name)
+                    .collect();
+                return Err(self.source.error(
+                    "pipeline",
+                    format!(
+                        "the pipeline has no system for the required stage `{stage}`; add one of: {}",
+                        options.join(", ")
+                    ),
+                ));
+            }
+        }
+        for (k, registration) in &chosen {
+            for needed in registration.requires {
+                // `stage/*` asks for any system of that stage.
+                let satisfied = match needed.strip_suffix("/*") {
+                    Some(stage) => chosen
+                        .iter()
+                        .any(|(_, r)| r.stage().is_some_and(|s| s.name() == stage)),
+                    None => chosen.iter().any(|(_, r)| r.name == *needed),
+                };
+                if !satisfied {
+                    let source = self.entry_source(&self.pipeline[*k]);
+                    return Err(source.error(
+                        &format!("pipeline[{k}].system"),
+                        format!(
+                            "system \"{}\" needs {} in the pipeline",
+                            registration.name,
+                            match needed.strip_suffix("/*") {
+                                Some(stage) => format!("a `{stage}` system"),
+                                None => format!("\"{needed}\""),
+                            }
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(chosen)
+    }
+
+    /// A fixed step must not exceed the stable limit of the particles as spawned (the one
+    /// rule, [`stable_time_step`], that CFL steps follow too).
+    fn check_stable_step(&self, world: &mut World) -> Result<(), SceneError> {
+        let TimeStep::Fixed(dt) = self.time_step else {
+            return Ok(());
+        };
+        let stable = stable_time_step::<D>(world);
+        if dt <= stable.dt {
+            return Ok(());
+        }
+        let restriction = if stable.limit.reason.is_empty() {
+            String::new()
+        } else {
+            format!(" × {} ({})", stable.limit.factor, stable.limit.reason)
+        };
+        let culprit = match stable.particle {
+            Some((id, material)) => format!(
+                " (particle {id}, material \"{}\")",
+                self.materials[material as usize].name
+            ),
+            None => String::new(),
+        };
+        Err(self.source.error(
+            "time.step",
+            format!(
+                "the time step {dt:e} s exceeds the stable limit {:e} s = h / (√{} (c + |v|)){restriction} \
+                 with h = {} m and c + |v| = {:.6e} m/s{culprit}; use `Fixed({:.3e})` or less, or \
+                 `Cfl(0.5)`",
+                stable.dt,
+                stable.dimensions,
+                stable.spacing,
+                stable.speed,
+                0.9 * stable.dt
+            ),
+        ))
+    }
+}
+
+fn spawn_nodes<D: Dim>(world: &mut World, grid: &Grid<D>) {
+    let nodes: Vec<NodeBundle<D>> = (0..grid.node_count())
+        .map(|i| NodeBundle::new(i as u32, grid.node_position(i)))
+        .collect();
+    world.spawn_batch(nodes);
+}
+
+fn describe_condition<D: Dim>(condition: &Condition) -> String {
+    match condition {
+        Condition::Fixed => "fixed".into(),
+        Condition::Roller { normal } => format!("roller, {} held", D::AXES[*normal]),
+        Condition::Velocity(components) => {
+            let given: Vec<&str> = (0..D::N)
+                .filter(|a| components[*a].is_some())
+                .map(|a| D::AXES[a])
+                .collect();
+            format!("prescribed velocity ({})", given.join(", "))
+        }
+    }
+}

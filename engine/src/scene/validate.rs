@@ -1,0 +1,374 @@
+//! From the file format to a [`Spec`]: coordinates, shapes, axes and components that fit the
+//! scene's dimension, each error at its place in the file.
+//!
+//! Value checks that do not depend on the file (positive spacing, known materials, bodies
+//! inside the grid, …) are `Spec::check`'s, so scenes built in code get them too.
+
+use super::format::*;
+use super::shape::Shape;
+use super::spec::{Body, Boundary, Condition, InitialVelocity, Output, PipelineEntry, Spec};
+use super::{SceneError, SceneFile, Source};
+use crate::dim::{Dim, MatrixOps, VectorOps};
+use crate::health::LeaveGrid;
+use crate::resources::{Grid, Material};
+use crate::simulation::{End, TimeStep};
+use glam::{DVec2, DVec3};
+
+impl<D: Dim> Spec<D> {
+    /// Reads the spec of `file`, whose grid must be `D`-dimensional.
+    pub fn from_file(file: &SceneFile) -> Result<Self, SceneError> {
+        let reader = Reader::<D> {
+            source: file.source(),
+            dimension: std::marker::PhantomData,
+        };
+        reader.spec(&file.scene)
+    }
+}
+
+struct Reader<D: Dim> {
+    source: Source,
+    dimension: std::marker::PhantomData<D>,
+}
+
+impl<D: Dim> Reader<D> {
+    fn error(&self, field: &str, message: impl Into<String>) -> SceneError {
+        self.source.error(field, message)
+    }
+
+    /// A vector of the scene's dimension.
+    fn vector(&self, field: &str, coords: &Coords) -> Result<D::Vector, SceneError> {
+        if coords.0.len() != D::N {
+            return Err(self.error(field, self.count_message(coords.0.len())));
+        }
+        Ok(D::Vector::from_fn(|a| coords.0[a]))
+    }
+
+    fn count_message(&self, found: usize) -> String {
+        format!(
+            "expected {} coordinates ({}): the grid makes this a {} scene; found {found}",
+            D::N,
+            D::AXES.join(", "),
+            D::NAME
+        )
+    }
+
+    /// A point of a 2D shape (only in a 2D scene; the shape check reports a 3D scene).
+    fn point2(&self, field: &str, coords: &Coords) -> Result<DVec2, SceneError> {
+        match coords.0.as_slice() {
+            [x, y] => Ok(DVec2::new(*x, *y)),
+            _ => Err(self.error(
+                field,
+                format!("expected 2 coordinates (x, y), found {}", coords.0.len()),
+            )),
+        }
+    }
+
+    /// A point of a 3D shape.
+    fn point3(&self, field: &str, coords: &Coords) -> Result<DVec3, SceneError> {
+        match coords.0.as_slice() {
+            [x, y, z] => Ok(DVec3::new(*x, *y, *z)),
+            _ => Err(self.error(
+                field,
+                format!("expected 3 coordinates (x, y, z), found {}", coords.0.len()),
+            )),
+        }
+    }
+
+    fn axis(&self, field: &str, axis: Axis) -> Result<usize, SceneError> {
+        let index = axis.index();
+        if index >= D::N {
+            return Err(self.error(
+                field,
+                format!(
+                    "the scene is {}: its axes are {}",
+                    D::NAME,
+                    D::AXES.join(", ").to_uppercase()
+                ),
+            ));
+        }
+        Ok(index)
+    }
+
+    fn spec(&self, scene: &Scene) -> Result<Spec<D>, SceneError> {
+        let grid = self.grid(&scene.grid)?;
+        let thickness = match scene.thickness {
+            Some(_) if D::N == 3 => {
+                return Err(self.error(
+                    "thickness",
+                    "a thickness is for 2D scenes; a 3D body has its own depth",
+                ));
+            }
+            Some(t) => t,
+            None => 1.0,
+        };
+        let materials = scene
+            .materials
+            .iter()
+            .map(|(name, m)| Material::new(name, m.density, m.youngs_modulus, m.poisson_ratio))
+            .collect();
+        let bodies = scene
+            .bodies
+            .iter()
+            .enumerate()
+            .map(|(b, body)| self.body(b, body))
+            .collect::<Result<_, _>>()?;
+        let boundaries = scene
+            .boundaries
+            .iter()
+            .enumerate()
+            .map(|(r, spec)| self.boundary(r, spec))
+            .collect::<Result<_, _>>()?;
+        let body_force = match &scene.body_force {
+            Some(coords) => self.vector("body_force", coords)?,
+            None => D::Vector::ZERO,
+        };
+        let pipeline = scene
+            .pipeline
+            .iter()
+            .map(|entry| PipelineEntry {
+                system: entry.system.clone(),
+                params: entry.params.as_deref().map(|r| r.trim().get_ron().to_string()),
+                in_source: true,
+            })
+            .collect();
+        Ok(Spec {
+            source: self.source.clone(),
+            title: scene.title.clone(),
+            time_step: match scene.time.step {
+                TimeStepSpec::Fixed(dt) => TimeStep::Fixed(dt),
+                TimeStepSpec::Cfl(f) => TimeStep::Cfl(f),
+            },
+            end: match scene.time.end {
+                EndSpec::Time(t) => End::Time(t),
+                EndSpec::Steps(n) => End::Steps(n),
+            },
+            grid,
+            thickness,
+            materials,
+            bodies,
+            boundaries,
+            body_force,
+            output: Output {
+                vtu_every: scene.output.vtu_every,
+                csv_every: scene.output.csv_every,
+                probes: scene.output.probes.clone(),
+                last_good_frame: scene.output.last_good_frame,
+            },
+            on_leave_grid: match scene.safety.on_leave_grid {
+                LeaveGridSpec::Stop => LeaveGrid::Stop,
+                LeaveGridSpec::Remove => LeaveGrid::Remove,
+            },
+            pipeline,
+        })
+    }
+
+    fn grid(&self, g: &GridSpec) -> Result<Grid<D>, SceneError> {
+        if !(g.spacing.is_finite() && g.spacing > 0.0) {
+            return Err(self.error("grid.spacing", "expected a positive spacing"));
+        }
+        let min = self.vector("grid.min", &g.min)?;
+        let max = self.vector("grid.max", &g.max)?;
+        if !min.is_finite() {
+            return Err(self.error("grid.min", "expected finite coordinates"));
+        }
+        if !(max.is_finite() && (0..D::N).all(|a| max[a] > min[a])) {
+            return Err(self.error(
+                "grid.max",
+                "expected a corner above `min` along every axis",
+            ));
+        }
+        let mut cells = D::Cell::default();
+        for a in 0..D::N {
+            let length = max[a] - min[a];
+            let count = length / g.spacing;
+            if (count - count.round()).abs() > 1e-6 * count.max(1.0) {
+                return Err(self.error(
+                    "grid.max",
+                    format!(
+                        "the box must hold a whole number of cells: {length} / {} = {count} along {}",
+                        g.spacing,
+                        D::AXES[a]
+                    ),
+                ));
+            }
+            if count.round() > 1e8 {
+                return Err(self.error("grid.spacing", "the grid would have more than 10^8 cells"));
+            }
+            cells[a] = count.round() as usize;
+        }
+        Ok(Grid {
+            min,
+            spacing: g.spacing,
+            cells,
+        })
+    }
+
+    fn shape(&self, field: &str, shape: &ShapeSpec) -> Result<Shape, SceneError> {
+        let at = |f: &str| format!("{field}.{f}");
+        let points2 = |vertices: &[Coords]| -> Result<Vec<DVec2>, SceneError> {
+            vertices
+                .iter()
+                .enumerate()
+                .map(|(k, v)| self.point2(&at(&format!("vertices[{k}]")), v))
+                .collect()
+        };
+        Ok(match shape {
+            ShapeSpec::Rectangle { min, max } => Shape::Rectangle {
+                min: self.point2(&at("min"), min)?,
+                max: self.point2(&at("max"), max)?,
+            },
+            ShapeSpec::Disk { center, radius } => Shape::Disk {
+                center: self.point2(&at("center"), center)?,
+                radius: *radius,
+            },
+            ShapeSpec::Polygon { vertices } => Shape::Polygon {
+                vertices: points2(vertices)?,
+            },
+            ShapeSpec::Box { min, max } => Shape::Box {
+                min: self.point3(&at("min"), min)?,
+                max: self.point3(&at("max"), max)?,
+            },
+            ShapeSpec::Sphere { center, radius } => Shape::Sphere {
+                center: self.point3(&at("center"), center)?,
+                radius: *radius,
+            },
+            ShapeSpec::Cylinder {
+                center,
+                axis,
+                radius,
+                length,
+            } => Shape::Cylinder {
+                center: self.point3(&at("center"), center)?,
+                axis: axis.index(),
+                radius: *radius,
+                length: *length,
+            },
+            ShapeSpec::Prism {
+                vertices,
+                axis,
+                min,
+                max,
+            } => Shape::Prism {
+                vertices: points2(vertices)?,
+                axis: axis.index(),
+                min: *min,
+                max: *max,
+            },
+        })
+    }
+
+    /// A shape of the scene's dimension; a shape of the other dimension is reported before its
+    /// coordinates are looked at, since that is the real mistake.
+    fn shape_of_dimension(&self, field: &str, shape: &ShapeSpec) -> Result<Shape, SceneError> {
+        let two = matches!(
+            shape,
+            ShapeSpec::Rectangle { .. } | ShapeSpec::Disk { .. } | ShapeSpec::Polygon { .. }
+        );
+        if two != (D::N == 2) {
+            let (kind, allowed) = match D::N {
+                2 => ("a 3D shape", "Rectangle, Disk, Polygon"),
+                _ => ("a 2D shape", "Box, Sphere, Cylinder, Prism"),
+            };
+            return Err(self.error(
+                field,
+                format!(
+                    "{kind} in a {} scene; the scene's shapes are {allowed}",
+                    D::NAME
+                ),
+            ));
+        }
+        self.shape(field, shape)
+    }
+
+    fn velocity(&self, field: &str, v: &VelocitySpec) -> Result<InitialVelocity<D>, SceneError> {
+        let at = |f: &str| format!("{field}.{f}");
+        Ok(match v {
+            VelocitySpec::Uniform(coords) => InitialVelocity::Uniform(self.vector(field, coords)?),
+            VelocitySpec::Sine {
+                amplitude,
+                axis,
+                wavelength,
+                origin,
+            } => InitialVelocity::Sine {
+                amplitude: self.vector(&at("amplitude"), amplitude)?,
+                axis: self.axis(&at("axis"), *axis)?,
+                wavelength: *wavelength,
+                origin: *origin,
+            },
+            VelocitySpec::Linear { gradient, origin } => {
+                if gradient.0.len() != D::N {
+                    return Err(self.error(
+                        &at("gradient"),
+                        format!(
+                            "expected {} rows (one per velocity component): the scene is {}",
+                            D::N,
+                            D::NAME
+                        ),
+                    ));
+                }
+                let rows = gradient
+                    .0
+                    .iter()
+                    .enumerate()
+                    .map(|(i, row)| self.vector(&at(&format!("gradient.{i}")), row))
+                    .collect::<Result<Vec<_>, _>>()?;
+                InitialVelocity::Linear {
+                    gradient: D::Matrix::from_fn(|i, j| rows[i][j]),
+                    origin: match origin {
+                        Some(o) => self.vector(&at("origin"), o)?,
+                        None => D::Vector::ZERO,
+                    },
+                }
+            }
+        })
+    }
+
+    fn body(&self, b: usize, body: &BodySpec) -> Result<Body<D>, SceneError> {
+        let field = |f: &str| format!("bodies[{b}].{f}");
+        let cracks = body
+            .cracks
+            .iter()
+            .enumerate()
+            .map(|(k, c)| self.shape_of_dimension(&field(&format!("cracks[{k}]")), c))
+            .collect::<Result<_, _>>()?;
+        Ok(Body {
+            name: body.name.clone(),
+            shape: self.shape_of_dimension(&field("shape"), &body.shape)?,
+            material: body.material.clone(),
+            particles_per_cell: body.particles_per_cell,
+            placement: body.placement,
+            velocity: match &body.velocity {
+                Some(v) => self.velocity(&field("velocity"), v)?,
+                None => InitialVelocity::Uniform(D::Vector::ZERO),
+            },
+            contact_group: body.contact_group,
+            cracks,
+        })
+    }
+
+    fn boundary(&self, r: usize, spec: &BoundarySpec) -> Result<Boundary<D>, SceneError> {
+        let field = |f: &str| format!("boundaries[{r}].{f}");
+        let RegionSpec::Box { min, max } = &spec.nodes;
+        let condition = match &spec.condition {
+            ConditionSpec::Fixed => Condition::Fixed,
+            ConditionSpec::Roller { normal } => Condition::Roller {
+                normal: self.axis(&field("condition.normal"), *normal)?,
+            },
+            ConditionSpec::Velocity { x, y, z } => {
+                if z.is_some() && D::N == 2 {
+                    return Err(self.error(
+                        &field("condition.z"),
+                        format!("the scene is {}: its velocity components are x, y", D::NAME),
+                    ));
+                }
+                Condition::Velocity([x.clone(), y.clone(), z.clone()])
+            }
+        };
+        Ok(Boundary {
+            name: spec.name.clone(),
+            min: self.vector(&field("nodes.min"), min)?,
+            max: self.vector(&field("nodes.max"), max)?,
+            condition,
+        })
+    }
+}
