@@ -51,6 +51,12 @@ fn corpus_covers_the_mistakes_users_make() {
         "unknown_material",
         "body_outside_grid",
         "unstable_dt",
+        "mixed_coordinates",
+        "grid_corners_disagree",
+        "shape_3d_in_2d_scene",
+        "shape_2d_in_3d_scene",
+        "z_axis_in_2d_scene",
+        "thickness_in_3d_scene",
     ] {
         assert!(
             names.iter().any(|n| n == required),

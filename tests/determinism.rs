@@ -18,7 +18,8 @@ fn lme_newmark() -> Vec<PipelineEntry> {
 
 /// The spec of a shipped scene, with its pipeline replaced when `pipeline` is given.
 fn spec<D: Dim>(scene: &str, pipeline: Option<Vec<PipelineEntry>>) -> Spec<D> {
-    let file = SceneFile::read(&repo_root().join("scenes").join(scene)).unwrap_or_else(|e| panic!("{e}"));
+    let file =
+        SceneFile::read(&repo_root().join("scenes").join(scene)).unwrap_or_else(|e| panic!("{e}"));
     let spec = Spec::<D>::from_file(&file).unwrap_or_else(|e| panic!("{e}"));
     match pipeline {
         Some(entries) => spec.with_pipeline(entries),
@@ -73,7 +74,11 @@ fn linear_usl_one_and_two_threads_give_identical_bits() {
 #[test]
 fn lme_newmark_neo_hookean_one_and_two_threads_give_identical_bits() {
     let run = |threads| {
-        state_after(spec::<Two>("two_disks.ron", Some(lme_newmark())), threads, 1700)
+        state_after(
+            spec::<Two>("two_disks.ron", Some(lme_newmark())),
+            threads,
+            1700,
+        )
     };
     assert_same(&run(1), &run(2));
 }
@@ -85,7 +90,11 @@ fn three_dimensions_one_and_two_threads_give_identical_bits() {
     assert_same(&run(1), &run(2));
     // LME + Newmark + neo-Hookean, 50 steps: the 3D kd-tree, λ solves and transposed gathers.
     let run = |threads| {
-        state_after(spec::<Three>("two_spheres.ron", Some(lme_newmark())), threads, 50)
+        state_after(
+            spec::<Three>("two_spheres.ron", Some(lme_newmark())),
+            threads,
+            50,
+        )
     };
     assert_same(&run(1), &run(2));
 }

@@ -138,7 +138,10 @@ fn first_bad_particle<D: Dim>(
     })?;
     let (id, x, v) = (ids[bad].0, positions[bad].0, velocities[bad].0);
     Some(if !x.is_finite() {
-        format!("particle {id} has a non-finite position {}", fmt_vec::<D>(x))
+        format!(
+            "particle {id} has a non-finite position {}",
+            fmt_vec::<D>(x)
+        )
     } else if !grid.contains(x) {
         format!(
             "particle {id} left the grid: position {}, velocity {}, grid box {} to {}",

@@ -35,9 +35,8 @@ pub mod prelude {
     pub use crate::components::*;
     pub use crate::connectivity::Connectivity;
     pub use crate::dim::{
-        lattice_range,
         Dim, Dimension, Lattice, Matrix, MatrixOps, SymOps, SymTensor, SymTensor2, SymTensor3,
-        Three, Two, Vector, VectorOps,
+        Three, Two, Vector, VectorOps, lattice_range,
     };
     pub use crate::health::single_table;
     pub use crate::neighbourhood::Neighbourhoods;

@@ -77,8 +77,7 @@ impl<D: Dim> Grid<D> {
         let local = (x - self.min) / self.spacing;
         let mut cell = D::Cell::default();
         for a in 0..D::N {
-            // Also rejects NaN.
-            if !(local[a] >= 0.0) {
+            if local[a].is_nan() || local[a] < 0.0 {
                 return None;
             }
             let mut i = local[a].floor() as usize;
@@ -235,7 +234,10 @@ mod tests {
             assert_eq!(grid.node_index(grid.node_lattice(index)), index);
         }
         assert_eq!(grid.node_index([1, 2, 3]), 1 + 5 * (2 + 3 * 3));
-        assert_eq!(grid.node_position(grid.node_index([1, 2, 3])), DVec3::new(0.25, -0.5, 2.75));
+        assert_eq!(
+            grid.node_position(grid.node_index([1, 2, 3])),
+            DVec3::new(0.25, -0.5, 2.75)
+        );
         assert_eq!(grid.max(), DVec3::new(1.0, -0.5, 2.75));
         assert_eq!(grid.cell_of(grid.max()), Some([3, 1, 2]));
         assert_eq!(grid.cell_of(DVec3::new(0.3, -0.9, 2.0)), Some([1, 0, 0]));

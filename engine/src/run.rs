@@ -8,12 +8,12 @@ use crate::components::{
 use crate::diagnostics::{Totals, totals};
 use crate::dim::{Dim, Dimension, SymOps, VectorOps};
 use crate::health::Blowup;
-use crate::resources::SimClock;
-use crate::with_dim;
 use crate::output::{
     OutputPlan, ParticleFrame, ProbeKind, SeriesWriter, write_particle_frame, write_pvd,
 };
+use crate::resources::SimClock;
 use crate::simulation::Simulation;
+use crate::with_dim;
 use bevy_ecs::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};

@@ -50,7 +50,16 @@ fn lme_point<D: Dim>(c: &mut Criterion, cells: usize) {
     let (warm, _, _) = lme_solve::<D>(x, &nodes, &settings, D::Vector::ZERO, &mut scratch).unwrap();
     let label = format!("{}D, {} nodes", D::N, nodes.len());
     c.bench_function(&format!("lme_solve cold ({label})"), |b| {
-        b.iter(|| lme_solve::<D>(black_box(x), &nodes, &settings, D::Vector::ZERO, &mut scratch).unwrap())
+        b.iter(|| {
+            lme_solve::<D>(
+                black_box(x),
+                &nodes,
+                &settings,
+                D::Vector::ZERO,
+                &mut scratch,
+            )
+            .unwrap()
+        })
     });
     c.bench_function(&format!("lme_solve warm ({label})"), |b| {
         b.iter(|| {
@@ -73,9 +82,14 @@ fn transfers<D: Dim>(c: &mut Criterion, cells: usize) {
     let mut conn = Connectivity::<D>::default();
     c.bench_function(&format!("multilinear rows + transpose ({label})"), |b| {
         b.iter(|| {
-            conn.fill_fixed_width(xs.len(), nodes_per_particle::<D>(), g.node_count(), |p, n, w, gr| {
-                fill_multilinear_row(&g, xs[p], n, w, gr);
-            })
+            conn.fill_fixed_width(
+                xs.len(),
+                nodes_per_particle::<D>(),
+                g.node_count(),
+                |p, n, w, gr| {
+                    fill_multilinear_row(&g, xs[p], n, w, gr);
+                },
+            )
         })
     });
     let masses = vec![1.0; xs.len()];
@@ -103,15 +117,18 @@ fn stress<D: Dim>(c: &mut Criterion) {
         volume: 1.0,
         energy_density: 0.0,
     };
-    let grad = |i: usize, j: usize| [[0.1, -0.03, 0.01], [0.02, 0.05, 0.0], [-0.02, 0.01, 0.04]][i][j];
+    let grad =
+        |i: usize, j: usize| [[0.1, -0.03, 0.01], [0.02, 0.05, 0.0], [-0.02, 0.01, 0.04]][i][j];
     let l = D::Matrix::from_fn(grad);
-    c.bench_function(&format!("linear elastic update ({}D, one particle)", D::N), |b| {
-        b.iter(|| update_elastic::<D>(black_box(&state), l, 1e-3, (40.0, 40.0), 1.0))
-    });
+    c.bench_function(
+        &format!("linear elastic update ({}D, one particle)", D::N),
+        |b| b.iter(|| update_elastic::<D>(black_box(&state), l, 1e-3, (40.0, 40.0), 1.0)),
+    );
     let f = D::Matrix::IDENTITY + D::Matrix::from_fn(grad) * 0.1;
-    c.bench_function(&format!("neo-Hookean stress ({}D, one particle)", D::N), |b| {
-        b.iter(|| neo_hookean_stress_of::<D>(black_box(f), 40.0, 40.0))
-    });
+    c.bench_function(
+        &format!("neo-Hookean stress ({}D, one particle)", D::N),
+        |b| b.iter(|| neo_hookean_stress_of::<D>(black_box(f), 40.0, 40.0)),
+    );
     let s = D::Sym::from_fn(|i, j| grad(i, j) + grad(j, i));
     c.bench_function(&format!("largest principal value ({}D)", D::N), |b| {
         b.iter(|| black_box(s).largest_principal())

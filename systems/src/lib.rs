@@ -13,8 +13,8 @@ pub mod corrector;
 pub mod damage;
 pub mod neighbour;
 pub mod predictor;
-pub mod stress;
 pub mod spatial;
+pub mod stress;
 pub mod transfer;
 
 /// Every stock registration.

@@ -60,6 +60,9 @@ mod tests {
         let points = [DVec2::ZERO, DVec2::new(0.5, 0.0), DVec2::new(1.0, 1.0)];
         assert_eq!(sorted_within::<Two>(&points, DVec2::ZERO, 0.5), vec![0, 1]);
         let points = [DVec3::ZERO, DVec3::new(0.0, 0.0, 0.6), DVec3::splat(0.3)];
-        assert_eq!(sorted_within::<Three>(&points, DVec3::ZERO, 0.55), vec![0, 2]);
+        assert_eq!(
+            sorted_within::<Three>(&points, DVec3::ZERO, 0.55),
+            vec![0, 2]
+        );
     }
 }

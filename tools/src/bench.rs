@@ -70,7 +70,10 @@ impl BenchPipeline {
 /// The benchmark block with about `particles` particles in dimension `D`.
 pub fn bench_spec<D: Dim>(pipeline: BenchPipeline, particles: usize) -> Spec<D> {
     let per_cell = (1usize << D::N) as f64;
-    let cells = ((particles as f64 / per_cell).powf(1.0 / D::N as f64).round() as usize).max(1);
+    let cells = ((particles as f64 / per_cell)
+        .powf(1.0 / D::N as f64)
+        .round() as usize)
+        .max(1);
     let h = 0.01;
     let margin = 4.0 * h;
     let side = cells as f64 * h;
@@ -93,7 +96,10 @@ pub fn bench_spec<D: Dim>(pipeline: BenchPipeline, particles: usize) -> Spec<D> 
     };
     let spec = Spec::new(grid)
         .named("<bench>")
-        .title(&format!("benchmark block, {particles} particles, {}", pipeline.name()))
+        .title(&format!(
+            "benchmark block, {particles} particles, {}",
+            pipeline.name()
+        ))
         .time(TimeStep::Cfl(0.5), End::Steps(1_000_000))
         .material(Material::new("elastic", 1000.0, 1.0e6, 0.3))
         .body(Body::new(shape, "elastic").velocity(InitialVelocity::Sine {

@@ -91,7 +91,10 @@ mod tests {
             let x = DVec3::from_array(vectors[k]);
             assert!((x.length() - 1.0).abs() < 1e-14);
             let residual = (m * x - x * *value).length();
-            assert!(residual < tolerance, "A x − λ x = {residual:e} for λ = {value}");
+            assert!(
+                residual < tolerance,
+                "A x − λ x = {residual:e} for λ = {value}"
+            );
             for other in &vectors[k + 1..] {
                 assert!(x.dot(DVec3::from_array(*other)).abs() < 1e-14);
             }

@@ -516,7 +516,8 @@ mod tests {
     }
 
     fn hooke_and_deviator<D: Dim>() {
-        let strain = <SymTensor<D>>::from_fn(|i, j| if i == j { 0.01 * (i + 1) as f64 } else { 0.002 });
+        let strain =
+            <SymTensor<D>>::from_fn(|i, j| if i == j { 0.01 * (i + 1) as f64 } else { 0.002 });
         let (lambda, mu) = (3.0, 2.0);
         let stress = strain.hooke(lambda, mu);
         for i in 0..3 {

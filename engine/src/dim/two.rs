@@ -233,7 +233,10 @@ mod tests {
         assert_eq!(s.xy, 3.0);
         assert_eq!(s.double_dot(&s), 1.0 + 9.0 + 2.0 * 9.0);
         assert_eq!(s.dot(DVec2::new(1.0, 0.0)), DVec2::new(1.0, 3.0));
-        assert_eq!(s.to_matrix(), DMat2::from_cols(DVec2::new(1.0, 3.0), DVec2::new(3.0, 3.0)));
+        assert_eq!(
+            s.to_matrix(),
+            DMat2::from_cols(DVec2::new(1.0, 3.0), DVec2::new(3.0, 3.0))
+        );
     }
 
     #[test]

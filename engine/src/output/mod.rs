@@ -146,7 +146,10 @@ mod tests {
         plan.dimension = Dimension::Three;
         let columns = plan.columns();
         assert_eq!(columns[7], "momentum_z");
-        assert_eq!(&columns[8..11], ["reaction_base_x", "reaction_base_y", "reaction_base_z"]);
+        assert_eq!(
+            &columns[8..11],
+            ["reaction_base_x", "reaction_base_y", "reaction_base_z"]
+        );
         assert_eq!(base_columns(Dimension::Two), BASE_COLUMNS);
     }
 }

@@ -140,7 +140,9 @@ impl Source {
 
     /// The params text `raw` of the pipeline entry whose params sit at `field`.
     pub fn params<'a>(&'a self, raw: Option<&'a str>, field: String) -> Params<'a> {
-        let origin = self.location_of(&field).unwrap_or(Location { line: 1, col: 1 });
+        let origin = self
+            .location_of(&field)
+            .unwrap_or(Location { line: 1, col: 1 });
         Params::new(raw, self.name(), origin, field)
     }
 }
@@ -230,7 +232,8 @@ mod tests {
     fn coordinates_take_two_or_three_numbers() {
         let two: Coords = parse_fragment("s.ron", "(1, 2)", Location::default(), "").unwrap();
         assert_eq!(two.0, vec![1.0, 2.0]);
-        let three: Coords = parse_fragment("s.ron", "(1, 2, 3.5)", Location::default(), "").unwrap();
+        let three: Coords =
+            parse_fragment("s.ron", "(1, 2, 3.5)", Location::default(), "").unwrap();
         assert_eq!(three.0, vec![1.0, 2.0, 3.5]);
         for bad in ["(1)", "(1, 2, 3, 4)"] {
             let e = parse_fragment::<Coords>("s.ron", bad, Location::default(), "").unwrap_err();
@@ -244,6 +247,9 @@ mod tests {
     #[test]
     fn code_sources_name_the_field_without_a_place() {
         let e = Source::code("<bench>").error("grid.spacing", "expected a positive spacing");
-        assert_eq!(e.to_string(), "<bench>: `grid.spacing`: expected a positive spacing");
+        assert_eq!(
+            e.to_string(),
+            "<bench>: `grid.spacing`: expected a positive spacing"
+        );
     }
 }

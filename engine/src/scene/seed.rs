@@ -117,7 +117,10 @@ mod tests {
                 let particles = particles_in_shape(&shape, &grid, n, placement, 1.0);
                 assert_eq!(particles.len(), (8 * n * n * n) as usize);
                 let volume: f64 = particles.iter().map(|p| p.1).sum();
-                assert!((volume - 0.125).abs() < 1e-15, "{placement:?} {n}: {volume}");
+                assert!(
+                    (volume - 0.125).abs() < 1e-15,
+                    "{placement:?} {n}: {volume}"
+                );
                 assert!(particles.iter().all(|p| p.0.z > 0.0 && p.0.z < 0.25));
             }
         }

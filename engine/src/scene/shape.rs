@@ -134,7 +134,9 @@ impl Shape {
     pub fn problem(&self) -> Option<&'static str> {
         let positive = |r: f64| r.is_finite() && r > 0.0;
         let valid = match self {
-            Shape::Rectangle { min, max } => min.is_finite() && max.is_finite() && max.cmpgt(*min).all(),
+            Shape::Rectangle { min, max } => {
+                min.is_finite() && max.is_finite() && max.cmpgt(*min).all()
+            }
             Shape::Box { min, max } => min.is_finite() && max.is_finite() && max.cmpgt(*min).all(),
             Shape::Disk { center, radius } => center.is_finite() && positive(*radius),
             Shape::Sphere { center, radius } => center.is_finite() && positive(*radius),
@@ -216,9 +218,10 @@ impl Shape {
                 (lo.extend(0.0), hi.extend(0.0))
             }
             Shape::Box { min, max } => (*min, *max),
-            Shape::Sphere { center, radius } => {
-                (*center - DVec3::splat(*radius), *center + DVec3::splat(*radius))
-            }
+            Shape::Sphere { center, radius } => (
+                *center - DVec3::splat(*radius),
+                *center + DVec3::splat(*radius),
+            ),
             Shape::Cylinder {
                 center,
                 axis,

@@ -9,7 +9,9 @@ use super::spec::{
 };
 use super::{SceneError, Source};
 use crate::boundary::{BoundaryConditions, BoundaryRegion, PiecewiseLinear, Reactions};
-use crate::components::{BodyId, ContactGroup, Damage, NodeBundle, ParticleBundle, Velocity, WaveSpeed};
+use crate::components::{
+    BodyId, ContactGroup, Damage, NodeBundle, ParticleBundle, Velocity, WaveSpeed,
+};
 use crate::connectivity::Connectivity;
 use crate::dim::{Dim, VectorOps};
 use crate::health::{LeaveGrid, remove_escaped_particles};
@@ -37,7 +39,10 @@ impl<D: Dim> Spec<D> {
         let output = self.output_plan()?;
         world.insert_resource(Materials(self.materials.clone()));
         world.insert_resource(BodyForce::<D>(self.body_force));
-        world.insert_resource(Reactions::<D>(vec![D::Vector::ZERO; boundaries.regions.len()]));
+        world.insert_resource(Reactions::<D>(vec![
+            D::Vector::ZERO;
+            boundaries.regions.len()
+        ]));
         world.insert_resource(boundaries);
         world.insert_resource(SimClock::default());
         world.insert_resource(self.on_leave_grid);
@@ -55,10 +60,11 @@ impl<D: Dim> Spec<D> {
             pipeline.by_stage.iter().map(|(stage, _)| *stage),
         );
         if self.on_leave_grid == LeaveGrid::Remove {
-            schedule.add_systems(remove_escaped_particles::<D>.in_set(StageCheck(Stage::Advection)));
+            schedule
+                .add_systems(remove_escaped_particles::<D>.in_set(StageCheck(Stage::Advection)));
         }
-        let simulation = Simulation::new::<D>(world, schedule, self.time_step, self.end)
-            .map_err(|e| {
+        let simulation =
+            Simulation::new::<D>(world, schedule, self.time_step, self.end).map_err(|e| {
                 self.source.error(
                     "pipeline",
                     format!(
@@ -138,13 +144,22 @@ impl<D: Dim> Spec<D> {
         Ok(seeded
             .iter()
             .map(|&(x, volume)| {
-                let mut p =
-                    ParticleBundle::<D>::new(*next_id, x, density * volume, volume, material as u16);
+                let mut p = ParticleBundle::<D>::new(
+                    *next_id,
+                    x,
+                    density * volume,
+                    volume,
+                    material as u16,
+                );
                 *next_id += 1;
                 p.velocity = Velocity(body.velocity.at(x));
                 p.body = BodyId(b as u16);
                 p.wave_speed = WaveSpeed(wave_speed);
-                if body.cracks.iter().any(|crack| crack.contains(x.to_3d().into())) {
+                if body
+                    .cracks
+                    .iter()
+                    .any(|crack| crack.contains(x.to_3d().into()))
+                {
                     p.damage = Damage(1.0);
                 }
                 p.group = ContactGroup(body.contact_group);

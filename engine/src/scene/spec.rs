@@ -445,16 +445,27 @@ impl<D: Dim> Spec<D> {
     fn check_grid(&self) -> Result<(), super::SceneError> {
         let g = &self.grid;
         if !(g.spacing.is_finite() && g.spacing > 0.0) {
-            return Err(self.source.error("grid.spacing", "expected a positive spacing"));
+            return Err(self
+                .source
+                .error("grid.spacing", "expected a positive spacing"));
         }
         if !g.min.is_finite() {
             return Err(self.source.error("grid.min", "expected finite coordinates"));
         }
         if (0..D::N).any(|a| g.cells[a] == 0) {
-            return Err(self.source.error("grid.max", "expected at least one cell along each axis"));
+            return Err(self
+                .source
+                .error("grid.max", "expected at least one cell along each axis"));
         }
-        if g.cells.as_ref().iter().try_fold(1usize, |n, c| n.checked_mul(*c)).is_none_or(|n| n > 100_000_000) {
-            return Err(self.source.error("grid.spacing", "the grid would have more than 10^8 cells"));
+        if g.cells
+            .as_ref()
+            .iter()
+            .try_fold(1usize, |n, c| n.checked_mul(*c))
+            .is_none_or(|n| n > 100_000_000)
+        {
+            return Err(self
+                .source
+                .error("grid.spacing", "the grid would have more than 10^8 cells"));
         }
         Ok(())
     }
@@ -463,16 +474,31 @@ impl<D: Dim> Spec<D> {
         for m in &self.materials {
             let field = |f: &str| format!("materials.{}.{f}", m.name);
             if !(m.density.is_finite() && m.density > 0.0) {
-                return Err(self.source.error(&field("density"), "expected a positive density (kg/m³)"));
+                return Err(self
+                    .source
+                    .error(&field("density"), "expected a positive density (kg/m³)"));
             }
             if !(m.youngs_modulus.is_finite() && m.youngs_modulus > 0.0) {
-                return Err(self.source.error(&field("youngs_modulus"), "expected a positive modulus (Pa)"));
+                return Err(self
+                    .source
+                    .error(&field("youngs_modulus"), "expected a positive modulus (Pa)"));
             }
             if !(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5) {
-                return Err(self.source.error(&field("poisson_ratio"), "expected a value in (-1, 0.5)"));
+                return Err(self
+                    .source
+                    .error(&field("poisson_ratio"), "expected a value in (-1, 0.5)"));
             }
-            if self.materials.iter().filter(|other| other.name == m.name).count() > 1 {
-                return Err(self.source.error("materials", format!("material \"{}\" is defined twice", m.name)));
+            if self
+                .materials
+                .iter()
+                .filter(|other| other.name == m.name)
+                .count()
+                > 1
+            {
+                return Err(self.source.error(
+                    "materials",
+                    format!("material \"{}\" is defined twice", m.name),
+                ));
             }
         }
         if self.materials.len() > u16::MAX as usize {
@@ -483,7 +509,9 @@ impl<D: Dim> Spec<D> {
 
     fn check_thickness(&self) -> Result<(), super::SceneError> {
         if D::N == 2 && !(self.thickness.is_finite() && self.thickness > 0.0) {
-            return Err(self.source.error("thickness", "expected a positive thickness (m)"));
+            return Err(self
+                .source
+                .error("thickness", "expected a positive thickness (m)"));
         }
         if D::N == 3 && self.thickness != 1.0 {
             return Err(self.source.error(
@@ -495,11 +523,21 @@ impl<D: Dim> Spec<D> {
     }
 
     /// Index of the material named `name`, or an error at `field` listing the known ones.
-    pub(crate) fn material_index(&self, name: &str, field: &str) -> Result<usize, super::SceneError> {
-        self.materials.iter().position(|m| m.name == name).ok_or_else(|| {
-            let known = quoted(self.materials.iter().map(|m| m.name.as_str()));
-            self.source.error(field, format!("unknown material \"{name}\"; the scene defines: {known}"))
-        })
+    pub(crate) fn material_index(
+        &self,
+        name: &str,
+        field: &str,
+    ) -> Result<usize, super::SceneError> {
+        self.materials
+            .iter()
+            .position(|m| m.name == name)
+            .ok_or_else(|| {
+                let known = quoted(self.materials.iter().map(|m| m.name.as_str()));
+                self.source.error(
+                    field,
+                    format!("unknown material \"{name}\"; the scene defines: {known}"),
+                )
+            })
     }
 
     fn check_shape(&self, field: &str, shape: &Shape) -> Result<(), super::SceneError> {
@@ -535,7 +573,9 @@ impl<D: Dim> Spec<D> {
             let field = |f: &str| format!("bodies[{b}].{f}");
             self.material_index(&body.material, &field("material"))?;
             if body.particles_per_cell == 0 || body.particles_per_cell > 16 {
-                return Err(self.source.error(&field("particles_per_cell"), "expected 1 to 16"));
+                return Err(self
+                    .source
+                    .error(&field("particles_per_cell"), "expected 1 to 16"));
             }
             if super::seed::cell_points(body.placement, body.particles_per_cell).is_none() {
                 return Err(self.source.error(
@@ -549,7 +589,9 @@ impl<D: Dim> Spec<D> {
                 self.check_shape(&field(&format!("cracks[{k}]")), crack)?;
             }
             if let Some(expected) = body.velocity.problem() {
-                return Err(self.source.error(&field("velocity"), format!("expected {expected}")));
+                return Err(self
+                    .source
+                    .error(&field("velocity"), format!("expected {expected}")));
             }
         }
         Ok(())
@@ -559,7 +601,16 @@ impl<D: Dim> Spec<D> {
         let (lo, hi) = shape.bounds();
         let (glo, ghi) = (self.grid.min.to_3d(), self.grid.max().to_3d());
         if (0..D::N).any(|a| lo[a] < glo[a] || hi[a] > ghi[a]) {
-            let show = |v: [f64; 3]| format!("({})", v[..D::N].iter().map(|c| c.to_string()).collect::<Vec<_>>().join(", "));
+            let show = |v: [f64; 3]| {
+                format!(
+                    "({})",
+                    v[..D::N]
+                        .iter()
+                        .map(|c| c.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            };
             return Err(self.source.error(
                 field,
                 format!(
@@ -578,19 +629,28 @@ impl<D: Dim> Spec<D> {
         for (r, region) in self.boundaries.iter().enumerate() {
             let field = |f: &str| format!("boundaries[{r}].{f}");
             if !valid_region_name(&region.name) {
-                return Err(self.source.error(&field("name"), "expected letters, digits, `_` or `-` only"));
+                return Err(self
+                    .source
+                    .error(&field("name"), "expected letters, digits, `_` or `-` only"));
             }
             if self.boundaries[..r].iter().any(|x| x.name == region.name) {
-                return Err(self.source.error(&field("name"), format!("region \"{}\" is defined twice", region.name)));
+                return Err(self.source.error(
+                    &field("name"),
+                    format!("region \"{}\" is defined twice", region.name),
+                ));
             }
             if !(region.min.is_finite() && region.max.is_finite()) {
-                return Err(self.source.error(&field("nodes"), "expected finite coordinates"));
+                return Err(self
+                    .source
+                    .error(&field("nodes"), "expected finite coordinates"));
             }
             match &region.condition {
                 Condition::Fixed => {}
                 Condition::Roller { normal } => {
                     if *normal >= D::N {
-                        return Err(self.source.error(&field("condition.normal"), axis_message::<D>()));
+                        return Err(self
+                            .source
+                            .error(&field("condition.normal"), axis_message::<D>()));
                     }
                 }
                 Condition::Velocity(components) => {
@@ -617,25 +677,35 @@ impl<D: Dim> Spec<D> {
     }
 
     /// Index of the boundary region named `name`, or an error at probe `probe`.
-    pub(crate) fn region_index(&self, name: &str, probe: usize) -> Result<usize, super::SceneError> {
-        self.boundaries.iter().position(|r| r.name == name).ok_or_else(|| {
-            let known = quoted(self.boundaries.iter().map(|r| r.name.as_str()));
-            self.source.error(
-                &format!("output.probes[{probe}]"),
-                format!("no boundary region named \"{name}\"; the scene defines: {known}"),
-            )
-        })
+    pub(crate) fn region_index(
+        &self,
+        name: &str,
+        probe: usize,
+    ) -> Result<usize, super::SceneError> {
+        self.boundaries
+            .iter()
+            .position(|r| r.name == name)
+            .ok_or_else(|| {
+                let known = quoted(self.boundaries.iter().map(|r| r.name.as_str()));
+                self.source.error(
+                    &format!("output.probes[{probe}]"),
+                    format!("no boundary region named \"{name}\"; the scene defines: {known}"),
+                )
+            })
     }
 
     /// Index of the body named `name`, or an error at probe `probe`.
     pub(crate) fn body_index(&self, name: &str, probe: usize) -> Result<usize, super::SceneError> {
-        self.bodies.iter().position(|b| b.name.as_deref() == Some(name)).ok_or_else(|| {
-            let known = quoted(self.bodies.iter().filter_map(|b| b.name.as_deref()));
-            self.source.error(
-                &format!("output.probes[{probe}]"),
-                format!("no body named \"{name}\"; the named bodies are: {known}"),
-            )
-        })
+        self.bodies
+            .iter()
+            .position(|b| b.name.as_deref() == Some(name))
+            .ok_or_else(|| {
+                let known = quoted(self.bodies.iter().filter_map(|b| b.name.as_deref()));
+                self.source.error(
+                    &format!("output.probes[{probe}]"),
+                    format!("no body named \"{name}\"; the named bodies are: {known}"),
+                )
+            })
     }
 
     fn check_probes(&self) -> Result<(), super::SceneError> {
@@ -656,25 +726,33 @@ impl<D: Dim> Spec<D> {
     fn check_time(&self) -> Result<(), super::SceneError> {
         match self.end {
             End::Time(t) if !(t.is_finite() && t > 0.0) => {
-                return Err(self.source.error("time.end", "expected a positive end time"));
+                return Err(self
+                    .source
+                    .error("time.end", "expected a positive end time"));
             }
-            End::Steps(0) => return Err(self.source.error("time.end", "expected at least one step")),
+            End::Steps(0) => {
+                return Err(self.source.error("time.end", "expected at least one step"));
+            }
             _ => {}
         }
         match self.time_step {
-            TimeStep::Fixed(dt) if !(dt.is_finite() && dt > 0.0) => {
-                Err(self.source.error("time.step", "expected a positive time step"))
-            }
-            TimeStep::Cfl(f) if !(f > 0.0 && f <= 1.0) => {
-                Err(self.source.error("time.step", "expected a CFL factor in (0, 1]"))
-            }
+            TimeStep::Fixed(dt) if !(dt.is_finite() && dt > 0.0) => Err(self
+                .source
+                .error("time.step", "expected a positive time step")),
+            TimeStep::Cfl(f) if !(f > 0.0 && f <= 1.0) => Err(self
+                .source
+                .error("time.step", "expected a CFL factor in (0, 1]")),
             _ => Ok(()),
         }
     }
 }
 
 fn axis_message<D: Dim>() -> String {
-    format!("the scene is {}: its axes are {}", D::NAME, D::AXES.join(", ").to_uppercase())
+    format!(
+        "the scene is {}: its axes are {}",
+        D::NAME,
+        D::AXES.join(", ").to_uppercase()
+    )
 }
 
 fn valid_region_name(name: &str) -> bool {

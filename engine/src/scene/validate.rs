@@ -127,7 +127,10 @@ impl<D: Dim> Reader<D> {
             .iter()
             .map(|entry| PipelineEntry {
                 system: entry.system.clone(),
-                params: entry.params.as_deref().map(|r| r.trim().get_ron().to_string()),
+                params: entry
+                    .params
+                    .as_deref()
+                    .map(|r| r.trim().get_ron().to_string()),
                 in_source: true,
             })
             .collect();
@@ -172,10 +175,7 @@ impl<D: Dim> Reader<D> {
             return Err(self.error("grid.min", "expected finite coordinates"));
         }
         if !(max.is_finite() && (0..D::N).all(|a| max[a] > min[a])) {
-            return Err(self.error(
-                "grid.max",
-                "expected a corner above `min` along every axis",
-            ));
+            return Err(self.error("grid.max", "expected a corner above `min` along every axis"));
         }
         let mut cells = D::Cell::default();
         for a in 0..D::N {

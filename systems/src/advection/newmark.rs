@@ -61,16 +61,29 @@ mod tests {
             nv.0[0] = v;
             na.0[0] = a;
         }
-        run_system(&mut world, (linear_basis::<D>, newmark_advection::<D>).chain());
+        run_system(
+            &mut world,
+            (linear_basis::<D>, newmark_advection::<D>).chain(),
+        );
         let moved = particle_values::<Position<D>>(&mut world)[0].0;
         let speed = particle_values::<Velocity<D>>(&mut world)[0].0;
-        assert!((moved - (x + v * 0.1 + a * 0.005)).length() < 1e-14, "{moved:?}");
-        assert!((speed - (D::Vector::ONE + a * 0.1)).length() < 1e-14, "{speed:?}");
+        assert!(
+            (moved - (x + v * 0.1 + a * 0.005)).length() < 1e-14,
+            "{moved:?}"
+        );
+        assert!(
+            (speed - (D::Vector::ONE + a * 0.1)).length() < 1e-14,
+            "{speed:?}"
+        );
     }
 
     #[test]
     fn uniform_acceleration_moves_particles_by_the_newmark_update() {
-        newmark_update::<Two>(DVec2::new(0.3, 0.7), DVec2::new(2.0, 0.0), DVec2::new(0.0, -10.0));
+        newmark_update::<Two>(
+            DVec2::new(0.3, 0.7),
+            DVec2::new(2.0, 0.0),
+            DVec2::new(0.0, -10.0),
+        );
         newmark_update::<Three>(
             DVec3::new(0.3, 0.7, 0.4),
             DVec3::new(2.0, 0.0, 1.0),

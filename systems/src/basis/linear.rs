@@ -70,8 +70,11 @@ pub fn fill_multilinear_row<D: Dim>(
 /// convenience over [`fill_multilinear_row`]).
 pub fn multilinear_row<D: Dim>(grid: &Grid<D>, x: D::Vector) -> Option<Vec<(u32, f64, D::Vector)>> {
     let width = nodes_per_particle::<D>();
-    let (mut nodes, mut weights, mut gradients) =
-        (vec![0; width], vec![0.0; width], vec![D::Vector::ZERO; width]);
+    let (mut nodes, mut weights, mut gradients) = (
+        vec![0; width],
+        vec![0.0; width],
+        vec![D::Vector::ZERO; width],
+    );
     fill_multilinear_row(grid, x, &mut nodes, &mut weights, &mut gradients).then(|| {
         (0..width)
             .map(|k| (nodes[k], weights[k], gradients[k]))

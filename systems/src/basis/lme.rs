@@ -301,7 +301,11 @@ pub fn lme_basis<D: Spatial>(
         health.failure = Some(Blowup {
             step: clock.step + 1,
             stage: Stage::Basis,
-            message: format!("particle {} at {}: {message}", ids[p].0, fmt_vector(x, D::N)),
+            message: format!(
+                "particle {} at {}: {message}",
+                ids[p].0,
+                fmt_vector(x, D::N)
+            ),
         });
         return;
     }
@@ -373,7 +377,9 @@ mod tests {
             .expect("a failure");
         assert_eq!(failure.stage, Stage::Basis);
         assert!(
-            failure.message.starts_with("particle 1 at (-1e-2, -1e-2): "),
+            failure
+                .message
+                .starts_with("particle 1 at (-1e-2, -1e-2): "),
             "{}",
             failure.message
         );

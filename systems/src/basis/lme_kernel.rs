@@ -342,7 +342,9 @@ mod tests {
             .gradients
             .iter()
             .zip(nodes)
-            .fold(D::Matrix::ZERO, |acc, (g, xi)| acc + D::Matrix::outer(*xi, *g));
+            .fold(D::Matrix::ZERO, |acc, (g, xi)| {
+                acc + D::Matrix::outer(*xi, *g)
+            });
         assert!((unity - 1.0).abs() < 1e-10, "partition of unity: {unity}");
         assert!(
             (reproduced - x).length() < 1e-10,
@@ -431,7 +433,11 @@ mod tests {
 
     #[test]
     fn a_point_outside_the_hull_of_its_nodes_is_a_reported_failure() {
-        let nodes = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0)];
+        let nodes = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(0.0, 1.0),
+        ];
         let s = settings(2.0, 1.0);
         let failure =
             lme_shape_functions::<Two>(DVec2::new(2.0, 2.0), &nodes, &s, DVec2::ZERO).unwrap_err();
@@ -453,7 +459,11 @@ mod tests {
         let sol = lme_shape_functions::<D>(x, &near, &s, D::Vector::ZERO).unwrap();
         let corner = 1.0 / (1 << D::N) as f64;
         for (n, xi) in sol.values.iter().zip(&near) {
-            let expected = if (x - *xi).length() < 0.9 { corner } else { 0.0 };
+            let expected = if (x - *xi).length() < 0.9 {
+                corner
+            } else {
+                0.0
+            };
             assert!((n - expected).abs() < 1e-6, "{xi:?}: {n}");
         }
     }

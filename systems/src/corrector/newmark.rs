@@ -128,7 +128,10 @@ mod tests {
                 0.0
             };
         }
-        run_system(&mut world, (linear_basis::<Two>, newmark_corrector::<Two>).chain());
+        run_system(
+            &mut world,
+            (linear_basis::<Two>, newmark_corrector::<Two>).chain(),
+        );
         let velocities = node_values::<NodeVelocity<Two>>(&mut world);
         let forces = node_values::<NodeForce<Two>>(&mut world);
         // Node 4 (N = 0.16) carries 0.16 · 4 kg · g; with unit nodal mass v = γ Δt f / m.
@@ -153,7 +156,10 @@ mod tests {
         for mut m in query.iter_mut(&mut world) {
             m.0[0] = 1.0;
         }
-        run_system(&mut world, (linear_basis::<Three>, newmark_corrector::<Three>).chain());
+        run_system(
+            &mut world,
+            (linear_basis::<Three>, newmark_corrector::<Three>).chain(),
+        );
         let velocities = node_values::<NodeVelocity<Three>>(&mut world);
         // Each of the 8 corners carries 1/8 of 8 kg · g = 10 N down; v = γ Δt f / m.
         assert!((velocities[0].0[0] - DVec3::new(0.0, 0.0, -0.5)).length() < 1e-12);

@@ -233,18 +233,30 @@ mod tests {
         // Both store W = 1 (G = 0.5 > G_F). Particle 0 is under pure shear in the y-z plane
         // (principal values ±1: tensile); particle 1 under equal compression.
         for (k, stress) in [
-            SymTensor3 { yz: 1.0, ..SymTensor3::ZERO },
+            SymTensor3 {
+                yz: 1.0,
+                ..SymTensor3::ZERO
+            },
             SymTensor3::isotropic(-1.0),
         ]
         .into_iter()
         .enumerate()
         {
-            let p = spawn_particle(&mut world, DVec3::splat(0.2 + 0.4 * k as f64), DVec3::ZERO, 1.0, 1.0);
+            let p = spawn_particle(
+                &mut world,
+                DVec3::splat(0.2 + 0.4 * k as f64),
+                DVec3::ZERO,
+                1.0,
+                1.0,
+            );
             world.get_mut::<StrainEnergyDensity>(p).unwrap().0 = 1.0;
             world.get_mut::<Stress<Three>>(p).unwrap().0 = stress;
         }
         run_system(&mut world, eigenerosion::<Three>);
-        let d: Vec<f64> = particle_values::<Damage>(&mut world).iter().map(|d| d.0).collect();
+        let d: Vec<f64> = particle_values::<Damage>(&mut world)
+            .iter()
+            .map(|d| d.0)
+            .collect();
         assert_eq!(d, vec![1.0, 0.0]);
     }
 }

@@ -241,10 +241,7 @@ pub fn eigensoftening<D: Dim>(
     let law = params.law;
     let previous: &[Damage] = damage;
     // Each particle's largest principal stress, once, for all the neighbourhoods it is in.
-    let principal: Vec<f64> = stress
-        .par_iter()
-        .map(|s| s.0.largest_principal())
-        .collect();
+    let principal: Vec<f64> = stress.par_iter().map(|s| s.0.largest_principal()).collect();
     let updated: Vec<(f64, f64)> = (0..mass.len())
         .into_par_iter()
         .map(|p| {

@@ -150,9 +150,27 @@ mod tests {
         world.insert_resource(Neighbourhoods::default());
         world.insert_resource(KdTreeCandidates::<Three>::default());
         // Within 0.25 in x and y, but 0.3 apart along z.
-        spawn_particle(&mut world, DVec3::new(0.5, 0.5, 0.2), DVec3::ZERO, 1.0, 0.01);
-        spawn_particle(&mut world, DVec3::new(0.5, 0.5, 0.5), DVec3::ZERO, 1.0, 0.01);
-        spawn_particle(&mut world, DVec3::new(0.6, 0.5, 0.6), DVec3::ZERO, 1.0, 0.01);
+        spawn_particle(
+            &mut world,
+            DVec3::new(0.5, 0.5, 0.2),
+            DVec3::ZERO,
+            1.0,
+            0.01,
+        );
+        spawn_particle(
+            &mut world,
+            DVec3::new(0.5, 0.5, 0.5),
+            DVec3::ZERO,
+            1.0,
+            0.01,
+        );
+        spawn_particle(
+            &mut world,
+            DVec3::new(0.6, 0.5, 0.6),
+            DVec3::ZERO,
+            1.0,
+            0.01,
+        );
         run_system(&mut world, kdtree_neighbours::<Three>);
         let n = world.resource::<Neighbourhoods>().clone();
         assert_eq!(n.of(0), &[0]);

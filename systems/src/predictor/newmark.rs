@@ -166,10 +166,25 @@ mod tests {
     fn predictor_carries_momentum_plus_the_old_acceleration_impulse() {
         let mut world = tiny_world::<Two>(2, 0.5, 0.1);
         world.insert_resource(NewmarkParams { gamma: 0.5 });
-        let p = spawn_particle(&mut world, DVec2::new(0.3, 0.6), DVec2::new(1.0, 0.0), 2.0, 0.1);
+        let p = spawn_particle(
+            &mut world,
+            DVec2::new(0.3, 0.6),
+            DVec2::new(1.0, 0.0),
+            2.0,
+            0.1,
+        );
         world.get_mut::<Acceleration<Two>>(p).unwrap().0 = DVec2::new(0.0, -4.0);
-        spawn_particle(&mut world, DVec2::new(0.7, 0.2), DVec2::new(0.0, 1.0), 1.0, 0.1);
-        run_system(&mut world, (linear_basis::<Two>, newmark_predictor::<Two>).chain());
+        spawn_particle(
+            &mut world,
+            DVec2::new(0.7, 0.2),
+            DVec2::new(0.0, 1.0),
+            1.0,
+            0.1,
+        );
+        run_system(
+            &mut world,
+            (linear_basis::<Two>, newmark_predictor::<Two>).chain(),
+        );
         let masses = node_values::<NodeMass>(&mut world);
         let velocities = node_values::<NodeVelocity<Two>>(&mut world);
         let momentum: DVec2 = masses
@@ -191,11 +206,21 @@ mod tests {
         world.insert_resource(NewmarkParams { gamma: 0.5 });
         let p = spawn_particle(&mut world, DVec3::new(0.3, 0.6, 0.8), DVec3::Z, 2.0, 0.1);
         world.get_mut::<Acceleration<Three>>(p).unwrap().0 = DVec3::new(0.0, 0.0, 4.0);
-        run_system(&mut world, (linear_basis::<Three>, newmark_predictor::<Three>).chain());
+        run_system(
+            &mut world,
+            (linear_basis::<Three>, newmark_predictor::<Three>).chain(),
+        );
         let masses = node_values::<NodeMass>(&mut world);
         let velocities = node_values::<NodeVelocity<Three>>(&mut world);
-        let momentum: DVec3 = masses.iter().zip(&velocities).map(|(m, v)| v.0[0] * m.0[0]).sum();
+        let momentum: DVec3 = masses
+            .iter()
+            .zip(&velocities)
+            .map(|(m, v)| v.0[0] * m.0[0])
+            .sum();
         // 2 kg at (0, 0, 1 + 0.5·0.1·4).
-        assert!((momentum - DVec3::new(0.0, 0.0, 2.4)).length() < 1e-14, "{momentum}");
+        assert!(
+            (momentum - DVec3::new(0.0, 0.0, 2.4)).length() < 1e-14,
+            "{momentum}"
+        );
     }
 }

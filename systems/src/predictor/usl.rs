@@ -219,7 +219,10 @@ mod tests {
             zz: 0.0,
             xy: 0.0,
         };
-        run_system(&mut world, (linear_basis::<Two>, usl_predictor::<Two>).chain());
+        run_system(
+            &mut world,
+            (linear_basis::<Two>, usl_predictor::<Two>).chain(),
+        );
         let forces = node_values::<NodeForce<Two>>(&mut world);
         let velocities = node_values::<NodeVelocity<Two>>(&mut world);
         // Tension contracts the cell: its left nodes are pulled right, its right nodes left.

@@ -187,7 +187,11 @@ mod tests {
         let spin = DMat2::from_cols(DVec2::new(0.0, 1.0), DVec2::new(-1.0, 0.0));
         let after = update_elastic::<Two>(&unstrained(), spin, 1e-3, (lambda, mu), 1.0);
         assert_eq!(after.stress, SymTensor2::ZERO);
-        let spin = DMat3::from_cols(DVec3::new(0.0, 0.0, -2.0), DVec3::Z, DVec3::new(2.0, -1.0, 0.0));
+        let spin = DMat3::from_cols(
+            DVec3::new(0.0, 0.0, -2.0),
+            DVec3::Z,
+            DVec3::new(2.0, -1.0, 0.0),
+        );
         let after = update_elastic::<Three>(&unstrained(), spin, 1e-3, (lambda, mu), 1.0);
         assert_eq!(after.stress, SymTensor3::ZERO);
     }
@@ -203,7 +207,10 @@ mod tests {
             let x = positions[index.0 as usize].0;
             v.0[0] = DVec2::new(0.2 * x.x, -0.1 * x.y);
         }
-        run_system(&mut world, (linear_basis::<Two>, linear_elastic_stress::<Two>).chain());
+        run_system(
+            &mut world,
+            (linear_basis::<Two>, linear_elastic_stress::<Two>).chain(),
+        );
         let strain = particle_values::<Strain<Two>>(&mut world)[0].0;
         assert!((strain.xx - 0.002).abs() < 1e-15 && (strain.yy + 0.001).abs() < 1e-15);
         assert!(strain.xy.abs() < 1e-15);
@@ -222,7 +229,10 @@ mod tests {
         for (index, mut v) in query.iter_mut(&mut world) {
             v.0[0] = DVec3::new(0.0, 0.0, 0.3 * positions[index.0 as usize].0.x);
         }
-        run_system(&mut world, (linear_basis::<Three>, linear_elastic_stress::<Three>).chain());
+        run_system(
+            &mut world,
+            (linear_basis::<Three>, linear_elastic_stress::<Three>).chain(),
+        );
         let strain = particle_values::<Strain<Three>>(&mut world)[0].0;
         assert!((strain.xz - 0.0015).abs() < 1e-15 && strain.xx.abs() < 1e-15);
         let (_, mu) = test_material().lame();

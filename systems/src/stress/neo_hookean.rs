@@ -130,7 +130,10 @@ mod tests {
     fn unstrained_is_stress_free<D: Dim>() {
         let s = neo_hookean_stress_of::<D>(D::Matrix::IDENTITY, LAMBDA, MU).unwrap();
         assert_eq!(s, D::Sym::ZERO);
-        assert_eq!(neo_hookean_energy::<D>(D::Matrix::IDENTITY, LAMBDA, MU), 0.0);
+        assert_eq!(
+            neo_hookean_energy::<D>(D::Matrix::IDENTITY, LAMBDA, MU),
+            0.0
+        );
         let mirrored = D::Matrix::from_fn(|i, j| match (i, j) {
             (0, 0) => -1.0,
             _ if i == j => 1.0,
@@ -148,7 +151,9 @@ mod tests {
     /// `F = I + ∇u` with ∇u small: σ = λ tr ε I + 2μ ε to first order.
     fn small_strain_is_hooke<D: Dim>() {
         let eps = 1e-7;
-        let grad_u = D::Matrix::from_fn(|i, j| eps * [[1.0, 0.5, 0.0], [0.0, -0.3, 0.2], [0.1, 0.0, 0.4]][i][j]);
+        let grad_u = D::Matrix::from_fn(|i, j| {
+            eps * [[1.0, 0.5, 0.0], [0.0, -0.3, 0.2], [0.1, 0.0, 0.4]][i][j]
+        });
         let f = D::Matrix::IDENTITY + grad_u;
         let s = neo_hookean_stress_of::<D>(f, LAMBDA, MU).unwrap();
         let strain = D::Sym::sym_of(grad_u);
@@ -177,18 +182,25 @@ mod tests {
             let bump = |s: f64| {
                 D::Matrix::from_fn(|i, j| f.get(i, j) + if (i, j) == (row, col) { s } else { 0.0 })
             };
-            (neo_hookean_energy::<D>(bump(h), LAMBDA, MU) - neo_hookean_energy::<D>(bump(-h), LAMBDA, MU))
+            (neo_hookean_energy::<D>(bump(h), LAMBDA, MU)
+                - neo_hookean_energy::<D>(bump(-h), LAMBDA, MU))
                 / (2.0 * h)
         });
         let tau = dw * f.transpose();
-        let sigma = neo_hookean_stress_of::<D>(f, LAMBDA, MU).unwrap().to_matrix() * f.determinant();
+        let sigma = neo_hookean_stress_of::<D>(f, LAMBDA, MU)
+            .unwrap()
+            .to_matrix()
+            * f.determinant();
         let error = (tau - sigma).max_abs();
         assert!(error < 1e-6, "{tau:?} vs {sigma:?}");
     }
 
     #[test]
     fn stress_is_the_derivative_of_the_stored_energy() {
-        stress_is_energy_derivative::<Two>(DMat2::from_cols(DVec2::new(1.2, 0.1), DVec2::new(-0.3, 0.9)));
+        stress_is_energy_derivative::<Two>(DMat2::from_cols(
+            DVec2::new(1.2, 0.1),
+            DVec2::new(-0.3, 0.9),
+        ));
         stress_is_energy_derivative::<Three>(DMat3::from_cols(
             DVec3::new(1.2, 0.1, -0.05),
             DVec3::new(-0.3, 0.9, 0.1),
@@ -233,7 +245,10 @@ mod tests {
         for (index, mut v) in query.iter_mut(&mut world) {
             v.0[0] = DVec2::new(-positions[index.0 as usize].0.x, 0.0);
         }
-        run_system(&mut world, (linear_basis::<Two>, neo_hookean_stress::<Two>).chain());
+        run_system(
+            &mut world,
+            (linear_basis::<Two>, neo_hookean_stress::<Two>).chain(),
+        );
         let f = particle_values::<DeformationGradient<Two>>(&mut world)[0].0;
         assert!((f.x_axis.x - 0.99).abs() < 1e-14 && (f.y_axis.y - 1.0).abs() < 1e-14);
         assert!((particle_values::<Volume>(&mut world)[0].0 - 0.099).abs() < 1e-14);
@@ -253,7 +268,10 @@ mod tests {
         for (index, mut v) in query.iter_mut(&mut world) {
             v.0[0] = DVec3::new(0.0, 0.0, -positions[index.0 as usize].0.z);
         }
-        run_system(&mut world, (linear_basis::<Three>, neo_hookean_stress::<Three>).chain());
+        run_system(
+            &mut world,
+            (linear_basis::<Three>, neo_hookean_stress::<Three>).chain(),
+        );
         let f = particle_values::<DeformationGradient<Three>>(&mut world)[0].0;
         assert!((f.z_axis.z - 0.99).abs() < 1e-14 && (f.x_axis.x - 1.0).abs() < 1e-14);
         assert!((particle_values::<Volume>(&mut world)[0].0 - 0.099).abs() < 1e-14);
