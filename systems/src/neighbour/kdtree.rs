@@ -51,7 +51,8 @@ impl<D: Dim> Default for KdTreeCandidates<D> {
     }
 }
 
-/// Candidate lists for all particles from a fresh kd-tree.
+/// Candidate lists for all particles from a fresh kd-tree, each sorted once here so that the
+/// every-step filtering keeps them sorted.
 pub fn build_candidates<D: Spatial>(positions: &[Position<D>], radius: f64) -> Vec<Vec<u32>> {
     let points: Vec<D::Vector> = positions.iter().map(|p| p.0).collect();
     let tree = D::tree(&points);
@@ -60,6 +61,7 @@ pub fn build_candidates<D: Spatial>(positions: &[Position<D>], radius: f64) -> V
         .map(|x| {
             let mut found = Vec::new();
             D::within(&tree, *x, radius, &mut found);
+            found.sort_unstable();
             found
         })
         .collect()

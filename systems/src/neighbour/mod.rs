@@ -62,7 +62,9 @@ pub fn parse_params(params: &Params) -> Result<NeighbourParams, SceneError> {
     Ok(parsed)
 }
 
-/// Keeps the candidates of `p` within `radius` (and in `p`'s body when asked), ascending.
+/// Keeps the candidates of `p` within `radius` (and in `p`'s body when asked), in the order
+/// given: ascending when the candidates are (each builder hands its lists over sorted, without
+/// duplicates).
 pub fn filter_row<D: Dim>(
     p: usize,
     candidates: impl Iterator<Item = u32>,
@@ -73,13 +75,10 @@ pub fn filter_row<D: Dim>(
 ) -> Vec<u32> {
     let x = positions[p].0;
     let r2 = radius * radius;
-    let mut row: Vec<u32> = candidates
+    candidates
         .filter(|&q| {
             let q = q as usize;
             (positions[q].0 - x).length_squared() <= r2 && (!same_body || bodies[q] == bodies[p])
         })
-        .collect();
-    row.sort_unstable();
-    row.dedup();
-    row
+        .collect()
 }

@@ -103,7 +103,11 @@ pub fn node_linked_neighbours<D: Dim>(
             });
             let candidates =
                 candidates.flat_map(|k| members[offsets[k]..offsets[k + 1]].iter().copied());
-            filter_row(p, candidates, positions, bodies, epsilon, params.same_body)
+            // Each particle is linked to one node and each node visited once: no duplicates,
+            // but the order is by node.
+            let mut row = filter_row(p, candidates, positions, bodies, epsilon, params.same_body);
+            row.sort_unstable();
+            row
         })
         .collect();
     neighbourhoods.rebuilds += 1;
