@@ -373,21 +373,19 @@ pub fn cell_volume<D: Dim>(h: f64) -> f64 {
     h.powi(D::N as i32)
 }
 
-/// Implements [`VectorOps`] for a glam vector type by forwarding to its inherent methods.
+/// Implements [`VectorOps`] for a glam vector type by forwarding to its inherent methods;
+/// `new` builds the vector from a function of the component index, spelled out per
+/// dimension so that hot kernels see a plain constructor.
 macro_rules! glam_vector_ops {
-    ($t:ty, $n:expr) => {
+    ($t:ty, $n:expr, |$f:ident| $new:expr) => {
         impl $crate::dim::VectorOps for $t {
             const ZERO: Self = <$t>::ZERO;
             const ONE: Self = <$t>::ONE;
             fn splat(v: f64) -> Self {
                 <$t>::splat(v)
             }
-            fn from_fn(mut f: impl FnMut(usize) -> f64) -> Self {
-                let mut v = <$t>::ZERO;
-                for a in 0..$n {
-                    v[a] = f(a);
-                }
-                v
+            fn from_fn(mut $f: impl FnMut(usize) -> f64) -> Self {
+                $new
             }
             fn dot(self, other: Self) -> f64 {
                 <$t>::dot(self, other)
@@ -431,19 +429,15 @@ macro_rules! glam_vector_ops {
 }
 use glam_vector_ops;
 
-/// Implements the dimension-independent part of [`MatrixOps`] for a glam matrix type.
+/// Implements [`MatrixOps`] for a glam matrix type; `outer` gives the outer product `a ⊗ b`
+/// column by column (column j is `a b_j`), spelled out per dimension.
 macro_rules! glam_matrix_ops {
-    ($m:ty, $v:ty, $n:expr) => {
+    ($m:ty, $v:ty, $n:expr, |$a:ident, $b:ident| $outer:expr) => {
         impl $crate::dim::MatrixOps<$v> for $m {
             const ZERO: Self = <$m>::ZERO;
             const IDENTITY: Self = <$m>::IDENTITY;
-            fn outer(a: $v, b: $v) -> Self {
-                // Column j is a · b_j.
-                let mut m = <$m>::ZERO;
-                for j in 0..$n {
-                    *m.col_mut(j) = a * b[j];
-                }
-                m
+            fn outer($a: $v, $b: $v) -> Self {
+                $outer
             }
             fn from_fn(mut f: impl FnMut(usize, usize) -> f64) -> Self {
                 let mut m = <$m>::ZERO;

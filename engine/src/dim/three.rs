@@ -8,8 +8,12 @@ use glam::{DMat3, DVec3};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Three;
 
-glam_vector_ops!(DVec3, 3);
-glam_matrix_ops!(DMat3, DVec3, 3);
+glam_vector_ops!(DVec3, 3, |f| DVec3::new(f(0), f(1), f(2)));
+glam_matrix_ops!(DMat3, DVec3, 3, |a, b| DMat3::from_cols(
+    a * b.x,
+    a * b.y,
+    a * b.z
+));
 
 impl Dim for Three {
     const N: usize = 3;

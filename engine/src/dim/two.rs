@@ -8,8 +8,8 @@ use glam::{DMat2, DVec2};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Two;
 
-glam_vector_ops!(DVec2, 2);
-glam_matrix_ops!(DMat2, DVec2, 2);
+glam_vector_ops!(DVec2, 2, |f| DVec2::new(f(0), f(1)));
+glam_matrix_ops!(DMat2, DVec2, 2, |a, b| DMat2::from_cols(a * b.x, a * b.y));
 
 impl Dim for Two {
     const N: usize = 2;

@@ -11,6 +11,7 @@
 //! Every error, wherever it is found, names the field path (`bodies[1].shape`); a spec read
 //! from a file turns that path into a place in the text.
 
+mod check;
 mod error;
 mod format;
 pub mod locate;

@@ -1,0 +1,350 @@
+//! Checks on a [`Spec`] that need no world: every value in range, every name resolved. They
+//! run for specs read from a file and for specs built in code alike; each error names the
+//! field path, which a file's spec turns into a place in the text.
+
+use super::SceneError;
+use super::format::Probe;
+use super::seed::cell_points;
+use super::shape::Shape;
+use super::spec::{Condition, Spec};
+use crate::boundary::PiecewiseLinear;
+use crate::dim::{Dim, VectorOps};
+use crate::simulation::{End, TimeStep};
+
+/// Checks on a spec that need no world: every value in range, every name resolved.
+impl<D: Dim> Spec<D> {
+    /// Checks every value of the spec; the first problem is the error.
+    pub fn check(&self) -> Result<(), SceneError> {
+        self.check_grid()?;
+        self.check_materials()?;
+        self.check_thickness()?;
+        self.check_bodies()?;
+        self.check_boundaries()?;
+        self.check_probes()?;
+        if !self.body_force.is_finite() {
+            return Err(self.source.error("body_force", "expected finite numbers"));
+        }
+        self.check_time()
+    }
+
+    fn check_grid(&self) -> Result<(), SceneError> {
+        let g = &self.grid;
+        if !(g.spacing.is_finite() && g.spacing > 0.0) {
+            return Err(self
+                .source
+                .error("grid.spacing", "expected a positive spacing"));
+        }
+        if !g.min.is_finite() {
+            return Err(self.source.error("grid.min", "expected finite coordinates"));
+        }
+        if (0..D::N).any(|a| g.cells[a] == 0) {
+            return Err(self
+                .source
+                .error("grid.max", "expected at least one cell along each axis"));
+        }
+        if g.cells
+            .as_ref()
+            .iter()
+            .try_fold(1usize, |n, c| n.checked_mul(*c))
+            .is_none_or(|n| n > 100_000_000)
+        {
+            return Err(self
+                .source
+                .error("grid.spacing", "the grid would have more than 10^8 cells"));
+        }
+        Ok(())
+    }
+
+    fn check_materials(&self) -> Result<(), SceneError> {
+        for m in &self.materials {
+            let field = |f: &str| format!("materials.{}.{f}", m.name);
+            if !(m.density.is_finite() && m.density > 0.0) {
+                return Err(self
+                    .source
+                    .error(&field("density"), "expected a positive density (kg/m³)"));
+            }
+            if !(m.youngs_modulus.is_finite() && m.youngs_modulus > 0.0) {
+                return Err(self
+                    .source
+                    .error(&field("youngs_modulus"), "expected a positive modulus (Pa)"));
+            }
+            if !(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5) {
+                return Err(self
+                    .source
+                    .error(&field("poisson_ratio"), "expected a value in (-1, 0.5)"));
+            }
+            if self
+                .materials
+                .iter()
+                .filter(|other| other.name == m.name)
+                .count()
+                > 1
+            {
+                return Err(self.source.error(
+                    "materials",
+                    format!("material \"{}\" is defined twice", m.name),
+                ));
+            }
+        }
+        if self.materials.len() > u16::MAX as usize {
+            return Err(self.source.error("materials", "too many materials"));
+        }
+        Ok(())
+    }
+
+    fn check_thickness(&self) -> Result<(), SceneError> {
+        if D::N == 2 && !(self.thickness.is_finite() && self.thickness > 0.0) {
+            return Err(self
+                .source
+                .error("thickness", "expected a positive thickness (m)"));
+        }
+        if D::N == 3 && self.thickness != 1.0 {
+            return Err(self.source.error(
+                "thickness",
+                "a thickness is for 2D scenes; a 3D body has its own depth",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Index of the material named `name`, or an error at `field` listing the known ones.
+    pub(crate) fn material_index(&self, name: &str, field: &str) -> Result<usize, SceneError> {
+        self.materials
+            .iter()
+            .position(|m| m.name == name)
+            .ok_or_else(|| {
+                let known = quoted(self.materials.iter().map(|m| m.name.as_str()));
+                self.source.error(
+                    field,
+                    format!("unknown material \"{name}\"; the scene defines: {known}"),
+                )
+            })
+    }
+
+    fn check_shape(&self, field: &str, shape: &Shape) -> Result<(), SceneError> {
+        if shape.dimension() != D::DIMENSION {
+            let allowed = match D::N {
+                2 => "Rectangle, Disk, Polygon",
+                _ => "Box, Sphere, Cylinder, Prism",
+            };
+            return Err(self.source.error(
+                field,
+                format!(
+                    "{} is a {} shape and the scene is {}; its shapes are {allowed}",
+                    shape.kind(),
+                    shape.dimension().describe(),
+                    D::NAME
+                ),
+            ));
+        }
+        if let Some(expected) = shape.problem() {
+            return Err(self.source.error(field, format!("expected {expected}")));
+        }
+        Ok(())
+    }
+
+    fn check_bodies(&self) -> Result<(), SceneError> {
+        if self.bodies.is_empty() {
+            return Err(self.source.error("bodies", "expected at least one body"));
+        }
+        if self.bodies.len() > u16::MAX as usize {
+            return Err(self.source.error("bodies", "too many bodies"));
+        }
+        for (b, body) in self.bodies.iter().enumerate() {
+            let field = |f: &str| format!("bodies[{b}].{f}");
+            self.material_index(&body.material, &field("material"))?;
+            if body.particles_per_cell == 0 || body.particles_per_cell > 16 {
+                return Err(self
+                    .source
+                    .error(&field("particles_per_cell"), "expected 1 to 16"));
+            }
+            if cell_points(body.placement, body.particles_per_cell).is_none() {
+                return Err(self.source.error(
+                    &field("particles_per_cell"),
+                    "Gauss placement supports 1, 2 or 3 particles per cell per direction",
+                ));
+            }
+            self.check_shape(&field("shape"), &body.shape)?;
+            self.check_inside_grid(&field("shape"), &body.shape)?;
+            for (k, crack) in body.cracks.iter().enumerate() {
+                self.check_shape(&field(&format!("cracks[{k}]")), crack)?;
+            }
+            if let Some(expected) = body.velocity.problem() {
+                return Err(self
+                    .source
+                    .error(&field("velocity"), format!("expected {expected}")));
+            }
+        }
+        Ok(())
+    }
+
+    fn check_inside_grid(&self, field: &str, shape: &Shape) -> Result<(), SceneError> {
+        let (lo, hi) = shape.bounds();
+        let (glo, ghi) = (self.grid.min.to_3d(), self.grid.max().to_3d());
+        if (0..D::N).any(|a| lo[a] < glo[a] || hi[a] > ghi[a]) {
+            let show = |v: [f64; 3]| {
+                format!(
+                    "({})",
+                    v[..D::N]
+                        .iter()
+                        .map(|c| c.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            };
+            return Err(self.source.error(
+                field,
+                format!(
+                    "the body extends outside the grid: it spans {} to {}, the grid {} to {}",
+                    show(lo.to_array()),
+                    show(hi.to_array()),
+                    show(glo),
+                    show(ghi)
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    fn check_boundaries(&self) -> Result<(), SceneError> {
+        for (r, region) in self.boundaries.iter().enumerate() {
+            let field = |f: &str| format!("boundaries[{r}].{f}");
+            if !valid_region_name(&region.name) {
+                return Err(self
+                    .source
+                    .error(&field("name"), "expected letters, digits, `_` or `-` only"));
+            }
+            if self.boundaries[..r].iter().any(|x| x.name == region.name) {
+                return Err(self.source.error(
+                    &field("name"),
+                    format!("region \"{}\" is defined twice", region.name),
+                ));
+            }
+            if !(region.min.is_finite() && region.max.is_finite()) {
+                return Err(self
+                    .source
+                    .error(&field("nodes"), "expected finite coordinates"));
+            }
+            match &region.condition {
+                Condition::Fixed => {}
+                Condition::Roller { normal } => {
+                    if *normal >= D::N {
+                        return Err(self
+                            .source
+                            .error(&field("condition.normal"), axis_message::<D>()));
+                    }
+                }
+                Condition::Velocity(components) => {
+                    let axes = ["x", "y", "z"];
+                    if components.iter().all(Option::is_none) {
+                        return Err(self.source.error(
+                            &field("condition"),
+                            format!("expected at least one of {}", D::AXES.join(", ")),
+                        ));
+                    }
+                    for (a, points) in components.iter().enumerate() {
+                        let Some(points) = points else { continue };
+                        let at = field(&format!("condition.{}", axes[a]));
+                        if a >= D::N {
+                            return Err(self.source.error(&at, axis_message::<D>()));
+                        }
+                        PiecewiseLinear::new(points.clone())
+                            .map_err(|e| self.source.error(&at, format!("expected {e}")))?;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Index of the boundary region named `name`, or an error at probe `probe`.
+    pub(crate) fn region_index(&self, name: &str, probe: usize) -> Result<usize, SceneError> {
+        self.boundaries
+            .iter()
+            .position(|r| r.name == name)
+            .ok_or_else(|| {
+                let known = quoted(self.boundaries.iter().map(|r| r.name.as_str()));
+                self.source.error(
+                    &format!("output.probes[{probe}]"),
+                    format!("no boundary region named \"{name}\"; the scene defines: {known}"),
+                )
+            })
+    }
+
+    /// Index of the body named `name`, or an error at probe `probe`.
+    pub(crate) fn body_index(&self, name: &str, probe: usize) -> Result<usize, SceneError> {
+        self.bodies
+            .iter()
+            .position(|b| b.name.as_deref() == Some(name))
+            .ok_or_else(|| {
+                let known = quoted(self.bodies.iter().filter_map(|b| b.name.as_deref()));
+                self.source.error(
+                    &format!("output.probes[{probe}]"),
+                    format!("no body named \"{name}\"; the named bodies are: {known}"),
+                )
+            })
+    }
+
+    fn check_probes(&self) -> Result<(), SceneError> {
+        for (k, probe) in self.output.probes.iter().enumerate() {
+            match probe {
+                Probe::Reaction(name) | Probe::Displacement(name) => {
+                    self.region_index(name, k)?;
+                }
+                Probe::Force(name) => {
+                    self.body_index(name, k)?;
+                }
+                Probe::CentreOfMassVelocity => {}
+            }
+        }
+        Ok(())
+    }
+
+    fn check_time(&self) -> Result<(), SceneError> {
+        match self.end {
+            End::Time(t) if !(t.is_finite() && t > 0.0) => {
+                return Err(self
+                    .source
+                    .error("time.end", "expected a positive end time"));
+            }
+            End::Steps(0) => {
+                return Err(self.source.error("time.end", "expected at least one step"));
+            }
+            _ => {}
+        }
+        match self.time_step {
+            TimeStep::Fixed(dt) if !(dt.is_finite() && dt > 0.0) => Err(self
+                .source
+                .error("time.step", "expected a positive time step")),
+            TimeStep::Cfl(f) if !(f > 0.0 && f <= 1.0) => Err(self
+                .source
+                .error("time.step", "expected a CFL factor in (0, 1]")),
+            _ => Ok(()),
+        }
+    }
+}
+
+fn axis_message<D: Dim>() -> String {
+    format!(
+        "the scene is {}: its axes are {}",
+        D::NAME,
+        D::AXES.join(", ").to_uppercase()
+    )
+}
+
+fn valid_region_name(name: &str) -> bool {
+    !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+}
+
+/// `"a", "b"`, or `none`.
+pub(crate) fn quoted<'a>(names: impl Iterator<Item = &'a str>) -> String {
+    let names: Vec<String> = names.map(|n| format!("\"{n}\"")).collect();
+    if names.is_empty() {
+        "none".into()
+    } else {
+        names.join(", ")
+    }
+}
