@@ -122,12 +122,22 @@ fn stress<D: Dim>(c: &mut Criterion) {
     let l = D::Matrix::from_fn(grad);
     c.bench_function(
         &format!("linear elastic update ({}D, one particle)", D::N),
-        |b| b.iter(|| update_elastic::<D>(black_box(&state), l, 1e-3, (40.0, 40.0), 1.0)),
+        |b| {
+            b.iter(|| {
+                update_elastic::<D>(
+                    black_box(&state),
+                    black_box(l),
+                    black_box(1e-3),
+                    black_box((40.0, 40.0)),
+                    black_box(1.0),
+                )
+            })
+        },
     );
     let f = D::Matrix::IDENTITY + D::Matrix::from_fn(grad) * 0.1;
     c.bench_function(
         &format!("neo-Hookean stress ({}D, one particle)", D::N),
-        |b| b.iter(|| neo_hookean_stress_of::<D>(black_box(f), 40.0, 40.0)),
+        |b| b.iter(|| neo_hookean_stress_of::<D>(black_box(f), black_box(40.0), black_box(40.0))),
     );
     let s = D::Sym::from_fn(|i, j| grad(i, j) + grad(j, i));
     c.bench_function(&format!("largest principal value ({}D)", D::N), |b| {

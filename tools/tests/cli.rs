@@ -46,6 +46,24 @@ fn check_summarises_a_valid_scene() {
 }
 
 #[test]
+fn check_summarises_a_3d_scene_with_its_dimension() {
+    let out = fractum(&["check", "scenes/two_spheres.ron"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let summary = text(&out.stdout);
+    assert!(summary.contains("dimension  3D\n"), "{summary}");
+    assert!(
+        summary.contains("20 x 20 x 20 cells, h = 0.05 m, 9261 nodes, box (0, 0, 0) to (1, 1, 1)"),
+        "{summary}"
+    );
+    assert!(summary.contains("momentum_z,com_velocity_x,com_velocity_y,com_velocity_z"));
+    let two = text(&fractum(&["check", "scenes/drop_weight_881.ron"]).stdout);
+    assert!(
+        two.contains("dimension  2D plane strain, thickness 0.1 m"),
+        "{two}"
+    );
+}
+
+#[test]
 fn check_rejects_a_bad_scene_with_its_location_and_exit_code_1() {
     let out = fractum(&["check", "tests/bad_scenes/unknown_material.ron"]);
     assert_eq!(out.status.code(), Some(1));
