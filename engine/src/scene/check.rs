@@ -109,16 +109,25 @@ impl<D: Dim> Spec<D> {
 
     /// Index of the material named `name`, or an error at `field` listing the known ones.
     pub(crate) fn material_index(&self, name: &str, field: &str) -> Result<usize, SceneError> {
-        self.materials
-            .iter()
-            .position(|m| m.name == name)
-            .ok_or_else(|| {
-                let known = quoted(self.materials.iter().map(|m| m.name.as_str()));
-                self.source.error(
-                    field,
-                    format!("unknown material \"{name}\"; the scene defines: {known}"),
-                )
-            })
+        let names = self.materials.iter().map(|m| Some(m.name.as_str()));
+        self.index_of_name(names, name, field, "unknown material", "the scene defines")
+    }
+
+    /// The position of `name` among `names`, or an error at `field`:
+    /// `{missing} "name"; {listing}: "a", "b"` (unnamed entries are not listed).
+    fn index_of_name<'a>(
+        &self,
+        names: impl Iterator<Item = Option<&'a str>> + Clone,
+        name: &str,
+        field: &str,
+        missing: &str,
+        listing: &str,
+    ) -> Result<usize, SceneError> {
+        names.clone().position(|n| n == Some(name)).ok_or_else(|| {
+            let known = quoted(names.flatten());
+            self.source
+                .error(field, format!("{missing} \"{name}\"; {listing}: {known}"))
+        })
     }
 
     fn check_shape(&self, field: &str, shape: &Shape) -> Result<(), SceneError> {
@@ -259,30 +268,22 @@ impl<D: Dim> Spec<D> {
 
     /// Index of the boundary region named `name`, or an error at probe `probe`.
     pub(crate) fn region_index(&self, name: &str, probe: usize) -> Result<usize, SceneError> {
-        self.boundaries
-            .iter()
-            .position(|r| r.name == name)
-            .ok_or_else(|| {
-                let known = quoted(self.boundaries.iter().map(|r| r.name.as_str()));
-                self.source.error(
-                    &format!("output.probes[{probe}]"),
-                    format!("no boundary region named \"{name}\"; the scene defines: {known}"),
-                )
-            })
+        let names = self.boundaries.iter().map(|r| Some(r.name.as_str()));
+        let field = format!("output.probes[{probe}]");
+        self.index_of_name(
+            names,
+            name,
+            &field,
+            "no boundary region named",
+            "the scene defines",
+        )
     }
 
     /// Index of the body named `name`, or an error at probe `probe`.
     pub(crate) fn body_index(&self, name: &str, probe: usize) -> Result<usize, SceneError> {
-        self.bodies
-            .iter()
-            .position(|b| b.name.as_deref() == Some(name))
-            .ok_or_else(|| {
-                let known = quoted(self.bodies.iter().filter_map(|b| b.name.as_deref()));
-                self.source.error(
-                    &format!("output.probes[{probe}]"),
-                    format!("no body named \"{name}\"; the named bodies are: {known}"),
-                )
-            })
+        let names = self.bodies.iter().map(|b| b.name.as_deref());
+        let field = format!("output.probes[{probe}]");
+        self.index_of_name(names, name, &field, "no body named", "the named bodies are")
     }
 
     fn check_probes(&self) -> Result<(), SceneError> {

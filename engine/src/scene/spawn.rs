@@ -36,7 +36,7 @@ impl<D: Dim> Spec<D> {
         spawn_nodes(&mut world, &self.grid);
         let body_particles = self.spawn_bodies(&mut world)?;
         let boundaries = self.boundary_conditions()?;
-        let output = self.output_plan()?;
+        let mut output = self.output_plan()?;
         world.insert_resource(Materials(self.materials.clone()));
         world.insert_resource(BodyForce::<D>(self.body_force));
         world.insert_resource(Reactions::<D>(vec![
@@ -49,7 +49,6 @@ impl<D: Dim> Spec<D> {
         world.init_resource::<Connectivity<D>>();
         let mut schedule = step_schedule();
         let pipeline = self.install_pipeline(registry, &mut schedule, &mut world)?;
-        let mut output = output;
         output.system_columns = world
             .get_resource::<SeriesColumns>()
             .map(|c| c.names.clone())
