@@ -29,7 +29,7 @@ fn overstress<D: Dim>(
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed: Overstress = params.parse()?;
-    if !(parsed.strength > 0.0) {
+    if !(parsed.strength.is_finite() && parsed.strength > 0.0) {
         return Err(params.error("strength", "expected a positive strength (Pa)"));
     }
     installer.insert_resource(parsed);
