@@ -39,10 +39,14 @@ fn format_names() -> Vec<String> {
                     names.push(field);
                 }
             }
-            Some("enum") if indent == 4 && !word.is_empty() => {
-                if rest.starts_with(',') || rest.starts_with('(') || rest.starts_with(" {") {
-                    names.push(word);
-                }
+            Some("enum")
+                if indent == 4
+                    && !word.is_empty()
+                    && (rest.starts_with(',')
+                        || rest.starts_with('(')
+                        || rest.starts_with(" {")) =>
+            {
+                names.push(word)
             }
             Some("enum") if indent == 8 && rest.starts_with(':') => names.push(word),
             _ => {}
