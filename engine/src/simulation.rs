@@ -238,8 +238,9 @@ pub struct StableStep {
     pub speed: f64,
     /// Id and material index of the particle with the fastest signal.
     pub particle: Option<(u32, u16)>,
-    /// The fraction of the central-difference limit the installed systems allow.
-    pub limit: TimeStepLimit,
+    /// The fraction of the central-difference limit the installed systems allow (see
+    /// [`TimeStepLimit`] for the reason).
+    pub factor: f64,
 }
 
 /// The one rule for the stable step: [`TimeStepLimit::stable_step`] for the fastest particle
@@ -268,13 +269,13 @@ pub fn stable_time_step<D: Dim>(world: &mut World) -> StableStep {
             fastest = (speed, Some((id.0, m.0)));
         }
     }
-    let limit = world.get_resource_or_init::<TimeStepLimit>().clone();
+    let limit = world.get_resource_or_init::<TimeStepLimit>();
     StableStep {
         dt: limit.stable_step(D::N, h, fastest.0),
         dimensions: D::N,
         spacing: h,
         speed: fastest.0,
         particle: fastest.1,
-        limit,
+        factor: limit.factor,
     }
 }

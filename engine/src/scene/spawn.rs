@@ -17,7 +17,7 @@ use crate::dim::{Dim, VectorOps};
 use crate::health::{LeaveGrid, remove_escaped_particles};
 use crate::output::{OutputPlan, ProbeKind};
 use crate::registry::{Installer, Registration, Registry};
-use crate::resources::{BodyForce, Grid, Materials, SimClock, Thickness};
+use crate::resources::{BodyForce, Grid, Materials, SimClock, Thickness, TimeStepLimit};
 use crate::series::SeriesColumns;
 use crate::simulation::{Simulation, TimeStep, add_stage_checks, stable_time_step, step_schedule};
 use crate::stage::{Stage, StageCheck};
@@ -363,10 +363,11 @@ impl<D: Dim> Spec<D> {
         if dt <= stable.dt {
             return Ok(());
         }
-        let restriction = if stable.limit.reason.is_empty() {
+        let reason = &world.resource::<TimeStepLimit>().reason;
+        let restriction = if reason.is_empty() {
             String::new()
         } else {
-            format!(" × {} ({})", stable.limit.factor, stable.limit.reason)
+            format!(" × {} ({reason})", stable.factor)
         };
         let culprit = match stable.particle {
             Some((id, material)) => format!(
