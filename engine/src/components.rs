@@ -7,15 +7,100 @@
 //! Components that hold vectors or tensors are generic over the dimension `D` ([`Dim`]): a 2D
 //! scene's particles carry `Position<Two>`, a 3D scene's `Position<Three>`.
 //!
-//! Nodes carry [`FIELDS`] velocity fields from the start. A single-field pipeline uses field 0;
-//! damage-field-gradient partitioning and contact (a later stage of the work) spread material
-//! over both.
+//! Every node has room for [`MAX_FIELDS`] velocity fields. Which material a field holds is the
+//! node's business: [`NodeFields`] lists the field keys (contact group and damage side) in slot
+//! order, and the connectivity says which slot each particle–node pair maps to. A single-field
+//! pipeline uses slot 0 everywhere. Why a small fixed number of slots per node instead of
+//! `groups × 2` fields everywhere: see ARCHITECTURE.md (velocity fields).
 
 use crate::dim::{Dim, MatrixOps, SymOps};
 use bevy_ecs::prelude::Component;
 
-/// Number of velocity fields every node carries.
-pub const FIELDS: usize = 2;
+/// Velocity fields one node can hold at once.
+///
+/// Four is two contact groups meeting at a node, each split in two by damage-field-gradient
+/// partitioning. The number of contact groups in a scene is not limited by it: the slots are
+/// assigned per node to the groups present there, and a node that would need more stops the
+/// run with a message naming the node.
+pub const MAX_FIELDS: usize = 4;
+
+/// A per-field array holding `values` in the first slots and the default in the rest, e.g.
+/// `NodeMass(slots(&[2.0]))` for a node with 2 kg in its one field.
+pub fn slots<T: Copy + Default>(values: &[T]) -> [T; MAX_FIELDS] {
+    std::array::from_fn(|k| values.get(k).copied().unwrap_or_default())
+}
+
+/// Key of a velocity field: `2 × contact group + side`, where the side (0 or 1) is the
+/// particle's side of the damage-field gradient at the node (always 0 without partitioning).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct FieldKey(pub u16);
+
+impl FieldKey {
+    /// The key of `side` (0 or 1) of contact group `group`.
+    pub fn new(group: u8, side: u8) -> Self {
+        Self(2 * group as u16 + side as u16)
+    }
+
+    /// Contact group.
+    pub fn group(self) -> u8 {
+        (self.0 / 2) as u8
+    }
+
+    /// Side of the damage-field gradient (0 or 1).
+    pub fn side(self) -> u8 {
+        (self.0 % 2) as u8
+    }
+}
+
+/// Which field each slot of a node holds: `keys[..count]`, in the order their first particle
+/// appears. Without partitioning every node holds one field, key 0.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NodeFields {
+    /// Number of slots in use.
+    pub count: u8,
+    /// Key of each slot in use.
+    pub keys: [FieldKey; MAX_FIELDS],
+}
+
+impl Default for NodeFields {
+    fn default() -> Self {
+        Self {
+            count: 1,
+            keys: [FieldKey::default(); MAX_FIELDS],
+        }
+    }
+}
+
+impl NodeFields {
+    /// Keys of the slots in use.
+    pub fn active(&self) -> &[FieldKey] {
+        &self.keys[..self.count as usize]
+    }
+}
+
+/// Damage state of each field at a node, for the separability condition
+/// (dfg-partitioning-mpm.md §2.3, eq. 21): mass-weighted mean and maximum particle damage.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeFieldDamage {
+    /// `Σ N m D / Σ N m` of each slot.
+    pub mean: [f64; MAX_FIELDS],
+    /// Largest particle damage of each slot.
+    pub max: [f64; MAX_FIELDS],
+}
+
+/// Gradient of the normalised kernel damage field at the particle, `∇D̄(x_p)`
+/// (dfg-partitioning-mpm.md eqs. 17–19); written by a partition system.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct DamageGradient<D: Dim>(pub D::Vector);
+
+/// Surface flag `s_p` (dfg-partitioning-mpm.md §2.4): 1 for particles detected on a surface at
+/// the start of the run, 0 inside. Partitioning uses `max(s_p, D_p)` in place of `D_p`.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct SurfaceFlag(pub f64);
+
+/// External force on the particle from scene loads (N), refreshed every step.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct ExternalForce<D: Dim>(pub D::Vector);
 
 /// Marker of a material point.
 #[derive(Component, Clone, Copy, Debug, Default)]
@@ -123,55 +208,66 @@ pub struct NodePosition<D: Dim>(pub D::Vector);
 
 /// Lumped mass of each velocity field.
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
-pub struct NodeMass(pub [f64; FIELDS]);
+pub struct NodeMass(pub [f64; MAX_FIELDS]);
 
 /// Momentum of each velocity field.
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
-pub struct NodeMomentum<D: Dim>(pub [D::Vector; FIELDS]);
+pub struct NodeMomentum<D: Dim>(pub [D::Vector; MAX_FIELDS]);
 
 impl<D: Dim> Default for NodeMomentum<D> {
     fn default() -> Self {
-        Self([D::Vector::default(); FIELDS])
+        Self([D::Vector::default(); MAX_FIELDS])
     }
 }
 
 /// Velocity of each velocity field.
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
-pub struct NodeVelocity<D: Dim>(pub [D::Vector; FIELDS]);
+pub struct NodeVelocity<D: Dim>(pub [D::Vector; MAX_FIELDS]);
 
 impl<D: Dim> Default for NodeVelocity<D> {
     fn default() -> Self {
-        Self([D::Vector::default(); FIELDS])
+        Self([D::Vector::default(); MAX_FIELDS])
     }
 }
 
 /// Acceleration of each velocity field over the current step.
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
-pub struct NodeAcceleration<D: Dim>(pub [D::Vector; FIELDS]);
+pub struct NodeAcceleration<D: Dim>(pub [D::Vector; MAX_FIELDS]);
 
 impl<D: Dim> Default for NodeAcceleration<D> {
     fn default() -> Self {
-        Self([D::Vector::default(); FIELDS])
+        Self([D::Vector::default(); MAX_FIELDS])
     }
 }
 
 /// Total (internal + external) force on each velocity field.
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
-pub struct NodeForce<D: Dim>(pub [D::Vector; FIELDS]);
+pub struct NodeForce<D: Dim>(pub [D::Vector; MAX_FIELDS]);
 
 impl<D: Dim> Default for NodeForce<D> {
     fn default() -> Self {
-        Self([D::Vector::default(); FIELDS])
+        Self([D::Vector::default(); MAX_FIELDS])
     }
 }
 
-/// Outward surface normal of each velocity field (for contact).
+/// Contact force on each velocity field over the current step (zero without contact).
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
-pub struct NodeNormal<D: Dim>(pub [D::Vector; FIELDS]);
+pub struct NodeContactForce<D: Dim>(pub [D::Vector; MAX_FIELDS]);
+
+impl<D: Dim> Default for NodeContactForce<D> {
+    fn default() -> Self {
+        Self([D::Vector::default(); MAX_FIELDS])
+    }
+}
+
+/// Unit normal of each velocity field, the normalised mass gradient `Σ ∇N m` (eq. 11), which
+/// points into the field's material; written by contact.
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct NodeNormal<D: Dim>(pub [D::Vector; MAX_FIELDS]);
 
 impl<D: Dim> Default for NodeNormal<D> {
     fn default() -> Self {
-        Self([D::Vector::default(); FIELDS])
+        Self([D::Vector::default(); MAX_FIELDS])
     }
 }
 
@@ -214,6 +310,10 @@ pub struct ParticleBundle<D: Dim> {
     pub body: BodyId,
     /// Contact group.
     pub group: ContactGroup,
+    /// Force of scene loads.
+    pub external_force: ExternalForce<D>,
+    /// Which load the particle carries.
+    pub load: crate::loads::LoadShare,
 }
 
 impl<D: Dim> ParticleBundle<D> {
@@ -238,6 +338,8 @@ impl<D: Dim> ParticleBundle<D> {
             material: MaterialId(material),
             body: BodyId(0),
             group: ContactGroup(0),
+            external_force: ExternalForce::default(),
+            load: crate::loads::LoadShare::default(),
         }
     }
 }
@@ -263,6 +365,12 @@ pub struct NodeBundle<D: Dim> {
     pub force: NodeForce<D>,
     /// Field normals.
     pub normal: NodeNormal<D>,
+    /// Field contact forces.
+    pub contact_force: NodeContactForce<D>,
+    /// Field keys.
+    pub fields: NodeFields,
+    /// Field damage statistics.
+    pub field_damage: NodeFieldDamage,
 }
 
 impl<D: Dim> NodeBundle<D> {
@@ -278,6 +386,9 @@ impl<D: Dim> NodeBundle<D> {
             acceleration: NodeAcceleration::default(),
             force: NodeForce::default(),
             normal: NodeNormal::default(),
+            contact_force: NodeContactForce::default(),
+            fields: NodeFields::default(),
+            field_damage: NodeFieldDamage::default(),
         }
     }
 }

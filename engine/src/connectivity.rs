@@ -3,6 +3,11 @@
 //! The basis stage writes, for every particle row `p`, the nodes it influences with the shape
 //! function value `N_Ip` and gradient `∇N_Ip`. Every transfer reads these tables.
 //!
+//! Each entry also names the velocity field (the node's slot, see
+//! [`crate::components::NodeFields`]) the particle maps to at that node. The basis resets every
+//! entry to slot 0; a partition rule then assigns the slots (see `crate::fields`). Every transfer
+//! reads the slot from here and nowhere else.
+//!
 //! Grid-to-particle transfers gather over a particle's row. Particle-to-grid transfers gather over
 //! the transposed table (node → entries, in particle order), so each node's sum is always
 //! accumulated in the same order and the result is bitwise identical for any thread count.
@@ -23,6 +28,8 @@ pub struct Connectivity<D: Dim> {
     pub weights: Vec<f64>,
     /// Shape function gradient `∇N_Ip` of each entry.
     pub gradients: Vec<D::Vector>,
+    /// Velocity-field slot of each entry at its node (0 without partitioning).
+    pub fields: Vec<u8>,
     /// Transposed offsets: entries touching node `I` are `node_offsets[I]..node_offsets[I + 1]`.
     pub node_offsets: Vec<usize>,
     /// For each transposed slot, the (entry, particle row) it refers to, in particle order.
@@ -36,6 +43,7 @@ impl<D: Dim> Default for Connectivity<D> {
             nodes: Vec::new(),
             weights: Vec::new(),
             gradients: Vec::new(),
+            fields: Vec::new(),
             node_offsets: Vec::new(),
             node_entries: Vec::new(),
         }
@@ -78,6 +86,7 @@ impl<D: Dim> Connectivity<D> {
             .par_iter()
             .flat_map_iter(|r| r.iter().map(|e| e.2))
             .collect();
+        self.reset_fields();
         self.rebuild_transpose(node_count);
     }
 
@@ -104,7 +113,40 @@ impl<D: Dim> Connectivity<D> {
             .zip(self.gradients.par_chunks_mut(width))
             .enumerate()
             .for_each(|(p, ((n, w), g))| fill(p, n, w, g));
+        self.reset_fields();
         self.rebuild_transpose(node_count);
+    }
+
+    /// Maps every entry to slot 0 (one velocity field per node).
+    fn reset_fields(&mut self) {
+        self.fields.clear();
+        self.fields.resize(self.nodes.len(), 0);
+    }
+
+    /// Velocity-field slot of entry `e`.
+    pub fn field(&self, e: usize) -> usize {
+        self.fields[e] as usize
+    }
+
+    /// Particle-to-grid transfer into per-node accumulators: for every node, starting from
+    /// `T::default()`, calls `add(&mut sum, entry, particle)` for each of its entries in particle
+    /// order. In parallel over nodes, so the result does not depend on the number of threads.
+    pub fn accumulate_to_nodes<T, F>(&self, out: &mut [T], add: F)
+    where
+        T: Default + Send,
+        F: Fn(&mut T, usize, usize) + Sync,
+    {
+        out.par_iter_mut().enumerate().for_each(|(node, slot)| {
+            let mut sum = T::default();
+            if node + 1 < self.node_offsets.len() {
+                for &(entry, particle) in
+                    &self.node_entries[self.node_offsets[node]..self.node_offsets[node + 1]]
+                {
+                    add(&mut sum, entry as usize, particle as usize);
+                }
+            }
+            *slot = sum;
+        });
     }
 
     /// Rebuilds the node-major transpose from the particle-major tables (counting sort, so the

@@ -6,12 +6,13 @@
 //! and a [`Params`] holding the raw RON of the pipeline entry's `params`, which it parses into
 //! its own typed struct. Users register their own algorithms from their own crates the same way.
 
+use crate::components::Particle;
 use crate::dim::Dimension;
 use crate::resources::TimeStepLimit;
 use crate::scene::{Location, SceneError, parse_fragment};
 use crate::series::SeriesColumns;
 use crate::stage::Stage;
-use bevy_ecs::prelude::{FromWorld, Resource, World};
+use bevy_ecs::prelude::{Component, Entity, FromWorld, Resource, With, World};
 use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule, ScheduleConfigs};
 use bevy_ecs::system::ScheduleSystem;
 use serde::de::DeserializeOwned;
@@ -152,6 +153,20 @@ impl<'a> Installer<'a> {
     pub fn add_systems<M>(&mut self, systems: impl IntoScheduleConfigs<ScheduleSystem, M>) {
         let configs: ScheduleConfigs<ScheduleSystem> = systems.into_configs();
         self.schedule.add_systems(configs.in_set(self.stage));
+    }
+
+    /// Gives every particle a component of the system's own (a damage gradient, a surface flag,
+    /// a strength), starting at `value`. All particles get it at once, before the first step, so
+    /// they stay in one storage table.
+    pub fn add_particle_component<C: Component + Clone>(&mut self, value: C) {
+        let particles: Vec<Entity> = self
+            .world
+            .query_filtered::<Entity, With<Particle>>()
+            .iter(self.world)
+            .collect();
+        for particle in particles {
+            self.world.entity_mut(particle).insert(value.clone());
+        }
     }
 
     /// Inserts a resource (typically the system's parsed parameters).

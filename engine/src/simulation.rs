@@ -42,6 +42,18 @@ pub fn step_schedule() -> Schedule {
         ..Default::default()
     });
     configure_stages(&mut schedule);
+    schedule.configure_sets(
+        crate::loads::ApplyLoads
+            .after(StageCheck(Stage::PreStep))
+            .before(Stage::Neighbour)
+            .run_if(healthy),
+    );
+    schedule.configure_sets(
+        crate::fields::AssignFields
+            .after(Stage::Basis)
+            .before(StageCheck(Stage::Basis))
+            .run_if(healthy),
+    );
     for stage in Stage::ORDER {
         schedule.configure_sets(stage.run_if(healthy));
     }

@@ -5,11 +5,15 @@
 //!   eigensoftening-lme-mpm.md Appendix A steps 1, 2 and 7, with the damage scaling of eq. 16).
 //! - Grid to particle: `Σ N_Ip a_I` and `Σ N_Ip v_I` (eqs. 9–10; Appendix A step 9).
 //!
-//! All read field 0 of the nodes. Generic over the dimension `D`.
+//! - Velocity gradient `L_p = Σ v_I ⊗ ∇N_Ip` (eq. 7).
+//!
+//! Every transfer reads the velocity field of each particle–node pair from the connectivity
+//! (`Connectivity::field`), so a partitioned run and a single-field run share this code: a
+//! particle only ever sees, and contributes to, its own field at each node (Algorithm 2).
+//! Generic over the dimension `D`.
 
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
-use std::ops::AddAssign;
 
 /// Particle data the force transfer reads: mass, velocity, volume, stress, damage.
 pub type ForceSourceQuery<'w, 's, D> = Query<
@@ -21,6 +25,7 @@ pub type ForceSourceQuery<'w, 's, D> = Query<
         &'static Volume,
         &'static Stress<D>,
         &'static Damage,
+        &'static ExternalForce<D>,
     ),
     With<Particle>,
 >;
@@ -82,32 +87,24 @@ pub fn advect_particles<D: Dim>(
         });
 }
 
-/// Per-node sums of the particle-to-grid transfer.
+/// Per-node, per-field sums of the particle-to-grid transfer.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NodeSums<D: Dim> {
-    /// Σ N m.
-    pub mass: f64,
-    /// Σ N m v.
-    pub momentum: D::Vector,
-    /// Σ N m b − Σ (1 − D) V σ·∇N.
-    pub force: D::Vector,
+    /// Σ N m of each field.
+    pub mass: [f64; MAX_FIELDS],
+    /// Σ N m v of each field.
+    pub momentum: [D::Vector; MAX_FIELDS],
+    /// Σ N (m b + f_ext) − Σ (1 − D) V σ·∇N of each field.
+    pub force: [D::Vector; MAX_FIELDS],
 }
 
 impl<D: Dim> Default for NodeSums<D> {
     fn default() -> Self {
         Self {
-            mass: 0.0,
-            momentum: D::Vector::ZERO,
-            force: D::Vector::ZERO,
+            mass: [0.0; MAX_FIELDS],
+            momentum: [D::Vector::ZERO; MAX_FIELDS],
+            force: [D::Vector::ZERO; MAX_FIELDS],
         }
-    }
-}
-
-impl<D: Dim> AddAssign for NodeSums<D> {
-    fn add_assign(&mut self, rhs: Self) {
-        self.mass += rhs.mass;
-        self.momentum += rhs.momentum;
-        self.force += rhs.force;
     }
 }
 
@@ -123,12 +120,14 @@ pub struct ParticleSlices<'a, D: Dim> {
     pub stress: &'a [Stress<D>],
     /// Damage.
     pub damage: &'a [Damage],
+    /// Forces of scene loads.
+    pub external: &'a [ExternalForce<D>],
 }
 
 impl<'a, D: Dim> ParticleSlices<'a, D> {
     /// The columns of the particle table a force transfer reads, or `None` without particles.
     pub fn of(query: &'a ForceSourceQuery<'_, '_, D>) -> Option<Self> {
-        let (mass, velocity, volume, stress, damage) =
+        let (mass, velocity, volume, stress, damage, external) =
             single_table(query.contiguous_iter(), "particles")?;
         Some(Self {
             mass,
@@ -136,37 +135,36 @@ impl<'a, D: Dim> ParticleSlices<'a, D> {
             volume,
             stress,
             damage,
+            external,
         })
     }
 }
 
-/// Contribution of connectivity entry `e` of particle `p` to its node (eqs. 1–4).
-pub fn contribution<D: Dim>(
+/// Adds entry `e` of particle `p` to its field of the node's sums (eqs. 1–4).
+pub fn add_contribution<D: Dim>(
+    sums: &mut NodeSums<D>,
     c: &Connectivity<D>,
     particles: &ParticleSlices<D>,
     body_force: D::Vector,
     e: usize,
     p: usize,
-) -> NodeSums<D> {
-    let n = c.weights[e];
-    let m = particles.mass[p].0;
-    NodeSums {
-        mass: n * m,
-        momentum: particles.velocity[p].0 * (n * m),
-        force: force_contribution(c, particles, body_force, e, p),
-    }
+) {
+    let (k, nm) = (c.field(e), c.weights[e] * particles.mass[p].0);
+    sums.mass[k] += nm;
+    sums.momentum[k] += particles.velocity[p].0 * nm;
+    sums.force[k] += force_contribution(c, particles, body_force, e, p);
 }
 
-/// Velocity `momentum / mass` of a node, zero for an empty node.
-pub fn node_velocity<D: Dim>(sums: &NodeSums<D>, min_mass: f64) -> D::Vector {
-    if sums.mass > min_mass && sums.mass > 0.0 {
-        sums.momentum / sums.mass
+/// Velocity `momentum / mass` of field `k` of a node, zero for an empty field.
+pub fn field_velocity<D: Dim>(sums: &NodeSums<D>, k: usize, min_mass: f64) -> D::Vector {
+    if sums.mass[k] > min_mass && sums.mass[k] > 0.0 {
+        sums.momentum[k] / sums.mass[k]
     } else {
         D::Vector::ZERO
     }
 }
 
-/// Internal plus body force of connectivity entry `e` of particle `p` on its node.
+/// Internal, body and load force of connectivity entry `e` of particle `p` on its node.
 pub fn force_contribution<D: Dim>(
     c: &Connectivity<D>,
     particles: &ParticleSlices<D>,
@@ -175,11 +173,26 @@ pub fn force_contribution<D: Dim>(
     p: usize,
 ) -> D::Vector {
     let intact = 1.0 - particles.damage[p].0;
-    body_force * (c.weights[e] * particles.mass[p].0)
+    let n = c.weights[e];
+    body_force * (n * particles.mass[p].0) + particles.external[p].0 * n
         - particles.stress[p].0.dot(c.gradients[e]) * (intact * particles.volume[p].0)
 }
 
-/// `(Σ N a_I, Σ N v_I)` over particle row `p`, from field 0.
+/// Per-field force sums `Σ N (m b + f_ext) − Σ (1 − D) V σ·∇N` of every node.
+pub fn field_forces<D: Dim>(
+    c: &Connectivity<D>,
+    particles: &ParticleSlices<D>,
+    body_force: D::Vector,
+    node_count: usize,
+) -> Vec<[D::Vector; MAX_FIELDS]> {
+    let mut forces = vec![[D::Vector::ZERO; MAX_FIELDS]; node_count];
+    c.accumulate_to_nodes(&mut forces, |f: &mut [D::Vector; MAX_FIELDS], e, p| {
+        f[c.field(e)] += force_contribution(c, particles, body_force, e, p);
+    });
+    forces
+}
+
+/// `(Σ N a_I, Σ N v_I)` over particle row `p`, each node's value taken from the particle's field.
 pub fn interpolate<D: Dim>(
     c: &Connectivity<D>,
     acceleration: &[NodeAcceleration<D>],
@@ -188,7 +201,19 @@ pub fn interpolate<D: Dim>(
 ) -> (D::Vector, D::Vector) {
     c.row(p)
         .fold((D::Vector::ZERO, D::Vector::ZERO), |(a, v), e| {
-            let (node, n) = (c.nodes[e] as usize, c.weights[e]);
-            (a + acceleration[node].0[0] * n, v + velocity[node].0[0] * n)
+            let (node, k, n) = (c.nodes[e] as usize, c.field(e), c.weights[e]);
+            (a + acceleration[node].0[k] * n, v + velocity[node].0[k] * n)
         })
+}
+
+/// Velocity gradient `L_p = Σ v_I ⊗ ∇N_Ip` of particle row `p` (eq. 7), from the particle's
+/// field at each node.
+pub fn velocity_gradient<D: Dim>(
+    c: &Connectivity<D>,
+    node_velocity: &[NodeVelocity<D>],
+    p: usize,
+) -> D::Matrix {
+    c.row(p).fold(D::Matrix::ZERO, |l, e| {
+        l + D::Matrix::outer(node_velocity[c.nodes[e] as usize].0[c.field(e)], c.gradients[e])
+    })
 }

@@ -178,6 +178,19 @@ impl<D: Dim> Spec<D> {
             for (k, crack) in body.cracks.iter().enumerate() {
                 self.check_shape(&field(&format!("cracks[{k}]")), crack)?;
             }
+            for (k, load) in body.loads.iter().enumerate() {
+                let at = |f: &str| field(&format!("loads[{k}].{f}"));
+                if let Some(region) = &load.region {
+                    self.check_shape(&at("region"), region)?;
+                }
+                if !load.total.is_finite() {
+                    return Err(self.source.error(&at("force"), "expected finite components"));
+                }
+                if !load.ramp.is_empty() {
+                    PiecewiseLinear::new(load.ramp.clone())
+                        .map_err(|e| self.source.error(&at("ramp"), format!("expected {e}")))?;
+                }
+            }
             if let Some(expected) = body.velocity.problem() {
                 return Err(self
                     .source

@@ -175,6 +175,31 @@ pub struct BodySpec {
     /// (damage 1: they keep their mass and carry no stress).
     #[serde(default)]
     pub cracks: Vec<ShapeSpec>,
+    /// Loads on the particles of this body (or of a region of it).
+    #[serde(default)]
+    pub loads: Vec<LoadSpec>,
+}
+
+/// A force on the particles of a body or of a region of it, shared in proportion to their
+/// volume, scaled in time by `ramp`.
+#[derive(Debug, Deserialize, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct LoadSpec {
+    /// Only the body's particles inside this shape carry the load (default: all of them).
+    #[serde(default)]
+    pub region: Option<ShapeSpec>,
+    /// Total force in N (in 2D, on the scene's thickness).
+    #[serde(default)]
+    pub force: Option<Coords>,
+    /// Force per unit area in Pa; the total is `traction × area`.
+    #[serde(default)]
+    pub traction: Option<Coords>,
+    /// Loaded area in m² for a traction (in 2D: loaded length × thickness).
+    #[serde(default)]
+    pub area: Option<f64>,
+    /// `(time, factor)` points, linear between them and held outside (default: factor 1).
+    #[serde(default)]
+    pub ramp: Option<Vec<(f64, f64)>>,
 }
 
 fn default_particles_per_cell() -> u32 {

@@ -14,7 +14,9 @@ use crate::components::{
 };
 use crate::connectivity::Connectivity;
 use crate::dim::{Dim, VectorOps};
+use crate::fields::{AssignFields, FieldRule, assign_fields_system};
 use crate::health::{LeaveGrid, remove_escaped_particles};
+use crate::loads::{ApplyLoads, LoadShare, ParticleLoads, apply_loads};
 use crate::output::{OutputPlan, ProbeKind};
 use crate::registry::{Installer, Registration, Registry};
 use crate::resources::{BodyForce, Grid, Materials, SimClock, Thickness, TimeStepLimit};
@@ -58,6 +60,12 @@ impl<D: Dim> Spec<D> {
             &mut schedule,
             pipeline.by_stage.iter().map(|(stage, _)| *stage),
         );
+        if !world.resource::<ParticleLoads<D>>().0.is_empty() {
+            schedule.add_systems(apply_loads::<D>.in_set(ApplyLoads));
+        }
+        if world.contains_resource::<FieldRule>() {
+            schedule.add_systems(assign_fields_system::<D>.in_set(AssignFields));
+        }
         if self.on_leave_grid == LeaveGrid::Remove {
             schedule
                 .add_systems(remove_escaped_particles::<D>.in_set(StageCheck(Stage::Advection)));
@@ -106,12 +114,66 @@ impl<D: Dim> Spec<D> {
     fn spawn_bodies(&self, world: &mut World) -> Result<Vec<usize>, SceneError> {
         let mut counts = Vec::new();
         let mut next_id: u32 = 0;
+        let mut loads = ParticleLoads::<D>::default();
         for (b, body) in self.bodies.iter().enumerate() {
-            let bundles = self.body_particles(b, body, &mut next_id)?;
+            let mut bundles = self.body_particles(b, body, &mut next_id)?;
+            self.share_loads(b, body, &mut bundles, &mut loads)?;
             counts.push(bundles.len());
             world.spawn_batch(bundles);
         }
+        world.insert_resource(loads);
         Ok(counts)
+    }
+
+    /// Gives each particle of `body` its share of the first of the body's loads that covers it.
+    fn share_loads(
+        &self,
+        b: usize,
+        body: &Body<D>,
+        bundles: &mut [ParticleBundle<D>],
+        loads: &mut ParticleLoads<D>,
+    ) -> Result<(), SceneError> {
+        if body.loads.is_empty() {
+            return Ok(());
+        }
+        let first = loads.0.len();
+        if first + body.loads.len() >= LoadShare::NONE as usize {
+            return Err(self.source.error("bodies", "more than 65534 loads"));
+        }
+        let mut volumes = vec![0.0; body.loads.len()];
+        for p in bundles.iter_mut() {
+            let x = p.position.0.to_3d().into();
+            let covering = body
+                .loads
+                .iter()
+                .position(|l| l.region.as_ref().is_none_or(|r| r.contains(x)));
+            if let Some(k) = covering {
+                volumes[k] += p.volume.0;
+                p.load = LoadShare {
+                    load: (first + k) as u16,
+                    share: p.volume.0,
+                };
+            }
+        }
+        for (k, load) in body.loads.iter().enumerate() {
+            if volumes[k] == 0.0 {
+                return Err(self.source.error(
+                    &format!("bodies[{b}].loads[{k}].region"),
+                    "no particle of the body lies in this region",
+                ));
+            }
+            let ramp = if load.ramp.is_empty() {
+                PiecewiseLinear::constant(1.0)
+            } else {
+                PiecewiseLinear::new(load.ramp.clone())
+                    .map_err(|e| self.source.error(&format!("bodies[{b}].loads[{k}].ramp"), e))?
+            };
+            loads.0.push((load.total, ramp));
+        }
+        for p in bundles.iter_mut().filter(|p| p.load.load != LoadShare::NONE) {
+            p.load.share /= volumes[p.load.load as usize - first];
+        }
+        Ok(())
     }
 
     fn body_particles(

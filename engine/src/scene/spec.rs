@@ -89,6 +89,42 @@ pub struct Body<D: Dim> {
     pub contact_group: u8,
     /// Particles inside any of these start failed (damage 1).
     pub cracks: Vec<Shape>,
+    /// Loads on the body's particles.
+    pub loads: Vec<Load<D>>,
+}
+
+/// A ramped force on the particles of a body (or of a region of it), shared by volume.
+#[derive(Clone, Debug)]
+pub struct Load<D: Dim> {
+    /// Only particles inside carry the load (`None`: the whole body).
+    pub region: Option<Shape>,
+    /// Total force at ramp factor 1 (N).
+    pub total: D::Vector,
+    /// `(time, factor)` points; empty means factor 1 throughout.
+    pub ramp: Vec<(f64, f64)>,
+}
+
+impl<D: Dim> Load<D> {
+    /// A constant total force on the whole body.
+    pub fn force(total: D::Vector) -> Self {
+        Self {
+            region: None,
+            total,
+            ramp: Vec::new(),
+        }
+    }
+
+    /// Restricts the load to the particles inside `region`.
+    pub fn on(mut self, region: Shape) -> Self {
+        self.region = Some(region);
+        self
+    }
+
+    /// Scales the load in time by the piecewise-linear `(time, factor)` points.
+    pub fn ramped(mut self, points: Vec<(f64, f64)>) -> Self {
+        self.ramp = points;
+        self
+    }
 }
 
 impl<D: Dim> Body<D> {
@@ -104,7 +140,20 @@ impl<D: Dim> Body<D> {
             velocity: InitialVelocity::Uniform(D::Vector::ZERO),
             contact_group: 0,
             cracks: Vec::new(),
+            loads: Vec::new(),
         }
+    }
+
+    /// Puts the body in a contact group.
+    pub fn group(mut self, group: u8) -> Self {
+        self.contact_group = group;
+        self
+    }
+
+    /// Adds a load.
+    pub fn load(mut self, load: Load<D>) -> Self {
+        self.loads.push(load);
+        self
     }
 
     /// Names the body.

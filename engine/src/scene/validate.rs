@@ -6,7 +6,9 @@
 
 use super::format::*;
 use super::shape::Shape;
-use super::spec::{Body, Boundary, Condition, InitialVelocity, Output, PipelineEntry, Spec};
+use super::spec::{
+    Body, Boundary, Condition, InitialVelocity, Load, Output, PipelineEntry, Spec,
+};
 use super::{SceneError, SceneFile, Source};
 use crate::dim::{Dim, MatrixOps, VectorOps};
 use crate::health::LeaveGrid;
@@ -343,6 +345,49 @@ impl<D: Dim> Reader<D> {
             },
             contact_group: body.contact_group,
             cracks,
+            loads: body
+                .loads
+                .iter()
+                .enumerate()
+                .map(|(k, load)| self.load(&field(&format!("loads[{k}]")), load))
+                .collect::<Result<_, _>>()?,
+        })
+    }
+
+    fn load(&self, field: &str, load: &LoadSpec) -> Result<Load<D>, SceneError> {
+        let at = |f: &str| format!("{field}.{f}");
+        let total = match (&load.force, &load.traction, load.area) {
+            (Some(force), None, None) => self.vector(&at("force"), force)?,
+            (None, Some(traction), Some(area)) => {
+                if !(area.is_finite() && area > 0.0) {
+                    return Err(self.error(&at("area"), "expected a positive area in m²"));
+                }
+                self.vector(&at("traction"), traction)? * area
+            }
+            (None, Some(_), None) => {
+                return Err(self.error(
+                    &at("traction"),
+                    "a traction needs `area` (m²; in 2D the loaded length × thickness) to make a \
+                     force",
+                ));
+            }
+            (Some(_), Some(_), _) => {
+                return Err(self.error(&at("traction"), "give `force` or `traction`, not both"));
+            }
+            (Some(_), None, Some(_)) => {
+                return Err(self.error(&at("area"), "`area` goes with `traction`, not `force`"));
+            }
+            (None, None, _) => {
+                return Err(self.error(field, "a load needs `force: (..)` or `traction: (..)`"));
+            }
+        };
+        Ok(Load {
+            region: match &load.region {
+                Some(r) => Some(self.shape_of_dimension(&at("region"), r)?),
+                None => None,
+            },
+            total,
+            ramp: load.ramp.clone().unwrap_or_default(),
         })
     }
 

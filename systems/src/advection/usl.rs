@@ -2,7 +2,7 @@
 //!
 //! - Stage: advection. Registration name: `advection/usl`. Pairs with `predictor/usl`.
 //! - Implements eqs. (9)–(10) of Homel & Herbold (dfg-partitioning-mpm.md §1.1):
-//!   `v_p ← v_p + Δt Σ N_Ip a_I` and `x_p ← x_p + Δt Σ N_Ip v̄_I`, reading field 0 of the
+//!   `v_p ← v_p + Δt Σ N_Ip a_I` and `x_p ← x_p + Δt Σ N_Ip v̄_I`, reading each particle's own field of the
 //!   nodes. The particle acceleration `Σ N_Ip a_I` is stored for output and for integrators
 //!   that need it.
 

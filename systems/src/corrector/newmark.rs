@@ -4,7 +4,9 @@
 //! - Stage: corrector. Registration name: `corrector/newmark`. Pairs with `predictor/newmark`.
 //! - Implements eigensoftening-lme-mpm.md Appendix A (Algorithm 1), steps 7–8, eq. (2):
 //!   `f_I = Σ N_Ip m_p b − Σ (1 − D_p) V_p σ_p · ∇N_Ip` with the stress just updated, and
-//!   `v_I = ṽ_I + γ Δt f_I / m_I`. Held velocity components stay at their prescribed value and
+//!   `v_I = ṽ_I + γ Δt f_I / m_I`, on every velocity field; a contact stage before it leaves its
+//!   force in `NodeContactForce`, which joins `f_I` (so the contact force is integrated like any
+//!   other). Held velocity components stay at their prescribed value and
 //!   the force that holds them is the region's reaction. As in the authors' implementation the
 //!   force, and so the acceleration handed to the particle update, is zero in held components:
 //!   the particle update applies a full `Δt a_I`, so passing the holding acceleration
@@ -12,7 +14,7 @@
 //!   feed energy into the body.
 
 use crate::predictor::newmark::NewmarkParams;
-use crate::transfer::{ForceSourceQuery, ParticleSlices, force_contribution};
+use crate::transfer::{ForceSourceQuery, ParticleSlices, field_forces};
 use fractum_engine::prelude::*;
 
 /// Registration of `corrector/newmark`.
@@ -45,6 +47,7 @@ type NodeQuery<'w, 's, D> = Query<
     's,
     (
         &'static NodeMass,
+        &'static NodeContactForce<D>,
         &'static mut NodeVelocity<D>,
         &'static mut NodeAcceleration<D>,
         &'static mut NodeForce<D>,
@@ -67,20 +70,23 @@ pub fn newmark_corrector<D: Dim>(
     let Some(slices) = ParticleSlices::of(&particles) else {
         return;
     };
-    let Some((node_mass, mut node_velocity, mut node_acceleration, mut node_force)) =
+    let Some((node_mass, contact, mut node_velocity, mut node_acceleration, mut node_force)) =
         single_table(nodes.contiguous_iter_mut(), "nodes")
     else {
         return;
     };
-    let mut forces = vec![D::Vector::ZERO; node_mass.len()];
-    connectivity.scatter_to_nodes(&mut forces, |e, p| {
-        force_contribution(&connectivity, &slices, body_force.0, e, p)
-    });
+    let mut forces = field_forces(&connectivity, &slices, body_force.0, node_mass.len());
+    for (f, c) in forces.iter_mut().zip(contact) {
+        for k in 0..MAX_FIELDS {
+            f[k] += c.0[k];
+        }
+    }
     let gamma_dt = params.gamma * clock.dt;
     let velocities: &mut [NodeVelocity<D>] = &mut node_velocity;
-    let predicted: Vec<D::Vector> = velocities.iter().map(|v| v.0[0]).collect();
     for (i, v) in velocities.iter_mut().enumerate() {
-        v.0[0] = correct(node_mass[i].0[0], predicted[i], forces[i], gamma_dt);
+        for k in 0..MAX_FIELDS {
+            v.0[k] = correct(node_mass[i].0[k], v.0[k], forces[i][k], gamma_dt);
+        }
     }
     bcs.enforce(
         clock.time + clock.dt,
@@ -92,15 +98,17 @@ pub fn newmark_corrector<D: Dim>(
     let (accelerations, stored_forces): (&mut [NodeAcceleration<D>], &mut [NodeForce<D>]) =
         (&mut node_acceleration, &mut node_force);
     for i in 0..forces.len() {
-        let m = node_mass[i].0[0];
-        let mut f = if m > 0.0 { forces[i] } else { D::Vector::ZERO };
-        for (c, is_held) in held[i][..D::N].iter().enumerate() {
-            if *is_held {
-                f[c] = 0.0;
+        for k in 0..MAX_FIELDS {
+            let m = node_mass[i].0[k];
+            let mut f = if m > 0.0 { forces[i][k] } else { D::Vector::ZERO };
+            for (c, is_held) in held[i][..D::N].iter().enumerate() {
+                if *is_held {
+                    f[c] = 0.0;
+                }
             }
+            stored_forces[i].0[k] = f;
+            accelerations[i].0[k] = if m > 0.0 { f / m } else { D::Vector::ZERO };
         }
-        stored_forces[i].0[0] = f;
-        accelerations[i].0[0] = if m > 0.0 { f / m } else { D::Vector::ZERO };
     }
 }
 

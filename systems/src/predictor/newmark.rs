@@ -7,9 +7,10 @@
 //!   `m_I = Σ N_Ip m_p`, `ṽ_I = Σ N_Ip m_p (v_p + (1 − γ) Δt a_p) / m_I`, then the essential
 //!   boundary conditions are held on `ṽ_I`. The stress stage that follows computes the strain
 //!   increment from `ṽ_I` (step 4).
-//! - Writes field 0; clears the nodal force and acceleration, which the corrector fills.
+//! - Writes every velocity field (each pair's field from the connectivity); clears the nodal
+//!   force, contact force and acceleration, which the contact and corrector stages fill.
 
-use crate::transfer::{NodeSums, NodeTransferQuery};
+use crate::transfer::{NodeSums, NodeTransferQuery, field_velocity};
 use fractum_engine::prelude::*;
 use serde::Deserialize;
 
@@ -79,23 +80,20 @@ pub fn stability_factor(gamma: f64) -> f64 {
     1.0 / (2.0 - gamma)
 }
 
-/// Nodal mass and predictor momentum contributed by entry `e` of particle `p` (eq. 1).
-pub fn predictor_contribution<D: Dim>(
+/// Adds the nodal mass and predictor momentum of entry `e` of particle `p` to its field (eq. 1).
+pub fn add_predictor_contribution<D: Dim>(
+    sums: &mut NodeSums<D>,
     c: &Connectivity<D>,
-    mass: &[Mass],
-    velocity: &[Velocity<D>],
-    acceleration: &[Acceleration<D>],
+    particle: (&[Mass], &[Velocity<D>], &[Acceleration<D>]),
     gamma_dt: (f64, f64),
     e: usize,
     p: usize,
-) -> NodeSums<D> {
+) {
+    let (mass, velocity, acceleration) = particle;
     let (gamma, dt) = gamma_dt;
-    let nm = c.weights[e] * mass[p].0;
-    NodeSums {
-        mass: nm,
-        momentum: (velocity[p].0 + acceleration[p].0 * ((1.0 - gamma) * dt)) * nm,
-        force: D::Vector::ZERO,
-    }
+    let (k, nm) = (c.field(e), c.weights[e] * mass[p].0);
+    sums.mass[k] += nm;
+    sums.momentum[k] += (velocity[p].0 + acceleration[p].0 * ((1.0 - gamma) * dt)) * nm;
 }
 
 type ParticleQuery<'w, 's, D> = Query<
@@ -130,8 +128,15 @@ pub fn newmark_predictor<D: Dim>(
     };
     let mut sums = vec![NodeSums::default(); node_mass.len()];
     let gamma_dt = (params.gamma, clock.dt);
-    connectivity.scatter_to_nodes(&mut sums, |e, p| {
-        predictor_contribution(&connectivity, mass, velocity, acceleration, gamma_dt, e, p)
+    connectivity.accumulate_to_nodes(&mut sums, |sum, e, p| {
+        add_predictor_contribution(
+            sum,
+            &connectivity,
+            (mass, velocity, acceleration),
+            gamma_dt,
+            e,
+            p,
+        )
     });
     // One `&mut *column` per column: indexing bevy's column in the loop would mark it changed on
     // every access.
@@ -140,16 +145,10 @@ pub fn newmark_predictor<D: Dim>(
         &mut [NodeMomentum<D>],
         &mut [NodeVelocity<D>],
     ) = (&mut node_mass, &mut momentum, &mut node_velocity);
-    let zero = D::Vector::ZERO;
     for (i, s) in sums.iter().enumerate() {
-        node_mass[i] = NodeMass([s.mass, 0.0]);
-        momentum[i] = NodeMomentum([s.momentum, zero]);
-        let v = if s.mass > 0.0 {
-            s.momentum / s.mass
-        } else {
-            zero
-        };
-        node_velocity[i] = NodeVelocity([v, zero]);
+        node_mass[i] = NodeMass(s.mass);
+        momentum[i] = NodeMomentum(s.momentum);
+        node_velocity[i] = NodeVelocity(std::array::from_fn(|k| field_velocity(s, k, 0.0)));
     }
     node_acceleration.fill(NodeAcceleration::default());
     force.fill(NodeForce::default());

@@ -8,11 +8,13 @@
 //!   with essential boundary conditions held on `v_I` and `v̄_I`. The stress used is the one
 //!   carried from the previous step (update stress last); the stress stage that follows
 //!   evaluates the velocity gradient from `v̄_I` (eq. 7).
-//! - Writes field 0 of every node; the node acceleration is the one implied by the held
-//!   velocities, `(v̄_I − v_I)/Δt`, so particles see the boundary conditions too.
+//! - Writes every velocity field of every node (each pair's field from the connectivity); the
+//!   node acceleration is the one implied by the held velocities, `(v̄_I − v_I)/Δt`, so
+//!   particles see the boundary conditions too. A contact stage that follows corrects `v̄_I`.
 
 use crate::transfer::{
-    ForceSourceQuery, NodeSums, NodeTransferQuery, ParticleSlices, contribution, node_velocity,
+    ForceSourceQuery, NodeSums, NodeTransferQuery, ParticleSlices, add_contribution,
+    field_velocity,
 };
 use fractum_engine::prelude::*;
 use serde::Deserialize;
@@ -76,7 +78,7 @@ pub struct StepContext<'a> {
     pub min_node_mass: f64,
 }
 
-/// Eqs. (5)–(6) on field 0: stores the transfer sums, holds the boundary conditions on `v_I`,
+/// Eqs. (5)–(6) on every field: stores the transfer sums, holds the boundary conditions on `v_I`,
 /// updates `v̄_I = v_I + Δt f_I / m_I`, holds them again at the end of the step (measuring the
 /// reactions) and sets `a_I = (v̄_I − v_I)/Δt`.
 pub fn grid_update<D: Dim>(
@@ -87,26 +89,29 @@ pub fn grid_update<D: Dim>(
 ) {
     let zero = D::Vector::ZERO;
     for (i, s) in sums.iter().enumerate() {
-        nodes.mass[i] = NodeMass([s.mass, 0.0]);
-        nodes.momentum[i] = NodeMomentum([s.momentum, zero]);
-        nodes.force[i] = NodeForce([s.force, zero]);
-        nodes.velocity[i] = NodeVelocity([node_velocity(s, ctx.min_node_mass), zero]);
+        nodes.mass[i] = NodeMass(s.mass);
+        nodes.momentum[i] = NodeMomentum(s.momentum);
+        nodes.force[i] = NodeForce(s.force);
+        nodes.velocity[i] =
+            NodeVelocity(std::array::from_fn(|k| field_velocity(s, k, ctx.min_node_mass)));
     }
     ctx.bcs.enforce(ctx.time, nodes.mass, nodes.velocity, None);
-    let start: Vec<D::Vector> = nodes.velocity.iter().map(|v| v.0[0]).collect();
+    let start: Vec<NodeVelocity<D>> = nodes.velocity.to_vec();
     for (i, s) in sums.iter().enumerate() {
-        let occupied = s.mass > ctx.min_node_mass && s.mass > 0.0;
-        nodes.velocity[i].0[0] = if occupied {
-            start[i] + s.force * ctx.dt / s.mass
-        } else {
-            zero
-        };
+        for k in 0..MAX_FIELDS {
+            let occupied = s.mass[k] > ctx.min_node_mass && s.mass[k] > 0.0;
+            nodes.velocity[i].0[k] = if occupied {
+                start[i].0[k] + s.force[k] * ctx.dt / s.mass[k]
+            } else {
+                zero
+            };
+        }
     }
     let end = ctx.time + ctx.dt;
     ctx.bcs
         .enforce(end, nodes.mass, nodes.velocity, Some((ctx.dt, reactions)));
     for (i, a) in nodes.acceleration.iter_mut().enumerate() {
-        a.0[0] = (nodes.velocity[i].0[0] - start[i]) / ctx.dt;
+        a.0 = std::array::from_fn(|k| (nodes.velocity[i].0[k] - start[i].0[k]) / ctx.dt);
     }
 }
 
@@ -131,8 +136,8 @@ pub fn usl_predictor<D: Dim>(
         return;
     };
     let mut sums = vec![NodeSums::default(); node_mass.len()];
-    connectivity.scatter_to_nodes(&mut sums, |e, p| {
-        contribution(&connectivity, &slices, body_force.0, e, p)
+    connectivity.accumulate_to_nodes(&mut sums, |sum, e, p| {
+        add_contribution(sum, &connectivity, &slices, body_force.0, e, p)
     });
     let ctx = StepContext {
         bcs: &bcs,

@@ -1,7 +1,7 @@
 //! Small-strain isotropic linear elasticity, in plane strain (2D) or 3D.
 //!
 //! - Stage: stress. Registration name: `stress/linear_elastic`.
-//! - From the nodal velocity field left by the predictor (field 0), each particle's velocity
+//! - From the nodal velocity fields left by the predictor, each particle's velocity
 //!   gradient `L_p = Σ_I v_I ⊗ ∇N_Ip` (dfg-partitioning-mpm.md eq. 7) gives the strain increment
 //!   `Δε = Δt sym(L_p)` (eigensoftening-lme-mpm.md Appendix A, step 4). Hooke's law in rate form,
 //!   `Δσ = λ tr(Δε) I + 2μ Δε`; in 2D with `Δε_zz = 0` and `σ_zz` kept (plane strain).
@@ -10,6 +10,7 @@
 //! - Stored energy per unit reference volume accumulates the stress work of each step,
 //!   `ΔW = ½(σₙ + σₙ₊₁):Δε · V½/V₀`, so kinetic + stored energy is the scheme's own balance.
 
+use crate::transfer::velocity_gradient;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 
@@ -26,17 +27,6 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     crate::no_params(params)?;
     with_dim!(installer.dimension(), D => installer.add_systems(linear_elastic_stress::<D>));
     Ok(())
-}
-
-/// Velocity gradient `Σ v_I ⊗ ∇N_I` of particle row `p` from field 0 of the nodes.
-pub fn velocity_gradient<D: Dim>(
-    c: &Connectivity<D>,
-    node_velocity: &[NodeVelocity<D>],
-    p: usize,
-) -> D::Matrix {
-    c.row(p).fold(D::Matrix::ZERO, |l, e| {
-        l + D::Matrix::outer(node_velocity[c.nodes[e] as usize].0[0], c.gradients[e])
-    })
 }
 
 /// State of one particle that the update changes.

@@ -11,7 +11,7 @@
 //!   which stiffens in compression and keeps a CFL time step stable.
 //! - `Strain` accumulates `Δt sym(L)` (the integrated rate of deformation), for output.
 
-use super::linear_elastic::velocity_gradient;
+use crate::transfer::velocity_gradient;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 

@@ -1,0 +1,286 @@
+//! Assignment of particle–node pairs to velocity fields.
+//!
+//! A partition system declares a [`FieldRule`]; the engine then runs [`assign_fields`] right
+//! after the basis stage of every step, on the connectivity just built, so that every transfer of
+//! the step (particle to grid, velocity gradient, grid to particle) sees the same fields.
+//!
+//! - Contact groups (Bardenhagen's multi-field method, dfg-partitioning-mpm.md §1.1.1): a pair's
+//!   field is its particle's contact group.
+//! - Damage-field gradient (§2.2): within a group, the node's reference direction is the
+//!   gradient of the particle with the largest `‖∇D̄_p‖` among that group's particles at the node
+//!   (Algorithm 1), and a pair goes to side 0 when `∇D̄_p · ∇D̄_i ≥ 0`, to side 1 otherwise
+//!   (Algorithm 2).
+//!
+//! Each node lists the keys present in ascending key order ([`NodeFields`]); the slot of a pair
+//! is the position of its key in that list. Both passes run in parallel (over nodes, then over
+//! particle rows) and the result is independent of the number of threads.
+
+use crate::components::{ContactGroup, DamageGradient, FieldKey, MAX_FIELDS, NodeFields};
+use crate::connectivity::Connectivity;
+use crate::dim::{Dim, VectorOps};
+use crate::components::{Node, Particle};
+use crate::health::{Blowup, Health, single_table};
+use crate::resources::SimClock;
+use crate::stage::Stage;
+use bevy_ecs::prelude::*;
+use rayon::prelude::*;
+
+/// The engine's field assignment, after the basis stage and before its health check.
+#[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct AssignFields;
+
+/// The engine system that applies the pipeline's [`FieldRule`] to the new connectivity.
+pub fn assign_fields_system<D: Dim>(
+    clock: Res<SimClock>,
+    mut health: ResMut<Health>,
+    mut connectivity: ResMut<Connectivity<D>>,
+    particles: Query<&ContactGroup, With<Particle>>,
+    gradients: Query<&DamageGradient<D>, With<Particle>>,
+    mut nodes: Query<&mut NodeFields, With<Node>>,
+) {
+    let Some(groups) = single_table(particles.contiguous_iter(), "particles") else {
+        return;
+    };
+    let gradients = single_table(gradients.contiguous_iter(), "particles");
+    let Some(mut fields) = single_table(nodes.contiguous_iter_mut(), "nodes") else {
+        return;
+    };
+    if let Err(e) = assign_fields(&mut connectivity, groups, gradients, &mut fields) {
+        health.failure.get_or_insert(Blowup {
+            step: clock.step + 1,
+            stage: Stage::Basis,
+            message: e.to_string(),
+        });
+    }
+}
+
+/// How pairs are assigned to fields, declared by the partition system of the pipeline.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FieldRule {
+    /// Split each contact group in two by the damage-field gradient (Algorithms 1–2).
+    pub by_gradient: bool,
+}
+
+/// A node that would need more than [`MAX_FIELDS`] velocity fields.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TooManyFields {
+    /// Node index.
+    pub node: usize,
+    /// Keys present at the node.
+    pub keys: Vec<FieldKey>,
+}
+
+impl std::fmt::Display for TooManyFields {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let groups: Vec<String> = self
+            .keys
+            .iter()
+            .map(|k| format!("group {} side {}", k.group(), k.side()))
+            .collect();
+        write!(
+            f,
+            "node {} holds {} velocity fields ({}); a node holds at most {MAX_FIELDS}: fewer \
+             contact groups may meet at one place",
+            self.node,
+            self.keys.len(),
+            groups.join(", ")
+        )
+    }
+}
+
+/// Algorithm 1's reference gradient of each contact group present at one node.
+#[derive(Clone, Copy, Debug)]
+struct NodeReferences<V: Copy> {
+    count: usize,
+    groups: [u8; MAX_FIELDS],
+    gradients: [V; MAX_FIELDS],
+}
+
+impl<V: VectorOps> NodeReferences<V> {
+    fn empty() -> Self {
+        Self {
+            count: 0,
+            groups: [0; MAX_FIELDS],
+            gradients: [V::ZERO; MAX_FIELDS],
+        }
+    }
+
+    fn of(&self, group: u8) -> V {
+        (0..self.count)
+            .find(|&k| self.groups[k] == group)
+            .map_or(V::ZERO, |k| self.gradients[k])
+    }
+}
+
+/// The field key of a particle of `group` with damage gradient `gradient` at a node whose
+/// reference gradient for that group is `reference` (Algorithm 2).
+pub fn field_key<V: VectorOps>(group: u8, gradient: V, reference: V) -> FieldKey {
+    let side = u8::from(gradient.dot(reference) < 0.0);
+    FieldKey::new(group, side)
+}
+
+/// Assigns every entry of `c` to a field slot and lists each node's fields in `node_fields`.
+///
+/// `gradients` are the particles' damage-field gradients (`None`: one field per contact group).
+pub fn assign_fields<D: Dim>(
+    c: &mut Connectivity<D>,
+    groups: &[ContactGroup],
+    gradients: Option<&[DamageGradient<D>]>,
+    node_fields: &mut [NodeFields],
+) -> Result<(), TooManyFields> {
+    let gradient = |p: usize| gradients.map_or(D::Vector::ZERO, |g| g[p].0);
+    let node_count = node_fields.len();
+    let mut references = vec![NodeReferences::<D::Vector>::empty(); node_count];
+    let c_ref: &Connectivity<D> = c;
+    let node_results: Vec<Option<TooManyFields>> = node_fields
+        .par_iter_mut()
+        .zip(references.par_iter_mut())
+        .enumerate()
+        .map(|(node, (fields, refs))| {
+            let entries = node_entries(c_ref, node);
+            *refs = reference_gradients::<D>(entries, groups, &gradient);
+            let mut keys: Vec<FieldKey> = entries
+                .iter()
+                .map(|&(_, p)| {
+                    let g = groups[p as usize].0;
+                    field_key(g, gradient(p as usize), refs.of(g))
+                })
+                .collect();
+            keys.sort_unstable();
+            keys.dedup();
+            if keys.len() > MAX_FIELDS {
+                return Some(TooManyFields { node, keys });
+            }
+            fields.count = keys.len() as u8;
+            fields.keys = std::array::from_fn(|k| keys.get(k).copied().unwrap_or_default());
+            None
+        })
+        .collect();
+    if let Some(failure) = node_results.into_iter().flatten().next() {
+        return Err(failure);
+    }
+    let rows: Vec<usize> = c.row_offsets.clone();
+    let (nodes, fields) = (&c.nodes, &mut c.fields);
+    let mut chunks: Vec<&mut [u8]> = Vec::with_capacity(rows.len().saturating_sub(1));
+    let mut rest: &mut [u8] = fields;
+    for w in rows.windows(2) {
+        let (head, tail) = rest.split_at_mut(w[1] - w[0]);
+        chunks.push(head);
+        rest = tail;
+    }
+    let node_fields: &[NodeFields] = node_fields;
+    chunks.into_par_iter().enumerate().for_each(|(p, row)| {
+        let g = groups[p].0;
+        for (k, slot) in row.iter_mut().enumerate() {
+            let node = nodes[rows[p] + k] as usize;
+            let key = field_key(g, gradient(p), references[node].of(g));
+            *slot = node_fields[node]
+                .active()
+                .iter()
+                .position(|&k| k == key)
+                .unwrap_or(0) as u8;
+        }
+    });
+    Ok(())
+}
+
+fn node_entries<D: Dim>(c: &Connectivity<D>, node: usize) -> &[(u32, u32)] {
+    if node + 1 < c.node_offsets.len() {
+        &c.node_entries[c.node_offsets[node]..c.node_offsets[node + 1]]
+    } else {
+        &[]
+    }
+}
+
+/// Algorithm 1 for one node: for each contact group present, the particle gradient of largest
+/// magnitude (the first such particle in row order on a tie).
+fn reference_gradients<D: Dim>(
+    entries: &[(u32, u32)],
+    groups: &[ContactGroup],
+    gradient: &impl Fn(usize) -> D::Vector,
+) -> NodeReferences<D::Vector> {
+    let mut refs = NodeReferences::<D::Vector>::empty();
+    let mut norms = [f64::NEG_INFINITY; MAX_FIELDS];
+    for &(_, p) in entries {
+        let (g, d) = (groups[p as usize].0, gradient(p as usize));
+        let k = match (0..refs.count).find(|&k| refs.groups[k] == g) {
+            Some(k) => k,
+            None if refs.count < MAX_FIELDS => {
+                refs.groups[refs.count] = g;
+                refs.count += 1;
+                refs.count - 1
+            }
+            // More groups than slots: the key count check reports the node.
+            None => continue,
+        };
+        let norm = d.dot(d);
+        if norm > norms[k] {
+            norms[k] = norm;
+            refs.gradients[k] = d;
+        }
+    }
+    refs
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dim::Two;
+    use glam::DVec2;
+
+    /// Two particles on one node with opposite damage gradients, plus one of another group.
+    fn connectivity() -> Connectivity<Two> {
+        let mut c = Connectivity::default();
+        let g = DVec2::ZERO;
+        c.rebuild(
+            &[
+                vec![(0, 0.5, g), (1, 0.5, g)],
+                vec![(0, 1.0, g)],
+                vec![(0, 0.5, g), (1, 0.5, g)],
+            ],
+            2,
+        );
+        c
+    }
+
+    #[test]
+    fn groups_alone_give_one_field_per_group() {
+        let mut c = connectivity();
+        let groups = [ContactGroup(0), ContactGroup(0), ContactGroup(3)];
+        let mut fields = vec![NodeFields::default(); 2];
+        assign_fields(&mut c, &groups, None, &mut fields).unwrap();
+        assert_eq!(fields[0].active(), &[FieldKey::new(0, 0), FieldKey::new(3, 0)]);
+        assert_eq!(c.fields, vec![0, 0, 0, 1, 1]);
+    }
+
+    #[test]
+    fn opposite_gradients_split_a_group_at_the_node() {
+        let mut c = connectivity();
+        let groups = [ContactGroup(0); 3];
+        // Particle 1 has the largest gradient: it sets node 0's reference (Algorithm 1).
+        let gradients = [
+            DamageGradient(DVec2::new(-0.5, 0.1)),
+            DamageGradient(DVec2::new(2.0, 0.0)),
+            DamageGradient(DVec2::new(0.2, 0.0)),
+        ];
+        let mut fields = vec![NodeFields::default(); 2];
+        assign_fields(&mut c, &groups, Some(&gradients), &mut fields).unwrap();
+        assert_eq!(fields[0].active(), &[FieldKey::new(0, 0), FieldKey::new(0, 1)]);
+        // Node 1 sees particles 0 and 2 only: particle 0 (|g| larger) is its reference.
+        assert_eq!(fields[1].active(), &[FieldKey::new(0, 0), FieldKey::new(0, 1)]);
+        // Rows: p0 → (node 0: side 1, node 1: side 0); p1 → node 0 side 0; p2 → (0, 1).
+        assert_eq!(c.fields, vec![1, 0, 0, 0, 1]);
+    }
+
+    #[test]
+    fn more_fields_than_slots_names_the_node() {
+        let mut c = Connectivity::<Two>::default();
+        let g = DVec2::ZERO;
+        c.rebuild(&vec![vec![(1, 1.0, g)]; 5], 2);
+        let groups: Vec<_> = (0..5).map(ContactGroup).collect();
+        let mut fields = vec![NodeFields::default(); 2];
+        let e = assign_fields(&mut c, &groups, None, &mut fields).unwrap_err();
+        assert_eq!(e.node, 1);
+        assert!(e.to_string().contains("node 1 holds 5 velocity fields"));
+    }
+}
