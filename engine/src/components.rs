@@ -260,8 +260,9 @@ impl<D: Dim> Default for NodeContactForce<D> {
     }
 }
 
-/// Unit normal of each velocity field, the normalised mass gradient `Σ ∇N m` (eq. 11), which
-/// points into the field's material; written by contact.
+/// Unit normal of each velocity field, the normalised mass gradient `Σ ∇N_Ip m_p` (eq. 11) with
+/// the shape-function gradient at the particle, so it points out of the field's material;
+/// written by contact.
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 pub struct NodeNormal<D: Dim>(pub [D::Vector; MAX_FIELDS]);
 

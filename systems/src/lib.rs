@@ -9,9 +9,11 @@ use fractum_engine::prelude::{Params, Registration, Registry, SceneError};
 
 pub mod advection;
 pub mod basis;
+pub mod contact;
 pub mod corrector;
 pub mod damage;
 pub mod neighbour;
+pub mod partition;
 pub mod predictor;
 pub mod spatial;
 pub mod stress;
@@ -29,6 +31,9 @@ pub const ALL: &[Registration] = &[
     stress::neo_hookean::REGISTRATION,
     damage::eigenerosion::REGISTRATION,
     damage::eigensoftening::REGISTRATION,
+    partition::bodies::REGISTRATION,
+    partition::dfg::REGISTRATION,
+    contact::frictional::REGISTRATION,
     corrector::newmark::REGISTRATION,
     advection::usl::REGISTRATION,
     advection::newmark::REGISTRATION,

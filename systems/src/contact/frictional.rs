@@ -1,0 +1,446 @@
+//! Frictional contact between the velocity fields of a node, with the separability condition.
+//!
+//! - Stage: contact. Registration name: `contact/frictional`. Needs a partition system.
+//! - Implements dfg-partitioning-mpm.md §1.1.1 (eqs. 11–16) and Algorithm 3 (§2.3):
+//!   - each field's normal is its normalised mass gradient `n = Σ ∇N_Ip m_p / ‖…‖` (eq. 11);
+//!     with `∇N_Ip` the shape-function gradient at the particle it points out of the field's
+//!     material. A pair uses `n = (n_a − n_b)/‖n_a − n_b‖` for field a and `−n` for field b,
+//!     exactly opposite;
+//!   - the pair's centre-of-mass velocity `v_cm = (q_a + q_b)/(m_a + m_b)` (eq. 12);
+//!   - a separable pair is in contact only while approaching, `(v_cm − v̄_a)·n < 0` with this
+//!     outward `n` (Algorithm 3 writes `> 0` for the opposite orientation of the normal); then
+//!     the normal impulse is `m_a (v_cm − v̄_a)·n` (eq. 14) and the tangential one is the stick
+//!     impulse capped at `μ` times the normal one (eqs. 15–16);
+//!   - a pair that is not separable moves as one field: both take `v_cm`.
+//!   - separability (§2.3): fields of different contact groups always; fields of one group only
+//!     when some particle at the node has failed (`max D = 1`) and both fields' mean damage
+//!     exceeds `separability` (D̄_min), from the partition stage's `NodeFieldDamage`.
+//! - The tangential impulse is the tangential part of the stick impulse itself,
+//!   `Δp − (Δp·n) n`, so no tangent basis is built: there is no basis that could differ between
+//!   the two fields, and the friction acts against the actual slip direction in 2D and 3D.
+//! - Impulses are computed once per pair and applied with opposite signs, so momentum is
+//!   conserved to round-off; a node with more than two fields sums its pairwise impulses.
+//!   Velocity components held by a boundary condition are left alone on both fields.
+//! - Integrators: with `predictor/usl` the nodal velocity at this stage is the end-of-step
+//!   velocity `v̄ⁿ⁺¹` (eq. 6); the contact correction is applied to it and to the nodal
+//!   acceleration, so the particles are advected with the corrected velocity (eqs. 9–10, 13).
+//!   With `predictor/newmark` the end-of-step velocity is `ṽ + γΔt f/m` with the forces of the
+//!   new stress: this system forms it, and leaves the contact force `Δp/(γΔt)` in
+//!   `NodeContactForce` for the corrector to integrate, so the corrected nodal velocity is the
+//!   one Algorithm 3 asks for.
+
+use crate::predictor::newmark::NewmarkParams;
+use crate::transfer::{ForceSourceQuery, ParticleSlices, field_forces};
+use fractum_engine::prelude::*;
+use rayon::prelude::*;
+use serde::Deserialize;
+
+/// Registration of `contact/frictional`.
+pub const REGISTRATION: Registration = Registration {
+    name: "contact/frictional",
+    summary: "Coulomb frictional contact between a node's velocity fields with the \
+              separability condition (eqs. 11-16, Algorithm 3)",
+    params: &[
+        ParamDoc {
+            name: "friction",
+            ty: "f64",
+            default: Some("0.0"),
+            doc: "Coulomb friction coefficient μ >= 0",
+        },
+        ParamDoc {
+            name: "separability",
+            ty: "f64",
+            default: Some("0.25"),
+            doc: "D̄_min in (0, 1): fields of one group separate only when both fields' mean \
+                  damage at the node exceeds it (and some particle there has failed)",
+        },
+        ParamDoc {
+            name: "min_mass_fraction",
+            ty: "f64",
+            default: Some("1e-6"),
+            doc: "a field takes part at a node when it holds more than this fraction of the \
+                  node's mass (the ε_m of Algorithm 3, relative)",
+        },
+    ],
+    requires: &["partition/*"],
+    install,
+};
+
+/// Parameters of `contact/frictional`.
+#[derive(Resource, Deserialize, Clone, Copy, Debug, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FrictionalParams {
+    /// Coulomb coefficient μ.
+    #[serde(default)]
+    pub friction: f64,
+    /// Separability threshold D̄_min.
+    #[serde(default = "default_separability")]
+    pub separability: f64,
+    /// Relative mass threshold ε_m.
+    #[serde(default = "default_min_mass_fraction")]
+    pub min_mass_fraction: f64,
+}
+
+fn default_separability() -> f64 {
+    0.25
+}
+
+fn default_min_mass_fraction() -> f64 {
+    1e-6
+}
+
+impl Default for FrictionalParams {
+    fn default() -> Self {
+        Self {
+            friction: 0.0,
+            separability: default_separability(),
+            min_mass_fraction: default_min_mass_fraction(),
+        }
+    }
+}
+
+fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    let parsed: FrictionalParams = params.parse()?;
+    if !(parsed.friction >= 0.0 && parsed.friction.is_finite()) {
+        return Err(params.error("friction", "expected a friction coefficient μ >= 0"));
+    }
+    if !(parsed.separability > 0.0 && parsed.separability < 1.0) {
+        return Err(params.error("separability", "expected D̄_min in (0, 1)"));
+    }
+    if !(parsed.min_mass_fraction >= 0.0 && parsed.min_mass_fraction < 1.0) {
+        return Err(params.error("min_mass_fraction", "expected a fraction in [0, 1)"));
+    }
+    installer.insert_resource(parsed);
+    with_dim!(installer.dimension(), D => installer.add_systems(frictional_contact::<D>));
+    Ok(())
+}
+
+/// One field of a contact pair at a node: mass, trial velocity and normal (eq. 11).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FieldState<V> {
+    /// Mass `m_ς`.
+    pub mass: f64,
+    /// Velocity before contact `v̄_ς`.
+    pub velocity: V,
+    /// Outward normal `n_ς`, the normalised mass gradient of eq. 11.
+    pub normal: V,
+}
+
+/// Momentum change of field `a` from its contact with field `b` (Algorithm 3, lines 8–28);
+/// field `b` receives the opposite.
+pub fn pair_impulse<V: VectorOps>(
+    a: &FieldState<V>,
+    b: &FieldState<V>,
+    friction: f64,
+    separable: bool,
+) -> V {
+    let total = a.mass + b.mass;
+    let v_cm = (a.velocity * a.mass + b.velocity * b.mass) / total;
+    // The stick impulse: field a brought to the centre-of-mass velocity.
+    let stick = (v_cm - a.velocity) * a.mass;
+    if !separable {
+        return stick;
+    }
+    let difference = a.normal - b.normal;
+    let length = difference.length();
+    if length == 0.0 {
+        return V::ZERO;
+    }
+    // Outward normal of field a: from a towards b.
+    let n = difference / length;
+    let normal = stick.dot(n);
+    if normal >= 0.0 {
+        // Separating or at rest relative to each other: no contact force (line 16).
+        return V::ZERO;
+    }
+    let tangential = stick - n * normal;
+    let slip = tangential.length();
+    let limit = -friction * normal;
+    if slip <= limit {
+        stick
+    } else {
+        n * normal + tangential * (limit / slip)
+    }
+}
+
+/// Whether two fields of a node may slide and separate (§2.3).
+pub fn separable(
+    a: FieldKey,
+    b: FieldKey,
+    damage: &NodeFieldDamage,
+    (ka, kb): (usize, usize),
+    threshold: f64,
+) -> bool {
+    a.group() != b.group()
+        || (damage.max[ka].max(damage.max[kb]) >= 1.0
+            && damage.mean[ka].min(damage.mean[kb]) > threshold)
+}
+
+/// Contact impulses of every field of one node.
+pub fn node_impulses<V: VectorOps>(
+    fields: &NodeFields,
+    states: &[FieldState<V>; MAX_FIELDS],
+    damage: &NodeFieldDamage,
+    params: &FrictionalParams,
+    held: &[bool],
+) -> [V; MAX_FIELDS] {
+    let mut impulses = [V::ZERO; MAX_FIELDS];
+    let count = fields.count as usize;
+    let total: f64 = states[..count].iter().map(|s| s.mass).sum();
+    let present = |k: usize| states[k].mass > params.min_mass_fraction * total;
+    for a in 0..count {
+        for b in a + 1..count {
+            if !(present(a) && present(b)) {
+                continue;
+            }
+            let can_separate = separable(
+                fields.keys[a],
+                fields.keys[b],
+                damage,
+                (a, b),
+                params.separability,
+            );
+            let mut dp = pair_impulse(&states[a], &states[b], params.friction, can_separate);
+            for (c, is_held) in held.iter().enumerate() {
+                if *is_held {
+                    dp[c] = 0.0;
+                }
+            }
+            impulses[a] += dp;
+            impulses[b] -= dp;
+        }
+    }
+    impulses
+}
+
+type NodeQuery<'w, 's, D> = Query<
+    'w,
+    's,
+    (
+        &'static NodeFields,
+        &'static NodeFieldDamage,
+        &'static NodeMass,
+        &'static mut NodeVelocity<D>,
+        &'static mut NodeAcceleration<D>,
+        &'static mut NodeNormal<D>,
+        &'static mut NodeContactForce<D>,
+    ),
+    With<Node>,
+>;
+
+/// The `contact/frictional` system.
+#[allow(clippy::too_many_arguments)]
+pub fn frictional_contact<D: Dim>(
+    clock: Res<SimClock>,
+    params: Res<FrictionalParams>,
+    newmark: Option<Res<NewmarkParams>>,
+    body_force: Res<BodyForce<D>>,
+    bcs: Res<BoundaryConditions>,
+    connectivity: Res<Connectivity<D>>,
+    particles: ForceSourceQuery<D>,
+    mut nodes: NodeQuery<D>,
+) {
+    let Some(slices) = ParticleSlices::of(&particles) else {
+        return;
+    };
+    let Some((fields, damage, mass, mut velocity, mut acceleration, mut normal, mut contact)) =
+        single_table(nodes.contiguous_iter_mut(), "nodes")
+    else {
+        return;
+    };
+    let c = &*connectivity;
+    let node_count = fields.len();
+    let mut gradients = vec![[D::Vector::ZERO; MAX_FIELDS]; node_count];
+    c.accumulate_to_nodes(&mut gradients, |g: &mut [D::Vector; MAX_FIELDS], e, p| {
+        g[c.field(e)] += c.gradients[e] * slices.mass[p].0;
+    });
+    let normal: &mut [NodeNormal<D>] = &mut normal;
+    normal.par_iter_mut().zip(&gradients).for_each(|(n, g)| {
+        n.0 = g.map(|g| {
+            let length = g.length();
+            if length > 0.0 { g / length } else { D::Vector::ZERO }
+        });
+    });
+    // The end-of-step velocity the contact acts on.
+    let trial: Vec<[D::Vector; MAX_FIELDS]> = match &newmark {
+        Some(newmark) => {
+            let gamma_dt = newmark.gamma * clock.dt;
+            let forces = field_forces(c, &slices, body_force.0, node_count);
+            (0..node_count)
+                .map(|i| {
+                    std::array::from_fn(|k| {
+                        crate::corrector::newmark::correct(
+                            mass[i].0[k],
+                            velocity[i].0[k],
+                            forces[i][k],
+                            gamma_dt,
+                        )
+                    })
+                })
+                .collect()
+        }
+        None => velocity.iter().map(|v| v.0).collect(),
+    };
+    let held = bcs.held_mask(node_count);
+    let impulses: Vec<[D::Vector; MAX_FIELDS]> = (0..node_count)
+        .into_par_iter()
+        .map(|i| {
+            if fields[i].count < 2 {
+                return [D::Vector::ZERO; MAX_FIELDS];
+            }
+            let states = std::array::from_fn(|k| FieldState {
+                mass: mass[i].0[k],
+                velocity: trial[i][k],
+                normal: normal[i].0[k],
+            });
+            node_impulses(&fields[i], &states, &damage[i], &params, &held[i][..D::N])
+        })
+        .collect();
+    let dt = clock.dt;
+    let (velocity, acceleration, contact): (
+        &mut [NodeVelocity<D>],
+        &mut [NodeAcceleration<D>],
+        &mut [NodeContactForce<D>],
+    ) = (&mut velocity, &mut acceleration, &mut contact);
+    for (i, dp) in impulses.iter().enumerate() {
+        match &newmark {
+            Some(newmark) => {
+                contact[i].0 = dp.map(|dp| dp / (newmark.gamma * dt));
+            }
+            None => {
+                contact[i].0 = dp.map(|dp| dp / dt);
+                for k in 0..MAX_FIELDS {
+                    let m = mass[i].0[k];
+                    if m > 0.0 {
+                        velocity[i].0[k] += dp[k] / m;
+                        acceleration[i].0[k] += dp[k] / (m * dt);
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fractum_engine::testing::*;
+
+    fn state<V>(mass: f64, velocity: V, normal: V) -> FieldState<V> {
+        FieldState {
+            mass,
+            velocity,
+            normal,
+        }
+    }
+
+    #[test]
+    fn approaching_fields_meet_at_the_centre_of_mass_without_friction() {
+        // Field a, below field b (outward normal +y), moves up into b at rest.
+        let a = state(1.0, DVec2::new(0.0, 2.0), DVec2::new(0.0, 1.0));
+        let b = state(3.0, DVec2::ZERO, DVec2::new(0.0, -1.0));
+        let dp = pair_impulse(&a, &b, 0.0, true);
+        assert!((dp - DVec2::new(0.0, -1.5)).length() < 1e-15);
+        // Moving apart: nothing.
+        let a_leaving = state(1.0, DVec2::new(0.0, -2.0), DVec2::new(0.0, 1.0));
+        assert_eq!(pair_impulse(&a_leaving, &b, 0.3, true), DVec2::ZERO);
+        // Not separable: a single field, tangential velocity shared too.
+        let sliding = state(1.0, DVec2::new(4.0, 2.0), DVec2::new(0.0, 1.0));
+        let dp = pair_impulse(&sliding, &b, 0.0, false);
+        assert!((dp - DVec2::new(-3.0, -1.5)).length() < 1e-15);
+    }
+
+    /// Friction opposes the slip along a direction that is not a grid axis, in 3D, with a
+    /// contact normal that is not a grid axis either.
+    #[test]
+    fn friction_opposes_the_slip_direction_in_3d() {
+        let n = DVec3::new(0.0, 0.6, 0.8);
+        let slip = DVec3::new(3.0, 2.4, -1.8); // tangential: n · slip = 0
+        assert!(n.dot(slip).abs() < 1e-15);
+        // Field a on the −n side of b, approaching it while slipping.
+        let a = state(2.0, slip + n, n);
+        let b = state(2.0, DVec3::ZERO, -n);
+        let mu = 0.2;
+        let dp = pair_impulse(&a, &b, mu, true);
+        let stick = ((a.velocity + b.velocity) * 0.5 - a.velocity) * 2.0;
+        let normal = -stick.dot(n);
+        assert!((normal - 1.0).abs() < 1e-14);
+        assert!((dp.dot(n) + normal).abs() < 1e-14);
+        let tangential = dp - n * dp.dot(n);
+        // Sliding: the tangential impulse is μ × normal, against the slip.
+        assert!((tangential.length() - mu * normal).abs() < 1e-14);
+        assert!((tangential.normalize() + slip.normalize()).length() < 1e-14);
+        // The same pair in 2D, slipping along x, with a normal at 30° to the axes.
+        let n2 = DVec2::new(0.5, 3f64.sqrt() / 2.0);
+        let t2 = DVec2::new(n2.y, -n2.x);
+        let a2 = state(1.0, t2 * 5.0 + n2, n2);
+        let b2 = state(1.0, DVec2::ZERO, -n2);
+        let dp2 = pair_impulse(&a2, &b2, mu, true);
+        assert!(dp2.dot(n2) < 0.0);
+        let tangential2 = dp2 - n2 * dp2.dot(n2);
+        assert!((tangential2.normalize() + t2).length() < 1e-14);
+    }
+
+    #[test]
+    fn stick_below_the_friction_limit() {
+        let a = state(1.0, DVec2::new(0.1, 2.0), DVec2::new(0.0, 1.0));
+        let b = state(1.0, DVec2::ZERO, DVec2::new(0.0, -1.0));
+        let dp = pair_impulse(&a, &b, 0.5, true);
+        assert!((dp - DVec2::new(-0.05, -1.0)).length() < 1e-15);
+    }
+
+    #[test]
+    fn one_group_separates_only_where_damage_allows() {
+        let (a, b) = (FieldKey::new(0, 0), FieldKey::new(0, 1));
+        let mut damage = NodeFieldDamage::default();
+        damage.mean[..2].copy_from_slice(&[0.5, 0.3]);
+        damage.max[..2].copy_from_slice(&[1.0, 0.4]);
+        assert!(separable(a, b, &damage, (0, 1), 0.25));
+        assert!(!separable(a, b, &damage, (0, 1), 0.35));
+        damage.max[0] = 0.9;
+        assert!(!separable(a, b, &damage, (0, 1), 0.25));
+        assert!(separable(a, FieldKey::new(1, 0), &damage, (0, 1), 0.25));
+    }
+
+    /// The system alone on a tiny world: two groups approaching across one cell (USL: the node
+    /// velocities are the end-of-step velocities). Momentum is unchanged and the shared nodes'
+    /// fields no longer approach.
+    #[test]
+    fn the_system_stops_approach_and_keeps_momentum() {
+        let mut world = tiny_world::<Two>(2, 0.5, 1e-3);
+        world.insert_resource(FrictionalParams::default());
+        world.insert_resource(crate::predictor::usl::UslPredictorParams::default());
+        let a = spawn_particle(&mut world, DVec2::new(0.4, 0.3), DVec2::X, 1.0, 0.01);
+        let b = spawn_particle(&mut world, DVec2::new(0.6, 0.3), -DVec2::X, 1.0, 0.01);
+        world.entity_mut(a).insert(ContactGroup(0));
+        world.entity_mut(b).insert(ContactGroup(1));
+        run_system(&mut world, crate::basis::linear::linear_basis::<Two>);
+        run_system(&mut world, fractum_engine::fields::assign_fields_system::<Two>);
+        run_system(&mut world, crate::predictor::usl::usl_predictor::<Two>);
+        let momentum = |world: &mut World| -> DVec2 {
+            let m = node_values::<NodeMass>(world);
+            let v = node_values::<NodeVelocity<Two>>(world);
+            m.iter()
+                .zip(&v)
+                .map(|(m, v)| (0..MAX_FIELDS).map(|k| v.0[k] * m.0[k]).sum::<DVec2>())
+                .sum()
+        };
+        let before = momentum(&mut world);
+        run_system(&mut world, frictional_contact::<Two>);
+        let after = momentum(&mut world);
+        assert!((after - before).length() < 1e-15);
+        let fields = node_values::<NodeFields>(&mut world);
+        let velocities = node_values::<NodeVelocity<Two>>(&mut world);
+        let normals = node_values::<NodeNormal<Two>>(&mut world);
+        let shared = fields.iter().filter(|f| f.count == 2).count();
+        assert_eq!(shared, 2);
+        for (i, f) in fields.iter().enumerate() {
+            if f.count == 2 {
+                let n = (normals[i].0[0] - normals[i].0[1]).normalize();
+                let closing = (velocities[i].0[0] - velocities[i].0[1]).dot(n);
+                assert!(closing.abs() < 1e-14, "node {i}: {closing}");
+            }
+        }
+        assert!(node_values::<NodeContactForce<Two>>(&mut world).iter().any(|f| f.0[0].x < 0.0));
+    }
+}

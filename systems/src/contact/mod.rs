@@ -1,0 +1,3 @@
+//! Contact stage: interactions between the velocity fields of a node.
+
+pub mod frictional;

@@ -1,0 +1,331 @@
+//! Damage-field-gradient (DFG) partitioning, with optional surface detection for self-contact.
+//!
+//! - Stage: partition. Registration name: `partition/dfg`. Needs a contact system.
+//! - Implements dfg-partitioning-mpm.md §2.1–2.4:
+//!   - the kernel damage field `D(x) = Σ_q D_q ω(‖x − x_q‖/r)` (eq. 17) with the cubic kernel
+//!     `ω(r̄) = 1 − 3r̄² + 2r̄³` on `[0, 1]` (eq. 18), normalised by the kernel sum
+//!     `S(x) = Σ_q ω` (eq. 19), and its gradient at every particle,
+//!     `∇D̄ = (S ∇D − D ∇S) / S²`, stored in `DamageGradient`. The radius `r` defaults to the
+//!     cell diagonal; the sums run over the particles of the same contact group;
+//!   - surface detection (§2.4, option `surface`): at the first step, particles whose kernel sum
+//!     is below `surface × max S` get `SurfaceFlag = 1`, and `max(s_p, D_p)` replaces `D_p` in
+//!     the field and in the separability statistics;
+//!   - the separability statistics of eq. 21 for each field of each node (mass-weighted mean
+//!     and maximum damage), stored in `NodeFieldDamage` for the contact stage.
+//! - Algorithms 1 and 2 (the node's reference gradient and each pair's side) are the engine's
+//!   field assignment (`fractum_engine::fields`), which this registration switches on: it runs
+//!   right after the basis stage on the new connectivity, with the gradients computed here. So
+//!   the fields of a step come from the damage of the previous step, as in the paper's
+//!   update-stress-last order, but from the particle positions at the start of the previous
+//!   step rather than its end (a lag of one step's motion, well inside a kernel radius).
+//! - Each group's particles form their own kernel field: two groups never partition each
+//!   other, they are already separate fields.
+
+use crate::spatial::Spatial;
+use fractum_engine::fields::FieldRule;
+use fractum_engine::prelude::*;
+use rayon::prelude::*;
+use serde::Deserialize;
+
+/// Registration of `partition/dfg`.
+pub const REGISTRATION: Registration = Registration {
+    name: "partition/dfg",
+    summary: "damage-field-gradient partitioning of every group into two fields per node, with \
+              optional surface detection for self-contact (§2.1-2.4, Algorithms 1-2)",
+    params: &[
+        ParamDoc {
+            name: "radius",
+            ty: "f64",
+            default: Some("cell diagonal"),
+            doc: "kernel radius r_p of eq. 18 (m)",
+        },
+        ParamDoc {
+            name: "surface",
+            ty: "f64",
+            default: None,
+            doc: "surface detection threshold in (0, 1): particles whose kernel sum is below \
+                  this fraction of the largest are surface particles (§2.4); off when absent",
+        },
+    ],
+    requires: &["contact/*"],
+    install,
+};
+
+/// Parameters of `partition/dfg`.
+#[derive(Resource, Deserialize, Clone, Copy, Debug, Default, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DfgParams {
+    /// Kernel radius; the cell diagonal when `None`.
+    #[serde(default)]
+    pub radius: Option<f64>,
+    /// Surface detection threshold, off when `None`.
+    #[serde(default)]
+    pub surface: Option<f64>,
+}
+
+/// Whether surface detection has run.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SurfaceDetected(pub bool);
+
+fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    let parsed: DfgParams = params.parse()?;
+    if let Some(r) = parsed.radius
+        && !(r.is_finite() && r > 0.0)
+    {
+        return Err(params.error("radius", "expected a positive radius in m"));
+    }
+    if let Some(s) = parsed.surface
+        && !(s > 0.0 && s < 1.0)
+    {
+        return Err(params.error("surface", "expected a threshold in (0, 1)"));
+    }
+    installer.insert_resource(parsed);
+    installer.insert_resource(FieldRule { by_gradient: true });
+    installer.init_resource::<SurfaceDetected>();
+    installer.add_particle_component(SurfaceFlag::default());
+    with_dim!(installer.dimension(), D => {
+        installer.add_particle_component(DamageGradient::<D>::default());
+        installer.add_systems(dfg_partition::<D>);
+    });
+    Ok(())
+}
+
+/// The cubic kernel `ω(r̄) = 1 − 3r̄² + 2r̄³` for `r̄ ≤ 1`, else 0 (eq. 18).
+pub fn kernel(r: f64) -> f64 {
+    if r < 1.0 {
+        1.0 - r * r * (3.0 - 2.0 * r)
+    } else {
+        0.0
+    }
+}
+
+/// `dω/dr̄ = −6r̄ + 6r̄²` for `r̄ < 1`, else 0.
+pub fn kernel_slope(r: f64) -> f64 {
+    if r < 1.0 { 6.0 * r * (r - 1.0) } else { 0.0 }
+}
+
+/// Kernel sums at `x` over neighbours `(x_q, d_q)`: `(S, Σ d ω, ∇S, Σ d ∇ω)`.
+pub fn kernel_sums<V: VectorOps>(
+    x: V,
+    neighbours: impl Iterator<Item = (V, f64)>,
+    radius: f64,
+) -> (f64, f64, V, V) {
+    neighbours.fold(
+        (0.0, 0.0, V::ZERO, V::ZERO),
+        |(s, d, grad_s, grad_d), (xq, dq)| {
+            let offset = x - xq;
+            let distance = offset.length();
+            let r = distance / radius;
+            let w = kernel(r);
+            let grad_w = if distance > 0.0 {
+                offset * (kernel_slope(r) / (distance * radius))
+            } else {
+                V::ZERO
+            };
+            (s + w, d + dq * w, grad_s + grad_w, grad_d + grad_w * dq)
+        },
+    )
+}
+
+/// Gradient of the normalised damage field `D̄ = D/S` from the kernel sums (eqs. 17–19).
+pub fn normalised_gradient<V: VectorOps>(sums: (f64, f64, V, V)) -> V {
+    let (s, d, grad_s, grad_d) = sums;
+    if s > 0.0 {
+        (grad_d * s - grad_s * d) / (s * s)
+    } else {
+        V::ZERO
+    }
+}
+
+/// Mass-weighted mean and maximum damage of each field of one node (eq. 21) from its entries
+/// `(slot, N m, damage)`.
+pub fn field_damage(entries: impl Iterator<Item = (usize, f64, f64)>) -> NodeFieldDamage {
+    let mut weighted = [0.0; MAX_FIELDS];
+    let mut mass = [0.0; MAX_FIELDS];
+    let mut stats = NodeFieldDamage::default();
+    for (k, nm, d) in entries {
+        weighted[k] += nm * d;
+        mass[k] += nm;
+        stats.max[k] = stats.max[k].max(d);
+    }
+    for k in 0..MAX_FIELDS {
+        stats.mean[k] = if mass[k] > 0.0 {
+            weighted[k] / mass[k]
+        } else {
+            0.0
+        };
+    }
+    stats
+}
+
+type ParticleQuery<'w, 's, D> = Query<
+    'w,
+    's,
+    (
+        &'static Position<D>,
+        &'static ContactGroup,
+        &'static Damage,
+        &'static Mass,
+        &'static mut SurfaceFlag,
+        &'static mut DamageGradient<D>,
+    ),
+    With<Particle>,
+>;
+
+/// The `partition/dfg` system.
+pub fn dfg_partition<D: Spatial>(
+    grid: Res<Grid<D>>,
+    params: Res<DfgParams>,
+    mut detected: ResMut<SurfaceDetected>,
+    connectivity: Res<Connectivity<D>>,
+    mut particles: ParticleQuery<D>,
+    mut nodes: Query<&mut NodeFieldDamage, With<Node>>,
+) {
+    let Some((positions, groups, damage, mass, mut surface, mut gradients)) =
+        single_table(particles.contiguous_iter_mut(), "particles")
+    else {
+        return;
+    };
+    let radius = params
+        .radius
+        .unwrap_or(grid.spacing * (D::N as f64).sqrt());
+    let neighbours: Vec<Vec<u32>> = crate::neighbour::kdtree::build_candidates(positions, radius)
+        .into_par_iter()
+        .enumerate()
+        .map(|(p, row)| row.into_iter().filter(|&q| groups[q as usize] == groups[p]).collect())
+        .collect();
+    let surface: &mut [SurfaceFlag] = &mut surface;
+    if let (Some(threshold), false) = (params.surface, detected.0) {
+        detect_surface(positions, &neighbours, radius, threshold, surface);
+        detected.0 = true;
+    }
+    let effective: Vec<f64> = damage
+        .iter()
+        .zip(surface.iter())
+        .map(|(d, s)| d.0.max(s.0))
+        .collect();
+    let gradients: &mut [DamageGradient<D>] = &mut gradients;
+    gradients.par_iter_mut().enumerate().for_each(|(p, g)| {
+        let row = neighbours[p]
+            .iter()
+            .map(|&q| (positions[q as usize].0, effective[q as usize]));
+        g.0 = normalised_gradient(kernel_sums(positions[p].0, row, radius));
+    });
+    let Some(mut stats) = single_table(nodes.contiguous_iter_mut(), "nodes") else {
+        return;
+    };
+    let c = &*connectivity;
+    let mut computed = vec![NodeFieldDamage::default(); stats.len()];
+    computed.par_iter_mut().enumerate().for_each(|(node, out)| {
+        let range = if node + 1 < c.node_offsets.len() {
+            c.node_offsets[node]..c.node_offsets[node + 1]
+        } else {
+            0..0
+        };
+        *out = field_damage(c.node_entries[range].iter().map(|&(e, p)| {
+            let (e, p) = (e as usize, p as usize);
+            (c.field(e), c.weights[e] * mass[p].0, effective[p])
+        }));
+    });
+    stats.copy_from_slice(&computed);
+}
+
+/// Flags the particles whose kernel sum is below `threshold` times the largest (§2.4).
+fn detect_surface<D: Dim>(
+    positions: &[Position<D>],
+    neighbours: &[Vec<u32>],
+    radius: f64,
+    threshold: f64,
+    surface: &mut [SurfaceFlag],
+) {
+    let sums: Vec<f64> = (0..positions.len())
+        .into_par_iter()
+        .map(|p| {
+            let row = neighbours[p].iter().map(|&q| (positions[q as usize].0, 0.0));
+            kernel_sums(positions[p].0, row, radius).0
+        })
+        .collect();
+    let largest = sums.iter().copied().fold(0.0, f64::max);
+    for (flag, s) in surface.iter_mut().zip(&sums) {
+        flag.0 = if *s < threshold * largest { 1.0 } else { 0.0 };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fractum_engine::testing::*;
+
+    #[test]
+    fn kernel_is_smooth_and_vanishes_at_the_radius() {
+        assert_eq!(kernel(0.0), 1.0);
+        assert_eq!(kernel(1.0), 0.0);
+        assert_eq!(kernel(0.5), 0.5);
+        let h = 1e-6;
+        for r in [0.1, 0.4, 0.9] {
+            let numeric = (kernel(r + h) - kernel(r - h)) / (2.0 * h);
+            assert!((numeric - kernel_slope(r)).abs() < 1e-8);
+        }
+    }
+
+    #[test]
+    fn field_damage_is_mass_weighted_per_slot() {
+        let stats = field_damage([(0, 1.0, 0.0), (0, 3.0, 1.0), (1, 2.0, 0.5)].into_iter());
+        assert_eq!(stats.mean[..2], [0.75, 0.5]);
+        assert_eq!(stats.max[..2], [1.0, 0.5]);
+    }
+
+    /// A strip of particles 16 × 4, failed on the right half, with the partition system's own
+    /// particle components.
+    fn strip(surface: Option<f64>) -> World {
+        let mut world = tiny_world::<Two>(8, 0.25, 1e-3);
+        world.insert_resource(DfgParams {
+            radius: Some(0.3),
+            surface,
+        });
+        world.insert_resource(SurfaceDetected::default());
+        for i in 0..16 {
+            for j in 0..4 {
+                let x = DVec2::new(0.0625 + 0.125 * i as f64, 0.8125 + 0.125 * j as f64);
+                let id = spawn_particle(&mut world, x, DVec2::ZERO, 1.0, 0.01);
+                let mut entity = world.entity_mut(id);
+                entity.insert((SurfaceFlag::default(), DamageGradient::<Two>::default()));
+                if i >= 8 {
+                    entity.insert(Damage(1.0));
+                }
+            }
+        }
+        run_system(&mut world, crate::basis::linear::linear_basis::<Two>);
+        run_system(&mut world, dfg_partition::<Two>);
+        world
+    }
+
+    #[test]
+    fn the_gradient_points_towards_the_damage() {
+        let mut world = strip(None);
+        let gradients = particle_values::<DamageGradient<Two>>(&mut world);
+        // Particle (i = 7, j = 1) sits next to the failed half.
+        let next_to_crack = gradients[7 * 4 + 1].0;
+        assert!(next_to_crack.x > 1.0, "{next_to_crack}");
+        assert!(next_to_crack.y.abs() < 0.1 * next_to_crack.x, "{next_to_crack}");
+        // Particle (i = 2, j = 1): the kernel reaches no failed particle.
+        assert_eq!(gradients[2 * 4 + 1].0, DVec2::ZERO);
+        // Nodes on the crack front hold an intact field and a failed one (eq. 21 statistics are
+        // per field, so the mean of the failed field is 1).
+        let stats = node_values::<NodeFieldDamage>(&mut world);
+        assert!(stats.iter().any(|s| s.max[0] == 1.0 && s.mean[0] > 0.0 && s.mean[0] < 1.0));
+    }
+
+    #[test]
+    fn the_kernel_sum_finds_the_surface() {
+        let mut world = strip(Some(0.8));
+        let flags = particle_values::<SurfaceFlag>(&mut world);
+        // The bottom and top rows and the ends are surface; the middle rows inside are not.
+        assert_eq!(flags[4 * 4].0, 1.0);
+        assert_eq!(flags[4 * 4 + 3].0, 1.0);
+        assert_eq!(flags[4 * 4 + 1].0, 0.0);
+        assert_eq!(flags[4 * 4 + 2].0, 0.0);
+        assert_eq!(flags[1].0, 1.0);
+        assert!(world.resource::<SurfaceDetected>().0);
+    }
+}

@@ -1,0 +1,4 @@
+//! Partition stage: which velocity field each particle maps to at each node.
+
+pub mod bodies;
+pub mod dfg;
