@@ -98,3 +98,18 @@ fn three_dimensions_one_and_two_threads_give_identical_bits() {
     };
     assert_same(&run(1), &run(2));
 }
+
+#[test]
+fn dfg_partition_and_contact_one_and_two_threads_give_identical_bits() {
+    // The contact disks with the damage-field-gradient partition and surface detection on top
+    // of the two contact groups: up to four fields per node, contact through impact.
+    let mut spec = spec::<Two>("two_disks_contact.ron", None);
+    let partition = spec
+        .pipeline
+        .iter()
+        .position(|e| e.system == "partition/bodies")
+        .unwrap();
+    spec.pipeline[partition] = PipelineEntry::with_params("partition/dfg", "(surface: 0.8)");
+    let run = |threads| state_after(spec.clone(), threads, 1700);
+    assert_same(&run(1), &run(2));
+}

@@ -229,7 +229,10 @@ mod tests {
         };
         let masses = [NodeMass(slots(&[1.0])), NodeMass(slots(&[4.0, 1.0]))];
         let v = DVec3::new(0.1, 0.2, 0.3);
-        let mut velocities = [NodeVelocity::<Three>(slots(&[v, v])), NodeVelocity(slots(&[v, v]))];
+        let mut velocities = [
+            NodeVelocity::<Three>(slots(&[v, v])),
+            NodeVelocity(slots(&[v, v])),
+        ];
         let mut reactions = Reactions::default();
         bcs.enforce(0.0, &masses, &mut velocities, Some((0.5, &mut reactions)));
         assert_eq!(velocities[1].0[..2], [DVec3::new(0.1, 0.2, -1.0); 2]);

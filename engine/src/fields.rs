@@ -16,9 +16,9 @@
 //! particle rows) and the result is independent of the number of threads.
 
 use crate::components::{ContactGroup, DamageGradient, FieldKey, MAX_FIELDS, NodeFields};
+use crate::components::{Node, Particle};
 use crate::connectivity::Connectivity;
 use crate::dim::{Dim, VectorOps};
-use crate::components::{Node, Particle};
 use crate::health::{Blowup, Health, single_table};
 use crate::resources::SimClock;
 use crate::stage::Stage;
@@ -249,7 +249,10 @@ mod tests {
         let groups = [ContactGroup(0), ContactGroup(0), ContactGroup(3)];
         let mut fields = vec![NodeFields::default(); 2];
         assign_fields(&mut c, &groups, None, &mut fields).unwrap();
-        assert_eq!(fields[0].active(), &[FieldKey::new(0, 0), FieldKey::new(3, 0)]);
+        assert_eq!(
+            fields[0].active(),
+            &[FieldKey::new(0, 0), FieldKey::new(3, 0)]
+        );
         assert_eq!(c.fields, vec![0, 0, 0, 1, 1]);
     }
 
@@ -265,9 +268,15 @@ mod tests {
         ];
         let mut fields = vec![NodeFields::default(); 2];
         assign_fields(&mut c, &groups, Some(&gradients), &mut fields).unwrap();
-        assert_eq!(fields[0].active(), &[FieldKey::new(0, 0), FieldKey::new(0, 1)]);
+        assert_eq!(
+            fields[0].active(),
+            &[FieldKey::new(0, 0), FieldKey::new(0, 1)]
+        );
         // Node 1 sees particles 0 and 2 only: particle 0 (|g| larger) is its reference.
-        assert_eq!(fields[1].active(), &[FieldKey::new(0, 0), FieldKey::new(0, 1)]);
+        assert_eq!(
+            fields[1].active(),
+            &[FieldKey::new(0, 0), FieldKey::new(0, 1)]
+        );
         // Rows: p0 → (node 0: side 1, node 1: side 0); p1 → node 0 side 0; p2 → (0, 1).
         assert_eq!(c.fields, vec![1, 0, 0, 0, 1]);
     }

@@ -98,8 +98,8 @@ fn transfers<D: Dim>(c: &mut Criterion, cells: usize) {
         b.iter(|| conn.scatter_to_nodes(&mut node_mass, |e, p| conn.weights[e] * masses[p]))
     });
     let v = D::Vector::from_fn(|a| 0.5 - 0.2 * a as f64);
-    let accelerations = vec![NodeAcceleration::<D>([v * 2.0, D::Vector::ZERO]); g.node_count()];
-    let velocities = vec![NodeVelocity::<D>([v, D::Vector::ZERO]); g.node_count()];
+    let accelerations = vec![NodeAcceleration::<D>(slots(&[v * 2.0])); g.node_count()];
+    let velocities = vec![NodeVelocity::<D>(slots(&[v])); g.node_count()];
     c.bench_function(&format!("gather to particles ({label})"), |b| {
         b.iter(|| {
             (0..xs.len())

@@ -214,6 +214,9 @@ pub fn velocity_gradient<D: Dim>(
     p: usize,
 ) -> D::Matrix {
     c.row(p).fold(D::Matrix::ZERO, |l, e| {
-        l + D::Matrix::outer(node_velocity[c.nodes[e] as usize].0[c.field(e)], c.gradients[e])
+        l + D::Matrix::outer(
+            node_velocity[c.nodes[e] as usize].0[c.field(e)],
+            c.gradients[e],
+        )
     })
 }

@@ -184,7 +184,9 @@ impl<D: Dim> Spec<D> {
                     self.check_shape(&at("region"), region)?;
                 }
                 if !load.total.is_finite() {
-                    return Err(self.source.error(&at("force"), "expected finite components"));
+                    return Err(self
+                        .source
+                        .error(&at("force"), "expected finite components"));
                 }
                 if !load.ramp.is_empty() {
                     PiecewiseLinear::new(load.ramp.clone())

@@ -165,12 +165,17 @@ impl<D: Dim> Spec<D> {
             let ramp = if load.ramp.is_empty() {
                 PiecewiseLinear::constant(1.0)
             } else {
-                PiecewiseLinear::new(load.ramp.clone())
-                    .map_err(|e| self.source.error(&format!("bodies[{b}].loads[{k}].ramp"), e))?
+                PiecewiseLinear::new(load.ramp.clone()).map_err(|e| {
+                    self.source
+                        .error(&format!("bodies[{b}].loads[{k}].ramp"), e)
+                })?
             };
             loads.0.push((load.total, ramp));
         }
-        for p in bundles.iter_mut().filter(|p| p.load.load != LoadShare::NONE) {
+        for p in bundles
+            .iter_mut()
+            .filter(|p| p.load.load != LoadShare::NONE)
+        {
             p.load.share /= volumes[p.load.load as usize - first];
         }
         Ok(())

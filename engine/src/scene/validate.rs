@@ -6,9 +6,7 @@
 
 use super::format::*;
 use super::shape::Shape;
-use super::spec::{
-    Body, Boundary, Condition, InitialVelocity, Load, Output, PipelineEntry, Spec,
-};
+use super::spec::{Body, Boundary, Condition, InitialVelocity, Load, Output, PipelineEntry, Spec};
 use super::{SceneError, SceneFile, Source};
 use crate::dim::{Dim, MatrixOps, VectorOps};
 use crate::health::LeaveGrid;

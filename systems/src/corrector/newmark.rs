@@ -77,15 +77,15 @@ pub fn newmark_corrector<D: Dim>(
     };
     let mut forces = field_forces(&connectivity, &slices, body_force.0, node_mass.len());
     for (f, c) in forces.iter_mut().zip(contact) {
-        for k in 0..MAX_FIELDS {
-            f[k] += c.0[k];
+        for (fk, ck) in f.iter_mut().zip(c.0) {
+            *fk += ck;
         }
     }
     let gamma_dt = params.gamma * clock.dt;
     let velocities: &mut [NodeVelocity<D>] = &mut node_velocity;
     for (i, v) in velocities.iter_mut().enumerate() {
-        for k in 0..MAX_FIELDS {
-            v.0[k] = correct(node_mass[i].0[k], v.0[k], forces[i][k], gamma_dt);
+        for (k, vk) in v.0.iter_mut().enumerate() {
+            *vk = correct(node_mass[i].0[k], *vk, forces[i][k], gamma_dt);
         }
     }
     bcs.enforce(
@@ -98,9 +98,12 @@ pub fn newmark_corrector<D: Dim>(
     let (accelerations, stored_forces): (&mut [NodeAcceleration<D>], &mut [NodeForce<D>]) =
         (&mut node_acceleration, &mut node_force);
     for i in 0..forces.len() {
-        for k in 0..MAX_FIELDS {
-            let m = node_mass[i].0[k];
-            let mut f = if m > 0.0 { forces[i][k] } else { D::Vector::ZERO };
+        for (k, &m) in node_mass[i].0.iter().enumerate() {
+            let mut f = if m > 0.0 {
+                forces[i][k]
+            } else {
+                D::Vector::ZERO
+            };
             for (c, is_held) in held[i][..D::N].iter().enumerate() {
                 if *is_held {
                     f[c] = 0.0;

@@ -51,7 +51,10 @@ mod tests {
         let fields = node_values::<NodeFields>(&mut world);
         let masses = node_values::<NodeMass>(&mut world);
         let velocities = node_values::<NodeVelocity<Two>>(&mut world);
-        assert_eq!(fields[0].active(), &[FieldKey::new(0, 0), FieldKey::new(5, 0)]);
+        assert_eq!(
+            fields[0].active(),
+            &[FieldKey::new(0, 0), FieldKey::new(5, 0)]
+        );
         // Node 0 at the origin: N = (1 − x/h)(1 − y/h).
         assert!((masses[0].0[0] - 0.6 * 0.5).abs() < 1e-14);
         assert!((masses[0].0[1] - 3.0 * 0.4 * 0.5).abs() < 1e-14);

@@ -186,13 +186,15 @@ pub fn dfg_partition<D: Spatial>(
     else {
         return;
     };
-    let radius = params
-        .radius
-        .unwrap_or(grid.spacing * (D::N as f64).sqrt());
+    let radius = params.radius.unwrap_or(grid.spacing * (D::N as f64).sqrt());
     let neighbours: Vec<Vec<u32>> = crate::neighbour::kdtree::build_candidates(positions, radius)
         .into_par_iter()
         .enumerate()
-        .map(|(p, row)| row.into_iter().filter(|&q| groups[q as usize] == groups[p]).collect())
+        .map(|(p, row)| {
+            row.into_iter()
+                .filter(|&q| groups[q as usize] == groups[p])
+                .collect()
+        })
         .collect();
     let surface: &mut [SurfaceFlag] = &mut surface;
     if let (Some(threshold), false) = (params.surface, detected.0) {
@@ -241,7 +243,9 @@ fn detect_surface<D: Dim>(
     let sums: Vec<f64> = (0..positions.len())
         .into_par_iter()
         .map(|p| {
-            let row = neighbours[p].iter().map(|&q| (positions[q as usize].0, 0.0));
+            let row = neighbours[p]
+                .iter()
+                .map(|&q| (positions[q as usize].0, 0.0));
             kernel_sums(positions[p].0, row, radius).0
         })
         .collect();
@@ -307,13 +311,20 @@ mod tests {
         // Particle (i = 7, j = 1) sits next to the failed half.
         let next_to_crack = gradients[7 * 4 + 1].0;
         assert!(next_to_crack.x > 1.0, "{next_to_crack}");
-        assert!(next_to_crack.y.abs() < 0.1 * next_to_crack.x, "{next_to_crack}");
+        assert!(
+            next_to_crack.y.abs() < 0.1 * next_to_crack.x,
+            "{next_to_crack}"
+        );
         // Particle (i = 2, j = 1): the kernel reaches no failed particle.
         assert_eq!(gradients[2 * 4 + 1].0, DVec2::ZERO);
         // Nodes on the crack front hold an intact field and a failed one (eq. 21 statistics are
         // per field, so the mean of the failed field is 1).
         let stats = node_values::<NodeFieldDamage>(&mut world);
-        assert!(stats.iter().any(|s| s.max[0] == 1.0 && s.mean[0] > 0.0 && s.mean[0] < 1.0));
+        assert!(
+            stats
+                .iter()
+                .any(|s| s.max[0] == 1.0 && s.mean[0] > 0.0 && s.mean[0] < 1.0)
+        );
     }
 
     #[test]

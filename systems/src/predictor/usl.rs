@@ -13,8 +13,7 @@
 //!   particles see the boundary conditions too. A contact stage that follows corrects `v̄_I`.
 
 use crate::transfer::{
-    ForceSourceQuery, NodeSums, NodeTransferQuery, ParticleSlices, add_contribution,
-    field_velocity,
+    ForceSourceQuery, NodeSums, NodeTransferQuery, ParticleSlices, add_contribution, field_velocity,
 };
 use fractum_engine::prelude::*;
 use serde::Deserialize;
@@ -92,8 +91,9 @@ pub fn grid_update<D: Dim>(
         nodes.mass[i] = NodeMass(s.mass);
         nodes.momentum[i] = NodeMomentum(s.momentum);
         nodes.force[i] = NodeForce(s.force);
-        nodes.velocity[i] =
-            NodeVelocity(std::array::from_fn(|k| field_velocity(s, k, ctx.min_node_mass)));
+        nodes.velocity[i] = NodeVelocity(std::array::from_fn(|k| {
+            field_velocity(s, k, ctx.min_node_mass)
+        }));
     }
     ctx.bcs.enforce(ctx.time, nodes.mass, nodes.velocity, None);
     let start: Vec<NodeVelocity<D>> = nodes.velocity.to_vec();
