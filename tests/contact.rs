@@ -193,7 +193,7 @@ fn two_spheres_in_contact_bounce_apart() {
 /// A block of group 1 sliding on a substrate of group 0 under gravity; the substrate rests on a
 /// fixed bottom row of nodes. Returns `(time, x velocity, x position)` of the block's centre
 /// of mass every step.
-fn slide(friction: f64, v0: f64, end: f64) -> Vec<(f64, f64, f64)> {
+fn slide(friction: f64, normals: &str, v0: f64, end: f64) -> Vec<(f64, f64, f64)> {
     use fractum_engine::scene::{Body, Boundary, Condition, InitialVelocity, Shape};
     use fractum_engine::simulation::End;
     let h = 0.02;
@@ -235,7 +235,7 @@ fn slide(friction: f64, v0: f64, end: f64) -> Vec<(f64, f64, f64)> {
     .with_pipeline(pipeline(NEWMARK_CONTACT));
     spec.pipeline[4] = entry(
         "contact/frictional",
-        Some(&format!("(friction: {friction})")),
+        Some(&format!("(friction: {friction}, normals: {normals})")),
     );
     spec.body_force = DVec2::new(0.0, -9.81);
     let registry = fractum_systems::stock_registry();
@@ -276,11 +276,12 @@ fn slope(samples: &[(f64, f64)]) -> f64 {
 }
 
 /// Coulomb friction: deceleration μg and stopping distance v0²/(2μg); none without friction.
+/// The pair normal is the heavier field's (the substrate's flat normal at the block's corners).
 #[test]
 fn a_block_slides_to_rest_under_coulomb_friction() {
     let (mu, g, v0) = (0.3, 9.81, 0.5);
     let stop_time = v0 / (mu * g);
-    let history = slide(mu, v0, stop_time * 1.3);
+    let history = slide(mu, "Heavier", v0, stop_time * 1.3);
     let sliding: Vec<(f64, f64)> = history
         .iter()
         .filter(|(t, _, _)| *t > 0.1 * stop_time && *t < 0.9 * stop_time)
@@ -299,18 +300,26 @@ fn a_block_slides_to_rest_under_coulomb_friction() {
         100.0 * (travelled / expected - 1.0),
         history.last().unwrap().1
     );
-    // Not met: μg within 2% and v0²/2μg within 3% (measured −29% and −63%: the block loses
-    // most of its speed in the first 10 ms, while its front corner nodes, whose mass-gradient
-    // normal tilts forward, plough into the substrate). Asserted: friction stops the block,
-    // and it stops no later than Coulomb's law says.
-    assert!(deceleration > 0.5 * mu * g);
-    assert!(travelled < 1.03 * expected);
+    assert!((deceleration / (mu * g) - 1.0).abs() < 0.02);
+    assert!((travelled / expected - 1.0).abs() < 0.03);
     assert!(history.last().unwrap().1.abs() < 1e-3);
-    let free = slide(0.0, v0, 0.1);
+    let free = slide(0.0, "Heavier", v0, 0.1);
     let free_slope = -slope(&free.iter().map(|(t, v, _)| (*t, *v)).collect::<Vec<_>>());
     println!("sliding block, μ = 0: deceleration {free_slope:.2e} m/s²");
-    // Not met: no deceleration without friction (measured 1.25 m/s², the same ploughing).
-    assert!(free_slope < deceleration);
+    // No friction, no braking: less than 0.1% of μg (the block's vibration is all that is left).
+    assert!(free_slope.abs() < 1e-3 * mu * g);
+    // Eq. 11's averaged normal on the same set-up, for the record: the block's corner normal
+    // tilts the pair normal and ploughs (the contact system's header gives the figures).
+    let averaged = slide(mu, "Difference", v0, 0.5 * stop_time);
+    let averaged_slope = -slope(
+        &averaged
+            .iter()
+            .filter(|(t, _, _)| *t > 0.1 * stop_time)
+            .map(|(t, v, _)| (*t, *v))
+            .collect::<Vec<_>>(),
+    );
+    println!("sliding block, μ = {mu}, normals Difference: deceleration {averaged_slope:.3} m/s²");
+    assert!(averaged_slope > 0.0);
 }
 
 /// Self-contact (§2.4): both disks in one contact group, `partition/dfg` with surface
