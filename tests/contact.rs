@@ -416,16 +416,16 @@ fn pull_cracked_bar(partition: Option<&str>) -> (f64, f64) {
         largest = largest.max(sim.world.resource::<Reactions<Two>>().0[0].x.abs());
     }
     let mut q = sim.world.query::<(&Position<Two>, &Damage)>();
-    let (left, right) = q
-        .iter(&sim.world)
-        .filter(|(_, d)| d.0 < 1.0)
-        .fold((f64::MIN, f64::MAX), |(l, r), (x, _)| {
+    let (left, right) = q.iter(&sim.world).filter(|(_, d)| d.0 < 1.0).fold(
+        (f64::MIN, f64::MAX),
+        |(l, r), (x, _)| {
             if x.0.x < 0.575 {
                 (l.max(x.0.x), r)
             } else {
                 (l, r.min(x.0.x))
             }
-        });
+        },
+    );
     (largest, right - left)
 }
 

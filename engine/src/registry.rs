@@ -126,6 +126,7 @@ pub struct Installer<'a> {
     stage: Stage,
     schedule: &'a mut Schedule,
     world: &'a mut World,
+    pipeline: Vec<&'static str>,
 }
 
 impl<'a> Installer<'a> {
@@ -135,7 +136,20 @@ impl<'a> Installer<'a> {
             stage,
             schedule,
             world,
+            pipeline: Vec::new(),
         }
+    }
+
+    /// Tells the installer the names of every system in the scene's pipeline.
+    pub fn with_pipeline(mut self, names: Vec<&'static str>) -> Self {
+        self.pipeline = names;
+        self
+    }
+
+    /// Whether the scene's pipeline has a system whose name starts with `prefix` (a stage such
+    /// as `"damage/"`, or a full name).
+    pub fn pipeline_has(&self, prefix: &str) -> bool {
+        self.pipeline.iter().any(|name| name.starts_with(prefix))
     }
 
     /// The stage this installer adds to.

@@ -337,12 +337,13 @@ impl<D: Dim> Spec<D> {
                 summary.by_stage.push((stage, names));
             }
         }
+        let names: Vec<&'static str> = chosen.iter().map(|(_, r)| r.name).collect();
         for (k, registration) in chosen {
             let entry = &self.pipeline[k];
             let source = self.entry_source(entry);
             let params = source.params(entry.params.as_deref(), format!("pipeline[{k}].params"));
             let stage = registration.stage().unwrap_or(Stage::PostStep);
-            let mut installer = Installer::new(stage, schedule, world);
+            let mut installer = Installer::new(stage, schedule, world).with_pipeline(names.clone());
             (registration.install)(&mut installer, &params)?;
         }
         Ok(summary)

@@ -63,6 +63,13 @@ pub const REGISTRATION: Registration = Registration {
             doc: "Coulomb friction coefficient μ >= 0",
         },
         ParamDoc {
+            name: "pairs",
+            ty: "[(groups: (u8, u8), friction: f64)]",
+            default: Some("[]"),
+            doc: "friction coefficients for particular pairs of contact groups (a group with \
+                  itself for self-contact); other pairs use `friction`",
+        },
+        ParamDoc {
             name: "separability",
             ty: "f64",
             default: Some("0.25"),
@@ -89,12 +96,15 @@ pub const REGISTRATION: Registration = Registration {
 };
 
 /// Parameters of `contact/frictional`.
-#[derive(Resource, Deserialize, Clone, Copy, Debug, PartialEq)]
+#[derive(Resource, Deserialize, Clone, Debug, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct FrictionalParams {
     /// Coulomb coefficient μ.
     #[serde(default)]
     pub friction: f64,
+    /// Coefficients for particular pairs of contact groups.
+    #[serde(default)]
+    pub pairs: Vec<PairFriction>,
     /// Separability threshold D̄_min.
     #[serde(default = "default_separability")]
     pub separability: f64,
@@ -104,6 +114,26 @@ pub struct FrictionalParams {
     /// Relative mass threshold ε_m.
     #[serde(default = "default_min_mass_fraction")]
     pub min_mass_fraction: f64,
+}
+
+/// The friction coefficient of one pair of contact groups.
+#[derive(Deserialize, Clone, Copy, Debug, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PairFriction {
+    /// The two groups, in either order; the same group twice for self-contact.
+    pub groups: (u8, u8),
+    /// Coulomb coefficient μ between them.
+    pub friction: f64,
+}
+
+impl FrictionalParams {
+    /// The Coulomb coefficient between fields of groups `a` and `b`.
+    pub fn friction_between(&self, a: u8, b: u8) -> f64 {
+        self.pairs
+            .iter()
+            .find(|p| p.groups == (a, b) || p.groups == (b, a))
+            .map_or(self.friction, |p| p.friction)
+    }
 }
 
 /// How the common normal of a contact pair is formed from the fields' normals (eq. 11).
@@ -142,6 +172,7 @@ impl Default for FrictionalParams {
     fn default() -> Self {
         Self {
             friction: 0.0,
+            pairs: Vec::new(),
             separability: default_separability(),
             normals: ContactNormals::default(),
             min_mass_fraction: default_min_mass_fraction(),
@@ -154,6 +185,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     if !(parsed.friction >= 0.0 && parsed.friction.is_finite()) {
         return Err(params.error("friction", "expected a friction coefficient μ >= 0"));
     }
+    check_pairs(installer, params, &parsed.pairs)?;
     if !(parsed.separability > 0.0 && parsed.separability < 1.0) {
         return Err(params.error("separability", "expected D̄_min in (0, 1)"));
     }
@@ -162,6 +194,55 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     }
     installer.insert_resource(parsed);
     with_dim!(installer.dimension(), D => installer.add_systems(frictional_contact::<D>));
+    Ok(())
+}
+
+/// Every pair names groups some body belongs to, once, with μ >= 0.
+fn check_pairs(
+    installer: &mut Installer,
+    params: &Params,
+    pairs: &[PairFriction],
+) -> Result<(), SceneError> {
+    let mut groups: Vec<u8> = installer
+        .world()
+        .iter_entities()
+        .filter_map(|e| e.get::<ContactGroup>().map(|g| g.0))
+        .collect();
+    groups.sort_unstable();
+    groups.dedup();
+    let listed = groups
+        .iter()
+        .map(|g| g.to_string())
+        .collect::<Vec<_>>()
+        .join(", ");
+    for (k, pair) in pairs.iter().enumerate() {
+        for group in [pair.groups.0, pair.groups.1] {
+            if groups.binary_search(&group).is_err() {
+                return Err(params.error(
+                    &format!("pairs[{k}].groups"),
+                    format!(
+                        "unknown contact group {group}: the bodies' contact groups are {listed}"
+                    ),
+                ));
+            }
+        }
+        if !(pair.friction >= 0.0 && pair.friction.is_finite()) {
+            return Err(params.error(
+                &format!("pairs[{k}].friction"),
+                "expected a friction coefficient μ >= 0",
+            ));
+        }
+        let (a, b) = pair.groups;
+        if pairs[..k]
+            .iter()
+            .any(|p| p.groups == (a, b) || p.groups == (b, a))
+        {
+            return Err(params.error(
+                &format!("pairs[{k}].groups"),
+                format!("groups ({a}, {b}) are listed twice"),
+            ));
+        }
+    }
     Ok(())
 }
 
@@ -248,10 +329,11 @@ pub fn node_impulses<V: VectorOps>(
                 (a, b),
                 params.separability,
             );
+            let friction = params.friction_between(fields.keys[a].group(), fields.keys[b].group());
             let mut dp = pair_impulse(
                 &states[a],
                 &states[b],
-                params.friction,
+                friction,
                 can_separate,
                 params.normals,
             );
@@ -461,6 +543,22 @@ mod tests {
         );
         let ploughed = pair_impulse(&corner, &substrate, 0.0, true, ContactNormals::Difference);
         assert!(ploughed.x < 0.0);
+    }
+
+    #[test]
+    fn pairs_of_groups_override_the_friction() {
+        let params = FrictionalParams {
+            friction: 0.1,
+            pairs: vec![PairFriction {
+                groups: (2, 0),
+                friction: 0.04,
+            }],
+            ..FrictionalParams::default()
+        };
+        assert_eq!(params.friction_between(0, 2), 0.04);
+        assert_eq!(params.friction_between(2, 0), 0.04);
+        assert_eq!(params.friction_between(0, 1), 0.1);
+        assert_eq!(params.friction_between(2, 2), 0.1);
     }
 
     #[test]

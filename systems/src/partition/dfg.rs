@@ -79,6 +79,14 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     {
         return Err(params.error("surface", "expected a threshold in (0, 1)"));
     }
+    if parsed.surface.is_none() && !installer.pipeline_has("damage/") && !any_damage(installer) {
+        return Err(params.error(
+            "surface",
+            "partition/dfg has nothing to partition by: the pipeline has no damage system, no \
+             body has `cracks`, and surface detection is off; add a damage system, or \
+             `surface: 0.8` for self-contact, or use partition/bodies",
+        ));
+    }
     installer.insert_resource(parsed);
     installer.insert_resource(FieldRule { by_gradient: true });
     installer.init_resource::<SurfaceDetected>();
@@ -88,6 +96,14 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         installer.add_systems(dfg_partition::<D>);
     });
     Ok(())
+}
+
+/// Whether some particle starts damaged (a body's `cracks`).
+fn any_damage(installer: &Installer) -> bool {
+    installer
+        .world()
+        .iter_entities()
+        .any(|e| e.get::<Damage>().is_some_and(|d| d.0 > 0.0))
 }
 
 /// The cubic kernel `ω(r̄) = 1 − 3r̄² + 2r̄³` for `r̄ ≤ 1`, else 0 (eq. 18).
