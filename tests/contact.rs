@@ -449,3 +449,135 @@ fn a_failed_layer_separates_only_with_dfg_partitioning() {
     assert!(single > 0.2 * wave, "{single}");
     assert!(dfg < 1e-3 * single, "{dfg}");
 }
+
+/// Time averages over the held load (0.5–2 µs) of the billet's lateral expansion at mid-height
+/// and of the slip between its corner and the platen above it, and the largest differences
+/// from `reference` over the run relative to the reference's peak.
+struct Billet {
+    times: Vec<f64>,
+    expansion: Vec<f64>,
+    slip: Vec<f64>,
+}
+
+impl Billet {
+    fn held_mean(&self, values: &[f64]) -> f64 {
+        let held: Vec<f64> = self
+            .times
+            .iter()
+            .zip(values)
+            .filter(|(t, _)| **t >= 0.5e-6)
+            .map(|(_, v)| *v)
+            .collect();
+        held.iter().sum::<f64>() / held.len() as f64
+    }
+
+    /// `values` at time `t`, linear between steps.
+    fn at(&self, values: &[f64], t: f64) -> f64 {
+        let i = self
+            .times
+            .partition_point(|&s| s < t)
+            .clamp(1, self.times.len() - 1);
+        let (t0, t1) = (self.times[i - 1], self.times[i]);
+        let w = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
+        values[i - 1] + w * (values[i] - values[i - 1])
+    }
+
+    /// Largest difference from `reference`'s series at its times, over the reference's peak.
+    fn worst(&self, values: &[f64], reference: &Billet, reference_values: &[f64]) -> f64 {
+        let peak = reference_values.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        reference
+            .times
+            .iter()
+            .zip(reference_values)
+            .fold(0.0f64, |a, (t, r)| a.max((self.at(values, *t) - r).abs()))
+            / peak
+    }
+}
+
+/// Runs one of the billet scenes at half the shipped resolution (Δx = 0.05 mm, CI-sized).
+fn compact_billet(name: &str) -> Billet {
+    use fractum_engine::scene::Shape;
+    let mut spec = scene::<Two>(name);
+    let h = 5.0e-5;
+    spec.grid = Grid {
+        min: DVec2::ZERO,
+        spacing: h,
+        cells: [28, 22],
+    };
+    // The load stays on the platen's top row of particles.
+    spec.bodies[1].loads[0].region = Some(Shape::Rectangle {
+        min: DVec2::new(0.0, 1.0e-3 - 0.5 * h),
+        max: DVec2::new(1.2e-3, 1.0e-3),
+    });
+    for entry in &mut spec.pipeline {
+        if entry.system == "partition/dfg" {
+            // The shipped scene's kernel radius, 1.2 cells.
+            *entry = PipelineEntry::with_params("partition/dfg", "(surface: 0.8, radius: 6.0e-5)");
+        }
+    }
+    let registry = fractum_systems::stock_registry();
+    let mut sim = spec
+        .build(&registry)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .simulation;
+    let nearest = |world: &mut World, body: u16, at: DVec2| -> (Entity, DVec2) {
+        let mut q = world.query::<(Entity, &BodyId, &Position<Two>)>();
+        q.iter(world)
+            .filter(|(_, b, _)| b.0 == body)
+            .map(|(e, _, x)| (e, x.0))
+            .min_by(|a, b| (a.1 - at).length().total_cmp(&(b.1 - at).length()))
+            .unwrap()
+    };
+    let edge = nearest(&mut sim.world, 0, DVec2::new(1.0e-3, 0.295e-3));
+    let corner = nearest(&mut sim.world, 0, DVec2::new(0.995e-3, 0.6e-3));
+    let above = nearest(&mut sim.world, 1, DVec2::new(0.995e-3, 0.6e-3));
+    let moved =
+        |world: &World, (e, x0): (Entity, DVec2)| world.get::<Position<Two>>(e).unwrap().0.x - x0.x;
+    let mut billet = Billet {
+        times: Vec::new(),
+        expansion: Vec::new(),
+        slip: Vec::new(),
+    };
+    while !sim.finished() {
+        sim.step().unwrap_or_else(|e| panic!("{e}"));
+        billet.times.push(sim.clock().time);
+        billet.expansion.push(moved(&sim.world, edge));
+        billet
+            .slip
+            .push(moved(&sim.world, corner) - moved(&sim.world, above));
+    }
+    billet
+}
+
+/// §3.1, Table I: surface detection and DFG self-contact in one group reproduce the two-group
+/// frictional solution of the billet; the single field cannot slip.
+#[test]
+fn billet_self_contact_matches_two_contact_groups() {
+    let reference = compact_billet("billet_two_groups.ron");
+    let (expansion, slip) = (
+        reference.held_mean(&reference.expansion),
+        reference.held_mean(&reference.slip),
+    );
+    for name in ["billet_self_contact.ron", "billet_single_field.ron"] {
+        let run = compact_billet(name);
+        let (e, s) = (run.held_mean(&run.expansion), run.held_mean(&run.slip));
+        println!(
+            "{name}: mean lateral expansion {e:.4e} m ({:+.2}% against two groups' {expansion:.4e}), \
+             mean slip {s:.4e} m ({:+.2}% against {slip:.4e}); largest differences over the run \
+             {:.2}% and {:.2}% of the two-group peaks",
+            100.0 * (e / expansion - 1.0),
+            100.0 * (s / slip - 1.0),
+            100.0 * run.worst(&run.expansion, &reference, &reference.expansion),
+            100.0 * run.worst(&run.slip, &reference, &reference.slip),
+        );
+        if name == "billet_self_contact.ron" {
+            assert!((e / expansion - 1.0).abs() < 0.02);
+            assert!((s / slip - 1.0).abs() < 0.02);
+        } else {
+            // No slip in one field: the corner moves with the platen, and the billet expands
+            // less.
+            assert!(s.abs() < 0.1 * slip, "{s}");
+            assert!(e < 0.98 * expansion, "{e}");
+        }
+    }
+}

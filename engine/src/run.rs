@@ -131,6 +131,25 @@ fn probe_value<D: Dim>(world: &mut World, probe: &ProbeKind, totals: &Totals) ->
                 .filter(|(b, _, _)| b.0 == *index)
                 .fold(D::Vector::ZERO, |f, (_, m, a)| f + a.0 * m.0)
         }
+        ProbeKind::Track {
+            particle,
+            reference,
+            ..
+        } => {
+            let displacement = |tracked: &Option<(Entity, [f64; 3])>| -> D::Vector {
+                let at = tracked.and_then(|(p, origin)| {
+                    world
+                        .get::<Position<D>>(p)
+                        .map(|x| D::Vector::from_fn(|a| x.0[a] - origin[a]))
+                });
+                at.unwrap_or(D::Vector::splat(f64::NAN))
+            };
+            let moved = displacement(particle);
+            match reference {
+                Some(_) => moved - displacement(reference),
+                None => moved,
+            }
+        }
         ProbeKind::Displacement { index, .. } => {
             let region = &world.resource::<BoundaryConditions>().regions[*index];
             D::Vector::from_fn(|a| {

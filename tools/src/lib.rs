@@ -74,8 +74,10 @@ pub enum Command {
     Systems,
     /// Plot series.csv columns against time into a PNG.
     Plot {
-        /// The series.csv of a run.
-        csv: PathBuf,
+        /// The series.csv of a run, or of several runs to compare on one plot (each curve is
+        /// labelled with its run's directory).
+        #[arg(required = true)]
+        csv: Vec<PathBuf>,
         /// Column for the horizontal axis.
         #[arg(long, default_value = "time")]
         x: String,
@@ -86,7 +88,7 @@ pub enum Command {
         /// L,E,RHO,V0 (e.g. 25,100,1,0.1 for scenes/bar_vibration.ron).
         #[arg(long)]
         bar: Option<String>,
-        /// Output PNG [default: next to the CSV, named after the columns].
+        /// Output PNG [default: next to the (first) CSV, named after the columns].
         #[arg(long)]
         output: Option<PathBuf>,
     },
@@ -197,18 +199,27 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
 }
 
 fn plot_command(
-    csv: &Path,
+    csvs: &[PathBuf],
     x: &str,
     columns: &[String],
     bar: Option<&str>,
     output: Option<PathBuf>,
 ) -> i32 {
     let result = (|| {
-        let series = plot::Series::read(csv)?;
+        let runs = csvs
+            .iter()
+            .map(|csv| {
+                let run = csv
+                    .parent()
+                    .and_then(Path::file_name)
+                    .map_or_else(|| csv.display().to_string(), |n| n.to_string_lossy().into());
+                Ok((run, plot::Series::read(csv)?))
+            })
+            .collect::<Result<Vec<_>, String>>()?;
         let bar = bar.map(plot::BarReference::parse).transpose()?;
         let output =
-            output.unwrap_or_else(|| csv.with_file_name(format!("{}.png", columns.join("+"))));
-        plot::plot(&series, x, columns, bar, &output)
+            output.unwrap_or_else(|| csvs[0].with_file_name(format!("{}.png", columns.join("+"))));
+        plot::plot_runs(&runs, x, columns, bar, &output)
     })();
     match result {
         Ok(path) => {

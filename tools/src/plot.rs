@@ -107,6 +107,19 @@ fn register_font() {
     });
 }
 
+/// A tick label readable at any scale: plain for everyday magnitudes, scientific for very
+/// small or large ones (microsecond runs, micrometre displacements, megapascal stresses).
+fn tick_label(v: f64) -> String {
+    let magnitude = v.abs();
+    if v == 0.0 {
+        "0".into()
+    } else if !(1e-2..1e5).contains(&magnitude) {
+        format!("{v:.2e}")
+    } else {
+        format!("{v:.3}")
+    }
+}
+
 fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let (lo, hi) = values
         .filter(|v| v.is_finite())
@@ -133,15 +146,36 @@ pub fn plot(
     bar: Option<BarReference>,
     output: &Path,
 ) -> Result<PathBuf, String> {
+    plot_runs(&[(String::new(), series.clone())], x, columns, bar, output)
+}
+
+/// As [`plot`], for several runs on one plot: each curve is labelled `<run>: <column>` (or
+/// just the column when there is one run).
+pub fn plot_runs(
+    runs: &[(String, Series)],
+    x: &str,
+    columns: &[String],
+    bar: Option<BarReference>,
+    output: &Path,
+) -> Result<PathBuf, String> {
     register_font();
-    let time = series.column(x)?;
     let mut curves: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
-    for name in columns {
-        let values = series.column(name)?;
-        curves.push((name.clone(), time.iter().copied().zip(values).collect()));
+    let mut time = Vec::new();
+    for (run, series) in runs {
+        let xs = series.column(x)?;
+        for name in columns {
+            let values = series.column(name)?;
+            let label = if runs.len() > 1 {
+                format!("{run}: {name}")
+            } else {
+                name.clone()
+            };
+            curves.push((label, xs.iter().copied().zip(values).collect()));
+        }
+        time.extend(xs);
     }
     if let Some(bar) = bar {
-        let t_end = time.last().copied().unwrap_or(0.0);
+        let t_end = time.iter().copied().fold(0.0, f64::max);
         let samples = (0..=2000).map(|k| t_end * k as f64 / 2000.0);
         curves.push((
             "analytic (2 v0/π) cos(ωt)".into(),
@@ -174,6 +208,8 @@ pub fn plot(
             } else {
                 x.to_string()
             })
+            .x_label_formatter(&|v| tick_label(*v))
+            .y_label_formatter(&|v| tick_label(*v))
             .label_style(("sans-serif", 18))
             .axis_desc_style(("sans-serif", 20))
             .draw()
@@ -274,6 +310,14 @@ mod tests {
             .collect();
         let s = curve_summary(&x, &wiggly, 0.0).unwrap();
         assert!((s.rms_deviation - 0.01).abs() < 1e-3, "{}", s.rms_deviation);
+    }
+
+    #[test]
+    fn tick_labels_are_readable_at_any_scale() {
+        assert_eq!(tick_label(0.0), "0");
+        assert_eq!(tick_label(1.5e-6), "1.50e-6");
+        assert_eq!(tick_label(-2.0e8), "-2.00e8");
+        assert_eq!(tick_label(0.25), "0.250");
     }
 
     #[test]

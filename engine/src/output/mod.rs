@@ -71,6 +71,16 @@ pub enum ProbeKind {
         /// Region index.
         index: usize,
     },
+    /// Displacement of one particle, optionally relative to another's.
+    Track {
+        /// Column name.
+        name: String,
+        /// The particle and its position at the start (x, y, z; unused axes zero); `None`
+        /// when the body has no particle.
+        particle: Option<(bevy_ecs::entity::Entity, [f64; 3])>,
+        /// The particle whose displacement is subtracted, when the probe is relative.
+        reference: Option<(bevy_ecs::entity::Entity, [f64; 3])>,
+    },
 }
 
 impl ProbeKind {
@@ -81,6 +91,7 @@ impl ProbeKind {
             ProbeKind::CentreOfMassVelocity => "com_velocity".into(),
             ProbeKind::Force { name, .. } => format!("force_{name}"),
             ProbeKind::Displacement { name, .. } => format!("displacement_{name}"),
+            ProbeKind::Track { name, .. } => format!("track_{name}"),
         }
     }
 }

@@ -311,6 +311,34 @@ impl<D: Dim> Spec<D> {
                     self.body_index(name, k)?;
                 }
                 Probe::CentreOfMassVelocity => {}
+                Probe::Track {
+                    name,
+                    body,
+                    at,
+                    relative_to,
+                } => {
+                    if let Some(other) = relative_to {
+                        self.body_index(other, k)?;
+                    }
+                    let field = format!("output.probes[{k}]");
+                    if name.is_empty()
+                        || !name
+                            .chars()
+                            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+                    {
+                        return Err(self.source.error(
+                            &format!("{field}.name"),
+                            "expected letters, digits, `_` or `-` only",
+                        ));
+                    }
+                    self.body_index(body, k)?;
+                    if at.0.len() != D::N || at.0.iter().any(|v| !v.is_finite()) {
+                        return Err(self.source.error(
+                            &format!("{field}.at"),
+                            format!("expected a point of {} finite coordinates", D::N),
+                        ));
+                    }
+                }
             }
         }
         Ok(())

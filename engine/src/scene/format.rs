@@ -438,6 +438,21 @@ pub enum Probe {
     /// integral; zero for components the region holds at rest or leaves free):
     /// `displacement_<name>_x`, `_y` (`_z`).
     Displacement(String),
+    /// Displacement of one particle of a body, the one that starts nearest `at`:
+    /// `track_<name>_x`, `_y` (`_z`), m (NaN once the particle has left the grid). With
+    /// `relative_to`, minus the displacement of that body's particle nearest `at` (the slip or
+    /// opening across an interface).
+    Track {
+        /// Column name: letters, digits, `_` or `-`.
+        name: String,
+        /// Name of the body.
+        body: String,
+        /// Where to pick the particle at the start.
+        at: Coords,
+        /// Name of a second body whose particle nearest `at` is subtracted.
+        #[serde(default)]
+        relative_to: Option<String>,
+    },
 }
 
 /// Run-safety settings.

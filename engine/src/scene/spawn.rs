@@ -38,7 +38,7 @@ impl<D: Dim> Spec<D> {
         spawn_nodes(&mut world, &self.grid);
         let body_particles = self.spawn_bodies(&mut world)?;
         let boundaries = self.boundary_conditions()?;
-        let mut output = self.output_plan()?;
+        let mut output = self.output_plan(&mut world)?;
         world.insert_resource(Materials(self.materials.clone()));
         world.insert_resource(BodyForce::<D>(self.body_force));
         world.insert_resource(Reactions::<D>(vec![
@@ -280,7 +280,7 @@ impl<D: Dim> Spec<D> {
         })
     }
 
-    fn output_plan(&self) -> Result<OutputPlan, SceneError> {
+    fn output_plan(&self, world: &mut World) -> Result<OutputPlan, SceneError> {
         let mut probes = Vec::new();
         for (k, probe) in self.output.probes.iter().enumerate() {
             probes.push(match probe {
@@ -297,6 +297,26 @@ impl<D: Dim> Spec<D> {
                     name: name.clone(),
                     index: self.region_index(name, k)?,
                 },
+                Probe::Track {
+                    name,
+                    body,
+                    at,
+                    relative_to,
+                } => {
+                    let at = D::Vector::from_fn(|a| at.0[a]);
+                    let body = self.body_index(body, k)? as u16;
+                    let reference = match relative_to {
+                        Some(other) => {
+                            nearest_particle::<D>(world, self.body_index(other, k)? as u16, at)
+                        }
+                        None => None,
+                    };
+                    ProbeKind::Track {
+                        name: name.clone(),
+                        particle: nearest_particle::<D>(world, body, at),
+                        reference,
+                    }
+                }
             });
         }
         Ok(OutputPlan {
@@ -465,6 +485,30 @@ fn spawn_nodes<D: Dim>(world: &mut World, grid: &Grid<D>) {
         .map(|i| NodeBundle::new(i as u32, grid.node_position(i)))
         .collect();
     world.spawn_batch(nodes);
+}
+
+/// The particle of `body` that is nearest `at` (the lowest entity on a tie) and its position.
+fn nearest_particle<D: Dim>(
+    world: &mut World,
+    body: u16,
+    at: D::Vector,
+) -> Option<(bevy_ecs::entity::Entity, [f64; 3])> {
+    world
+        .query::<(
+            bevy_ecs::entity::Entity,
+            &crate::components::BodyId,
+            &crate::components::Position<D>,
+        )>()
+        .iter(world)
+        .filter(|(_, b, _)| b.0 == body)
+        .map(|(e, _, x)| (e, x.0, (x.0 - at).length()))
+        .min_by(|a, b| a.2.total_cmp(&b.2).then(a.0.cmp(&b.0)))
+        .map(|(e, x, _)| {
+            (
+                e,
+                std::array::from_fn(|a| if a < D::N { x[a] } else { 0.0 }),
+            )
+        })
 }
 
 fn describe_condition<D: Dim>(condition: &Condition) -> String {

@@ -9,7 +9,11 @@
 //!     cell diagonal; the sums run over the particles of the same contact group;
 //!   - surface detection (§2.4, option `surface`): at the first step, particles whose kernel sum
 //!     is below `surface × max S` get `SurfaceFlag = 1`, and `max(s_p, D_p)` replaces `D_p` in
-//!     the field and in the separability statistics;
+//!     the field and in the separability statistics. The kernel sum of the detection runs over
+//!     the particle's own body, so two bodies of one group that touch at the start (grains in
+//!     contact but not bonded, a billet under a platen) have their touching faces flagged: the
+//!     "paint in" §2.4 asks for at such faces, done by the scene's bodies. A solid meant to be
+//!     one piece is one body;
 //!   - the separability statistics of eq. 21 for each field of each node (mass-weighted mean
 //!     and maximum damage), stored in `NodeFieldDamage` for the contact stage.
 //! - Algorithms 1 and 2 (the node's reference gradient and each pair's side) are the engine's
@@ -180,6 +184,7 @@ type ParticleQuery<'w, 's, D> = Query<
     (
         &'static Position<D>,
         &'static ContactGroup,
+        &'static BodyId,
         &'static Damage,
         &'static Mass,
         &'static mut SurfaceFlag,
@@ -197,7 +202,7 @@ pub fn dfg_partition<D: Spatial>(
     mut particles: ParticleQuery<D>,
     mut nodes: Query<&mut NodeFieldDamage, With<Node>>,
 ) {
-    let Some((positions, groups, damage, mass, mut surface, mut gradients)) =
+    let Some((positions, groups, bodies, damage, mass, mut surface, mut gradients)) =
         single_table(particles.contiguous_iter_mut(), "particles")
     else {
         return;
@@ -214,7 +219,17 @@ pub fn dfg_partition<D: Spatial>(
         .collect();
     let surface: &mut [SurfaceFlag] = &mut surface;
     if let (Some(threshold), false) = (params.surface, detected.0) {
-        detect_surface(positions, &neighbours, radius, threshold, surface);
+        let same_body: Vec<Vec<u32>> = neighbours
+            .par_iter()
+            .enumerate()
+            .map(|(p, row)| {
+                row.iter()
+                    .copied()
+                    .filter(|&q| bodies[q as usize] == bodies[p])
+                    .collect()
+            })
+            .collect();
+        detect_surface(positions, &same_body, radius, threshold, surface);
         detected.0 = true;
     }
     let effective: Vec<f64> = damage
