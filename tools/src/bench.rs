@@ -24,6 +24,13 @@ pub enum BenchPipeline {
     KdtreeSoftening,
     /// As `KdtreeSoftening` with `neighbour/node_linked`.
     NodeLinkedSoftening,
+    /// `basis/linear` + Newmark + linear elasticity, one velocity field: the baseline of
+    /// `DfgContact`.
+    LinearNewmark,
+    /// `LinearNewmark` + `partition/dfg` (surface detection, so the block's surface layer is
+    /// partitioned) + `contact/frictional` (μ = 0.3): the cost of the kernel damage field, its
+    /// neighbour list, the field assignment and the contact stage.
+    DfgContact,
 }
 
 impl BenchPipeline {
@@ -34,6 +41,8 @@ impl BenchPipeline {
             BenchPipeline::LmeNewmark => "lme+newmark",
             BenchPipeline::KdtreeSoftening => "linear+usl+kdtree+eigensoftening",
             BenchPipeline::NodeLinkedSoftening => "linear+usl+node_linked+eigensoftening",
+            BenchPipeline::LinearNewmark => "linear+newmark",
+            BenchPipeline::DfgContact => "linear+newmark+dfg+contact",
         }
     }
 
@@ -53,7 +62,22 @@ impl BenchPipeline {
                 "(tensile_strength: 1.0e12, fracture_energy: 100.0, band_width: 0.02)",
             )
         };
+        let newmark = |spec: Spec<D>, partition: bool| {
+            let spec = spec
+                .system("basis/linear")
+                .system("predictor/newmark")
+                .system("stress/linear_elastic");
+            let spec = if partition {
+                spec.system_with("partition/dfg", "(surface: 0.8)")
+                    .system_with("contact/frictional", "(friction: 0.3)")
+            } else {
+                spec
+            };
+            spec.system("corrector/newmark").system("advection/newmark")
+        };
         match self {
+            BenchPipeline::LinearNewmark => newmark(spec, false),
+            BenchPipeline::DfgContact => newmark(spec, true),
             BenchPipeline::LinearUsl => usl(spec),
             BenchPipeline::LmeNewmark => spec
                 .system_with("basis/lme", "(gamma: 3.5)")
@@ -220,6 +244,8 @@ mod tests {
             BenchPipeline::LmeNewmark,
             BenchPipeline::KdtreeSoftening,
             BenchPipeline::NodeLinkedSoftening,
+            BenchPipeline::LinearNewmark,
+            BenchPipeline::DfgContact,
         ] {
             for (dimension, particles) in [(Dimension::Two, 400), (Dimension::Three, 512)] {
                 let case = BenchCase {

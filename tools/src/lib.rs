@@ -137,6 +137,10 @@ pub enum PipelineArg {
     KdtreeSoftening,
     /// `linear-usl` + `neighbour/node_linked` + `damage/eigensoftening`.
     NodeLinkedSoftening,
+    /// `basis/linear` + Newmark + linear elasticity (the single-field baseline of `dfg-contact`).
+    LinearNewmark,
+    /// `linear-newmark` + `partition/dfg` with surface detection + `contact/frictional`.
+    DfgContact,
 }
 
 /// Parses `args` and runs the command with the systems in `registry`; returns the exit code.
@@ -277,6 +281,8 @@ impl BenchGrid<'_> {
                 PipelineArg::LmeNewmark => BenchPipeline::LmeNewmark,
                 PipelineArg::KdtreeSoftening => BenchPipeline::KdtreeSoftening,
                 PipelineArg::NodeLinkedSoftening => BenchPipeline::NodeLinkedSoftening,
+                PipelineArg::LinearNewmark => BenchPipeline::LinearNewmark,
+                PipelineArg::DfgContact => BenchPipeline::DfgContact,
             };
             for &dimension in self.dimensions {
                 for &particles in self.particles {
