@@ -45,7 +45,7 @@
 //!   mass, mass² or mass⁴, or taking the larger mass gradient, did worse on both.
 
 use crate::predictor::newmark::NewmarkParams;
-use crate::transfer::{ForceSourceQuery, ParticleSlices, field_forces};
+use crate::transfer::{ForceSourceQuery, ParticleSlices, force_contribution};
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -385,65 +385,73 @@ pub fn frictional_contact<D: Dim>(
         return;
     };
     let c = &*connectivity;
-    let node_count = fields.len();
-    let mut gradients = vec![[D::Vector::ZERO; MAX_FIELDS]; node_count];
-    c.accumulate_to_nodes(&mut gradients, |g: &mut [D::Vector; MAX_FIELDS], e, p| {
-        g[c.field(e)] += c.gradients[e] * slices.mass[p].0;
-    });
-    let normal: &mut [NodeNormal<D>] = &mut normal;
-    normal.par_iter_mut().zip(&gradients).for_each(|(n, g)| {
-        n.0 = g.map(|g| {
-            let length = g.length();
-            if length > 0.0 {
-                g / length
-            } else {
-                D::Vector::ZERO
-            }
-        });
-    });
-    // The end-of-step velocity the contact acts on.
-    let trial: Vec<[D::Vector; MAX_FIELDS]> = match &newmark {
-        Some(newmark) => {
-            let gamma_dt = newmark.gamma * clock.dt;
-            let forces = field_forces(c, &slices, body_force.0, node_count);
-            (0..node_count)
-                .map(|i| {
-                    std::array::from_fn(|k| {
-                        crate::corrector::newmark::correct(
-                            mass[i].0[k],
-                            velocity[i].0[k],
-                            forces[i][k],
-                            gamma_dt,
-                        )
-                    })
-                })
-                .collect()
-        }
-        None => velocity.iter().map(|v| v.0).collect(),
-    };
-    let held = bcs.held_mask(node_count);
-    let impulses: Vec<[D::Vector; MAX_FIELDS]> = (0..node_count)
+    // Only nodes with two or more fields can be in contact: normals, trial velocities and
+    // impulses are gathered there alone, from the node-major connectivity.
+    let shared: Vec<usize> = (0..fields.len())
         .into_par_iter()
-        .map(|i| {
-            if fields[i].count < 2 {
-                return [D::Vector::ZERO; MAX_FIELDS];
+        .filter(|&i| fields[i].count >= 2)
+        .collect();
+    let gamma_dt = newmark.as_ref().map(|n| n.gamma * clock.dt);
+    let held = bcs.held_mask(fields.len());
+    let results: Vec<([D::Vector; MAX_FIELDS], [D::Vector; MAX_FIELDS])> = shared
+        .par_iter()
+        .map(|&i| {
+            let entries = match c.node_offsets.get(i..i + 2) {
+                Some(&[from, to]) => &c.node_entries[from..to],
+                _ => &[],
+            };
+            let mut gradient = [D::Vector::ZERO; MAX_FIELDS];
+            let mut force = [D::Vector::ZERO; MAX_FIELDS];
+            for &(e, p) in entries {
+                let (e, p) = (e as usize, p as usize);
+                gradient[c.field(e)] += c.gradients[e] * slices.mass[p].0;
+                if gamma_dt.is_some() {
+                    force[c.field(e)] += force_contribution(c, &slices, body_force.0, e, p);
+                }
             }
+            let normals = gradient.map(|g| {
+                let length = g.length();
+                if length > 0.0 {
+                    g / length
+                } else {
+                    D::Vector::ZERO
+                }
+            });
+            // The end-of-step velocity the contact acts on.
             let states = std::array::from_fn(|k| FieldState {
                 mass: mass[i].0[k],
-                velocity: trial[i][k],
-                normal: normal[i].0[k],
+                velocity: match gamma_dt {
+                    Some(gamma_dt) => crate::corrector::newmark::correct(
+                        mass[i].0[k],
+                        velocity[i].0[k],
+                        force[k],
+                        gamma_dt,
+                    ),
+                    None => velocity[i].0[k],
+                },
+                normal: normals[k],
             });
-            node_impulses(&fields[i], &states, &damage[i], &params, &held[i][..D::N])
+            let impulses =
+                node_impulses(&fields[i], &states, &damage[i], &params, &held[i][..D::N]);
+            (normals, impulses)
         })
         .collect();
     let dt = clock.dt;
     let velocity: &mut [NodeVelocity<D>] = &mut velocity;
     let acceleration: &mut [NodeAcceleration<D>] = &mut acceleration;
     let contact: &mut [NodeContactForce<D>] = &mut contact;
-    for (i, dp) in impulses.iter().enumerate() {
-        match &newmark {
-            Some(newmark) => {
-                contact[i].0 = dp.map(|dp| dp / (newmark.gamma * dt));
+    let normal: &mut [NodeNormal<D>] = &mut normal;
+    normal
+        .par_iter_mut()
+        .for_each(|n| *n = NodeNormal::default());
+    contact
+        .par_iter_mut()
+        .for_each(|f| *f = NodeContactForce::default());
+    for (&i, (normals, dp)) in shared.iter().zip(&results) {
+        normal[i].0 = *normals;
+        match gamma_dt {
+            Some(gamma_dt) => {
+                contact[i].0 = dp.map(|dp| dp / gamma_dt);
             }
             None => {
                 contact[i].0 = dp.map(|dp| dp / dt);

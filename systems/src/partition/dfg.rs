@@ -24,6 +24,11 @@
 //!   step rather than its end (a lag of one step's motion, well inside a kernel radius).
 //! - Each group's particles form their own kernel field: two groups never partition each
 //!   other, they are already separate fields.
+//! - Neighbours: candidate lists within `1.25 r` of where each particle was at the last build
+//!   (`DfgNeighbours`, this system's own list, apart from the ε-neighbourhood of the damage
+//!   stage), rebuilt with a kd-tree only when some particle has moved more than `0.125 r`. The
+//!   kernel is zero beyond `r`, so the extra candidates add exact zeros and the results are
+//!   the same, bit for bit, as with a fresh search every step.
 
 use crate::spatial::Spatial;
 use fractum_engine::fields::FieldRule;
@@ -67,6 +72,55 @@ pub struct DfgParams {
     pub surface: Option<f64>,
 }
 
+/// Kernel-neighbour candidates of `partition/dfg`, with a skin (see the module header).
+#[derive(Resource, Clone, Debug)]
+pub struct DfgNeighbours<D: Dim> {
+    /// Positions at the last build.
+    pub anchors: Vec<D::Vector>,
+    /// Candidates of the same contact group per particle, sorted.
+    pub rows: Vec<Vec<u32>>,
+    /// Builds so far.
+    pub rebuilds: u64,
+}
+
+impl<D: Dim> Default for DfgNeighbours<D> {
+    fn default() -> Self {
+        Self {
+            anchors: Vec::new(),
+            rows: Vec::new(),
+            rebuilds: 0,
+        }
+    }
+}
+
+/// The skin of the candidate lists, as a fraction of the kernel radius.
+pub const SKIN: f64 = 0.25;
+
+impl<D: Spatial> DfgNeighbours<D> {
+    /// Rebuilds the lists when they are missing or some particle has moved more than half the
+    /// skin since the last build.
+    pub fn refresh(&mut self, positions: &[Position<D>], groups: &[ContactGroup], radius: f64) {
+        let skin = SKIN * radius;
+        let moved = |(anchor, x): (&D::Vector, &Position<D>)| (x.0 - *anchor).length() > 0.5 * skin;
+        let stale = self.anchors.len() != positions.len()
+            || self.anchors.par_iter().zip(positions.par_iter()).any(moved);
+        if !stale {
+            return;
+        }
+        self.rows = crate::neighbour::kdtree::build_candidates(positions, radius + skin)
+            .into_par_iter()
+            .enumerate()
+            .map(|(p, row)| {
+                row.into_iter()
+                    .filter(|&q| groups[q as usize] == groups[p])
+                    .collect()
+            })
+            .collect();
+        self.anchors = positions.iter().map(|p| p.0).collect();
+        self.rebuilds += 1;
+    }
+}
+
 /// Whether surface detection has run.
 #[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SurfaceDetected(pub bool);
@@ -96,6 +150,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     installer.init_resource::<SurfaceDetected>();
     installer.add_particle_component(SurfaceFlag::default());
     with_dim!(installer.dimension(), D => {
+        installer.init_resource::<DfgNeighbours<D>>();
         installer.add_particle_component(DamageGradient::<D>::default());
         installer.add_systems(dfg_partition::<D>);
     });
@@ -198,6 +253,7 @@ pub fn dfg_partition<D: Spatial>(
     grid: Res<Grid<D>>,
     params: Res<DfgParams>,
     mut detected: ResMut<SurfaceDetected>,
+    mut candidates: ResMut<DfgNeighbours<D>>,
     connectivity: Res<Connectivity<D>>,
     mut particles: ParticleQuery<D>,
     mut nodes: Query<&mut NodeFieldDamage, With<Node>>,
@@ -208,15 +264,8 @@ pub fn dfg_partition<D: Spatial>(
         return;
     };
     let radius = params.radius.unwrap_or(grid.spacing * (D::N as f64).sqrt());
-    let neighbours: Vec<Vec<u32>> = crate::neighbour::kdtree::build_candidates(positions, radius)
-        .into_par_iter()
-        .enumerate()
-        .map(|(p, row)| {
-            row.into_iter()
-                .filter(|&q| groups[q as usize] == groups[p])
-                .collect()
-        })
-        .collect();
+    candidates.refresh(positions, groups, radius);
+    let neighbours = &candidates.rows;
     let surface: &mut [SurfaceFlag] = &mut surface;
     if let (Some(threshold), false) = (params.surface, detected.0) {
         let same_body: Vec<Vec<u32>> = neighbours
@@ -239,6 +288,12 @@ pub fn dfg_partition<D: Spatial>(
         .collect();
     let gradients: &mut [DamageGradient<D>] = &mut gradients;
     gradients.par_iter_mut().enumerate().for_each(|(p, g)| {
+        // Without damage among the neighbours D = ∇D = 0, and so ∇D̄ = 0: most particles of
+        // a body skip the kernel sums.
+        if neighbours[p].iter().all(|&q| effective[q as usize] == 0.0) {
+            g.0 = D::Vector::ZERO;
+            return;
+        }
         let row = neighbours[p]
             .iter()
             .map(|&q| (positions[q as usize].0, effective[q as usize]));
