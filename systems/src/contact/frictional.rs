@@ -364,6 +364,12 @@ type NodeQuery<'w, 's, D> = Query<
     With<Node>,
 >;
 
+/// What the contact law gives one shared node: each field's normal and impulse.
+struct NodeContact<V> {
+    normals: [V; MAX_FIELDS],
+    impulses: [V; MAX_FIELDS],
+}
+
 /// The `contact/frictional` system.
 #[allow(clippy::too_many_arguments)]
 pub fn frictional_contact<D: Dim>(
@@ -393,7 +399,7 @@ pub fn frictional_contact<D: Dim>(
         .collect();
     let gamma_dt = newmark.as_ref().map(|n| n.gamma * clock.dt);
     let held = bcs.held_mask(fields.len());
-    let results: Vec<([D::Vector; MAX_FIELDS], [D::Vector; MAX_FIELDS])> = shared
+    let results: Vec<NodeContact<D::Vector>> = shared
         .par_iter()
         .map(|&i| {
             let entries = match c.node_offsets.get(i..i + 2) {
@@ -433,7 +439,7 @@ pub fn frictional_contact<D: Dim>(
             });
             let impulses =
                 node_impulses(&fields[i], &states, &damage[i], &params, &held[i][..D::N]);
-            (normals, impulses)
+            NodeContact { normals, impulses }
         })
         .collect();
     let dt = clock.dt;
@@ -447,7 +453,14 @@ pub fn frictional_contact<D: Dim>(
     contact
         .par_iter_mut()
         .for_each(|f| *f = NodeContactForce::default());
-    for (&i, (normals, dp)) in shared.iter().zip(&results) {
+    for (
+        &i,
+        NodeContact {
+            normals,
+            impulses: dp,
+        },
+    ) in shared.iter().zip(&results)
+    {
         normal[i].0 = *normals;
         match gamma_dt {
             Some(gamma_dt) => {

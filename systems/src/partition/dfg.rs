@@ -256,7 +256,7 @@ pub fn dfg_partition<D: Spatial>(
     mut candidates: ResMut<DfgNeighbours<D>>,
     connectivity: Res<Connectivity<D>>,
     mut particles: ParticleQuery<D>,
-    mut nodes: Query<&mut NodeFieldDamage, With<Node>>,
+    mut nodes: Query<(&NodeFields, &mut NodeFieldDamage), With<Node>>,
 ) {
     let Some((positions, groups, bodies, damage, mass, mut surface, mut gradients)) =
         single_table(particles.contiguous_iter_mut(), "particles")
@@ -299,23 +299,23 @@ pub fn dfg_partition<D: Spatial>(
             .map(|&q| (positions[q as usize].0, effective[q as usize]));
         g.0 = normalised_gradient(kernel_sums(positions[p].0, row, radius));
     });
-    let Some(mut stats) = single_table(nodes.contiguous_iter_mut(), "nodes") else {
+    let Some((fields, mut stats)) = single_table(nodes.contiguous_iter_mut(), "nodes") else {
         return;
     };
     let c = &*connectivity;
-    let mut computed = vec![NodeFieldDamage::default(); stats.len()];
-    computed.par_iter_mut().enumerate().for_each(|(node, out)| {
-        let range = if node + 1 < c.node_offsets.len() {
-            c.node_offsets[node]..c.node_offsets[node + 1]
-        } else {
-            0..0
+    // Only a node with two fields or more has a pair to separate.
+    let stats: &mut [NodeFieldDamage] = &mut stats;
+    stats.par_iter_mut().enumerate().for_each(|(node, out)| {
+        *out = match c.node_offsets.get(node..node + 2) {
+            Some(&[from, to]) if fields[node].count >= 2 => {
+                field_damage(c.node_entries[from..to].iter().map(|&(e, p)| {
+                    let (e, p) = (e as usize, p as usize);
+                    (c.field(e), c.weights[e] * mass[p].0, effective[p])
+                }))
+            }
+            _ => NodeFieldDamage::default(),
         };
-        *out = field_damage(c.node_entries[range].iter().map(|&(e, p)| {
-            let (e, p) = (e as usize, p as usize);
-            (c.field(e), c.weights[e] * mass[p].0, effective[p])
-        }));
     });
-    stats.copy_from_slice(&computed);
 }
 
 /// Flags the particles whose kernel sum is below `threshold` times the largest (§2.4).
@@ -368,19 +368,25 @@ mod tests {
     /// A strip of particles 16 × 4, failed on the right half, with the partition system's own
     /// particle components.
     fn strip(surface: Option<f64>) -> World {
+        strip_failed(surface, 8..16)
+    }
+
+    /// A strip of particles 16 × 4 whose columns `failed` have failed.
+    fn strip_failed(surface: Option<f64>, failed: std::ops::Range<usize>) -> World {
         let mut world = tiny_world::<Two>(8, 0.25, 1e-3);
         world.insert_resource(DfgParams {
             radius: Some(0.3),
             surface,
         });
         world.insert_resource(SurfaceDetected::default());
+        world.init_resource::<DfgNeighbours<Two>>();
         for i in 0..16 {
             for j in 0..4 {
                 let x = DVec2::new(0.0625 + 0.125 * i as f64, 0.8125 + 0.125 * j as f64);
                 let id = spawn_particle(&mut world, x, DVec2::ZERO, 1.0, 0.01);
                 let mut entity = world.entity_mut(id);
                 entity.insert((SurfaceFlag::default(), DamageGradient::<Two>::default()));
-                if i >= 8 {
+                if failed.contains(&i) {
                     entity.insert(Damage(1.0));
                 }
             }
@@ -388,6 +394,32 @@ mod tests {
         run_system(&mut world, crate::basis::linear::linear_basis::<Two>);
         run_system(&mut world, dfg_partition::<Two>);
         world
+    }
+
+    /// The candidate lists are rebuilt only once a particle has moved half the skin, and the
+    /// gradients with old candidates equal those of a fresh search.
+    #[test]
+    fn candidates_are_rebuilt_only_after_half_the_skin() {
+        let mut world = strip(None);
+        let rebuilds = |world: &World| world.resource::<DfgNeighbours<Two>>().rebuilds;
+        assert_eq!(rebuilds(&world), 1);
+        let shift = |world: &mut World, dx: f64| {
+            for mut x in world.query::<&mut Position<Two>>().iter_mut(world) {
+                x.0.x += dx;
+            }
+        };
+        let half_skin = 0.5 * SKIN * 0.3;
+        shift(&mut world, 0.8 * half_skin);
+        run_system(&mut world, dfg_partition::<Two>);
+        assert_eq!(rebuilds(&world), 1);
+        let kept = particle_values::<DamageGradient<Two>>(&mut world);
+        world.insert_resource(DfgNeighbours::<Two>::default());
+        run_system(&mut world, dfg_partition::<Two>);
+        let fresh = particle_values::<DamageGradient<Two>>(&mut world);
+        assert_eq!(kept, fresh);
+        shift(&mut world, 1.2 * half_skin);
+        run_system(&mut world, dfg_partition::<Two>);
+        assert_eq!(rebuilds(&world), 2);
     }
 
     #[test]
@@ -403,13 +435,38 @@ mod tests {
         );
         // Particle (i = 2, j = 1): the kernel reaches no failed particle.
         assert_eq!(gradients[2 * 4 + 1].0, DVec2::ZERO);
-        // Nodes on the crack front hold an intact field and a failed one (eq. 21 statistics are
-        // per field, so the mean of the failed field is 1).
+    }
+
+    /// A failed band two columns wide: the gradients on its two sides point into it, so the
+    /// nodes along it split into two fields (Algorithms 1–2), each holding one failed column;
+    /// eq. 21's statistics are computed per field there, and nowhere else.
+    #[test]
+    fn a_failed_band_splits_the_nodes_along_it() {
+        let mut world = strip_failed(None, 7..9);
+        world.insert_resource(FieldRule { by_gradient: true });
+        run_system(
+            &mut world,
+            fractum_engine::fields::assign_fields_system::<Two>,
+        );
+        run_system(&mut world, dfg_partition::<Two>);
+        let fields = node_values::<NodeFields>(&mut world);
         let stats = node_values::<NodeFieldDamage>(&mut world);
+        let split: Vec<&NodeFieldDamage> = fields
+            .iter()
+            .zip(&stats)
+            .filter(|(f, _)| f.count == 2)
+            .map(|(_, s)| s)
+            .collect();
+        assert!(!split.is_empty());
+        for s in split {
+            assert_eq!((s.max[0], s.max[1]), (1.0, 1.0), "{s:?}");
+            assert!(s.mean[0] > 0.25 && s.mean[1] > 0.25, "{s:?}");
+        }
         assert!(
-            stats
+            fields
                 .iter()
-                .any(|s| s.max[0] == 1.0 && s.mean[0] > 0.0 && s.mean[0] < 1.0)
+                .zip(&stats)
+                .all(|(f, s)| f.count == 2 || *s == NodeFieldDamage::default())
         );
     }
 
