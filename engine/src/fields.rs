@@ -139,28 +139,46 @@ pub fn assign_fields<D: Dim>(
         .map(|(node, (fields, refs))| {
             let entries = node_entries(c_ref, node);
             *refs = reference_gradients::<D>(entries, groups, &gradient);
-            let mut keys: Vec<FieldKey> = entries
-                .iter()
-                .map(|&(_, p)| {
-                    let g = groups[p as usize].0;
-                    field_key(g, gradient(p as usize), refs.of(g))
-                })
-                .collect();
-            keys.sort_unstable();
-            keys.dedup();
-            if keys.len() > MAX_FIELDS {
-                return Some(TooManyFields { node, keys });
+            // The distinct keys in order, in a small array: no allocation per node.
+            let mut keys = [FieldKey::default(); MAX_FIELDS];
+            let mut count = 0;
+            for &(_, p) in entries {
+                let g = groups[p as usize].0;
+                let key = field_key(g, gradient(p as usize), refs.of(g));
+                let at = keys[..count].partition_point(|&k| k < key);
+                if at < count && keys[at] == key {
+                    continue;
+                }
+                if count == MAX_FIELDS {
+                    let mut all: Vec<FieldKey> = entries
+                        .iter()
+                        .map(|&(_, p)| {
+                            let g = groups[p as usize].0;
+                            field_key(g, gradient(p as usize), refs.of(g))
+                        })
+                        .collect();
+                    all.sort_unstable();
+                    all.dedup();
+                    return Some(TooManyFields { node, keys: all });
+                }
+                keys.copy_within(at..count, at + 1);
+                keys[at] = key;
+                count += 1;
             }
-            fields.count = keys.len() as u8;
-            fields.keys = std::array::from_fn(|k| keys.get(k).copied().unwrap_or_default());
+            fields.count = count as u8;
+            fields.keys = keys;
             None
         })
         .collect();
     if let Some(failure) = node_results.into_iter().flatten().next() {
         return Err(failure);
     }
-    let rows: Vec<usize> = c.row_offsets.clone();
-    let (nodes, fields) = (&c.nodes, &mut c.fields);
+    let Connectivity {
+        row_offsets: rows,
+        nodes,
+        fields,
+        ..
+    } = c;
     let mut chunks: Vec<&mut [u8]> = Vec::with_capacity(rows.len().saturating_sub(1));
     let mut rest: &mut [u8] = fields;
     for w in rows.windows(2) {
