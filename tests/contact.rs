@@ -415,6 +415,9 @@ fn pull_cracked_bar(partition: Option<&str>) -> (f64, f64) {
         sim.step().unwrap_or_else(|e| panic!("{e}"));
         largest = largest.max(sim.world.resource::<Reactions<Two>>().0[0].x.abs());
     }
+    if partition.is_some() {
+        check_partition_frame(&mut sim.world);
+    }
     let mut q = sim.world.query::<(&Position<Two>, &Damage)>();
     let (left, right) = q.iter(&sim.world).filter(|(_, d)| d.0 < 1.0).fold(
         (f64::MIN, f64::MAX),
@@ -427,6 +430,43 @@ fn pull_cracked_bar(partition: Option<&str>) -> (f64, f64) {
         },
     );
     (largest, right - left)
+}
+
+/// The VTU frame of a partitioned run carries the damage-field gradient, the surface flag and
+/// each particle's velocity field at its nearest node: the gradients next to the failed band
+/// point into it from both sides, no particle is flagged (no surface detection), and every
+/// field key is group 0's (0 or 1: the side is relative to each node's reference direction).
+fn check_partition_frame(world: &mut World) {
+    let frame = fractum_engine::run::particle_frame(world);
+    let scalar = |name: &str| {
+        frame
+            .scalars
+            .iter()
+            .find(|(n, _)| n == name)
+            .unwrap_or_else(|| panic!("no {name} in the frame"))
+            .1
+            .clone()
+    };
+    assert!(scalar("surface").iter().all(|&s| s == 0.0));
+    assert!(
+        scalar("velocity_field")
+            .iter()
+            .all(|&f| f == 0.0 || f == 1.0)
+    );
+    let (name, gradient) = &frame.vectors[0];
+    assert_eq!(
+        (name.as_str(), gradient.len()),
+        ("damage_gradient", frame.id.len())
+    );
+    for p in 0..frame.id.len() {
+        let x = frame.position[p][0];
+        if frame.damage[p] < 1.0 && (0.52..0.55).contains(&x) {
+            assert!(gradient[p][0] > 0.0, "{x}: {:?}", gradient[p]);
+        }
+        if frame.damage[p] < 1.0 && (0.6..0.63).contains(&x) {
+            assert!(gradient[p][0] < 0.0, "{x}: {:?}", gradient[p]);
+        }
+    }
 }
 
 /// §1.1.2: a layer of failed particles in a single velocity field still carries load, because

@@ -2,8 +2,8 @@
 
 use crate::boundary::{BoundaryConditions, Reactions};
 use crate::components::{
-    Acceleration, BodyId, Damage, Mass, MaterialId, Particle, ParticleId, Position,
-    StrainEnergyDensity, Stress, Velocity, Volume,
+    Acceleration, BodyId, Damage, DamageGradient, Mass, MaterialId, Node, NodeFields, Particle,
+    ParticleId, Position, StrainEnergyDensity, Stress, SurfaceFlag, Velocity, Volume,
 };
 use crate::diagnostics::{Totals, totals};
 use crate::dim::{Dim, Dimension, SymOps, VectorOps};
@@ -101,7 +101,43 @@ fn particle_frame_of<D: Dim>(world: &mut World) -> ParticleFrame {
         f.damage.push(d.0);
         f.strain_energy_density.push(w.0);
     }
+    partition_fields::<D>(world, &mut f);
     f
+}
+
+/// The partition stage's particle data, when the pipeline has one: the damage-field gradient,
+/// the surface flag, and the velocity field of the particle at its nearest node (the key
+/// `2 × group + side` of the field its largest-weight node puts it in).
+fn partition_fields<D: Dim>(world: &mut World, f: &mut ParticleFrame) {
+    let mut gradients = world.query_filtered::<&DamageGradient<D>, With<Particle>>();
+    let gradient: Vec<[f64; 3]> = gradients.iter(world).map(|g| g.0.to_3d()).collect();
+    if gradient.len() == f.id.len() {
+        f.vectors.push(("damage_gradient".into(), gradient));
+    }
+    let mut flags = world.query_filtered::<&SurfaceFlag, With<Particle>>();
+    let surface: Vec<f64> = flags.iter(world).map(|s| s.0).collect();
+    if surface.len() == f.id.len() {
+        f.scalars.push(("surface".into(), surface));
+    }
+    if !world.contains_resource::<crate::fields::FieldRule>() {
+        return;
+    }
+    let mut nodes = world.query_filtered::<&NodeFields, With<Node>>();
+    let node_fields: Vec<NodeFields> = nodes.iter(world).copied().collect();
+    let c = world.resource::<crate::connectivity::Connectivity<D>>();
+    if c.row_offsets.len() != f.id.len() + 1 {
+        return;
+    }
+    let field = (0..f.id.len())
+        .map(|p| {
+            c.row(p)
+                .max_by(|&a, &b| c.weights[a].total_cmp(&c.weights[b]).then(b.cmp(&a)))
+                .map_or(f64::NAN, |e| {
+                    f64::from(node_fields[c.nodes[e] as usize].keys[c.field(e)].0)
+                })
+        })
+        .collect();
+    f.scalars.push(("velocity_field".into(), field));
 }
 
 /// The values of one `series.csv` row after the step column.

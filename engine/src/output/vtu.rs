@@ -35,6 +35,11 @@ pub struct ParticleFrame {
     pub damage: Vec<f64>,
     /// Stored energy per unit reference volume.
     pub strain_energy_density: Vec<f64>,
+    /// Further per-particle scalars that only some pipelines have (the surface flag, the
+    /// velocity field at the nearest node), by name.
+    pub scalars: Vec<(String, Vec<f64>)>,
+    /// Further per-particle vectors (the damage-field gradient), by name.
+    pub vectors: Vec<(String, Vec<[f64; 3]>)>,
 }
 
 struct Inline {
@@ -132,6 +137,17 @@ pub fn write_particle_frame(path: &Path, frame: &ParticleFrame) -> std::io::Resu
         1,
         f64_bytes(frame.strain_energy_density.iter().copied()),
     );
+    for (name, values) in &frame.scalars {
+        out.array(Some(name), "Float64", 1, f64_bytes(values.iter().copied()));
+    }
+    for (name, values) in &frame.vectors {
+        out.array(
+            Some(name),
+            "Float64",
+            3,
+            f64_bytes(values.iter().flatten().copied()),
+        );
+    }
     out.xml.push_str("      </PointData>\n      <Points>\n");
     out.array(
         None,
