@@ -458,13 +458,12 @@ fn check_partition_frame(world: &mut World) {
         (name.as_str(), gradient.len()),
         ("damage_gradient", frame.id.len())
     );
-    for p in 0..frame.id.len() {
-        let x = frame.position[p][0];
-        if frame.damage[p] < 1.0 && (0.52..0.55).contains(&x) {
-            assert!(gradient[p][0] > 0.0, "{x}: {:?}", gradient[p]);
+    for ((x, d), g) in frame.position.iter().zip(&frame.damage).zip(gradient) {
+        if *d < 1.0 && (0.52..0.55).contains(&x[0]) {
+            assert!(g[0] > 0.0, "{x:?}: {g:?}");
         }
-        if frame.damage[p] < 1.0 && (0.6..0.63).contains(&x) {
-            assert!(gradient[p][0] < 0.0, "{x}: {:?}", gradient[p]);
+        if *d < 1.0 && (0.6..0.63).contains(&x[0]) {
+            assert!(g[0] < 0.0, "{x:?}: {g:?}");
         }
     }
 }
