@@ -533,27 +533,10 @@ impl Billet {
     }
 }
 
-/// Runs one of the billet scenes at half the shipped resolution (Δx = 0.05 mm, CI-sized).
+/// Runs one of the billet scenes as shipped (Δx = 0.025 mm, 6 912 particles; about 15 s each
+/// in the test profile).
 fn compact_billet(name: &str) -> Billet {
-    use fractum_engine::scene::Shape;
-    let mut spec = scene::<Two>(name);
-    let h = 5.0e-5;
-    spec.grid = Grid {
-        min: DVec2::ZERO,
-        spacing: h,
-        cells: [28, 22],
-    };
-    // The load stays on the platen's top row of particles.
-    spec.bodies[1].loads[0].region = Some(Shape::Rectangle {
-        min: DVec2::new(0.0, 1.0e-3 - 0.5 * h),
-        max: DVec2::new(1.2e-3, 1.0e-3),
-    });
-    for entry in &mut spec.pipeline {
-        if entry.system == "partition/dfg" {
-            // The shipped scene's kernel radius, 1.2 cells.
-            *entry = PipelineEntry::with_params("partition/dfg", "(surface: 0.8, radius: 6.0e-5)");
-        }
-    }
+    let spec = scene::<Two>(name);
     let registry = fractum_systems::stock_registry();
     let mut sim = spec
         .build(&registry)
@@ -619,4 +602,52 @@ fn billet_self_contact_matches_two_contact_groups() {
             assert!(e < 0.98 * expansion, "{e}");
         }
     }
+}
+
+/// The ε-neighbourhood of eigensoftening (C_ε·h, from `neighbour/kdtree`) and the DFG kernel's
+/// own candidate lists (1.25 × the cell diagonal) live side by side: the tension bar of
+/// `tension_softening.ron` with `partition/dfg` and `contact/frictional` added cracks at the
+/// same steps as without them, and each list keeps its own radius.
+#[test]
+fn eigensoftening_and_dfg_keep_their_own_neighbour_lists() {
+    let failed_at = |with_dfg: bool| -> (Option<u64>, World) {
+        let mut spec = scene::<Two>("tension_softening.ron");
+        if with_dfg {
+            let advection = spec.pipeline.len() - 1;
+            spec.pipeline
+                .insert(advection, entry("contact/frictional", None));
+            spec.pipeline
+                .insert(advection, entry("partition/dfg", None));
+        }
+        let registry = fractum_systems::stock_registry();
+        let mut sim = spec
+            .build(&registry)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .simulation;
+        let mut first_failure = None;
+        while !sim.finished() {
+            sim.step().unwrap_or_else(|e| panic!("{e}"));
+            let mut q = sim.world.query::<&Damage>();
+            if first_failure.is_none() && q.iter(&sim.world).any(|d| d.0 >= 1.0) {
+                first_failure = Some(sim.clock().step);
+            }
+        }
+        (first_failure, sim.world)
+    };
+    let (alone, _) = failed_at(false);
+    let (with_dfg, world) = failed_at(true);
+    // The first particle fails one step before the analytic step 301, next to the loaded end
+    // (tests/fracture.rs), with or without the partition.
+    assert_eq!(alone, Some(300));
+    assert_eq!(with_dfg, alone);
+    let epsilon = world.resource::<fractum_engine::neighbourhood::Neighbourhoods>();
+    assert!((epsilon.radius - 2.0 * 0.05).abs() < 1e-12);
+    let kernel = world.resource::<fractum_systems::partition::dfg::DfgNeighbours<Two>>();
+    assert_eq!(kernel.rows.len(), epsilon.particle_count());
+    // The kernel lists reach 1.25 × 0.05·√2 ≈ 0.088 m, fewer particles than ε = 0.1 m.
+    let mean = |n: usize| n as f64 / kernel.rows.len() as f64;
+    assert!(
+        mean(kernel.rows.iter().map(Vec::len).sum()) < mean(epsilon.list.len()),
+        "kernel lists should be shorter than the ε-neighbourhoods"
+    );
 }

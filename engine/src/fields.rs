@@ -11,11 +11,25 @@
 //!   (Algorithm 1), and a pair goes to side 0 when `∇D̄_p · ∇D̄_i ≥ 0`, to side 1 otherwise
 //!   (Algorithm 2).
 //!
+//! - Separability before the stress (§2.3): the two sides of a group at a node stay separate
+//!   fields only when they could separate, i.e. some particle there has failed and both sides'
+//!   mass-weighted mean damage exceeds D̄_min (the contact system's `separability`, published
+//!   as the [`Separability`] resource). Otherwise the node keeps one field for the group, so
+//!   that intact material moves, and is strained, exactly as a single field. (The paper's
+//!   update-stress-last order merges such pairs at the contact step, before the velocity
+//!   gradient; in this pipeline the stress stage precedes contact, so the merge is made here.
+//!   Without it, gradient noise in uniform damage splits intact nodes and the strain of the
+//!   step is taken from the split fields: a bar in homogeneous tension with eigensoftening
+//!   failed 74 steps early.) Damage here is `max(D, s)` with the surface flag, as in eq. 21,
+//!   from the previous step like the gradients.
+//!
 //! Each node lists the keys present in ascending key order ([`NodeFields`]); the slot of a pair
 //! is the position of its key in that list. Both passes run in parallel (over nodes, then over
 //! particle rows) and the result is independent of the number of threads.
 
-use crate::components::{ContactGroup, DamageGradient, FieldKey, MAX_FIELDS, NodeFields};
+use crate::components::{
+    ContactGroup, Damage, DamageGradient, FieldKey, MAX_FIELDS, Mass, NodeFields, SurfaceFlag,
+};
 use crate::components::{Node, Particle};
 use crate::connectivity::Connectivity;
 use crate::dim::{Dim, VectorOps};
@@ -25,27 +39,70 @@ use crate::stage::Stage;
 use bevy_ecs::prelude::*;
 use rayon::prelude::*;
 
+/// D̄_min of the separability condition (§2.3), published by the contact system so that the
+/// field assignment keeps inseparable sides of a group in one field.
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+pub struct Separability(pub f64);
+
+/// What the separability condition needs at assignment: each particle's damage (`max(D, s)`)
+/// and mass, and D̄_min.
+#[derive(Clone, Copy, Debug)]
+pub struct Separation<'a> {
+    /// Damage per particle row.
+    pub damage: &'a [f64],
+    /// Mass per particle row.
+    pub mass: &'a [f64],
+    /// D̄_min.
+    pub threshold: f64,
+}
+
 /// The engine's field assignment, after the basis stage and before its health check.
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct AssignFields;
 
 /// The engine system that applies the pipeline's [`FieldRule`] to the new connectivity.
+#[allow(clippy::too_many_arguments)]
 pub fn assign_fields_system<D: Dim>(
     clock: Res<SimClock>,
+    separability: Option<Res<Separability>>,
     mut health: ResMut<Health>,
     mut connectivity: ResMut<Connectivity<D>>,
-    particles: Query<&ContactGroup, With<Particle>>,
+    particles: Query<(&ContactGroup, &Damage, &Mass), With<Particle>>,
     gradients: Query<&DamageGradient<D>, With<Particle>>,
+    surface: Query<&SurfaceFlag, With<Particle>>,
     mut nodes: Query<&mut NodeFields, With<Node>>,
 ) {
-    let Some(groups) = single_table(particles.contiguous_iter(), "particles") else {
+    let Some((groups, damage, mass)) = single_table(particles.contiguous_iter(), "particles")
+    else {
         return;
     };
     let gradients = single_table(gradients.contiguous_iter(), "particles");
     let Some(mut fields) = single_table(nodes.contiguous_iter_mut(), "nodes") else {
         return;
     };
-    if let Err(e) = assign_fields(&mut connectivity, groups, gradients, &mut fields) {
+    let flags = single_table(surface.contiguous_iter(), "particles");
+    let effective: Vec<f64> = match flags {
+        Some(flags) => damage
+            .iter()
+            .zip(flags)
+            .map(|(d, s)| d.0.max(s.0))
+            .collect(),
+        None => damage.iter().map(|d| d.0).collect(),
+    };
+    let masses: Vec<f64> = mass.iter().map(|m| m.0).collect();
+    let separation = separability.map(|s| Separation {
+        damage: &effective,
+        mass: &masses,
+        threshold: s.0,
+    });
+    let result = assign_fields(
+        &mut connectivity,
+        groups,
+        gradients,
+        separation.as_ref(),
+        &mut fields,
+    );
+    if let Err(e) = result {
         health.failure.get_or_insert(Blowup {
             step: clock.step + 1,
             stage: Stage::Basis,
@@ -94,6 +151,8 @@ struct NodeReferences<V: Copy> {
     count: usize,
     groups: [u8; MAX_FIELDS],
     gradients: [V; MAX_FIELDS],
+    /// The group's two sides are inseparable here and share side 0.
+    merged: [bool; MAX_FIELDS],
 }
 
 impl<V: VectorOps> NodeReferences<V> {
@@ -102,13 +161,48 @@ impl<V: VectorOps> NodeReferences<V> {
             count: 0,
             groups: [0; MAX_FIELDS],
             gradients: [V::ZERO; MAX_FIELDS],
+            merged: [false; MAX_FIELDS],
         }
     }
 
-    fn of(&self, group: u8) -> V {
-        (0..self.count)
-            .find(|&k| self.groups[k] == group)
-            .map_or(V::ZERO, |k| self.gradients[k])
+    /// The field key of a particle of `group` with damage gradient `gradient` here.
+    fn key(&self, group: u8, gradient: V) -> FieldKey {
+        match (0..self.count).find(|&k| self.groups[k] == group) {
+            Some(k) if self.merged[k] => FieldKey::new(group, 0),
+            Some(k) => field_key(group, gradient, self.gradients[k]),
+            None => field_key(group, gradient, V::ZERO),
+        }
+    }
+
+    /// Marks the groups whose two sides here fail the separability condition (§2.3).
+    fn merge_inseparable(
+        &mut self,
+        entries: &[(u32, u32)],
+        weights: &[f64],
+        groups: &[ContactGroup],
+        gradient: &impl Fn(usize) -> V,
+        separation: &Separation,
+    ) {
+        // Per group slot and side: Σ N m D, Σ N m, max D.
+        let mut sums = [[(0.0, 0.0, 0.0f64); 2]; MAX_FIELDS];
+        for &(e, p) in entries {
+            let (g, p) = (groups[p as usize].0, p as usize);
+            let Some(k) = (0..self.count).find(|&k| self.groups[k] == g) else {
+                continue;
+            };
+            let side = field_key(g, gradient(p), self.gradients[k]).side() as usize;
+            let nm = weights[e as usize] * separation.mass[p];
+            let d = separation.damage[p];
+            let s = &mut sums[k][side];
+            *s = (s.0 + nm * d, s.1 + nm, s.2.max(d));
+        }
+        for (merged, [a, b]) in self.merged.iter_mut().zip(sums).take(self.count) {
+            if a.1 > 0.0 && b.1 > 0.0 {
+                let failed = a.2.max(b.2) >= 1.0;
+                let damaged = (a.0 / a.1).min(b.0 / b.1) > separation.threshold;
+                *merged = !(failed && damaged);
+            }
+        }
     }
 }
 
@@ -126,6 +220,7 @@ pub fn assign_fields<D: Dim>(
     c: &mut Connectivity<D>,
     groups: &[ContactGroup],
     gradients: Option<&[DamageGradient<D>]>,
+    separation: Option<&Separation>,
     node_fields: &mut [NodeFields],
 ) -> Result<(), TooManyFields> {
     let gradient = |p: usize| gradients.map_or(D::Vector::ZERO, |g| g[p].0);
@@ -139,12 +234,15 @@ pub fn assign_fields<D: Dim>(
         .map(|(node, (fields, refs))| {
             let entries = node_entries(c_ref, node);
             *refs = reference_gradients::<D>(entries, groups, &gradient);
+            if let (Some(separation), Some(_)) = (separation, gradients) {
+                refs.merge_inseparable(entries, &c_ref.weights, groups, &gradient, separation);
+            }
             // The distinct keys in order, in a small array: no allocation per node.
             let mut keys = [FieldKey::default(); MAX_FIELDS];
             let mut count = 0;
             for &(_, p) in entries {
                 let g = groups[p as usize].0;
-                let key = field_key(g, gradient(p as usize), refs.of(g));
+                let key = refs.key(g, gradient(p as usize));
                 let at = keys[..count].partition_point(|&k| k < key);
                 if at < count && keys[at] == key {
                     continue;
@@ -154,7 +252,7 @@ pub fn assign_fields<D: Dim>(
                         .iter()
                         .map(|&(_, p)| {
                             let g = groups[p as usize].0;
-                            field_key(g, gradient(p as usize), refs.of(g))
+                            refs.key(g, gradient(p as usize))
                         })
                         .collect();
                     all.sort_unstable();
@@ -191,7 +289,7 @@ pub fn assign_fields<D: Dim>(
         let g = groups[p].0;
         for (k, slot) in row.iter_mut().enumerate() {
             let node = nodes[rows[p] + k] as usize;
-            let key = field_key(g, gradient(p), references[node].of(g));
+            let key = references[node].key(g, gradient(p));
             *slot = node_fields[node]
                 .active()
                 .iter()
@@ -266,7 +364,7 @@ mod tests {
         let mut c = connectivity();
         let groups = [ContactGroup(0), ContactGroup(0), ContactGroup(3)];
         let mut fields = vec![NodeFields::default(); 2];
-        assign_fields(&mut c, &groups, None, &mut fields).unwrap();
+        assign_fields(&mut c, &groups, None, None, &mut fields).unwrap();
         assert_eq!(
             fields[0].active(),
             &[FieldKey::new(0, 0), FieldKey::new(3, 0)]
@@ -285,7 +383,7 @@ mod tests {
             DamageGradient(DVec2::new(0.2, 0.0)),
         ];
         let mut fields = vec![NodeFields::default(); 2];
-        assign_fields(&mut c, &groups, Some(&gradients), &mut fields).unwrap();
+        assign_fields(&mut c, &groups, Some(&gradients), None, &mut fields).unwrap();
         assert_eq!(
             fields[0].active(),
             &[FieldKey::new(0, 0), FieldKey::new(0, 1)]
@@ -299,6 +397,50 @@ mod tests {
         assert_eq!(c.fields, vec![1, 0, 0, 0, 1]);
     }
 
+    /// The same split, with the separability condition at assignment: intact sides stay one
+    /// field; once a particle has failed and both sides are damaged beyond D̄_min they split.
+    #[test]
+    fn inseparable_sides_stay_one_field() {
+        let groups = [ContactGroup(0); 3];
+        let gradients = [
+            DamageGradient(DVec2::new(-0.5, 0.1)),
+            DamageGradient(DVec2::new(2.0, 0.0)),
+            DamageGradient(DVec2::new(0.2, 0.0)),
+        ];
+        let mass = [1.0; 3];
+        let assign = |damage: &[f64]| {
+            let mut c = connectivity();
+            let mut fields = vec![NodeFields::default(); 2];
+            let separation = Separation {
+                damage,
+                mass: &mass,
+                threshold: 0.25,
+            };
+            assign_fields(
+                &mut c,
+                &groups,
+                Some(&gradients),
+                Some(&separation),
+                &mut fields,
+            )
+            .unwrap();
+            (fields, c.fields)
+        };
+        let (fields, slots) = assign(&[0.0, 0.0, 0.0]);
+        assert_eq!(fields[0].active(), &[FieldKey::new(0, 0)]);
+        assert_eq!(fields[1].active(), &[FieldKey::new(0, 0)]);
+        assert_eq!(slots, vec![0; 5]);
+        // Particle 0 failed and particle 1 damaged: node 0's sides (p0 | p1) separate; node 1
+        // (p0 | p2) does not, as p2 is intact.
+        let (fields, slots) = assign(&[1.0, 0.5, 0.0]);
+        assert_eq!(
+            fields[0].active(),
+            &[FieldKey::new(0, 0), FieldKey::new(0, 1)]
+        );
+        assert_eq!(fields[1].active(), &[FieldKey::new(0, 0)]);
+        assert_eq!(slots, vec![1, 0, 0, 0, 0]);
+    }
+
     #[test]
     fn more_fields_than_slots_names_the_node() {
         let mut c = Connectivity::<Two>::default();
@@ -306,7 +448,7 @@ mod tests {
         c.rebuild(&vec![vec![(1, 1.0, g)]; 5], 2);
         let groups: Vec<_> = (0..5).map(ContactGroup).collect();
         let mut fields = vec![NodeFields::default(); 2];
-        let e = assign_fields(&mut c, &groups, None, &mut fields).unwrap_err();
+        let e = assign_fields(&mut c, &groups, None, None, &mut fields).unwrap_err();
         assert_eq!(e.node, 1);
         assert!(e.to_string().contains("node 1 holds 5 velocity fields"));
     }

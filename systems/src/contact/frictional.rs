@@ -192,6 +192,8 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     if !(parsed.min_mass_fraction >= 0.0 && parsed.min_mass_fraction < 1.0) {
         return Err(params.error("min_mass_fraction", "expected a fraction in [0, 1)"));
     }
+    // The field assignment keeps inseparable sides of a group in one field (fractum_engine::fields).
+    installer.insert_resource(fractum_engine::fields::Separability(parsed.separability));
     installer.insert_resource(parsed);
     with_dim!(installer.dimension(), D => installer.add_systems(frictional_contact::<D>));
     Ok(())
