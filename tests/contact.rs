@@ -651,3 +651,31 @@ fn eigensoftening_and_dfg_keep_their_own_neighbour_lists() {
         "kernel lists should be shorter than the ε-neighbourhoods"
     );
 }
+
+/// A grid frame during the two-disk contact: the shared nodes hold group 0's and group 1's
+/// fields (keys 0 and 2), each with mass, and each field's normal points out of its disk,
+/// towards the other.
+#[test]
+fn grid_frames_show_both_fields_where_the_disks_meet() {
+    let registry = fractum_systems::stock_registry();
+    let mut sim = scene::<Two>("two_disks_contact.ron")
+        .build(&registry)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .simulation;
+    for _ in 0..1300 {
+        sim.step().unwrap_or_else(|e| panic!("{e}"));
+    }
+    let frame = fractum_engine::run::grid_frame(&mut sim.world);
+    let diagonal = DVec2::ONE.normalize();
+    let shared: Vec<usize> = (0..frame.index.len())
+        .filter(|&i| frame.fields[i] == 2)
+        .collect();
+    assert!(!shared.is_empty());
+    for i in shared {
+        assert_eq!(frame.key[i], [0, 2, -1, -1]);
+        assert!(frame.mass[i][0] > 0.0 && frame.mass[i][1] > 0.0);
+        let normal = |k: usize| DVec2::new(frame.normal[i][k][0], frame.normal[i][k][1]);
+        // Lower-left disk (group 0) faces up-right, the other down-left.
+        assert!(normal(0).dot(diagonal) > 0.0 && normal(1).dot(diagonal) < 0.0);
+    }
+}

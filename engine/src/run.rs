@@ -9,7 +9,8 @@ use crate::diagnostics::{Totals, totals};
 use crate::dim::{Dim, Dimension, SymOps, VectorOps};
 use crate::health::Blowup;
 use crate::output::{
-    OutputPlan, ParticleFrame, ProbeKind, SeriesWriter, write_particle_frame, write_pvd,
+    GridFrame, OutputPlan, ParticleFrame, ProbeKind, SeriesWriter, write_grid_frame,
+    write_particle_frame, write_pvd,
 };
 use crate::resources::SimClock;
 use crate::simulation::Simulation;
@@ -102,6 +103,44 @@ fn particle_frame_of<D: Dim>(world: &mut World) -> ParticleFrame {
         f.strain_energy_density.push(w.0);
     }
     partition_fields::<D>(world, &mut f);
+    f
+}
+
+/// The grid nodes that carry mass, with each velocity field's key, mass, velocity and normal.
+pub fn grid_frame(world: &mut World) -> GridFrame {
+    let dimension = *world.resource::<Dimension>();
+    with_dim!(dimension, D => grid_frame_of::<D>(world))
+}
+
+fn grid_frame_of<D: Dim>(world: &mut World) -> GridFrame {
+    let grid = *world.resource::<crate::resources::Grid<D>>();
+    let mut query = world.query_filtered::<(
+        &crate::components::NodeIndex,
+        &NodeFields,
+        &crate::components::NodeMass,
+        &crate::components::NodeVelocity<D>,
+        &crate::components::NodeNormal<D>,
+    ), With<Node>>();
+    let mut f = GridFrame::default();
+    for (index, fields, mass, velocity, normal) in query.iter(world) {
+        if mass.0.iter().sum::<f64>() <= 0.0 {
+            continue;
+        }
+        f.index.push(index.0);
+        f.position
+            .push(grid.node_position(index.0 as usize).to_3d());
+        f.fields.push(fields.count);
+        f.key.push(std::array::from_fn(|k| {
+            if k < usize::from(fields.count) {
+                i32::from(fields.keys[k].0)
+            } else {
+                -1
+            }
+        }));
+        f.mass.push(mass.0);
+        f.velocity.push(velocity.0.map(|v| v.to_3d()));
+        f.normal.push(normal.0.map(|v| v.to_3d()));
+    }
     f
 }
 
@@ -220,6 +259,7 @@ struct Outputs<'a> {
     dir: &'a Path,
     series: SeriesWriter,
     frames: Vec<(f64, String)>,
+    grid_frames: Vec<(f64, String)>,
 }
 
 impl Outputs<'_> {
@@ -240,6 +280,14 @@ impl Outputs<'_> {
             let pvd = self.dir.join("particles.pvd");
             write_pvd(&pvd, &self.frames).map_err(io_error(&pvd))?;
         }
+        if self.plan.grid_every > 0 && (force || due(self.plan.grid_every)) {
+            let name = format!("frames/grid_{step:08}.vtu");
+            let path = self.dir.join(&name);
+            write_grid_frame(&path, &grid_frame(&mut sim.world)).map_err(io_error(&path))?;
+            self.grid_frames.push((sim.clock().time, name));
+            let pvd = self.dir.join("grid.pvd");
+            write_pvd(&pvd, &self.grid_frames).map_err(io_error(&pvd))?;
+        }
         Ok(())
     }
 }
@@ -259,6 +307,7 @@ pub fn run(
         dir: out_dir,
         series: SeriesWriter::new(out_dir.join("series.csv"), &plan.columns()),
         frames: Vec::new(),
+        grid_frames: Vec::new(),
     };
     let particles = sim.particle_count();
     let started = Instant::now();

@@ -147,3 +147,36 @@ fn bad_usage_exits_with_2() {
     let out = fractum(&["run"]);
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// `grid_every` writes grid-node frames with each velocity field's key, mass, velocity and
+/// normal, and their collection `grid.pvd`.
+#[test]
+fn run_writes_grid_frames_with_the_velocity_fields() {
+    let out_dir = std::env::temp_dir().join(format!("fractum-cli-grid-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out_dir);
+    // The disks share grid nodes from t = 1.13 s (step 1127).
+    let out = fractum(&[
+        "run",
+        "scenes/two_disks_contact.ron",
+        "--out",
+        out_dir.to_str().unwrap(),
+        "--steps",
+        "1300",
+        "--quiet",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let pvd = std::fs::read_to_string(out_dir.join("grid.pvd")).unwrap();
+    assert!(pvd.contains("frames/grid_00001300.vtu"), "{pvd}");
+    let frame = std::fs::read_to_string(out_dir.join("frames/grid_00001300.vtu")).unwrap();
+    for array in [
+        "\"index\"",
+        "\"fields\"",
+        "\"key_1\"",
+        "\"mass_1\"",
+        "\"velocity_1\"",
+        "\"normal_1\"",
+    ] {
+        assert!(frame.contains(array), "{array} missing");
+    }
+    let _ = std::fs::remove_dir_all(&out_dir);
+}

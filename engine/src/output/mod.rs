@@ -10,7 +10,7 @@ mod vtu;
 pub use atomic::write_atomically;
 pub use csv::SeriesWriter;
 pub use pvd::write_pvd;
-pub use vtu::{ParticleFrame, write_particle_frame};
+pub use vtu::{GridFrame, ParticleFrame, write_grid_frame, write_particle_frame};
 
 use crate::dim::Dimension;
 
@@ -21,6 +21,8 @@ pub struct OutputPlan {
     pub dimension: Dimension,
     /// VTU frame every this many steps (0: none).
     pub vtu_every: u64,
+    /// Grid-node VTU frame every this many steps (0: none).
+    pub grid_every: u64,
     /// CSV row every this many steps (0: first and last only).
     pub csv_every: u64,
     /// Extra CSV columns.
@@ -37,6 +39,7 @@ impl OutputPlan {
         Self {
             dimension,
             vtu_every: 0,
+            grid_every: 0,
             csv_every: 1,
             probes: Vec::new(),
             last_good_frame: true,

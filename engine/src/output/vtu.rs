@@ -72,6 +72,91 @@ fn i64_bytes(values: impl Iterator<Item = i64>) -> Vec<u8> {
     values.flat_map(i64::to_le_bytes).collect()
 }
 
+/// The grid nodes that carry mass, with their velocity fields (see [`crate::components`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GridFrame {
+    /// Node indices.
+    pub index: Vec<u32>,
+    /// Node positions.
+    pub position: Vec<[f64; 3]>,
+    /// Number of velocity fields at each node.
+    pub fields: Vec<u8>,
+    /// Per field slot: the field's key `2 × group + side`, or −1 for an unused slot.
+    pub key: Vec<[i32; crate::components::MAX_FIELDS]>,
+    /// Per field slot: mass.
+    pub mass: Vec<[f64; crate::components::MAX_FIELDS]>,
+    /// Per field slot: velocity.
+    pub velocity: Vec<[[f64; 3]; crate::components::MAX_FIELDS]>,
+    /// Per field slot: the contact normal (zero where the node has one field).
+    pub normal: Vec<[[f64; 3]; crate::components::MAX_FIELDS]>,
+}
+
+/// Writes the grid `frame` to `path` atomically: one VTK vertex per node, with `index`,
+/// `fields`, and `key_k`, `mass_k`, `velocity_k`, `normal_k` for each field slot `k`.
+pub fn write_grid_frame(path: &Path, frame: &GridFrame) -> std::io::Result<()> {
+    let n = frame.position.len();
+    let mut out = Inline { xml: String::new() };
+    let _ = write!(
+        out.xml,
+        "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" \
+         byte_order=\"LittleEndian\" header_type=\"UInt64\">\n  <UnstructuredGrid>\n    \
+         <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">\n      <PointData \
+         Scalars=\"fields\" Vectors=\"velocity_0\">\n"
+    );
+    out.array(
+        Some("index"),
+        "Int32",
+        1,
+        i32_bytes(frame.index.iter().map(|&v| v as i32)),
+    );
+    out.array(
+        Some("fields"),
+        "Int32",
+        1,
+        i32_bytes(frame.fields.iter().map(|&v| i32::from(v))),
+    );
+    for k in 0..crate::components::MAX_FIELDS {
+        out.array(
+            Some(&format!("key_{k}")),
+            "Int32",
+            1,
+            i32_bytes(frame.key.iter().map(|v| v[k])),
+        );
+        out.array(
+            Some(&format!("mass_{k}")),
+            "Float64",
+            1,
+            f64_bytes(frame.mass.iter().map(|v| v[k])),
+        );
+        out.array(
+            Some(&format!("velocity_{k}")),
+            "Float64",
+            3,
+            f64_bytes(frame.velocity.iter().flat_map(|v| v[k])),
+        );
+        out.array(
+            Some(&format!("normal_{k}")),
+            "Float64",
+            3,
+            f64_bytes(frame.normal.iter().flat_map(|v| v[k])),
+        );
+    }
+    out.xml.push_str("      </PointData>\n      <Points>\n");
+    out.array(
+        None,
+        "Float64",
+        3,
+        f64_bytes(frame.position.iter().flatten().copied()),
+    );
+    out.xml.push_str("      </Points>\n      <Cells>\n");
+    out.array(Some("connectivity"), "Int64", 1, i64_bytes(0..n as i64));
+    out.array(Some("offsets"), "Int64", 1, i64_bytes(1..=n as i64));
+    out.array(Some("types"), "UInt8", 1, vec![1u8; n]);
+    out.xml
+        .push_str("      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
+    write_atomically(path, out.xml.as_bytes())
+}
+
 /// Writes `frame` to `path` atomically.
 pub fn write_particle_frame(path: &Path, frame: &ParticleFrame) -> std::io::Result<()> {
     let n = frame.position.len();

@@ -392,6 +392,10 @@ pub struct OutputSpec {
     /// always written when frames are on.
     #[serde(default)]
     pub vtu_every: u64,
+    /// Write a VTU frame of the grid nodes that carry mass, with each velocity field's mass,
+    /// velocity, normal and key, every this many steps (0: none).
+    #[serde(default)]
+    pub grid_every: u64,
     /// Write a `series.csv` row every this many steps (0: initial and final rows only).
     #[serde(default = "default_csv_every")]
     pub csv_every: u64,
@@ -416,6 +420,7 @@ impl Default for OutputSpec {
     fn default() -> Self {
         Self {
             vtu_every: 0,
+            grid_every: 0,
             csv_every: default_csv_every(),
             probes: Vec::new(),
             last_good_frame: true,

@@ -322,6 +322,7 @@ impl<D: Dim> Spec<D> {
         Ok(OutputPlan {
             dimension: D::DIMENSION,
             vtu_every: self.output.vtu_every,
+            grid_every: self.output.grid_every,
             csv_every: self.output.csv_every,
             probes,
             last_good_frame: self.output.last_good_frame,

@@ -287,6 +287,8 @@ pub enum Condition {
 pub struct Output {
     /// VTU frame every this many steps (0: none).
     pub vtu_every: u64,
+    /// Grid-node VTU frame every this many steps (0: none).
+    pub grid_every: u64,
     /// `series.csv` row every this many steps (0: first and last only).
     pub csv_every: u64,
     /// Extra columns.
@@ -299,6 +301,7 @@ impl Default for Output {
     fn default() -> Self {
         Self {
             vtu_every: 0,
+            grid_every: 0,
             csv_every: 1,
             probes: Vec::new(),
             last_good_frame: true,

@@ -153,6 +153,7 @@ impl<D: Dim> Reader<D> {
             body_force,
             output: Output {
                 vtu_every: scene.output.vtu_every,
+                grid_every: scene.output.grid_every,
                 csv_every: scene.output.csv_every,
                 probes: scene.output.probes.clone(),
                 last_good_frame: scene.output.last_good_frame,
