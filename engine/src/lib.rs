@@ -42,7 +42,9 @@ pub mod prelude {
     };
     pub use crate::health::single_table;
     pub use crate::neighbourhood::Neighbourhoods;
-    pub use crate::registry::{Installer, ParamDoc, Params, Registration, Registry};
+    pub use crate::registry::{
+        Installer, MaterialFilter, ParamDoc, Params, Registration, Registry,
+    };
     pub use crate::resources::{BodyForce, Grid, Material, Materials, SimClock, Thickness};
     pub use crate::scene::SceneError;
     pub use crate::series::SeriesColumns;

@@ -121,12 +121,50 @@ impl Registry {
     }
 }
 
+/// The materials a pipeline entry applies to (`materials: [...]` on the entry), by material
+/// index. Stress and damage systems keep the filter their installer hands them and leave the
+/// particles of other materials alone; the engine checks that the entries of one stage never
+/// share a material and that every material has a stress system.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct MaterialFilter(Option<Vec<bool>>);
+
+impl MaterialFilter {
+    /// Every material.
+    pub fn all() -> Self {
+        Self(None)
+    }
+
+    /// Only the materials whose index is `true` in `mask`.
+    pub fn only(mask: Vec<bool>) -> Self {
+        Self(Some(mask))
+    }
+
+    /// Whether the entry applies to particles of `material`.
+    pub fn applies(&self, material: crate::components::MaterialId) -> bool {
+        self.0
+            .as_ref()
+            .is_none_or(|mask| mask.get(material.0 as usize).copied().unwrap_or(false))
+    }
+
+    /// Whether the filter lets every material through.
+    pub fn is_all(&self) -> bool {
+        self.0.is_none()
+    }
+}
+
+/// The schedule set of pipeline entry `k`: the engine orders the entries of one stage as the
+/// scene lists them.
+#[derive(bevy_ecs::schedule::SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct PipelineEntrySet(pub usize);
+
 /// What an install function may do: add systems to its own stage and set up resources.
 pub struct Installer<'a> {
     stage: Stage,
     schedule: &'a mut Schedule,
     world: &'a mut World,
     pipeline: Vec<&'static str>,
+    materials: MaterialFilter,
+    entry: Option<usize>,
 }
 
 impl<'a> Installer<'a> {
@@ -137,7 +175,22 @@ impl<'a> Installer<'a> {
             schedule,
             world,
             pipeline: Vec::new(),
+            materials: MaterialFilter::all(),
+            entry: None,
         }
+    }
+
+    /// Tells the installer which pipeline entry it installs and the materials it applies to.
+    pub fn for_entry(mut self, entry: usize, materials: MaterialFilter) -> Self {
+        self.entry = Some(entry);
+        self.materials = materials;
+        self
+    }
+
+    /// The materials this entry applies to: a stress or damage system keeps it (in its
+    /// parameters resource) and updates only the particles it lets through.
+    pub fn materials(&self) -> &MaterialFilter {
+        &self.materials
     }
 
     /// Tells the installer the names of every system in the scene's pipeline.
@@ -166,7 +219,12 @@ impl<'a> Installer<'a> {
     /// Adds systems to this installer's stage (and only there).
     pub fn add_systems<M>(&mut self, systems: impl IntoScheduleConfigs<ScheduleSystem, M>) {
         let configs: ScheduleConfigs<ScheduleSystem> = systems.into_configs();
-        self.schedule.add_systems(configs.in_set(self.stage));
+        match self.entry {
+            Some(entry) => self
+                .schedule
+                .add_systems(configs.in_set(self.stage).in_set(PipelineEntrySet(entry))),
+            None => self.schedule.add_systems(configs.in_set(self.stage)),
+        };
     }
 
     /// Gives every particle a component of the system's own (a damage gradient, a surface flag,

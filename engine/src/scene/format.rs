@@ -490,4 +490,8 @@ pub struct PipelineEntrySpec {
     /// The system's own parameters, parsed by its installer.
     #[serde(default)]
     pub params: Option<Box<RawValue>>,
+    /// Limit a stress or damage system to the particles of these materials (names in
+    /// `materials`); all materials when absent.
+    #[serde(default)]
+    pub materials: Option<Vec<String>>,
 }

@@ -18,7 +18,7 @@ use crate::fields::{AssignFields, FieldRule, assign_fields_system};
 use crate::health::{LeaveGrid, remove_escaped_particles};
 use crate::loads::{ApplyLoads, LoadShare, ParticleLoads, apply_loads};
 use crate::output::{OutputPlan, ProbeKind};
-use crate::registry::{Installer, Registration, Registry};
+use crate::registry::{Installer, MaterialFilter, PipelineEntrySet, Registration, Registry};
 use crate::resources::{BodyForce, Grid, Materials, SimClock, Thickness, TimeStepLimit};
 use crate::series::SeriesColumns;
 use crate::simulation::{Simulation, TimeStep, add_stage_checks, stable_time_step, step_schedule};
@@ -359,15 +359,127 @@ impl<D: Dim> Spec<D> {
             }
         }
         let names: Vec<&'static str> = chosen.iter().map(|(_, r)| r.name).collect();
-        for (k, registration) in chosen {
-            let entry = &self.pipeline[k];
+        let filters = self.material_filters(&chosen)?;
+        for ((k, registration), filter) in chosen.iter().zip(&filters) {
+            let entry = &self.pipeline[*k];
             let source = self.entry_source(entry);
             let params = source.params(entry.params.as_deref(), format!("pipeline[{k}].params"));
             let stage = registration.stage().unwrap_or(Stage::PostStep);
-            let mut installer = Installer::new(stage, schedule, world).with_pipeline(names.clone());
+            let mut installer = Installer::new(stage, schedule, world)
+                .with_pipeline(names.clone())
+                .for_entry(*k, filter.clone());
             (registration.install)(&mut installer, &params)?;
         }
+        // Entries of one stage run in the order the scene lists them.
+        for (a, (ka, ra)) in chosen.iter().enumerate() {
+            if let Some((kb, _)) = chosen[a + 1..]
+                .iter()
+                .find(|(_, rb)| rb.stage() == ra.stage())
+            {
+                schedule.configure_sets(PipelineEntrySet(*ka).before(PipelineEntrySet(*kb)));
+            }
+        }
         Ok(summary)
+    }
+
+    /// Each chosen entry's [`MaterialFilter`], checked: known names, only on stress and damage
+    /// systems, no material shared by two entries of a stage, and a stress system for every
+    /// material a body uses.
+    fn material_filters(
+        &self,
+        chosen: &[(usize, &Registration)],
+    ) -> Result<Vec<MaterialFilter>, SceneError> {
+        let known = || {
+            self.materials
+                .iter()
+                .map(|m| format!("\"{}\"", m.name))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let mut filters = Vec::with_capacity(chosen.len());
+        for (k, registration) in chosen {
+            let entry = &self.pipeline[*k];
+            let source = self.entry_source(entry);
+            let field = format!("pipeline[{k}].materials");
+            let Some(names) = &entry.materials else {
+                filters.push(MaterialFilter::all());
+                continue;
+            };
+            if !matches!(registration.stage(), Some(Stage::Stress | Stage::Damage)) {
+                return Err(source.error(
+                    &field,
+                    format!(
+                        "`materials` limits stress and damage systems only; {} is not one",
+                        registration.name
+                    ),
+                ));
+            }
+            if names.is_empty() {
+                return Err(source.error(&field, "expected at least one material name"));
+            }
+            let mut mask = vec![false; self.materials.len()];
+            for (j, name) in names.iter().enumerate() {
+                let Some(i) = self.materials.iter().position(|m| &m.name == name) else {
+                    return Err(source.error(
+                        &format!("{field}[{j}]"),
+                        format!(
+                            "unknown material \"{name}\"; the scene defines: {}",
+                            known()
+                        ),
+                    ));
+                };
+                mask[i] = true;
+            }
+            filters.push(MaterialFilter::only(mask));
+        }
+        let used: Vec<usize> = (0..self.materials.len())
+            .filter(|&i| {
+                self.bodies
+                    .iter()
+                    .any(|b| b.material == self.materials[i].name)
+            })
+            .collect();
+        for stage in [Stage::Stress, Stage::Damage] {
+            let entries: Vec<usize> = (0..chosen.len())
+                .filter(|&c| chosen[c].1.stage() == Some(stage))
+                .collect();
+            if entries.iter().all(|&c| filters[c].is_all()) {
+                continue;
+            }
+            for &i in &used {
+                let id = crate::components::MaterialId(i as u16);
+                let covering: Vec<usize> = entries
+                    .iter()
+                    .copied()
+                    .filter(|&c| filters[c].applies(id))
+                    .collect();
+                let name = &self.materials[i].name;
+                if covering.len() > 1 {
+                    let (k, registration) = chosen[covering[1]];
+                    return Err(self.entry_source(&self.pipeline[k]).error(
+                        &format!("pipeline[{k}].materials"),
+                        format!(
+                            "{} and {} both apply to material \"{name}\"; give the {} systems \
+                             disjoint `materials` lists",
+                            chosen[covering[0]].1.name,
+                            registration.name,
+                            stage.name()
+                        ),
+                    ));
+                }
+                if covering.is_empty() && stage == Stage::Stress {
+                    let (k, _) = chosen[entries[0]];
+                    return Err(self.entry_source(&self.pipeline[k]).error(
+                        &format!("pipeline[{k}].materials"),
+                        format!(
+                            "no stress system applies to material \"{name}\"; add it to the \
+                             `materials` of a stress entry"
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(filters)
     }
 
     /// The registration of every entry, checked: known, listed once, required stages filled,

@@ -316,6 +316,8 @@ pub struct PipelineEntry {
     pub system: String,
     /// The `params` value as RON text.
     pub params: Option<String>,
+    /// The materials the entry is limited to (stress and damage systems); all when `None`.
+    pub materials: Option<Vec<String>>,
     /// True when the entry is the one written in the source file at its index, so errors can
     /// point at the text.
     pub(crate) in_source: bool,
@@ -327,8 +329,15 @@ impl PipelineEntry {
         Self {
             system: system.to_string(),
             params: None,
+            materials: None,
             in_source: false,
         }
+    }
+
+    /// Limits the entry to the particles of `materials` (stress and damage systems).
+    pub fn for_materials(mut self, materials: &[&str]) -> Self {
+        self.materials = Some(materials.iter().map(|m| m.to_string()).collect());
+        self
     }
 
     /// `system` with `params`, RON text such as `"(gamma: 3.5)"`.

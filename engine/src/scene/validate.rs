@@ -131,6 +131,7 @@ impl<D: Dim> Reader<D> {
                     .params
                     .as_deref()
                     .map(|r| r.trim().get_ron().to_string()),
+                materials: entry.materials.clone(),
                 in_source: true,
             })
             .collect();

@@ -39,7 +39,7 @@ struct RawParams {
 }
 
 /// Installed parameters and running totals of `damage/eigenerosion`.
-#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+#[derive(Resource, Clone, Debug, PartialEq)]
 pub struct EigenerosionState {
     /// G_F.
     pub fracture_energy: f64,
@@ -47,6 +47,8 @@ pub struct EigenerosionState {
     pub released: f64,
     /// Slots of the published columns: failed, dissipated energy.
     pub columns: [usize; 2],
+    /// Which materials can fail: the entry's `materials`.
+    pub materials: MaterialFilter,
 }
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
@@ -62,6 +64,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         fracture_energy: raw.fracture_energy,
         released: 0.0,
         columns,
+        materials: installer.materials().clone(),
     });
     with_dim!(installer.dimension(), D => installer.add_systems(eigenerosion::<D>));
     Ok(())
@@ -95,6 +98,7 @@ type ParticleQuery<'w, 's, D> = Query<
     'w,
     's,
     (
+        &'static MaterialId,
         &'static Volume,
         &'static InitialVolume,
         &'static Stress<D>,
@@ -111,7 +115,7 @@ pub fn eigenerosion<D: Dim>(
     mut columns: ResMut<SeriesColumns>,
     mut particles: ParticleQuery<D>,
 ) {
-    let Some((volume, v0, stress, energy, mut damage)) =
+    let Some((material, volume, v0, stress, energy, mut damage)) =
         single_table(particles.contiguous_iter_mut(), "particles")
     else {
         return;
@@ -125,7 +129,11 @@ pub fn eigenerosion<D: Dim>(
         .into_par_iter()
         .map(|p| {
             let tension = stress[p].0.largest_principal() > 0.0;
-            if previous[p].0 >= 1.0 || !tension || p >= neighbourhoods.particle_count() {
+            if !state.materials.applies(material[p])
+                || previous[p].0 >= 1.0
+                || !tension
+                || p >= neighbourhoods.particle_count()
+            {
                 return false;
             }
             let g = energy_release_rate(neighbourhoods.of(p), epsilon, volume, stored, previous);
@@ -172,6 +180,7 @@ mod tests {
             fracture_energy: 0.25,
             released: 0.0,
             columns: slots,
+            materials: MaterialFilter::all(),
         });
         let mut neighbourhoods = Neighbourhoods::default();
         neighbourhoods.set_rows(&[vec![0, 1], vec![0, 1], vec![2], vec![3]], 0.5);
@@ -212,7 +221,7 @@ mod tests {
             .map(|d| d.0)
             .collect();
         assert_eq!(d, vec![1.0, 1.0, 0.0, 0.0]);
-        let state = *world.resource::<EigenerosionState>();
+        let state = world.resource::<EigenerosionState>().clone();
         assert!((state.released - 1.1).abs() < 1e-12);
     }
 
@@ -226,6 +235,7 @@ mod tests {
             fracture_energy: 0.1,
             released: 0.0,
             columns: slots,
+            materials: MaterialFilter::all(),
         });
         let mut neighbourhoods = Neighbourhoods::default();
         neighbourhoods.set_rows(&[vec![0], vec![1]], 0.5);

@@ -56,12 +56,6 @@ pub const REGISTRATION: Registration = Registration {
             default: Some("Linear"),
             doc: "shape of the cohesive law",
         },
-        ParamDoc {
-            name: "materials",
-            ty: "[String]",
-            default: Some("all"),
-            doc: "only particles of these materials soften (e.g. not a steel impactor)",
-        },
     ],
     requires: &["neighbour/*"],
     install,
@@ -79,12 +73,10 @@ struct RawParams {
     band_width: f64,
     #[serde(default)]
     softening: SofteningShape,
-    #[serde(default)]
-    materials: Option<Vec<String>>,
 }
 
 /// Installed parameters of `damage/eigensoftening`.
-#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+#[derive(Resource, Clone, Debug, PartialEq)]
 pub struct EigensofteningParams {
     /// The cohesive law (strength, fracture energy, shape).
     pub law: SofteningLaw,
@@ -92,8 +84,8 @@ pub struct EigensofteningParams {
     pub band_width: f64,
     /// Slots of the published columns: damaged, failed, dissipated energy.
     pub columns: [usize; 3],
-    /// Which materials soften, by material index (`None`: all).
-    pub materials: Option<[bool; 64]>,
+    /// Which materials soften: the entry's `materials` (e.g. not a steel impactor).
+    pub materials: MaterialFilter,
 }
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
@@ -128,30 +120,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
             "expected a positive fracture energy (or critical opening)",
         ));
     }
-    let materials = match &raw.materials {
-        None => None,
-        Some(names) => {
-            let table = installer.world().resource::<Materials>();
-            let mut mask = [false; 64];
-            for name in names {
-                let Some(i) = table.0.iter().position(|m| &m.name == name) else {
-                    let known: Vec<_> = table.0.iter().map(|m| format!("\"{}\"", m.name)).collect();
-                    return Err(params.error(
-                        "materials",
-                        format!(
-                            "unknown material \"{name}\"; the scene defines: {}",
-                            known.join(", ")
-                        ),
-                    ));
-                };
-                if i >= mask.len() {
-                    return Err(params.error("materials", "at most 64 materials can be selected"));
-                }
-                mask[i] = true;
-            }
-            Some(mask)
-        }
-    };
+    let materials = installer.materials().clone();
     let columns = [
         installer.add_series_column("damaged_particles"),
         installer.add_series_column("failed_particles"),
@@ -245,10 +214,7 @@ pub fn eigensoftening<D: Dim>(
     let updated: Vec<(f64, f64)> = (0..mass.len())
         .into_par_iter()
         .map(|p| {
-            let softens = params
-                .materials
-                .is_none_or(|mask| mask[(material[p].0 as usize).min(63)]);
-            if !softens {
+            if !params.materials.applies(material[p]) {
                 return (previous[p].0, history[p].0);
             }
             let neighbours = if p < neighbourhoods.particle_count() {
@@ -344,7 +310,7 @@ mod tests {
             law: law(),
             band_width: 0.1,
             columns: slots,
-            materials: None,
+            materials: MaterialFilter::all(),
         });
         let mut neighbourhoods = Neighbourhoods::default();
         neighbourhoods.set_rows(&[vec![0, 1], vec![0, 1], vec![2]], 0.5);

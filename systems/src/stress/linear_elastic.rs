@@ -25,9 +25,15 @@ pub const REGISTRATION: Registration = Registration {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
+    let scope = LinearElasticScope(installer.materials().clone());
+    installer.insert_resource(scope);
     with_dim!(installer.dimension(), D => installer.add_systems(linear_elastic_stress::<D>));
     Ok(())
 }
+
+/// The materials `stress/linear_elastic` updates (the entry's `materials`; all when absent).
+#[derive(Resource, Clone, Debug, Default, PartialEq)]
+pub struct LinearElasticScope(pub MaterialFilter);
 
 /// State of one particle that the update changes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -91,6 +97,7 @@ type ParticleQuery<'w, 's, D> = Query<
 /// The `stress/linear_elastic` system.
 pub fn linear_elastic_stress<D: Dim>(
     clock: Res<SimClock>,
+    scope: Option<Res<LinearElasticScope>>,
     materials: Res<Materials>,
     connectivity: Res<Connectivity<D>>,
     nodes: Query<&NodeVelocity<D>, With<Node>>,
@@ -113,6 +120,9 @@ pub fn linear_elastic_stress<D: Dim>(
         .zip(energy.par_iter_mut())
         .enumerate()
         .for_each(|(p, ((((s, e), f), v), w))| {
+            if scope.as_ref().is_some_and(|s| !s.0.applies(material[p])) {
+                return;
+            }
             let l = velocity_gradient(c, node_velocity, p);
             let before = ElasticState::<D> {
                 stress: s.0,
@@ -207,6 +217,33 @@ mod tests {
         let (lambda, mu) = test_material().lame();
         let stress = particle_values::<Stress<Two>>(&mut world)[0].0;
         assert!((stress.xx - (lambda * 0.001 + 2.0 * mu * 0.002)).abs() < 1e-12);
+    }
+
+    /// Limited to material 0 (`materials: [...]` on the entry), the system leaves a particle of
+    /// material 1 alone.
+    #[test]
+    fn system_updates_only_the_materials_of_its_entry() {
+        let mut world = tiny_world::<Two>(2, 0.5, 0.01);
+        world.insert_resource(Materials(vec![test_material(), test_material()]));
+        world.insert_resource(LinearElasticScope(MaterialFilter::only(vec![true, false])));
+        spawn_particle(&mut world, DVec2::new(0.3, 0.7), DVec2::ZERO, 1.0, 0.1);
+        let other = spawn_particle(&mut world, DVec2::new(0.6, 0.4), DVec2::ZERO, 1.0, 0.1);
+        world.entity_mut(other).insert(MaterialId(1));
+        let mut query = world.query::<&mut NodeVelocity<Two>>();
+        let positions: Vec<DVec2> = node_values::<NodePosition<Two>>(&mut world)
+            .iter()
+            .map(|p| p.0)
+            .collect();
+        for (v, x) in query.iter_mut(&mut world).zip(&positions) {
+            v.into_inner().0[0] = DVec2::new(0.2 * x.x, 0.0);
+        }
+        run_system(
+            &mut world,
+            (linear_basis::<Two>, linear_elastic_stress::<Two>).chain(),
+        );
+        let stress = particle_values::<Stress<Two>>(&mut world);
+        assert!(stress[0].0.xx > 0.0);
+        assert_eq!(stress[1].0, SymTensor2::ZERO);
     }
 
     #[test]

@@ -26,9 +26,15 @@ pub const REGISTRATION: Registration = Registration {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
+    let scope = NeoHookeanScope(installer.materials().clone());
+    installer.insert_resource(scope);
     with_dim!(installer.dimension(), D => installer.add_systems(neo_hookean_stress::<D>));
     Ok(())
 }
+
+/// The materials `stress/neo_hookean` updates (the entry's `materials`; all when absent).
+#[derive(Resource, Clone, Debug, Default, PartialEq)]
+pub struct NeoHookeanScope(pub MaterialFilter);
 
 /// Cauchy stress of eq. (22), `(λ ln J − μ)/J I + μ/J b` with `b = F Fᵀ` (in plane strain
 /// `F_zz = 1`). `None` when `J ≤ 0` (the material has inverted).
@@ -75,6 +81,7 @@ type ParticleQuery<'w, 's, D> = Query<
 /// the engine's check stops the run naming it.
 pub fn neo_hookean_stress<D: Dim>(
     clock: Res<SimClock>,
+    scope: Option<Res<NeoHookeanScope>>,
     materials: Res<Materials>,
     connectivity: Res<Connectivity<D>>,
     nodes: Query<&NodeVelocity<D>, With<Node>>,
@@ -104,6 +111,9 @@ pub fn neo_hookean_stress<D: Dim>(
         .zip(speed.par_iter_mut())
         .enumerate()
         .for_each(|(p, (((((f, s), e), v), w), cp))| {
+            if scope.as_ref().is_some_and(|s| !s.0.applies(material[p])) {
+                return;
+            }
             let (lambda, mu, rho0) = constants[material[p].0 as usize];
             let l = velocity_gradient(c, node_velocity, p);
             f.0 = (D::Matrix::IDENTITY + l * dt) * f.0;
