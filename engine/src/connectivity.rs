@@ -136,20 +136,9 @@ impl<D: Dim> Connectivity<D> {
         T: Default + Send,
         F: Fn(&mut T, usize, usize) + Sync,
     {
-        self.accumulate_at_nodes(out, |_| true, add);
-    }
-
-    /// As [`Self::accumulate_to_nodes`], only at the nodes where `include(node)` holds; the
-    /// others get `T::default()`. Each included node's sum is the same, bit for bit.
-    pub fn accumulate_at_nodes<T, I, F>(&self, out: &mut [T], include: I, add: F)
-    where
-        T: Default + Send,
-        I: Fn(usize) -> bool + Sync,
-        F: Fn(&mut T, usize, usize) + Sync,
-    {
         out.par_iter_mut().enumerate().for_each(|(node, slot)| {
             let mut sum = T::default();
-            if include(node) && node + 1 < self.node_offsets.len() {
+            if node + 1 < self.node_offsets.len() {
                 for &(entry, particle) in
                     &self.node_entries[self.node_offsets[node]..self.node_offsets[node + 1]]
                 {

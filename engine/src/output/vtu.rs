@@ -47,6 +47,40 @@ struct Inline {
 }
 
 impl Inline {
+    /// Starts a file of `n` VTK vertices, opening their point data.
+    fn vertices(n: usize, scalars: &str, vectors: &str) -> Self {
+        let mut out = Inline { xml: String::new() };
+        let _ = write!(
+            out.xml,
+            "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" \
+             byte_order=\"LittleEndian\" header_type=\"UInt64\">\n  <UnstructuredGrid>\n    \
+             <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">\n      <PointData \
+             Scalars=\"{scalars}\" Vectors=\"{vectors}\">\n"
+        );
+        out
+    }
+
+    /// Closes the point data, writes the points and one vertex cell per point, and writes the
+    /// file to `path` atomically.
+    fn finish(mut self, path: &Path, position: &[[f64; 3]]) -> std::io::Result<()> {
+        let n = position.len();
+        self.xml.push_str("      </PointData>\n      <Points>\n");
+        self.array(
+            None,
+            "Float64",
+            3,
+            f64_bytes(position.iter().flatten().copied()),
+        );
+        self.xml.push_str("      </Points>\n      <Cells>\n");
+        self.array(Some("connectivity"), "Int64", 1, i64_bytes(0..n as i64));
+        self.array(Some("offsets"), "Int64", 1, i64_bytes(1..=n as i64));
+        // VTK_VERTEX = 1.
+        self.array(Some("types"), "UInt8", 1, vec![1u8; n]);
+        self.xml
+            .push_str("      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
+        write_atomically(path, self.xml.as_bytes())
+    }
+
     fn array(&mut self, name: Option<&str>, ty: &str, components: usize, bytes: Vec<u8>) {
         let name_attr = name.map(|n| format!(" Name=\"{n}\"")).unwrap_or_default();
         let mut block = (bytes.len() as u64).to_le_bytes().to_vec();
@@ -94,15 +128,7 @@ pub struct GridFrame {
 /// Writes the grid `frame` to `path` atomically: one VTK vertex per node, with `index`,
 /// `fields`, and `key_k`, `mass_k`, `velocity_k`, `normal_k` for each field slot `k`.
 pub fn write_grid_frame(path: &Path, frame: &GridFrame) -> std::io::Result<()> {
-    let n = frame.position.len();
-    let mut out = Inline { xml: String::new() };
-    let _ = write!(
-        out.xml,
-        "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" \
-         byte_order=\"LittleEndian\" header_type=\"UInt64\">\n  <UnstructuredGrid>\n    \
-         <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">\n      <PointData \
-         Scalars=\"fields\" Vectors=\"velocity_0\">\n"
-    );
+    let mut out = Inline::vertices(frame.position.len(), "fields", "velocity_0");
     out.array(
         Some("index"),
         "Int32",
@@ -141,33 +167,12 @@ pub fn write_grid_frame(path: &Path, frame: &GridFrame) -> std::io::Result<()> {
             f64_bytes(frame.normal.iter().flat_map(|v| v[k])),
         );
     }
-    out.xml.push_str("      </PointData>\n      <Points>\n");
-    out.array(
-        None,
-        "Float64",
-        3,
-        f64_bytes(frame.position.iter().flatten().copied()),
-    );
-    out.xml.push_str("      </Points>\n      <Cells>\n");
-    out.array(Some("connectivity"), "Int64", 1, i64_bytes(0..n as i64));
-    out.array(Some("offsets"), "Int64", 1, i64_bytes(1..=n as i64));
-    out.array(Some("types"), "UInt8", 1, vec![1u8; n]);
-    out.xml
-        .push_str("      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
-    write_atomically(path, out.xml.as_bytes())
+    out.finish(path, &frame.position)
 }
 
 /// Writes `frame` to `path` atomically.
 pub fn write_particle_frame(path: &Path, frame: &ParticleFrame) -> std::io::Result<()> {
-    let n = frame.position.len();
-    let mut out = Inline { xml: String::new() };
-    let _ = write!(
-        out.xml,
-        "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" \
-         byte_order=\"LittleEndian\" header_type=\"UInt64\">\n  <UnstructuredGrid>\n    \
-         <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">\n      <PointData \
-         Scalars=\"damage\" Vectors=\"velocity\">\n"
-    );
+    let mut out = Inline::vertices(frame.position.len(), "damage", "velocity");
     out.array(
         Some("id"),
         "Int32",
@@ -233,19 +238,5 @@ pub fn write_particle_frame(path: &Path, frame: &ParticleFrame) -> std::io::Resu
             f64_bytes(values.iter().flatten().copied()),
         );
     }
-    out.xml.push_str("      </PointData>\n      <Points>\n");
-    out.array(
-        None,
-        "Float64",
-        3,
-        f64_bytes(frame.position.iter().flatten().copied()),
-    );
-    out.xml.push_str("      </Points>\n      <Cells>\n");
-    out.array(Some("connectivity"), "Int64", 1, i64_bytes(0..n as i64));
-    out.array(Some("offsets"), "Int64", 1, i64_bytes(1..=n as i64));
-    // VTK_VERTEX = 1.
-    out.array(Some("types"), "UInt8", 1, vec![1u8; n]);
-    out.xml
-        .push_str("      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
-    write_atomically(path, out.xml.as_bytes())
+    out.finish(path, &frame.position)
 }
