@@ -146,3 +146,37 @@ fn conflicting_systems_load_once_ordered() {
     built.simulation.step().unwrap();
     assert!(built.simulation.world.resource::<Log>().0.is_empty());
 }
+
+/// A contact registration that corrects the grid update (as `contact/frictional` does with
+/// update-stress-last) runs after the predictor stage and before the stress stage.
+#[test]
+fn grid_update_corrections_run_between_predictor_and_stress() {
+    fn early_install(installer: &mut Installer, _: &Params) -> Result<(), SceneError> {
+        installer.init_resource::<Log>();
+        installer.add_grid_update_correction(|mut log: ResMut<Log>| log.0.push(Stage::Contact));
+        Ok(())
+    }
+    let mut registry = registry_with_loggers();
+    registry
+        .register(Registration {
+            name: "contact/early",
+            summary: "records that it ran",
+            params: &[],
+            requires: &[],
+            install: early_install,
+        })
+        .unwrap();
+    let pipeline: Vec<String> = LOGGERS
+        .iter()
+        .map(|n| n.replace("contact/log", "contact/early"))
+        .map(|n| format!("(system: \"{n}\")"))
+        .collect();
+    let file = scene_with(&pipeline.join(", "));
+    let mut built = build_simulation(&file, &registry).unwrap_or_else(|e| panic!("{e}"));
+    built.simulation.step().unwrap();
+    let log = &built.simulation.world.resource::<Log>().0;
+    let mut expected: Vec<Stage> = Stage::ORDER.to_vec();
+    expected.retain(|s| *s != Stage::Contact);
+    expected.insert(4, Stage::Contact);
+    assert_eq!(log[..], expected[..]);
+}

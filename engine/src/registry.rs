@@ -227,6 +227,20 @@ impl<'a> Installer<'a> {
         };
     }
 
+    /// Adds systems that correct the predictor's grid update: they run after every predictor
+    /// system and before the predictor's health check, so the stress stage reads the corrected
+    /// nodal velocities. For a law of this installer's stage that an integrator needs applied
+    /// to the end-of-step velocities before the stress update (contact with
+    /// update-stress-last); the module header of such a system says so.
+    pub fn add_grid_update_correction<M>(
+        &mut self,
+        systems: impl IntoScheduleConfigs<ScheduleSystem, M>,
+    ) {
+        let configs: ScheduleConfigs<ScheduleSystem> = systems.into_configs();
+        self.schedule
+            .add_systems(configs.in_set(crate::stage::GridUpdateCorrection));
+    }
+
     /// Gives every particle a component of the system's own (a damage gradient, a surface flag,
     /// a strength), starting at `value`. All particles get it at once, before the first step, so
     /// they stay in one storage table.

@@ -54,6 +54,12 @@ pub fn step_schedule() -> Schedule {
             .before(StageCheck(Stage::Basis))
             .run_if(healthy),
     );
+    schedule.configure_sets(
+        crate::stage::GridUpdateCorrection
+            .after(Stage::Predictor)
+            .before(StageCheck(Stage::Predictor))
+            .run_if(healthy),
+    );
     for stage in Stage::ORDER {
         schedule.configure_sets(stage.run_if(healthy));
     }

@@ -35,6 +35,13 @@ pub enum Stage {
     PostStep,
 }
 
+/// Corrections of the predictor's grid update: systems of a later stage whose law must act on
+/// the end-of-step nodal velocities before the stress stage reads them (contact with
+/// update-stress-last, as the DFG paper orders it). The set runs after every predictor system
+/// and before the predictor's health check; see [`crate::registry::Installer::add_grid_update_correction`].
+#[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct GridUpdateCorrection;
+
 /// The engine's check that runs after the systems of one stage.
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct StageCheck(pub Stage);

@@ -21,17 +21,36 @@
 //! - Impulses are computed once per pair and applied with opposite signs, so momentum is
 //!   conserved to round-off; a node with more than two fields sums its pairwise impulses.
 //!   Velocity components held by a boundary condition are left alone on both fields.
-//! - Integrators: with `predictor/usl` the nodal velocity at this stage is the end-of-step
-//!   velocity `v̄ⁿ⁺¹` (eq. 6); the contact correction is applied to it and to the nodal
-//!   acceleration, so the particles are advected with the corrected velocity (eqs. 9–10, 13).
-//!   With `predictor/newmark` the end-of-step velocity is `ṽ + γΔt f/m` with the forces of the
-//!   new stress: this system forms it and leaves the contact force `Δp/(γΔt)` in
-//!   `NodeContactForce` for the corrector to integrate, so the corrected nodal velocity `v_I`,
-//!   which moves the particles (`x_p += Δt v_I + ½Δt² a`), is exactly the one Algorithm 3 asks
-//!   for. Measured against the alternative `Δp/Δt` (which gives the particle velocities exactly
-//!   `Δp/m` but the nodal velocity only `γΔp/m`): the two-disk collision keeps 84% of its
-//!   kinetic energy instead of 64%, and the sliding block decelerates at μg within 0.1% instead
-//!   of 2%.
+//! - Integrators. With `predictor/newmark` this system runs in the contact stage: the
+//!   end-of-step velocity is `ṽ + γΔt f/m` with the forces of the new stress; the system forms
+//!   it and leaves the contact force `Δp/(γΔt)` in `NodeContactForce` for the corrector to
+//!   integrate, so the corrected nodal velocity `v_I`, which moves the particles
+//!   (`x_p += Δt v_I + ½Δt² a`), is exactly the one Algorithm 3 asks for. Measured against the
+//!   alternative `Δp/Δt` (which gives the particle velocities exactly `Δp/m` but the nodal
+//!   velocity only `γΔp/m`): the two-disk collision keeps 84% of its kinetic energy instead of
+//!   64%, and the sliding block decelerates at μg within 0.1% instead of 2%.
+//! - With `predictor/usl` the contact law must act before the stress update, as in the paper's
+//!   order (eqs. 6–7: `L` from the corrected `v_i^{n+1}`), so this registration installs it as
+//!   a correction of the predictor's grid update (`Installer::add_grid_update_correction`): it
+//!   runs after `predictor/usl` and before the predictor's health check, corrects `v̄ⁿ⁺¹` and
+//!   the nodal acceleration in place (eqs. 9–10, 13), and the stress stage takes the velocity
+//!   gradient from the corrected velocities. Every pair is separable there: the engine's field
+//!   assignment has already kept inseparable sides of a group in one field, from the damage at
+//!   the start of the step as the paper's partition does. Measured on the two disks: 84% of the
+//!   kinetic energy back (85% with Newmark); applied after the stress instead, 48%.
+//! - Slivers (`sliver_fraction`, update-stress-last only). A field that holds a tiny fraction
+//!   of a shared node's mass (one particle at `N ≈ 10⁻⁵` leaving the node) gets
+//!   `v̄ = (p + Δt f)/m` with a force that keeps the full `∇N` while the mass vanishes; with
+//!   tent functions its velocity runs away (263 m/s in one step) and, through the velocity
+//!   gradient, inverts the particle. Below `sliver_fraction` such a field moves with the other
+//!   field of the pair (the stick impulse, momentum conserving), as a single field would there.
+//!   Measured on the two disks with `basis/linear`: without it the run stops at step 2581 (a
+//!   field at 2·10⁻⁷ of its node, under `min_mass_fraction`, was left alone), with 10⁻⁵ to 0.1
+//!   it keeps 83.5–84% of the kinetic energy. It costs friction accuracy when it is large
+//!   (merged slivers stick): the sliding block with `basis/gimp` decelerates at μg within 0.03%
+//!   with 10⁻⁴, 2.3% above with 10⁻³ and stops far too early with 10⁻². The default is 10⁻⁴.
+//!   The same runaway with no other field at the node is the tent functions' cell-crossing
+//!   instability, with or without contact; `basis/gimp` has none (see `predictor/usl`).
 //! - Normals (`normals`): `Difference` (the default) is eq. 11 as printed,
 //!   `n = (n_a − n_b)/‖n_a − n_b‖`. `Heavier` takes the normal of the field with more mass at
 //!   the node and its opposite for the other: the mass weighting that §1.1.1 notes "may improve
@@ -84,6 +103,13 @@ pub const REGISTRATION: Registration = Registration {
                   field's own normal (better for a small body on a large flat one)",
         },
         ParamDoc {
+            name: "sliver_fraction",
+            ty: "f64",
+            default: Some("1e-4"),
+            doc: "update-stress-last only: a field with less than this fraction of a shared \
+                  node's mass moves with the other fields there (see the module header)",
+        },
+        ParamDoc {
             name: "min_mass_fraction",
             ty: "f64",
             default: Some("1e-6"),
@@ -114,6 +140,10 @@ pub struct FrictionalParams {
     /// Relative mass threshold ε_m.
     #[serde(default = "default_min_mass_fraction")]
     pub min_mass_fraction: f64,
+    /// With update-stress-last, a field holding less than this fraction of a shared node's
+    /// mass moves with the other fields there.
+    #[serde(default = "default_sliver_fraction")]
+    pub sliver_fraction: f64,
 }
 
 /// The friction coefficient of one pair of contact groups.
@@ -168,6 +198,10 @@ fn default_min_mass_fraction() -> f64 {
     1e-6
 }
 
+fn default_sliver_fraction() -> f64 {
+    1e-4
+}
+
 impl Default for FrictionalParams {
     fn default() -> Self {
         Self {
@@ -176,6 +210,7 @@ impl Default for FrictionalParams {
             separability: default_separability(),
             normals: ContactNormals::default(),
             min_mass_fraction: default_min_mass_fraction(),
+            sliver_fraction: default_sliver_fraction(),
         }
     }
 }
@@ -192,10 +227,17 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     if !(parsed.min_mass_fraction >= 0.0 && parsed.min_mass_fraction < 1.0) {
         return Err(params.error("min_mass_fraction", "expected a fraction in [0, 1)"));
     }
+    if !(parsed.sliver_fraction >= 0.0 && parsed.sliver_fraction < 0.5) {
+        return Err(params.error("sliver_fraction", "expected a fraction in [0, 0.5)"));
+    }
     // The field assignment keeps inseparable sides of a group in one field (fractum_engine::fields).
     installer.insert_resource(fractum_engine::fields::Separability(parsed.separability));
     installer.insert_resource(parsed);
-    with_dim!(installer.dimension(), D => installer.add_systems(frictional_contact::<D>));
+    if installer.world().contains_resource::<NewmarkParams>() {
+        with_dim!(installer.dimension(), D => installer.add_systems(frictional_contact::<D>));
+    } else {
+        with_dim!(installer.dimension(), D => installer.add_grid_update_correction(frictional_contact_usl::<D>));
+    }
     Ok(())
 }
 
@@ -307,13 +349,16 @@ pub fn separable(
             && damage.mean[ka].min(damage.mean[kb]) > threshold)
 }
 
-/// Contact impulses of every field of one node.
+/// Contact impulses of every field of one node. A pair in which one field holds less than
+/// `merge_below` of the node's mass moves as one field (the stick impulse, whatever the
+/// separability); `merge_below = 0` leaves every pair to Algorithm 3.
 pub fn node_impulses<V: VectorOps>(
     fields: &NodeFields,
     states: &[FieldState<V>; MAX_FIELDS],
     damage: &NodeFieldDamage,
     params: &FrictionalParams,
     held: &[bool],
+    merge_below: f64,
 ) -> [V; MAX_FIELDS] {
     let mut impulses = [V::ZERO; MAX_FIELDS];
     let count = fields.count as usize;
@@ -321,16 +366,20 @@ pub fn node_impulses<V: VectorOps>(
     let present = |k: usize| states[k].mass > params.min_mass_fraction * total;
     for a in 0..count {
         for b in a + 1..count {
-            if !(present(a) && present(b)) {
+            let lighter = states[a].mass.min(states[b].mass);
+            let merged = lighter > 0.0 && lighter < merge_below * total;
+            let takes_part = merged || (present(a) && present(b));
+            if !takes_part {
                 continue;
             }
-            let can_separate = separable(
-                fields.keys[a],
-                fields.keys[b],
-                damage,
-                (a, b),
-                params.separability,
-            );
+            let can_separate = !merged
+                && separable(
+                    fields.keys[a],
+                    fields.keys[b],
+                    damage,
+                    (a, b),
+                    params.separability,
+                );
             let friction = params.friction_between(fields.keys[a].group(), fields.keys[b].group());
             let mut dp = pair_impulse(
                 &states[a],
@@ -372,35 +421,71 @@ struct NodeContact<V> {
     impulses: [V; MAX_FIELDS],
 }
 
-/// The `contact/frictional` system.
+/// The node columns the contact law reads and corrects, as plain slices in node order.
+pub struct ContactColumns<'a, D: Dim> {
+    /// Fields per node.
+    pub fields: &'a [NodeFields],
+    /// Separability statistics per node (eq. 21); `None` treats every pair of fields as
+    /// separable, which holds where the field assignment has already kept inseparable sides
+    /// of a group in one field.
+    pub damage: Option<&'a [NodeFieldDamage]>,
+    /// Field masses.
+    pub mass: &'a [NodeMass],
+    /// Field velocities: with update-stress-last the end-of-step velocities, corrected here.
+    pub velocity: &'a mut [NodeVelocity<D>],
+    /// Field accelerations, corrected with the velocities (update-stress-last).
+    pub acceleration: &'a mut [NodeAcceleration<D>],
+    /// Field normals, written here (zero where a node has one field).
+    pub normal: &'a mut [NodeNormal<D>],
+    /// Contact force per field, written here.
+    pub contact: &'a mut [NodeContactForce<D>],
+}
+
+/// How the end-of-step velocity the contact acts on is found, and where the correction goes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Integrator {
+    /// Update-stress-last: the node velocities are the end-of-step `v̄ⁿ⁺¹` (eq. 6); they and
+    /// the accelerations are corrected in place, and the contact force is `Δp/Δt`.
+    UpdateStressLast,
+    /// Newmark predictor-corrector with `γΔt`: the end-of-step velocity is `ṽ + γΔt f/m` with
+    /// the forces of the new stress; only the contact force `Δp/(γΔt)` is written, for the
+    /// corrector to integrate.
+    Newmark(f64),
+}
+
+/// Algorithm 3 at every node with two fields or more: normals (eq. 11), impulses, and the
+/// correction `integrator` asks for.
 #[allow(clippy::too_many_arguments)]
-pub fn frictional_contact<D: Dim>(
-    clock: Res<SimClock>,
-    params: Res<FrictionalParams>,
-    newmark: Option<Res<NewmarkParams>>,
-    body_force: Res<BodyForce<D>>,
-    bcs: Res<BoundaryConditions>,
-    connectivity: Res<Connectivity<D>>,
-    particles: ForceSourceQuery<D>,
-    mut nodes: NodeQuery<D>,
+pub fn apply_contact<D: Dim>(
+    c: &Connectivity<D>,
+    slices: &ParticleSlices<D>,
+    body_force: D::Vector,
+    nodes: ContactColumns<D>,
+    params: &FrictionalParams,
+    held: &[[bool; fractum_engine::boundary::MAX_COMPONENTS]],
+    dt: f64,
+    integrator: Integrator,
 ) {
-    let Some(slices) = ParticleSlices::of(&particles) else {
-        return;
+    let ContactColumns {
+        fields,
+        damage,
+        mass,
+        velocity,
+        acceleration,
+        normal,
+        contact,
+    } = nodes;
+    // The statistics of fields failed throughout: every pair separable.
+    let separable_everywhere = NodeFieldDamage {
+        mean: [1.0; MAX_FIELDS],
+        max: [1.0; MAX_FIELDS],
     };
-    let Some((fields, damage, mass, mut velocity, mut acceleration, mut normal, mut contact)) =
-        single_table(nodes.contiguous_iter_mut(), "nodes")
-    else {
-        return;
-    };
-    let c = &*connectivity;
     // Only nodes with two or more fields can be in contact: normals, trial velocities and
     // impulses are gathered there alone, from the node-major connectivity.
     let shared: Vec<usize> = (0..fields.len())
         .into_par_iter()
         .filter(|&i| fields[i].count >= 2)
         .collect();
-    let gamma_dt = newmark.as_ref().map(|n| n.gamma * clock.dt);
-    let held = bcs.held_mask(fields.len());
     let results: Vec<NodeContact<D::Vector>> = shared
         .par_iter()
         .map(|&i| {
@@ -413,8 +498,8 @@ pub fn frictional_contact<D: Dim>(
             for &(e, p) in entries {
                 let (e, p) = (e as usize, p as usize);
                 gradient[c.field(e)] += c.gradients[e] * slices.mass[p].0;
-                if gamma_dt.is_some() {
-                    force[c.field(e)] += force_contribution(c, &slices, body_force.0, e, p);
+                if let Integrator::Newmark(_) = integrator {
+                    force[c.field(e)] += force_contribution(c, slices, body_force, e, p);
                 }
             }
             let normals = gradient.map(|g| {
@@ -428,27 +513,33 @@ pub fn frictional_contact<D: Dim>(
             // The end-of-step velocity the contact acts on.
             let states = std::array::from_fn(|k| FieldState {
                 mass: mass[i].0[k],
-                velocity: match gamma_dt {
-                    Some(gamma_dt) => crate::corrector::newmark::correct(
+                velocity: match integrator {
+                    Integrator::Newmark(gamma_dt) => crate::corrector::newmark::correct(
                         mass[i].0[k],
                         velocity[i].0[k],
                         force[k],
                         gamma_dt,
                     ),
-                    None => velocity[i].0[k],
+                    Integrator::UpdateStressLast => velocity[i].0[k],
                 },
                 normal: normals[k],
             });
-            let impulses =
-                node_impulses(&fields[i], &states, &damage[i], &params, &held[i][..D::N]);
+            let stats = damage.map_or(&separable_everywhere, |d| &d[i]);
+            let merge_below = match integrator {
+                Integrator::UpdateStressLast => params.sliver_fraction,
+                Integrator::Newmark(_) => 0.0,
+            };
+            let impulses = node_impulses(
+                &fields[i],
+                &states,
+                stats,
+                params,
+                &held[i][..D::N],
+                merge_below,
+            );
             NodeContact { normals, impulses }
         })
         .collect();
-    let dt = clock.dt;
-    let velocity: &mut [NodeVelocity<D>] = &mut velocity;
-    let acceleration: &mut [NodeAcceleration<D>] = &mut acceleration;
-    let contact: &mut [NodeContactForce<D>] = &mut contact;
-    let normal: &mut [NodeNormal<D>] = &mut normal;
     normal
         .par_iter_mut()
         .for_each(|n| *n = NodeNormal::default());
@@ -464,11 +555,11 @@ pub fn frictional_contact<D: Dim>(
     ) in shared.iter().zip(&results)
     {
         normal[i].0 = *normals;
-        match gamma_dt {
-            Some(gamma_dt) => {
+        match integrator {
+            Integrator::Newmark(gamma_dt) => {
                 contact[i].0 = dp.map(|dp| dp / gamma_dt);
             }
-            None => {
+            Integrator::UpdateStressLast => {
                 contact[i].0 = dp.map(|dp| dp / dt);
                 for (k, (&m, &dp)) in mass[i].0.iter().zip(dp).enumerate() {
                     if m > 0.0 {
@@ -479,6 +570,93 @@ pub fn frictional_contact<D: Dim>(
             }
         }
     }
+}
+
+/// The `contact/frictional` system with the Newmark predictor-corrector, in the contact stage.
+#[allow(clippy::too_many_arguments)]
+pub fn frictional_contact<D: Dim>(
+    clock: Res<SimClock>,
+    params: Res<FrictionalParams>,
+    newmark: Res<NewmarkParams>,
+    body_force: Res<BodyForce<D>>,
+    bcs: Res<BoundaryConditions>,
+    connectivity: Res<Connectivity<D>>,
+    particles: ForceSourceQuery<D>,
+    mut nodes: NodeQuery<D>,
+) {
+    let Some(slices) = ParticleSlices::of(&particles) else {
+        return;
+    };
+    let Some((fields, damage, mass, mut velocity, mut acceleration, mut normal, mut contact)) =
+        single_table(nodes.contiguous_iter_mut(), "nodes")
+    else {
+        return;
+    };
+    let held = bcs.held_mask(fields.len());
+    let columns = ContactColumns {
+        fields,
+        damage: Some(damage),
+        mass,
+        velocity: &mut velocity,
+        acceleration: &mut acceleration,
+        normal: &mut normal,
+        contact: &mut contact,
+    };
+    apply_contact(
+        &connectivity,
+        &slices,
+        body_force.0,
+        columns,
+        &params,
+        &held,
+        clock.dt,
+        Integrator::Newmark(newmark.gamma * clock.dt),
+    );
+}
+
+/// The `contact/frictional` system with update-stress-last: a correction of `predictor/usl`'s
+/// grid update, so that the stress stage takes the velocity gradient from the contact-corrected
+/// velocities (the DFG paper's order). Every pair is separable here: the field assignment has
+/// already kept inseparable sides of a group in one field, with the same damage the paper's
+/// step-start partition uses.
+#[allow(clippy::too_many_arguments)]
+pub fn frictional_contact_usl<D: Dim>(
+    clock: Res<SimClock>,
+    params: Res<FrictionalParams>,
+    body_force: Res<BodyForce<D>>,
+    bcs: Res<BoundaryConditions>,
+    connectivity: Res<Connectivity<D>>,
+    particles: ForceSourceQuery<D>,
+    mut nodes: NodeQuery<D>,
+) {
+    let Some(slices) = ParticleSlices::of(&particles) else {
+        return;
+    };
+    let Some((fields, _, mass, mut velocity, mut acceleration, mut normal, mut contact)) =
+        single_table(nodes.contiguous_iter_mut(), "nodes")
+    else {
+        return;
+    };
+    let held = bcs.held_mask(fields.len());
+    let columns = ContactColumns {
+        fields,
+        damage: None,
+        mass,
+        velocity: &mut velocity,
+        acceleration: &mut acceleration,
+        normal: &mut normal,
+        contact: &mut contact,
+    };
+    apply_contact(
+        &connectivity,
+        &slices,
+        body_force.0,
+        columns,
+        &params,
+        &held,
+        clock.dt,
+        Integrator::UpdateStressLast,
+    );
 }
 
 #[cfg(test)]
@@ -584,6 +762,28 @@ mod tests {
         assert_eq!(params.friction_between(2, 2), 0.1);
     }
 
+    /// A sliver field leaving a heavy one: Algorithm 3 leaves it alone (separating, or below
+    /// ε_m); under `merge_below` it moves with the heavy field, and momentum is conserved.
+    #[test]
+    fn slivers_move_with_the_other_field_when_merged() {
+        let fields = NodeFields {
+            count: 2,
+            keys: [FieldKey(0), FieldKey(2), FieldKey(0), FieldKey(0)],
+        };
+        let mut states = [state(0.0, DVec2::ZERO, DVec2::ZERO); MAX_FIELDS];
+        states[0] = state(1e-7, DVec2::new(-263.0, 124.0), DVec2::new(-1.0, 0.0));
+        states[1] = state(2.0, DVec2::new(0.0065, 0.0054), DVec2::new(1.0, 0.0));
+        let damage = NodeFieldDamage::default();
+        let params = FrictionalParams::default();
+        let alone = node_impulses(&fields, &states, &damage, &params, &[false; 2], 0.0);
+        assert_eq!(alone[0], DVec2::ZERO);
+        let merged = node_impulses(&fields, &states, &damage, &params, &[false; 2], 1e-4);
+        let after = states[0].velocity + merged[0] / states[0].mass;
+        let v_cm = (states[0].velocity * 1e-7 + states[1].velocity * 2.0) / (2.0 + 1e-7);
+        assert!((after - v_cm).length() < 1e-9, "{after}");
+        assert_eq!(merged[0] + merged[1], DVec2::ZERO);
+    }
+
     #[test]
     fn stick_below_the_friction_limit() {
         let a = state(1.0, DVec2::new(0.1, 2.0), DVec2::new(0.0, 1.0));
@@ -632,7 +832,7 @@ mod tests {
                 .sum()
         };
         let before = momentum(&mut world);
-        run_system(&mut world, frictional_contact::<Two>);
+        run_system(&mut world, frictional_contact_usl::<Two>);
         let after = momentum(&mut world);
         assert!((after - before).length() < 1e-15);
         let fields = node_values::<NodeFields>(&mut world);

@@ -1,0 +1,246 @@
+//! Uniform GIMP shape functions: the multilinear tent averaged over each particle's domain.
+//!
+//! - Stage: basis. Registration name: `basis/gimp`.
+//! - Implements the generalized interpolation material point method (Bardenhagen & Kober 2004)
+//!   that dfg-partitioning-mpm.md §1.1 writes its transfers with: eqs. (1)–(4) and (7) use the
+//!   averages `S̄_Ip` and `∇S̄_Ip` of the grid shape function over the particle domain. The
+//!   domain is the particle's undeformed square (cube) of side `l_p = (V_p⁰ / t)^(1/d)`, with
+//!   `t` the 2D thickness ("uniform GIMP"; the paper's CPDI deforms it with `F`). Along one
+//!   axis, with `r` the distance from the node, `h` the spacing and `l = l_p/2 ≤ h/2`:
+//!   - `|r| < l`: `S = 1 − (r² + l²)/(2hl)`, `S' = −r/(hl)`;
+//!   - `l ≤ |r| < h − l`: `S = 1 − |r|/h`, `S' = −sign(r)/h`;
+//!   - `h − l ≤ |r| < h + l`: `S = (h + l − |r|)²/(4hl)`, `S' = −sign(r)(h + l − |r|)/(2hl)`;
+//!
+//!   and the d-dimensional weight is the product over the axes. A particle connects to the
+//!   nodes where the weight is positive: up to 3 per axis (9 in 2D, 27 in 3D).
+//! - Why it exists beside `basis/linear`: at the edge of the support the weight vanishes as
+//!   the square of the distance and its gradient linearly, so a node that a particle is just
+//!   entering gets a mass and a force that vanish together, and the update-stress-last velocity
+//!   gradient `Σ v̄_I ⊗ ∇S̄_I` stays bounded. With the tent functions the force keeps its full
+//!   `∇N` while the mass goes to zero, and a loaded particle entering an empty cell drives that
+//!   node's `v̄ = (p + Δt f)/m` without bound (the cell-crossing instability; see
+//!   `predictor/usl`).
+//! - Rows are partitions of unity that reproduce linear fields (`Σ S̄ = 1`, `Σ S̄ x_I = x_p`,
+//!   `Σ ∇S̄ = 0`, `Σ x_I ⊗ ∇S̄_I = I`). A particle whose support would reach past the grid stops
+//!   the run with a message naming it.
+
+use fractum_engine::health::{Blowup, Health, fmt_vector};
+use fractum_engine::prelude::*;
+use rayon::prelude::*;
+
+/// Registration of `basis/gimp`.
+pub const REGISTRATION: Registration = Registration {
+    name: "basis/gimp",
+    summary: "uniform GIMP: tent functions averaged over each particle's undeformed domain \
+              (up to 9 nodes per particle in 2D, 27 in 3D)",
+    params: &[],
+    requires: &[],
+    install,
+};
+
+fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    crate::no_params(params)?;
+    with_dim!(installer.dimension(), D => installer.add_systems(gimp_basis::<D>));
+    Ok(())
+}
+
+/// One axis of the GIMP weight: `(S, dS/dr)` at signed distance `r` from the node, for
+/// spacing `h` and particle half-width `l` (0 < l ≤ h/2).
+pub fn gimp_1d(r: f64, h: f64, l: f64) -> (f64, f64) {
+    let distance = r.abs();
+    let sign = r.signum();
+    if distance < l {
+        (1.0 - (r * r + l * l) / (2.0 * h * l), -r / (h * l))
+    } else if distance < h - l {
+        (1.0 - distance / h, -sign / h)
+    } else if distance < h + l {
+        let reach = h + l - distance;
+        (reach * reach / (4.0 * h * l), -sign * reach / (2.0 * h * l))
+    } else {
+        (0.0, 0.0)
+    }
+}
+
+/// Half the side of a particle's undeformed domain, `l_p / 2`, capped at `h/2` (a particle
+/// larger than a cell is treated as one cell wide).
+pub fn half_width(initial_volume: f64, thickness: f64, dimensions: usize, h: f64) -> f64 {
+    let side = (initial_volume / thickness).powf(1.0 / dimensions as f64);
+    (0.5 * side).min(0.5 * h)
+}
+
+/// The GIMP row of a particle at `x` with half-width `l`: `(node, S̄, ∇S̄)` for every node with
+/// a positive weight, or the first axis along which the support leaves the grid.
+pub fn gimp_row<D: Dim>(
+    grid: &Grid<D>,
+    x: D::Vector,
+    l: f64,
+) -> Result<Vec<(u32, f64, D::Vector)>, usize> {
+    let h = grid.spacing;
+    let nodes = grid.nodes_per_axis();
+    // Along each axis: the first node that can be in the support and up to three weights.
+    let mut first = [0isize; 3];
+    let mut axis_weights = [[(0.0, 0.0); 3]; 3];
+    for a in 0..D::N {
+        let s = (x[a] - grid.min[a]) / h;
+        let low = (s - (1.0 + l / h)).ceil() as isize;
+        first[a] = low;
+        for (k, w) in axis_weights[a].iter_mut().enumerate() {
+            let node = low + k as isize;
+            let r = x[a] - (grid.min[a] + node as f64 * h);
+            *w = gimp_1d(r, h, l);
+            let inside = node >= 0 && (node as usize) < nodes[a];
+            if w.0 > 0.0 && !inside {
+                return Err(a);
+            }
+        }
+    }
+    let mut row = Vec::with_capacity(3usize.pow(D::N as u32));
+    for k in 0..3usize.pow(D::N as u32) {
+        let digit = |a: usize| (k / 3usize.pow(a as u32)) % 3;
+        let weight = (0..D::N).fold(1.0, |w, a| w * axis_weights[a][digit(a)].0);
+        if weight <= 0.0 {
+            continue;
+        }
+        let gradient = D::Vector::from_fn(|a| {
+            (0..D::N).fold(1.0, |g, b| {
+                let (s, ds) = axis_weights[b][digit(b)];
+                g * if b == a { ds } else { s }
+            })
+        });
+        let lattice = D::Cell::from_fn(|a| (first[a] + digit(a) as isize) as usize);
+        row.push((grid.node_index(lattice) as u32, weight, gradient));
+    }
+    Ok(row)
+}
+
+/// The `basis/gimp` system: rebuilds the connectivity for the current positions.
+pub fn gimp_basis<D: Dim>(
+    clock: Res<SimClock>,
+    grid: Res<Grid<D>>,
+    thickness: Option<Res<Thickness>>,
+    mut health: ResMut<Health>,
+    mut connectivity: ResMut<Connectivity<D>>,
+    particles: Query<(&ParticleId, &Position<D>, &InitialVolume), With<Particle>>,
+) {
+    let (ids, positions, volumes) =
+        single_table(particles.contiguous_iter(), "particles").unwrap_or((&[], &[], &[]));
+    let grid = *grid;
+    let t = thickness.map_or(1.0, |t| t.0);
+    let rows: Vec<_> = positions
+        .par_iter()
+        .zip(volumes.par_iter())
+        .map(|(x, v)| gimp_row(&grid, x.0, half_width(v.0, t, D::N, grid.spacing)))
+        .collect();
+    if let Some((p, Err(axis))) = rows.iter().enumerate().find(|(_, r)| r.is_err()) {
+        health.failure = Some(Blowup {
+            step: clock.step + 1,
+            stage: Stage::Basis,
+            message: format!(
+                "particle {} at {}: its GIMP domain reaches past the grid along axis {axis}; \
+                 extend the grid by a cell",
+                ids[p].0,
+                fmt_vector(positions[p].0, D::N)
+            ),
+        });
+        return;
+    }
+    let rows: Vec<_> = rows.into_iter().map(|r| r.unwrap_or_default()).collect();
+    connectivity.rebuild(&rows, grid.node_count());
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fractum_engine::testing::*;
+
+    /// Partition of unity, linear reproduction, Σ∇S̄ = 0 and Σ x_I ⊗ ∇S̄_I = I for a row.
+    fn check_consistency<D: Dim>(grid: &Grid<D>, x: D::Vector, l: f64, nodes: usize) {
+        let row = gimp_row(grid, x, l).unwrap();
+        assert_eq!(row.len(), nodes, "{row:?}");
+        let sum: f64 = row.iter().map(|e| e.1).sum();
+        let first: D::Vector = row
+            .iter()
+            .map(|e| grid.node_position(e.0 as usize) * e.1)
+            .sum();
+        let grad_sum: D::Vector = row.iter().map(|e| e.2).sum();
+        let jacobian = row.iter().fold(D::Matrix::ZERO, |acc, e| {
+            acc + D::Matrix::outer(grid.node_position(e.0 as usize), e.2)
+        });
+        assert!((sum - 1.0).abs() < 1e-14, "{sum}");
+        assert!((first - x).length() < 1e-14);
+        assert!(grad_sum.length() < 1e-12);
+        assert!((jacobian - D::Matrix::IDENTITY).max_abs() < 1e-12);
+        assert!(row.iter().all(|e| e.1 > 0.0));
+    }
+
+    #[test]
+    fn rows_are_partitions_of_unity_that_reproduce_linear_fields() {
+        let grid = Grid::<Two> {
+            min: DVec2::new(-1.0, 2.0),
+            spacing: 0.5,
+            cells: [4, 4],
+        };
+        let l = 0.125; // two particles per cell
+        // Well inside a cell: the four nodes of the cell only, as with the tents.
+        check_consistency(&grid, DVec2::new(0.25, 3.25), l, 4);
+        // Within l of a grid line along x: a third column of nodes.
+        check_consistency(&grid, DVec2::new(0.05, 3.25), l, 6);
+        // Near a cell corner: 3 × 3.
+        check_consistency(&grid, DVec2::new(0.05, 2.95), l, 9);
+        let grid = Grid::<Three> {
+            min: DVec3::new(-1.0, 2.0, 0.5),
+            spacing: 0.5,
+            cells: [4, 4, 2],
+        };
+        check_consistency(&grid, DVec3::new(0.05, 2.95, 0.98), l, 27);
+        check_consistency(&grid, DVec3::new(0.25, 3.25, 0.75), l, 8);
+    }
+
+    /// Inside a cell, away from its faces, the weights are the tents'; across the support's edge
+    /// the weight and its slope vanish together (weight ∝ distance², slope ∝ distance).
+    #[test]
+    fn weights_match_the_tents_inside_and_vanish_smoothly_at_the_edge() {
+        let (h, l) = (1.0, 0.25);
+        for r in [0.3, 0.5, -0.6] {
+            let (s, ds) = gimp_1d(r, h, l);
+            assert!((s - (1.0 - f64::abs(r))).abs() < 1e-15);
+            assert!((ds + f64::signum(r)).abs() < 1e-15);
+        }
+        // Continuous value and slope at the breakpoints l, h − l, h + l.
+        for edge in [l, h - l, h + l] {
+            let (below, above) = (gimp_1d(edge - 1e-9, h, l), gimp_1d(edge + 1e-9, h, l));
+            assert!((below.0 - above.0).abs() < 1e-8 && (below.1 - above.1).abs() < 1e-8);
+        }
+        let near = |gap: f64| gimp_1d(h + l - gap, h, l);
+        let (s1, ds1) = near(1e-3);
+        let (s2, ds2) = near(2e-3);
+        assert!((s2 / s1 - 4.0).abs() < 1e-9 && (ds2 / ds1 - 2.0).abs() < 1e-9);
+        // The ratio that drives the update-stress-last velocity gradient stays bounded.
+        assert!((ds1 * ds1 / s1 - ds2 * ds2 / s2).abs() < 1e-9);
+    }
+
+    /// The system alone on a tiny world: each particle's row sums to one, and a particle whose
+    /// domain would reach past the grid stops the run at the basis stage.
+    #[test]
+    fn the_system_builds_rows_and_reports_a_support_outside_the_grid() {
+        let mut world = tiny_world::<Two>(4, 0.25, 1e-3);
+        let inside = spawn_particle(
+            &mut world,
+            DVec2::new(0.6, 0.26),
+            DVec2::ZERO,
+            1.0,
+            0.015625,
+        );
+        run_system(&mut world, gimp_basis::<Two>);
+        let connectivity = world.resource::<Connectivity<Two>>();
+        assert_eq!(connectivity.row(0).len(), 6);
+        let sum: f64 = connectivity.weights[connectivity.row(0)].iter().sum();
+        assert!((sum - 1.0).abs() < 1e-14);
+        assert!(world.resource::<Health>().failure.is_none());
+        world.get_mut::<Position<Two>>(inside).unwrap().0 = DVec2::new(0.5, 0.01);
+        run_system(&mut world, gimp_basis::<Two>);
+        let failure = world.resource::<Health>().failure.clone().unwrap();
+        assert_eq!(failure.stage, Stage::Basis);
+        assert!(failure.message.contains("axis 1"), "{}", failure.message);
+    }
+}
