@@ -17,6 +17,8 @@ use std::time::Instant;
 pub enum BenchPipeline {
     /// `basis/linear` + update-stress-last + linear elasticity.
     LinearUsl,
+    /// `basis/gimp` + update-stress-last + linear elasticity: the cost of GIMP's wider rows.
+    GimpUsl,
     /// `basis/lme` (γ̂ = 3.5) + Newmark predictor-corrector + linear elasticity.
     LmeNewmark,
     /// `linear+usl` plus `neighbour/kdtree` and `damage/eigensoftening` (strength too high to
@@ -38,6 +40,7 @@ impl BenchPipeline {
     pub fn name(self) -> &'static str {
         match self {
             BenchPipeline::LinearUsl => "linear+usl",
+            BenchPipeline::GimpUsl => "gimp+usl",
             BenchPipeline::LmeNewmark => "lme+newmark",
             BenchPipeline::KdtreeSoftening => "linear+usl+kdtree+eigensoftening",
             BenchPipeline::NodeLinkedSoftening => "linear+usl+node_linked+eigensoftening",
@@ -48,12 +51,13 @@ impl BenchPipeline {
 
     /// The pipeline's systems, with their parameters.
     fn systems<D: Dim>(self, spec: Spec<D>) -> Spec<D> {
-        let usl = |spec: Spec<D>| {
-            spec.system("basis/linear")
+        let usl_on = |spec: Spec<D>, basis: &str| {
+            spec.system(basis)
                 .system("predictor/usl")
                 .system("stress/linear_elastic")
                 .system("advection/usl")
         };
+        let usl = |spec: Spec<D>| usl_on(spec, "basis/linear");
         // Strength too high to crack, so every step evaluates the non-local stress of every
         // particle.
         let softening = |spec: Spec<D>, neighbour: &str| {
@@ -79,6 +83,7 @@ impl BenchPipeline {
             BenchPipeline::LinearNewmark => newmark(spec, false),
             BenchPipeline::DfgContact => newmark(spec, true),
             BenchPipeline::LinearUsl => usl(spec),
+            BenchPipeline::GimpUsl => usl_on(spec, "basis/gimp"),
             BenchPipeline::LmeNewmark => spec
                 .system_with("basis/lme", "(gamma: 3.5)")
                 .system("predictor/newmark")
@@ -241,6 +246,7 @@ mod tests {
         let registry = fractum_systems::stock_registry();
         for pipeline in [
             BenchPipeline::LinearUsl,
+            BenchPipeline::GimpUsl,
             BenchPipeline::LmeNewmark,
             BenchPipeline::KdtreeSoftening,
             BenchPipeline::NodeLinkedSoftening,

@@ -131,6 +131,8 @@ pub enum Command {
 pub enum PipelineArg {
     /// `basis/linear` + update-stress-last + linear elasticity.
     LinearUsl,
+    /// `basis/gimp` + update-stress-last + linear elasticity.
+    GimpUsl,
     /// `basis/lme` + Newmark predictor-corrector + linear elasticity.
     LmeNewmark,
     /// `linear-usl` + `neighbour/kdtree` + `damage/eigensoftening`.
@@ -278,6 +280,7 @@ impl BenchGrid<'_> {
         for &pipeline in self.pipelines {
             let pipeline = match pipeline {
                 PipelineArg::LinearUsl => BenchPipeline::LinearUsl,
+                PipelineArg::GimpUsl => BenchPipeline::GimpUsl,
                 PipelineArg::LmeNewmark => BenchPipeline::LmeNewmark,
                 PipelineArg::KdtreeSoftening => BenchPipeline::KdtreeSoftening,
                 PipelineArg::NodeLinkedSoftening => BenchPipeline::NodeLinkedSoftening,
