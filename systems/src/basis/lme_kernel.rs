@@ -6,8 +6,16 @@
 //! `r = ∂ log Z/∂λ = Σ N_I (x − x_I)` (eq. 10), `J = ∂r/∂λ` (eq. 9), and for constant β
 //! `∇N_I = −N_I J⁻¹ (x − x_I)` (eq. 8).
 //!
-//! `log Z` is convex in λ, so Newton's method from a warm start converges in a few steps. When
-//! it does not (irregular node sets, points near the hull of their nodes), a damped Newton
+//! `log Z` is convex in λ, so Newton's method from a warm start converges in a few steps.
+//! When the warm start is already close (the last Newton step `δ = −J⁻¹ r` changes every `N_I`
+//! by less than [`LINEARISE_BELOW`] relatively), the step is applied to the values to first
+//! order instead of re-evaluating the exponentials: `∂N_I/∂λ = N_I (d_I − r)` with
+//! `d_I = x − x_I`, so `N_I ← N_I (1 + δ·(d_I − r))`. The corrected values are a partition of
+//! unity with `Σ N_I d_I = r + Jδ = 0` exactly (to round-off), they differ from the exact
+//! approximants by the second-order term, below `LINEARISE_BELOW²` relatively, and `J` is
+//! recomputed from them, so the gradient identities of eq. 8 hold to round-off as well. One
+//! evaluation of the exponentials per point instead of three (Newton step, convergence check,
+//! polish). When it does not (irregular node sets, points near the hull of their nodes), a damped Newton
 //! method with a backtracking line search restarts from λ = 0; if that also fails, the caller
 //! gets an error rather than shape functions that are not a partition of unity.
 //!
@@ -229,6 +237,42 @@ impl<D: Dim> Problem<'_, D> {
     }
 }
 
+/// The relative change of the values under which the last Newton step is applied to them to
+/// first order. Its second-order remainder, below the square of this (1e-8 relatively), stays
+/// two orders under the support truncation (`support_tolerance`, 1e-6 by default), which
+/// already bounds how exactly the approximants are represented.
+pub const LINEARISE_BELOW: f64 = 1e-4;
+
+/// The fast path: the moments at `lambda_guess`, one Newton step applied to the values to first
+/// order and `J` recomputed from them; `None` (values left unspecified) when the step would
+/// change some value by more than [`LINEARISE_BELOW`] relatively or J is singular.
+fn linearised<D: Dim>(
+    problem: &Problem<D>,
+    lambda_guess: D::Vector,
+    scratch: &mut LmeScratch,
+) -> Option<(D::Vector, D::Matrix)> {
+    let m = problem.current(lambda_guess, scratch);
+    let delta = newton_step(&m)?;
+    let mut largest = 0.0f64;
+    for &xi in problem.nodes {
+        largest = largest.max(delta.dot(problem.x - xi - m.r).abs());
+    }
+    if !(largest <= LINEARISE_BELOW) {
+        return None;
+    }
+    let mut r = D::Vector::ZERO;
+    let mut second = D::Matrix::ZERO;
+    for (v, &xi) in scratch.values.iter_mut().zip(problem.nodes) {
+        let d = problem.x - xi;
+        *v *= 1.0 + delta.dot(d - m.r);
+        r += d * *v;
+        second += D::Matrix::outer(d, d) * *v;
+    }
+    let j = second - D::Matrix::outer(r, r);
+    let det = j.determinant();
+    (det.is_finite() && det > f64::MIN_POSITIVE).then(|| (lambda_guess + delta, j.inverse()))
+}
+
 /// Solves for λ at `x` over `nodes`, warm-started from `lambda_guess`. On success `scratch.values`
 /// holds `N_I` and the result carries λ, `J⁻¹` and the iterations used.
 pub fn lme_solve<D: Dim>(
@@ -239,6 +283,9 @@ pub fn lme_solve<D: Dim>(
     scratch: &mut LmeScratch,
 ) -> Result<(D::Vector, D::Matrix, usize), LmeFailure> {
     let problem = Problem::<D> { x, nodes, settings };
+    if let Some((lambda, j_inverse)) = linearised(&problem, lambda_guess, scratch) {
+        return Ok((lambda, j_inverse, 0));
+    }
     let (lambda, m, iterations) = match problem.plain_newton(lambda_guess, scratch) {
         Ok(found) => found,
         Err(spent) => problem
