@@ -63,29 +63,48 @@ impl<D: Dim> Connectivity<D> {
 
     /// Replaces the tables from per-particle rows of `(node, N, ∇N)` and rebuilds the transpose.
     ///
-    /// `rows` must be in particle-row order. `node_count` is the number of grid nodes.
-    pub fn rebuild(&mut self, rows: &[Vec<(u32, f64, D::Vector)>], node_count: usize) {
+    /// `rows` must be in particle-row order. `node_count` is the number of grid nodes. The
+    /// tables keep their capacity from step to step, and are filled in one parallel pass over
+    /// blocks of rows, each block writing its own contiguous range.
+    pub fn rebuild<R: AsRef<[(u32, f64, D::Vector)]> + Sync>(
+        &mut self,
+        rows: &[R],
+        node_count: usize,
+    ) {
         self.row_offsets.clear();
         self.row_offsets.push(0);
         let mut total = 0;
         for row in rows {
-            total += row.len();
+            total += row.as_ref().len();
             self.row_offsets.push(total);
         }
-        // Parallel flattening; `collect` keeps row order, so the tables are the same for any
-        // number of threads.
-        self.nodes = rows
-            .par_iter()
-            .flat_map_iter(|r| r.iter().map(|e| e.0))
-            .collect();
-        self.weights = rows
-            .par_iter()
-            .flat_map_iter(|r| r.iter().map(|e| e.1))
-            .collect();
-        self.gradients = rows
-            .par_iter()
-            .flat_map_iter(|r| r.iter().map(|e| e.2))
-            .collect();
+        self.nodes.resize(total, 0);
+        self.weights.resize(total, 0.0);
+        self.gradients.resize(total, D::Vector::ZERO);
+        const BLOCK: usize = 1024;
+        let mut blocks = Vec::with_capacity(rows.len().div_ceil(BLOCK));
+        let (mut nodes, mut weights, mut gradients) = (
+            &mut self.nodes[..],
+            &mut self.weights[..],
+            &mut self.gradients[..],
+        );
+        for (b, block_rows) in rows.chunks(BLOCK).enumerate() {
+            let len = self.row_offsets[(b * BLOCK + block_rows.len()).min(rows.len())]
+                - self.row_offsets[b * BLOCK];
+            let (n, rest_n) = nodes.split_at_mut(len);
+            let (w, rest_w) = weights.split_at_mut(len);
+            let (g, rest_g) = gradients.split_at_mut(len);
+            (nodes, weights, gradients) = (rest_n, rest_w, rest_g);
+            blocks.push((block_rows, n, w, g));
+        }
+        blocks.into_par_iter().for_each(|(block_rows, n, w, g)| {
+            let entries = block_rows.iter().flat_map(|r| r.as_ref().iter());
+            for (k, &(node, weight, gradient)) in entries.enumerate() {
+                n[k] = node;
+                w[k] = weight;
+                g[k] = gradient;
+            }
+        });
         self.reset_fields();
         self.rebuild_transpose(node_count);
     }

@@ -121,6 +121,8 @@ pub struct LmeState<D: Dim> {
     pub anchors: Vec<D::Vector>,
     /// Nodes within radius + skin of the anchor, ascending.
     pub candidates: Vec<Vec<u32>>,
+    /// Each particle's last connectivity row: the buffers are refilled in place every step.
+    pub rows: Vec<Row<D>>,
 }
 
 impl<D: Dim> Default for LmeState<D> {
@@ -131,6 +133,7 @@ impl<D: Dim> Default for LmeState<D> {
             solved_at: Vec::new(),
             anchors: Vec::new(),
             candidates: Vec::new(),
+            rows: Vec::new(),
         }
     }
 }
@@ -143,6 +146,7 @@ impl<D: Dim> LmeState<D> {
             self.solved_at = vec![D::Vector::ZERO; particles];
             self.anchors = vec![D::Vector::splat(f64::INFINITY); particles];
             self.candidates = vec![Vec::new(); particles];
+            self.rows = vec![Vec::new(); particles];
         }
     }
 }
@@ -207,11 +211,12 @@ impl<D: Dim> Default for RowScratch<D> {
     }
 }
 
-/// What the solve of one particle gives: its connectivity row, λ and `J⁻¹`.
-pub type Solved<D> = (Row<D>, <D as Dim>::Vector, <D as Dim>::Matrix);
+/// What the solve of one particle gives beside its row: λ and `J⁻¹`.
+pub type Solved<D> = (<D as Dim>::Vector, <D as Dim>::Matrix);
 
-/// One particle's connectivity row, λ and `J⁻¹` over the `candidates` within `radius` of `x`,
-/// or the reason it has none.
+/// One particle's connectivity row (written into `row`), λ and `J⁻¹` over the `candidates`
+/// within `radius` of `x`, or the reason it has none.
+#[allow(clippy::too_many_arguments)]
 pub fn particle_row<D: Spatial>(
     cloud: &NodeCloud<D>,
     x: D::Vector,
@@ -220,6 +225,7 @@ pub fn particle_row<D: Spatial>(
     radius: f64,
     lambda_guess: D::Vector,
     scratch: &mut RowScratch<D>,
+    row: &mut Row<D>,
 ) -> Result<Solved<D>, String> {
     let radius2 = radius * radius;
     scratch.support.clear();
@@ -239,14 +245,16 @@ pub fn particle_row<D: Spatial>(
         &mut scratch.lme,
     ) {
         Ok((lambda, j_inverse, _)) => {
-            let row = scratch
-                .support
-                .iter()
-                .zip(&scratch.positions)
-                .zip(&scratch.lme.values)
-                .map(|((&i, &xi), &n)| (i, n, lme_gradient::<D>(x, xi, n, j_inverse)))
-                .collect();
-            Ok((row, lambda, j_inverse))
+            row.clear();
+            row.extend(
+                scratch
+                    .support
+                    .iter()
+                    .zip(&scratch.positions)
+                    .zip(&scratch.lme.values)
+                    .map(|((&i, &xi), &n)| (i, n, lme_gradient::<D>(x, xi, n, j_inverse))),
+            );
+            Ok((lambda, j_inverse))
         }
         Err(f) => Err(format!(
             "LME shape functions did not converge: |r| = {:e} after {} Newton iterations over {} \
@@ -299,22 +307,27 @@ pub fn lme_basis<D: Spatial>(
         solved_at,
         anchors,
         candidates,
+        rows,
     } = &mut *state;
-    let rows: Vec<_> = anchors
+    let solved: Vec<_> = anchors
         .par_iter_mut()
         .zip(candidates.par_iter_mut())
+        .zip(rows.par_iter_mut())
         .enumerate()
-        .map_init(RowScratch::default, |scratch, (p, (anchor, list))| {
-            let x = positions[p].0;
-            if (x - *anchor).length() > skin {
-                *list = cloud.within(x, radius + skin);
-                *anchor = x;
-            }
-            let guess = lambda[p] + lambda_slope[p] * (x - solved_at[p]);
-            particle_row(cloud, x, list, &settings, radius, guess, scratch)
-        })
+        .map_init(
+            RowScratch::default,
+            |scratch, (p, ((anchor, list), row))| {
+                let x = positions[p].0;
+                if (x - *anchor).length() > skin {
+                    *list = cloud.within(x, radius + skin);
+                    *anchor = x;
+                }
+                let guess = lambda[p] + lambda_slope[p] * (x - solved_at[p]);
+                particle_row(cloud, x, list, &settings, radius, guess, scratch, row)
+            },
+        )
         .collect();
-    if let Some((p, Err(message))) = rows.iter().enumerate().find(|(_, r)| r.is_err()) {
+    if let Some((p, Err(message))) = solved.iter().enumerate().find(|(_, r)| r.is_err()) {
         let x = positions[p].0;
         health.failure = Some(Blowup {
             step: clock.step + 1,
@@ -328,16 +341,14 @@ pub fn lme_basis<D: Spatial>(
         return;
     }
     let identity_2beta = D::Matrix::IDENTITY * (2.0 * settings.beta);
-    let mut solved = Vec::with_capacity(rows.len());
-    for (p, row) in rows.into_iter().enumerate() {
-        let (row, l, j_inverse) =
-            row.unwrap_or_else(|_| (Vec::new(), D::Vector::ZERO, D::Matrix::ZERO));
-        lambda[p] = l;
-        lambda_slope[p] = identity_2beta - j_inverse;
-        solved_at[p] = positions[p].0;
-        solved.push(row);
+    for (p, result) in solved.into_iter().enumerate() {
+        if let Ok((l, j_inverse)) = result {
+            lambda[p] = l;
+            lambda_slope[p] = identity_2beta - j_inverse;
+            solved_at[p] = positions[p].0;
+        }
     }
-    connectivity.rebuild(&solved, cloud.len());
+    connectivity.rebuild(rows, cloud.len());
 }
 
 #[cfg(test)]

@@ -257,7 +257,7 @@ fn linearised<D: Dim>(
     for &xi in problem.nodes {
         largest = largest.max(delta.dot(problem.x - xi - m.r).abs());
     }
-    if !(largest <= LINEARISE_BELOW) {
+    if largest > LINEARISE_BELOW {
         return None;
     }
     let mut r = D::Vector::ZERO;
