@@ -119,6 +119,46 @@ type NodeCheckQuery<'w, 's, D> = Query<
     With<Node>,
 >;
 
+/// Rows per block of the checks' fast pass.
+const CHECK_BLOCK: usize = 4096;
+
+/// Whether every particle is healthy, without finding which is not: each block is folded with
+/// non-short-circuit `&` over plain comparisons (no branches per particle, no `floor`), so the
+/// common case costs one pass of arithmetic; [`first_bad_particle`] looks for the culprit only
+/// when a block fails. Inside the grid means `0 ≤ (x − min)/h ≤ cells` on every axis, exactly
+/// [`Grid::contains`].
+fn all_particles_healthy<D: Dim>(
+    positions: &[Position<D>],
+    velocities: &[Velocity<D>],
+    stresses: &[Stress<D>],
+    volumes: &[Volume],
+    grid: &Grid<D>,
+    outside_allowed: bool,
+) -> bool {
+    let upper = D::Vector::from_fn(|a| grid.cells[a] as f64);
+    let blocks = positions.len().div_ceil(CHECK_BLOCK);
+    (0..blocks).into_par_iter().all(|b| {
+        let rows = b * CHECK_BLOCK..((b + 1) * CHECK_BLOCK).min(positions.len());
+        let mut healthy = true;
+        for p in rows {
+            let x = positions[p].0;
+            let local = (x - grid.min) / grid.spacing;
+            let mut inside = true;
+            for a in 0..D::N {
+                inside &= (local[a] >= 0.0) & (local[a] <= upper[a]);
+            }
+            let volume = volumes[p].0;
+            healthy &= x.is_finite()
+                & (outside_allowed | inside)
+                & velocities[p].0.is_finite()
+                & stresses[p].0.is_finite()
+                & volume.is_finite()
+                & (volume > 0.0);
+        }
+        healthy
+    })
+}
+
 fn first_bad_particle<D: Dim>(
     particles: &ParticleCheckQuery<D>,
     grid: &Grid<D>,
@@ -126,6 +166,16 @@ fn first_bad_particle<D: Dim>(
 ) -> Option<String> {
     let (ids, positions, velocities, stresses, volumes) =
         single_table(particles.contiguous_iter(), "particles")?;
+    if all_particles_healthy(
+        positions,
+        velocities,
+        stresses,
+        volumes,
+        grid,
+        outside_allowed,
+    ) {
+        return None;
+    }
     let (lo, hi) = (grid.min, grid.max());
     let bad = (0..ids.len()).into_par_iter().find_first(|&p| {
         let x = positions[p].0;
@@ -171,8 +221,32 @@ fn first_bad_particle<D: Dim>(
     })
 }
 
+/// Whether every node's state is finite, folded per block with non-short-circuit `&`.
+fn all_nodes_finite<D: Dim>(
+    masses: &[NodeMass],
+    velocities: &[NodeVelocity<D>],
+    forces: &[NodeForce<D>],
+) -> bool {
+    let blocks = masses.len().div_ceil(CHECK_BLOCK);
+    (0..blocks).into_par_iter().all(|b| {
+        let rows = b * CHECK_BLOCK..((b + 1) * CHECK_BLOCK).min(masses.len());
+        let mut finite = true;
+        for n in rows {
+            for k in 0..crate::components::MAX_FIELDS {
+                finite &= masses[n].0[k].is_finite()
+                    & velocities[n].0[k].is_finite()
+                    & forces[n].0[k].is_finite();
+            }
+        }
+        finite
+    })
+}
+
 fn first_bad_node<D: Dim>(nodes: &NodeCheckQuery<D>) -> Option<String> {
     let (indices, masses, velocities, forces) = single_table(nodes.contiguous_iter(), "nodes")?;
+    if all_nodes_finite(masses, velocities, forces) {
+        return None;
+    }
     let bad = (0..indices.len()).into_par_iter().find_first(|&n| {
         !(masses[n].0.iter().all(|m| m.is_finite())
             && velocities[n].0.iter().all(|v| v.is_finite())
@@ -235,5 +309,80 @@ pub fn remove_escaped_particles<D: Dim>(
             escaped.first.get_or_insert((id.0, x.0.to_3d()));
             commands.entity(entity).despawn();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dim::{SymTensor2, Two};
+    use glam::DVec2;
+
+    fn grid() -> Grid<Two> {
+        Grid {
+            min: DVec2::new(-1.0, 0.5),
+            spacing: 0.25,
+            cells: [8, 4],
+        }
+    }
+
+    /// The fast pass agrees with `Grid::contains` at and beyond the box, and catches every kind
+    /// of bad value in any row of any block.
+    #[test]
+    fn the_fast_particle_pass_agrees_with_the_grid_and_catches_each_bad_value() {
+        let grid = grid();
+        let n = 2 * CHECK_BLOCK + 3;
+        let inside = DVec2::new(0.0, 1.0);
+        let positions = vec![Position::<Two>(inside); n];
+        let velocities = vec![Velocity::<Two>(DVec2::ZERO); n];
+        let stresses = vec![Stress::<Two>(SymTensor2::ZERO); n];
+        let volumes = vec![Volume(1.0); n];
+        let check =
+            |pos: &[Position<Two>], vel: &[Velocity<Two>], s: &[Stress<Two>], v: &[Volume]| {
+                all_particles_healthy(pos, vel, s, v, &grid, false)
+            };
+        assert!(check(&positions, &velocities, &stresses, &volumes));
+        let row = CHECK_BLOCK + 1;
+        for x in [
+            grid.max(),
+            grid.min,
+            DVec2::new(1.0 + 1e-12, 1.0),
+            DVec2::new(0.0, 0.5 - 1e-12),
+            DVec2::new(f64::NAN, 1.0),
+        ] {
+            let mut moved = positions.clone();
+            moved[row].0 = x;
+            assert_eq!(
+                check(&moved, &velocities, &stresses, &volumes),
+                grid.contains(x),
+                "{x}"
+            );
+        }
+        let mut bad_velocity = velocities.clone();
+        bad_velocity[n - 1].0.y = f64::INFINITY;
+        assert!(!check(&positions, &bad_velocity, &stresses, &volumes));
+        let mut bad_stress = stresses.clone();
+        bad_stress[0].0.xy = f64::NAN;
+        assert!(!check(&positions, &velocities, &bad_stress, &volumes));
+        for volume in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let mut bad_volume = volumes.clone();
+            bad_volume[row].0 = volume;
+            assert!(!check(&positions, &velocities, &stresses, &bad_volume));
+        }
+    }
+
+    #[test]
+    fn the_fast_node_pass_catches_a_bad_value_in_any_field() {
+        let n = CHECK_BLOCK + 5;
+        let masses = vec![NodeMass::default(); n];
+        let velocities = vec![NodeVelocity::<Two>::default(); n];
+        let forces = vec![NodeForce::<Two>::default(); n];
+        assert!(all_nodes_finite(&masses, &velocities, &forces));
+        let mut bad = forces.clone();
+        bad[n - 1].0[3].x = f64::NAN;
+        assert!(!all_nodes_finite(&masses, &velocities, &bad));
+        let mut bad = masses.clone();
+        bad[CHECK_BLOCK].0[1] = f64::NEG_INFINITY;
+        assert!(!all_nodes_finite(&bad, &velocities, &forces));
     }
 }
