@@ -165,6 +165,7 @@ pub fn field_velocity<D: Dim>(sums: &NodeSums<D>, k: usize, min_mass: f64) -> D:
 }
 
 /// Internal, body and load force of connectivity entry `e` of particle `p` on its node.
+#[inline(always)]
 pub fn force_contribution<D: Dim>(
     c: &Connectivity<D>,
     particles: &ParticleSlices<D>,

@@ -81,6 +81,7 @@ pub fn stability_factor(gamma: f64) -> f64 {
 }
 
 /// Adds the nodal mass and predictor momentum of entry `e` of particle `p` to its field (eq. 1).
+#[inline(always)]
 pub fn add_predictor_contribution<D: Dim>(
     sums: &mut NodeSums<D>,
     c: &Connectivity<D>,
