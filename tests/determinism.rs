@@ -33,6 +33,8 @@ fn state_after<D: Dim>(spec: Spec<D>, threads: usize, steps: u64) -> Vec<u64> {
         .build(&fractum_systems::stock_registry())
         .unwrap_or_else(|e| panic!("{e}"));
     let sim = &mut built.simulation;
+    // Really on `threads` threads, however small the scene.
+    sim.set_serial_below(0);
     sim.set_threads(threads).unwrap();
     sim.set_end(End::Steps(steps));
     while !sim.finished() {
@@ -121,4 +123,17 @@ fn usl_contact_in_the_grid_update_one_and_two_threads_give_identical_bits() {
     let spec = spec::<Two>("sliding_block.ron", None);
     let run = |threads| state_after(spec.clone(), threads, 1000);
     assert_same(&run(1), &run(2));
+}
+
+#[test]
+fn a_small_scene_steps_on_one_thread_unless_told_otherwise() {
+    let mut built = spec::<Two>("two_disks.ron", None)
+        .build(&fractum_systems::stock_registry())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let sim = &mut built.simulation;
+    assert!(sim.particle_count() < sim.serial_below());
+    sim.set_threads(2).unwrap();
+    assert_eq!((sim.threads(), sim.threads_asked()), (1, 2));
+    sim.set_serial_below(0);
+    assert_eq!(sim.threads(), 2);
 }

@@ -47,6 +47,8 @@ pub struct RunSummary {
     pub particles: usize,
     /// Threads used by the parallel kernels.
     pub threads: usize,
+    /// Threads asked for (more than `threads` when a small scene ran on one thread).
+    pub threads_asked: usize,
     /// Wall-clock time of the stepping loop (output included).
     pub wall: Duration,
     /// VTU frames written.
@@ -341,6 +343,7 @@ pub fn run(
         time: clock.time,
         particles,
         threads: sim.threads(),
+        threads_asked: sim.threads_asked(),
         wall: started.elapsed(),
         frames: outputs.frames.len(),
         removed: sim

@@ -89,6 +89,13 @@ pub fn initialize_schedule(schedule: &mut Schedule, world: &mut World) -> Result
         .map_err(|e| e.to_string(schedule.graph(), world))
 }
 
+/// Scenes with fewer particles than this run their steps on one thread whatever the pool size
+/// (2D, 3D): below it, the synchronisation of the 15–20 parallel sections of a step costs more
+/// than the second thread gains. Measured with `fractum bench` on the 2-core machine
+/// (BENCHMARKS.md): in 2D one and two threads break even near 2 000 particles for both stock
+/// pipelines, in 3D between 1 000 and 1 700.
+pub const SERIAL_BELOW: [usize; 2] = [2000, 1000];
+
 /// A loaded scene ready to step.
 pub struct Simulation {
     /// All entities and resources.
@@ -96,6 +103,12 @@ pub struct Simulation {
     dimension: Dimension,
     schedule: Schedule,
     pool: Option<rayon::ThreadPool>,
+    /// The one-thread pool small scenes step on when `pool` has more threads.
+    serial_pool: Option<rayon::ThreadPool>,
+    /// Particle count below which steps run on `serial_pool`.
+    serial_below: usize,
+    /// Particles when the pools were made (removals only make a scene smaller).
+    particles_at_start: usize,
     time_step: TimeStep,
     end: End,
     /// Kahan compensation of the clock's running sum of step sizes.
@@ -119,27 +132,66 @@ impl Simulation {
             dimension: D::DIMENSION,
             schedule,
             pool: None,
+            serial_pool: None,
+            serial_below: match D::DIMENSION {
+                Dimension::Two => SERIAL_BELOW[0],
+                Dimension::Three => SERIAL_BELOW[1],
+            },
+            particles_at_start: 0,
             time_step,
             end,
             time_compensation: 0.0,
         })
     }
 
-    /// Runs the parallel kernels on a pool of `threads` threads (the only pool the run uses).
+    /// Runs the parallel kernels on a pool of `threads` threads; a scene with fewer particles
+    /// than [`SERIAL_BELOW`] steps on one thread (results are bitwise the same either way).
     pub fn set_threads(&mut self, threads: usize) -> Result<(), rayon::ThreadPoolBuildError> {
         self.pool = Some(
             rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()?,
         );
+        self.particles_at_start = self.particle_count();
+        self.serial_pool = if threads > 1 {
+            Some(rayon::ThreadPoolBuilder::new().num_threads(1).build()?)
+        } else {
+            None
+        };
         Ok(())
     }
 
-    /// Threads the parallel kernels run on.
-    pub fn threads(&self) -> usize {
+    /// Changes the particle count below which steps run on one thread (0: never), e.g. to test
+    /// a small scene on several threads.
+    pub fn set_serial_below(&mut self, particles: usize) {
+        self.serial_below = particles;
+    }
+
+    /// Whether steps run on the one-thread pool: a small scene given several threads.
+    fn runs_serially(&self) -> bool {
+        self.serial_pool.is_some() && self.particles_at_start < self.serial_below
+    }
+
+    /// Threads asked for with [`Simulation::set_threads`] (rayon's default without it).
+    pub fn threads_asked(&self) -> usize {
         self.pool
             .as_ref()
             .map_or_else(rayon::current_num_threads, |p| p.current_num_threads())
+    }
+
+    /// The particle count below which steps run on one thread.
+    pub fn serial_below(&self) -> usize {
+        self.serial_below
+    }
+
+    /// Threads a step runs on (one for a scene below [`SERIAL_BELOW`]).
+    pub fn threads(&self) -> usize {
+        let pool = if self.runs_serially() {
+            self.serial_pool.as_ref()
+        } else {
+            self.pool.as_ref()
+        };
+        pool.map_or_else(rayon::current_num_threads, |p| p.current_num_threads())
     }
 
     /// The number of space dimensions of the scene.
@@ -215,8 +267,13 @@ impl Simulation {
     pub fn step(&mut self) -> Result<(), Blowup> {
         let dt = self.next_time_step();
         self.world.resource_mut::<SimClock>().dt = dt;
+        let pool = if self.runs_serially() {
+            self.serial_pool.as_ref()
+        } else {
+            self.pool.as_ref()
+        };
         let (world, schedule) = (&mut self.world, &mut self.schedule);
-        match &self.pool {
+        match pool {
             Some(pool) => pool.install(|| schedule.run(world)),
             None => schedule.run(world),
         }

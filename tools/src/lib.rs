@@ -557,12 +557,19 @@ pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
     } else {
         String::new()
     };
+    let threads = if s.threads < s.threads_asked {
+        format!(
+            "{} ({} asked: a scene this small steps faster on one)",
+            s.threads, s.threads_asked
+        )
+    } else {
+        s.threads.to_string()
+    };
     format!(
-        "steps {}, simulated time {:.6e} s, particles {}, threads {}\nwall time {:.3} s, {:.4e} particle-steps/s\n{} VTU frames, output in {}\n{removed}",
+        "steps {}, simulated time {:.6e} s, particles {}, threads {threads}\nwall time {:.3} s, {:.4e} particle-steps/s\n{} VTU frames, output in {}\n{removed}",
         s.steps,
         s.time,
         s.particles,
-        s.threads,
         s.wall.as_secs_f64(),
         s.particle_steps_per_second(),
         s.frames,
