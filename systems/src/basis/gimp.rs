@@ -68,49 +68,76 @@ pub fn half_width(initial_volume: f64, thickness: f64, dimensions: usize, h: f64
     (0.5 * side).min(0.5 * h)
 }
 
-/// The GIMP row of a particle at `x` with half-width `l`: `(node, S̄, ∇S̄)` for every node with
-/// a positive weight, or the first axis along which the support leaves the grid.
-pub fn gimp_row<D: Dim>(
+/// One particle's connectivity row: `(node, S̄, ∇S̄)` per node.
+pub type Row<D> = Vec<(u32, f64, <D as Dim>::Vector)>;
+
+/// The GIMP row of a particle at `x` with half-width `l` (an allocating convenience over
+/// [`fill_gimp_row`]).
+pub fn gimp_row<D: Dim>(grid: &Grid<D>, x: D::Vector, l: f64) -> Result<Row<D>, usize> {
+    let mut row = Vec::new();
+    fill_gimp_row(grid, x, l, &mut row).map(|_| row)
+}
+
+/// Refills `row` with the GIMP row of a particle at `x` with half-width `l`: `(node, S̄, ∇S̄)`
+/// for every node with a positive weight; or returns the first axis along which the support
+/// leaves the grid.
+pub fn fill_gimp_row<D: Dim>(
     grid: &Grid<D>,
     x: D::Vector,
     l: f64,
-) -> Result<Vec<(u32, f64, D::Vector)>, usize> {
+    row: &mut Row<D>,
+) -> Result<(), usize> {
+    row.clear();
     let h = grid.spacing;
     let nodes = grid.nodes_per_axis();
-    // Along each axis: the first node that can be in the support and up to three weights.
-    let mut first = [0isize; 3];
-    let mut axis_weights = [[(0.0, 0.0); 3]; 3];
+    // Along each axis, the nodes with a positive weight (two or three, consecutive):
+    // (lattice index, S, dS/dr).
+    let mut axis = [[(0usize, 0.0, 0.0); 3]; 3];
+    let mut count = [0usize; 3];
     for a in 0..D::N {
         let s = (x[a] - grid.min[a]) / h;
         let low = (s - (1.0 + l / h)).ceil() as isize;
-        first[a] = low;
-        for (k, w) in axis_weights[a].iter_mut().enumerate() {
+        for k in 0..3 {
             let node = low + k as isize;
             let r = x[a] - (grid.min[a] + node as f64 * h);
-            *w = gimp_1d(r, h, l);
-            let inside = node >= 0 && (node as usize) < nodes[a];
-            if w.0 > 0.0 && !inside {
-                return Err(a);
+            let (weight, slope) = gimp_1d(r, h, l);
+            if weight > 0.0 {
+                if node < 0 || node as usize >= nodes[a] {
+                    return Err(a);
+                }
+                axis[a][count[a]] = (node as usize, weight, slope);
+                count[a] += 1;
             }
         }
-    }
-    let mut row = Vec::with_capacity(3usize.pow(D::N as u32));
-    for k in 0..3usize.pow(D::N as u32) {
-        let digit = |a: usize| (k / 3usize.pow(a as u32)) % 3;
-        let weight = (0..D::N).fold(1.0, |w, a| w * axis_weights[a][digit(a)].0);
-        if weight <= 0.0 {
-            continue;
+        if count[a] == 0 {
+            return Ok(());
         }
+    }
+    // Their tensor product, first axis fastest (lattice order).
+    let mut digit = [0usize; 3];
+    loop {
+        let weight = (0..D::N).fold(1.0, |w, a| w * axis[a][digit[a]].1);
         let gradient = D::Vector::from_fn(|a| {
             (0..D::N).fold(1.0, |g, b| {
-                let (s, ds) = axis_weights[b][digit(b)];
+                let (_, s, ds) = axis[b][digit[b]];
                 g * if b == a { ds } else { s }
             })
         });
-        let lattice = D::Cell::from_fn(|a| (first[a] + digit(a) as isize) as usize);
+        let lattice = D::Cell::from_fn(|a| axis[a][digit[a]].0);
         row.push((grid.node_index(lattice) as u32, weight, gradient));
+        let mut a = 0;
+        loop {
+            digit[a] += 1;
+            if digit[a] < count[a] {
+                break;
+            }
+            digit[a] = 0;
+            a += 1;
+            if a == D::N {
+                return Ok(());
+            }
+        }
     }
-    Ok(row)
 }
 
 /// The `basis/gimp` system: rebuilds the connectivity for the current positions.
@@ -120,18 +147,24 @@ pub fn gimp_basis<D: Dim>(
     thickness: Option<Res<Thickness>>,
     mut health: ResMut<Health>,
     mut connectivity: ResMut<Connectivity<D>>,
+    mut rows: Local<Vec<Row<D>>>,
     particles: Query<(&ParticleId, &Position<D>, &InitialVolume), With<Particle>>,
 ) {
     let (ids, positions, volumes) =
         single_table(particles.contiguous_iter(), "particles").unwrap_or((&[], &[], &[]));
     let grid = *grid;
     let t = thickness.map_or(1.0, |t| t.0);
-    let rows: Vec<_> = positions
-        .par_iter()
-        .zip(volumes.par_iter())
-        .map(|(x, v)| gimp_row(&grid, x.0, half_width(v.0, t, D::N, grid.spacing)))
+    // Each particle's row buffer is refilled in place, step after step.
+    rows.resize_with(positions.len(), Vec::new);
+    let results: Vec<Result<(), usize>> = rows
+        .par_iter_mut()
+        .zip(positions.par_iter().zip(volumes.par_iter()))
+        .map(|(row, (x, v))| {
+            let l = half_width(v.0, t, D::N, grid.spacing);
+            fill_gimp_row(&grid, x.0, l, row)
+        })
         .collect();
-    if let Some((p, Err(axis))) = rows.iter().enumerate().find(|(_, r)| r.is_err()) {
+    if let Some((p, Err(axis))) = results.iter().enumerate().find(|(_, r)| r.is_err()) {
         health.failure = Some(Blowup {
             step: clock.step + 1,
             stage: Stage::Basis,
@@ -144,7 +177,6 @@ pub fn gimp_basis<D: Dim>(
         });
         return;
     }
-    let rows: Vec<_> = rows.into_iter().map(|r| r.unwrap_or_default()).collect();
     connectivity.rebuild(&rows, grid.node_count());
 }
 
