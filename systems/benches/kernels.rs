@@ -47,7 +47,11 @@ fn lme_point<D: Dim>(c: &mut Criterion, cells: usize) {
         .filter(|n| (*n - x).length() <= radius)
         .collect();
     let mut scratch = LmeScratch::default();
-    let (warm, _, _) = lme_solve::<D>(x, &nodes, &settings, D::Vector::ZERO, &mut scratch).unwrap();
+    let (warm, j_inverse, _) =
+        lme_solve::<D>(x, &nodes, &settings, D::Vector::ZERO, &mut scratch).unwrap();
+    // The guess `basis/lme` makes after a move Δx: λ + (2βI − J⁻¹) Δx.
+    let moved = x + D::Vector::splat(1e-4 * h);
+    let carried = warm + (D::Matrix::IDENTITY * (2.0 * settings.beta) - j_inverse) * (moved - x);
     let label = format!("{}D, {} nodes", D::N, nodes.len());
     c.bench_function(&format!("lme_solve cold ({label})"), |b| {
         b.iter(|| {
@@ -71,6 +75,11 @@ fn lme_point<D: Dim>(c: &mut Criterion, cells: usize) {
                 &mut scratch,
             )
             .unwrap()
+        })
+    });
+    c.bench_function(&format!("lme_solve carried ({label})"), |b| {
+        b.iter(|| {
+            lme_solve::<D>(black_box(moved), &nodes, &settings, carried, &mut scratch).unwrap()
         })
     });
 }

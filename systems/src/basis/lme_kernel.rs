@@ -178,14 +178,20 @@ impl<D: Dim> Problem<'_, D> {
     }
 
     /// Plain Newton from `start`; `Err(iterations)` when it does not converge.
+    /// `first` are the moments at `start` when the caller has them (with `scratch.values`
+    /// holding their values), so they are not evaluated twice.
     fn plain_newton(
         &self,
         start: D::Vector,
+        mut first: Option<Moments<D>>,
         scratch: &mut LmeScratch,
     ) -> Result<(D::Vector, Moments<D>, usize), usize> {
         let mut lambda = start;
         for k in 0..self.settings.max_iterations {
-            let m = self.current(lambda, scratch);
+            let m = match first.take() {
+                Some(m) => m,
+                None => self.current(lambda, scratch),
+            };
             if m.r.length() <= self.goal() {
                 let (lambda, m) = self.polish(lambda, m, scratch);
                 return Ok((lambda, m, k));
@@ -243,22 +249,34 @@ impl<D: Dim> Problem<'_, D> {
 /// already bounds how exactly the approximants are represented.
 pub const LINEARISE_BELOW: f64 = 1e-4;
 
+/// What the fast path found.
+enum FastPath<D: Dim> {
+    /// λ and `J⁻¹`, with the corrected values in the scratch.
+    Accepted(D::Vector, D::Matrix),
+    /// The step is too large: the moments at the guess, its values still in the scratch.
+    Declined(Moments<D>),
+    /// `J` of the corrected values is singular; the scratch's values are no longer the guess's.
+    Spoiled,
+}
+
 /// The fast path: the moments at `lambda_guess`, one Newton step applied to the values to first
-/// order and `J` recomputed from them; `None` (values left unspecified) when the step would
-/// change some value by more than [`LINEARISE_BELOW`] relatively or J is singular.
+/// order and `J` recomputed from them, unless the step would change some value by more than
+/// [`LINEARISE_BELOW`] relatively.
 fn linearised<D: Dim>(
     problem: &Problem<D>,
     lambda_guess: D::Vector,
     scratch: &mut LmeScratch,
-) -> Option<(D::Vector, D::Matrix)> {
+) -> FastPath<D> {
     let m = problem.current(lambda_guess, scratch);
-    let delta = newton_step(&m)?;
+    let Some(delta) = newton_step(&m) else {
+        return FastPath::Declined(m);
+    };
     let mut largest = 0.0f64;
     for &xi in problem.nodes {
         largest = largest.max(delta.dot(problem.x - xi - m.r).abs());
     }
     if largest > LINEARISE_BELOW {
-        return None;
+        return FastPath::Declined(m);
     }
     let mut r = D::Vector::ZERO;
     let mut second = D::Matrix::ZERO;
@@ -270,7 +288,11 @@ fn linearised<D: Dim>(
     }
     let j = second - D::Matrix::outer(r, r);
     let det = j.determinant();
-    (det.is_finite() && det > f64::MIN_POSITIVE).then(|| (lambda_guess + delta, j.inverse()))
+    if det.is_finite() && det > f64::MIN_POSITIVE {
+        FastPath::Accepted(lambda_guess + delta, j.inverse())
+    } else {
+        FastPath::Spoiled
+    }
 }
 
 /// Solves for λ at `x` over `nodes`, warm-started from `lambda_guess`. On success `scratch.values`
@@ -283,10 +305,12 @@ pub fn lme_solve<D: Dim>(
     scratch: &mut LmeScratch,
 ) -> Result<(D::Vector, D::Matrix, usize), LmeFailure> {
     let problem = Problem::<D> { x, nodes, settings };
-    if let Some((lambda, j_inverse)) = linearised(&problem, lambda_guess, scratch) {
-        return Ok((lambda, j_inverse, 0));
-    }
-    let (lambda, m, iterations) = match problem.plain_newton(lambda_guess, scratch) {
+    let first = match linearised(&problem, lambda_guess, scratch) {
+        FastPath::Accepted(lambda, j_inverse) => return Ok((lambda, j_inverse, 0)),
+        FastPath::Declined(m) => Some(m),
+        FastPath::Spoiled => None,
+    };
+    let (lambda, m, iterations) = match problem.plain_newton(lambda_guess, first, scratch) {
         Ok(found) => found,
         Err(spent) => problem
             .damped_newton(scratch)
