@@ -13,7 +13,9 @@
 //!   position to first order: at the solution `r(x, λ) = 0`, and `∂r/∂x = I − 2βJ` (from
 //!   `∂N_I/∂x = −2β N_I (x − x_I − r)` at fixed λ), so `dλ/dx = 2βI − J⁻¹` and the guess is
 //!   `λ + (2βI − J⁻¹) Δx`, with the `J⁻¹` the gradients of eq. 8 use anyway. Its error is
-//!   O(Δx²) instead of O(Δx): one Newton step fewer per particle and step.
+//!   O(Δx²) instead of O(Δx), small enough in a time step that the kernel's first-order
+//!   update finishes the solve with one evaluation of the exponentials (three before: a Newton
+//!   step, the convergence check and the polish).
 //! - The kd-tree is queried with the radius plus a skin, and a particle's candidate list is
 //!   reused until it has moved more than the skin (as neighbour lists are in the DFG paper,
 //!   §2.5); every step the candidates are filtered to the exact radius, so the support, and so

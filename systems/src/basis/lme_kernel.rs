@@ -368,7 +368,7 @@ pub fn support_radius(beta: f64, tolerance: f64) -> f64 {
 mod tests {
     use super::*;
     use fractum_engine::dim::lattice_range;
-    use fractum_engine::prelude::{DVec2, DVec3, Lattice, Three, Two};
+    use fractum_engine::prelude::{DMat2, DVec2, DVec3, Lattice, Three, Two};
     use proptest::prelude::*;
 
     /// Node coordinates along one axis: 0, then steps of `spacing(i)`.
@@ -500,6 +500,42 @@ mod tests {
         let warm = lme_shape_functions::<Two>(x, &near, &s, cold.lambda).unwrap();
         assert!(warm.iterations < cold.iterations || cold.iterations == 0);
         assert_eq!(warm.iterations, 0);
+    }
+
+    /// The one-evaluation path: from a guess carried to a moved point (as `basis/lme` makes
+    /// it), the values agree with a full Newton solve to far below the support truncation,
+    /// and the consistency identities hold to round-off.
+    #[test]
+    fn a_carried_guess_gives_the_converged_approximants_in_one_evaluation() {
+        let h = 0.1;
+        let nodes = grid_nodes::<Two>(&coordinates(|_| h, 20));
+        let s = settings(3.5, h);
+        let radius = support_radius(s.beta, 1e-6);
+        let x = DVec2::new(1.03, 0.98);
+        let mut scratch = LmeScratch::default();
+        let near = support::<Two>(x, &nodes, radius);
+        let (lambda, j_inverse, _) =
+            lme_solve::<Two>(x, &near, &s, DVec2::ZERO, &mut scratch).expect("converges");
+        let moved = x + DVec2::new(2e-4, -1e-4) * h;
+        let carried = lambda + (DMat2::IDENTITY * (2.0 * s.beta) - j_inverse) * (moved - x);
+        let fast = lme_shape_functions::<Two>(moved, &near, &s, carried).unwrap();
+        assert_eq!(fast.iterations, 0);
+        let full = lme_shape_functions::<Two>(moved, &near, &s, DVec2::ZERO).unwrap();
+        assert!(full.iterations > 0);
+        let largest = full.values.iter().copied().fold(0.0, f64::max);
+        for (a, b) in fast.values.iter().zip(&full.values) {
+            assert!((a - b).abs() < 1e-10 * largest, "{a} vs {b}");
+        }
+        let unity: f64 = fast.values.iter().sum();
+        let reproduced: DVec2 = fast.values.iter().zip(&near).map(|(n, xi)| *xi * *n).sum();
+        let jacobian = fast
+            .gradients
+            .iter()
+            .zip(&near)
+            .fold(DMat2::ZERO, |acc, (g, xi)| acc + DMat2::outer(*xi, *g));
+        assert!((unity - 1.0).abs() < 1e-14);
+        assert!((reproduced - moved).length() < 1e-14);
+        assert!((jacobian - DMat2::IDENTITY).max_abs() < 1e-12);
     }
 
     #[test]
