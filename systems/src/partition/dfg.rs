@@ -286,11 +286,21 @@ pub fn dfg_partition<D: Spatial>(
         .zip(surface.iter())
         .map(|(d, s)| d.0.max(s.0))
         .collect();
+    // Without damage among its neighbours a particle has D = ∇D = 0, and so ∇D̄ = 0: most
+    // particles of a body skip the kernel sums. The lists are symmetric (one radius, one
+    // distance for both orders), so the particles with a damaged neighbour are found from the
+    // damaged particles alone, in a pass over those instead of over every list.
+    let mut near_damage = vec![false; positions.len()];
+    for (q, &d) in effective.iter().enumerate() {
+        if d != 0.0 {
+            for &p in &neighbours[q] {
+                near_damage[p as usize] = true;
+            }
+        }
+    }
     let gradients: &mut [DamageGradient<D>] = &mut gradients;
     gradients.par_iter_mut().enumerate().for_each(|(p, g)| {
-        // Without damage among the neighbours D = ∇D = 0, and so ∇D̄ = 0: most particles of
-        // a body skip the kernel sums.
-        if neighbours[p].iter().all(|&q| effective[q as usize] == 0.0) {
+        if !near_damage[p] {
             g.0 = D::Vector::ZERO;
             return;
         }
