@@ -572,6 +572,51 @@ pub fn apply_contact<D: Dim>(
     }
 }
 
+/// The plumbing both `contact/frictional` systems share: the columns, the held components and
+/// [`apply_contact`]. `use_damage` says whether the pairs' separability comes from the partition
+/// stage's statistics (Newmark) or has been settled by the field assignment (update-stress-last).
+#[allow(clippy::too_many_arguments)]
+fn run_contact<D: Dim>(
+    dt: f64,
+    params: &FrictionalParams,
+    body_force: D::Vector,
+    bcs: &BoundaryConditions,
+    connectivity: &Connectivity<D>,
+    particles: &ForceSourceQuery<D>,
+    nodes: &mut NodeQuery<D>,
+    integrator: Integrator,
+    use_damage: bool,
+) {
+    let Some(slices) = ParticleSlices::of(particles) else {
+        return;
+    };
+    let Some((fields, damage, mass, mut velocity, mut acceleration, mut normal, mut contact)) =
+        single_table(nodes.contiguous_iter_mut(), "nodes")
+    else {
+        return;
+    };
+    let held = bcs.held_mask(fields.len());
+    let columns = ContactColumns {
+        fields,
+        damage: use_damage.then_some(damage),
+        mass,
+        velocity: &mut velocity,
+        acceleration: &mut acceleration,
+        normal: &mut normal,
+        contact: &mut contact,
+    };
+    apply_contact(
+        connectivity,
+        &slices,
+        body_force,
+        columns,
+        params,
+        &held,
+        dt,
+        integrator,
+    );
+}
+
 /// The `contact/frictional` system with the Newmark predictor-corrector, in the contact stage.
 #[allow(clippy::too_many_arguments)]
 pub fn frictional_contact<D: Dim>(
@@ -584,33 +629,17 @@ pub fn frictional_contact<D: Dim>(
     particles: ForceSourceQuery<D>,
     mut nodes: NodeQuery<D>,
 ) {
-    let Some(slices) = ParticleSlices::of(&particles) else {
-        return;
-    };
-    let Some((fields, damage, mass, mut velocity, mut acceleration, mut normal, mut contact)) =
-        single_table(nodes.contiguous_iter_mut(), "nodes")
-    else {
-        return;
-    };
-    let held = bcs.held_mask(fields.len());
-    let columns = ContactColumns {
-        fields,
-        damage: Some(damage),
-        mass,
-        velocity: &mut velocity,
-        acceleration: &mut acceleration,
-        normal: &mut normal,
-        contact: &mut contact,
-    };
-    apply_contact(
-        &connectivity,
-        &slices,
-        body_force.0,
-        columns,
-        &params,
-        &held,
+    let integrator = Integrator::Newmark(newmark.gamma * clock.dt);
+    run_contact(
         clock.dt,
-        Integrator::Newmark(newmark.gamma * clock.dt),
+        &params,
+        body_force.0,
+        &bcs,
+        &connectivity,
+        &particles,
+        &mut nodes,
+        integrator,
+        true,
     );
 }
 
@@ -619,7 +648,6 @@ pub fn frictional_contact<D: Dim>(
 /// velocities (the DFG paper's order). Every pair is separable here: the field assignment has
 /// already kept inseparable sides of a group in one field, with the same damage the paper's
 /// step-start partition uses.
-#[allow(clippy::too_many_arguments)]
 pub fn frictional_contact_usl<D: Dim>(
     clock: Res<SimClock>,
     params: Res<FrictionalParams>,
@@ -629,33 +657,16 @@ pub fn frictional_contact_usl<D: Dim>(
     particles: ForceSourceQuery<D>,
     mut nodes: NodeQuery<D>,
 ) {
-    let Some(slices) = ParticleSlices::of(&particles) else {
-        return;
-    };
-    let Some((fields, _, mass, mut velocity, mut acceleration, mut normal, mut contact)) =
-        single_table(nodes.contiguous_iter_mut(), "nodes")
-    else {
-        return;
-    };
-    let held = bcs.held_mask(fields.len());
-    let columns = ContactColumns {
-        fields,
-        damage: None,
-        mass,
-        velocity: &mut velocity,
-        acceleration: &mut acceleration,
-        normal: &mut normal,
-        contact: &mut contact,
-    };
-    apply_contact(
-        &connectivity,
-        &slices,
-        body_force.0,
-        columns,
-        &params,
-        &held,
+    run_contact(
         clock.dt,
+        &params,
+        body_force.0,
+        &bcs,
+        &connectivity,
+        &particles,
+        &mut nodes,
         Integrator::UpdateStressLast,
+        false,
     );
 }
 
