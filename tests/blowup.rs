@@ -156,3 +156,25 @@ fn a_blown_up_run_writes_the_state_at_the_start_of_the_failing_step() {
     );
     std::fs::remove_dir_all(&out).unwrap();
 }
+
+/// Each check looks at what the systems since the previous check may write (their bevy access),
+/// and a damage system that writes stresses gets a stress check.
+#[test]
+fn each_check_looks_at_what_its_stage_can_write() {
+    use fractum_engine::health::{CheckPlan, Columns};
+    let file = scene("(0.0, 0.0)", r#", (system: "damage/poison")"#);
+    let sim = build_simulation(&file, &registry_with_poison())
+        .unwrap()
+        .simulation;
+    let plan = sim.world.resource::<CheckPlan>();
+    let expected = [
+        (Stage::Basis, Columns::NONE),
+        (Stage::Predictor, Columns::NODES),
+        (Stage::Stress, Columns::STRESS | Columns::VOLUME),
+        (Stage::Damage, Columns::STRESS),
+        (Stage::Advection, Columns::POSITION | Columns::VELOCITY),
+    ];
+    for (stage, columns) in expected {
+        assert_eq!(plan.of(stage), columns, "{stage:?}");
+    }
+}

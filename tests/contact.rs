@@ -683,11 +683,11 @@ fn eigensoftening_and_dfg_keep_their_own_neighbour_lists() {
     let epsilon = world.resource::<fractum_engine::neighbourhood::Neighbourhoods>();
     assert!((epsilon.radius - 2.0 * 0.05).abs() < 1e-12);
     let kernel = world.resource::<fractum_systems::partition::dfg::DfgNeighbours<Two>>();
-    assert_eq!(kernel.rows.len(), epsilon.particle_count());
+    assert_eq!(kernel.rows.particle_count(), epsilon.particle_count());
     // The kernel lists reach 1.25 × 0.05·√2 ≈ 0.088 m, fewer particles than ε = 0.1 m.
-    let mean = |n: usize| n as f64 / kernel.rows.len() as f64;
+    let mean = |n: usize| n as f64 / kernel.rows.particle_count() as f64;
     assert!(
-        mean(kernel.rows.iter().map(Vec::len).sum()) < mean(epsilon.list.len()),
+        mean(kernel.rows.list.len()) < mean(epsilon.list.len()),
         "kernel lists should be shorter than the ε-neighbourhoods"
     );
 }

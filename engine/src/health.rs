@@ -1,6 +1,13 @@
 //! Run health: after every stage, the engine checks particle and node state and stops the run
 //! at the first non-finite value or the first particle outside the grid, naming the step, the
 //! stage and the particle or node.
+//!
+//! A check looks only at the columns that something since the previous check can have written:
+//! [`plan_checks`] reads every system's access from the initialised schedule (bevy records which
+//! components each system may write) and gives each stage's check the union over the systems
+//! that run between it and the check before. A column no system in that window may write is
+//! as it was when last checked. The first check of a run checks everything (the state built
+//! before the first step).
 
 use crate::components::{
     Node, NodeForce, NodeIndex, NodeMass, NodeVelocity, Particle, ParticleId, Position, Stress,
@@ -41,6 +48,130 @@ impl std::error::Error for Blowup {}
 pub struct Health {
     /// The first failure, if any.
     pub failure: Option<Blowup>,
+    /// Whether a check has looked at every column (the first check of a run does).
+    pub checked_everything: bool,
+}
+
+/// The columns a health check looks at, as a bit set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct Columns(u8);
+
+impl Columns {
+    /// Particle positions (finite, and inside the grid unless leaving is allowed).
+    pub const POSITION: Columns = Columns(1);
+    /// Particle velocities.
+    pub const VELOCITY: Columns = Columns(2);
+    /// Particle stresses.
+    pub const STRESS: Columns = Columns(4);
+    /// Particle volumes (finite and positive).
+    pub const VOLUME: Columns = Columns(8);
+    /// Nodal masses, velocities and forces of every field.
+    pub const NODES: Columns = Columns(16);
+    /// Nothing.
+    pub const NONE: Columns = Columns(0);
+    /// Everything.
+    pub const ALL: Columns = Columns(31);
+
+    /// Whether every column of `other` is in `self`.
+    pub fn contains(self, other: Columns) -> bool {
+        self.0 & other.0 == other.0
+    }
+
+    /// Whether some particle column is in `self`.
+    fn any_particle(self) -> bool {
+        self.0 & 15 != 0
+    }
+}
+
+impl std::ops::BitOr for Columns {
+    type Output = Columns;
+    fn bitor(self, other: Columns) -> Columns {
+        Columns(self.0 | other.0)
+    }
+}
+
+impl std::ops::BitOrAssign for Columns {
+    fn bitor_assign(&mut self, other: Columns) {
+        self.0 |= other.0;
+    }
+}
+
+/// What each stage's check looks at (see the module header). Without this resource every check
+/// looks at everything.
+#[derive(Resource, Clone, Debug, PartialEq, Eq)]
+pub struct CheckPlan {
+    /// Per stage, in [`Stage::ORDER`].
+    pub columns: [Columns; Stage::ORDER.len()],
+}
+
+impl Default for CheckPlan {
+    fn default() -> Self {
+        Self {
+            columns: [Columns::ALL; Stage::ORDER.len()],
+        }
+    }
+}
+
+impl CheckPlan {
+    /// The columns the check after `stage` looks at.
+    pub fn of(&self, stage: Stage) -> Columns {
+        self.columns[stage as usize]
+    }
+}
+
+/// The check plan of an initialised schedule: walks its systems in execution order, collecting
+/// the checked columns each may write (an exclusive system may write anything), and hands the
+/// collection to each stage check it meets. The systems after the last check run before the
+/// first check of the next step, so they are added to that one. Returns `None` when the
+/// schedule is not initialised.
+pub fn plan_checks<D: Dim>(schedule: &Schedule, world: &World) -> Option<CheckPlan> {
+    use bevy_ecs::schedule::SystemSet;
+    use bevy_ecs::system::SystemAccess;
+    use std::collections::HashMap;
+    let graph = schedule.graph();
+    let mut checks = HashMap::new();
+    for stage in Stage::ORDER {
+        if let Ok(keys) = graph.systems_in_set(crate::stage::StageCheck(stage).intern()) {
+            checks.extend(keys.iter().map(|&key| (key, stage)));
+        }
+    }
+    let ids = [
+        (world.component_id::<Position<D>>(), Columns::POSITION),
+        (world.component_id::<Velocity<D>>(), Columns::VELOCITY),
+        (world.component_id::<Stress<D>>(), Columns::STRESS),
+        (world.component_id::<Volume>(), Columns::VOLUME),
+        (world.component_id::<NodeMass>(), Columns::NODES),
+        (world.component_id::<NodeVelocity<D>>(), Columns::NODES),
+        (world.component_id::<NodeForce<D>>(), Columns::NODES),
+    ];
+    let writes = |access: &SystemAccess| match access {
+        SystemAccess::None => Columns::NONE,
+        SystemAccess::Exclusive => Columns::ALL,
+        SystemAccess::Shared(set) => {
+            let combined = set.combined_access();
+            ids.iter()
+                .filter(|(id, _)| id.is_none_or(|id| combined.has_write(id)))
+                .fold(Columns::NONE, |all, (_, columns)| all | *columns)
+        }
+    };
+    let mut plan = CheckPlan {
+        columns: [Columns::NONE; Stage::ORDER.len()],
+    };
+    let (mut pending, mut first) = (Columns::NONE, None);
+    for (key, system) in schedule.systems_with_access().ok()? {
+        match checks.get(&key) {
+            Some(&stage) => {
+                plan.columns[stage as usize] = pending;
+                first.get_or_insert(stage);
+                pending = Columns::NONE;
+            }
+            None => pending |= writes(system.access()),
+        }
+    }
+    if let Some(stage) = first {
+        plan.columns[stage as usize] |= pending;
+    }
+    Some(plan)
 }
 
 /// Run condition: no failure so far.
@@ -122,16 +253,14 @@ type NodeCheckQuery<'w, 's, D> = Query<
 /// Rows per block of the checks' fast pass.
 const CHECK_BLOCK: usize = 4096;
 
-/// Whether every particle is healthy, without finding which is not: each block is folded with
-/// non-short-circuit `&` over plain comparisons (no branches per particle, no `floor`), so the
-/// common case costs one pass of arithmetic; [`first_bad_particle`] looks for the culprit only
-/// when a block fails. Inside the grid means `0 ≤ (x − min)/h ≤ cells` on every axis, exactly
-/// [`Grid::contains`].
+/// Whether every particle is healthy in `columns`, without finding which is not: each block is
+/// folded with non-short-circuit `&` over plain comparisons (no branches per particle, no
+/// `floor`), one column at a time, so the common case costs one pass of arithmetic over the
+/// columns asked for; [`first_bad_particle`] looks for the culprit only when a block fails.
+/// Inside the grid means `0 ≤ (x − min)/h ≤ cells` on every axis, exactly [`Grid::contains`].
 fn all_particles_healthy<D: Dim>(
-    positions: &[Position<D>],
-    velocities: &[Velocity<D>],
-    stresses: &[Stress<D>],
-    volumes: &[Volume],
+    (positions, velocities, stresses, volumes): ParticleColumns<D>,
+    columns: Columns,
     grid: &Grid<D>,
     outside_allowed: bool,
 ) -> bool {
@@ -140,40 +269,56 @@ fn all_particles_healthy<D: Dim>(
     (0..blocks).into_par_iter().all(|b| {
         let rows = b * CHECK_BLOCK..((b + 1) * CHECK_BLOCK).min(positions.len());
         let mut healthy = true;
-        for p in rows {
-            let x = positions[p].0;
-            let local = (x - grid.min) / grid.spacing;
-            let mut inside = true;
-            for a in 0..D::N {
-                inside &= (local[a] >= 0.0) & (local[a] <= upper[a]);
+        if columns.contains(Columns::POSITION) {
+            for x in &positions[rows.clone()] {
+                let local = (x.0 - grid.min) / grid.spacing;
+                let mut inside = true;
+                for a in 0..D::N {
+                    inside &= (local[a] >= 0.0) & (local[a] <= upper[a]);
+                }
+                healthy &= x.0.is_finite() & (outside_allowed | inside);
             }
-            let volume = volumes[p].0;
-            healthy &= x.is_finite()
-                & (outside_allowed | inside)
-                & velocities[p].0.is_finite()
-                & stresses[p].0.is_finite()
-                & volume.is_finite()
-                & (volume > 0.0);
+        }
+        if columns.contains(Columns::VELOCITY) {
+            for v in &velocities[rows.clone()] {
+                healthy &= v.0.is_finite();
+            }
+        }
+        if columns.contains(Columns::STRESS) {
+            for s in &stresses[rows.clone()] {
+                healthy &= s.0.is_finite();
+            }
+        }
+        if columns.contains(Columns::VOLUME) {
+            for v in &volumes[rows] {
+                healthy &= v.0.is_finite() & (v.0 > 0.0);
+            }
         }
         healthy
     })
 }
 
+/// The particle columns a check reads: positions, velocities, stresses, volumes.
+type ParticleColumns<'a, D> = (
+    &'a [Position<D>],
+    &'a [Velocity<D>],
+    &'a [Stress<D>],
+    &'a [Volume],
+);
+
 fn first_bad_particle<D: Dim>(
     particles: &ParticleCheckQuery<D>,
+    columns: Columns,
     grid: &Grid<D>,
     outside_allowed: bool,
 ) -> Option<String> {
+    if !columns.any_particle() {
+        return None;
+    }
     let (ids, positions, velocities, stresses, volumes) =
         single_table(particles.contiguous_iter(), "particles")?;
-    if all_particles_healthy(
-        positions,
-        velocities,
-        stresses,
-        volumes,
-        grid,
-        outside_allowed,
-    ) {
+    let checked = (positions, velocities, stresses, volumes);
+    if all_particles_healthy(checked, columns, grid, outside_allowed) {
         return None;
     }
     let (lo, hi) = (grid.min, grid.max());
@@ -242,7 +387,10 @@ fn all_nodes_finite<D: Dim>(
     })
 }
 
-fn first_bad_node<D: Dim>(nodes: &NodeCheckQuery<D>) -> Option<String> {
+fn first_bad_node<D: Dim>(nodes: &NodeCheckQuery<D>, columns: Columns) -> Option<String> {
+    if !columns.contains(Columns::NODES) {
+        return None;
+    }
     let (indices, masses, velocities, forces) = single_table(nodes.contiguous_iter(), "nodes")?;
     if all_nodes_finite(masses, velocities, forces) {
         return None;
@@ -267,14 +415,20 @@ pub fn stage_check<D: Dim>(
     Res<SimClock>,
     Res<Grid<D>>,
     Option<Res<LeaveGrid>>,
+    Option<Res<CheckPlan>>,
     ResMut<Health>,
     ParticleCheckQuery<D>,
     NodeCheckQuery<D>,
 ) {
-    move |clock, grid, policy, mut health, particles, nodes| {
+    move |clock, grid, policy, plan, mut health, particles, nodes| {
         let outside_allowed = policy.is_some_and(|p| *p == LeaveGrid::Remove);
-        let found = first_bad_particle(&particles, &grid, outside_allowed)
-            .or_else(|| first_bad_node(&nodes));
+        let columns = match plan {
+            Some(plan) if health.checked_everything => plan.of(stage),
+            _ => Columns::ALL,
+        };
+        health.checked_everything = true;
+        let found = first_bad_particle(&particles, columns, &grid, outside_allowed)
+            .or_else(|| first_bad_node(&nodes, columns));
         if let Some(message) = found {
             health.failure = Some(Blowup {
                 step: clock.step + 1,
@@ -339,7 +493,7 @@ mod tests {
         let volumes = vec![Volume(1.0); n];
         let check =
             |pos: &[Position<Two>], vel: &[Velocity<Two>], s: &[Stress<Two>], v: &[Volume]| {
-                all_particles_healthy(pos, vel, s, v, &grid, false)
+                all_particles_healthy((pos, vel, s, v), Columns::ALL, &grid, false)
             };
         assert!(check(&positions, &velocities, &stresses, &volumes));
         let row = CHECK_BLOCK + 1;
@@ -369,6 +523,17 @@ mod tests {
             bad_volume[row].0 = volume;
             assert!(!check(&positions, &velocities, &stresses, &bad_volume));
         }
+        // Each column is looked at only when asked for.
+        let columns = (
+            &positions[..],
+            &bad_velocity[..],
+            &bad_stress[..],
+            &volumes[..],
+        );
+        let only = |c| all_particles_healthy(columns, c, &grid, false);
+        assert!(only(Columns::POSITION | Columns::VOLUME | Columns::NODES));
+        assert!(!only(Columns::VELOCITY));
+        assert!(!only(Columns::STRESS));
     }
 
     #[test]

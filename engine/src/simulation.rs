@@ -127,6 +127,9 @@ impl Simulation {
         world.init_resource::<SimClock>();
         world.insert_resource(D::DIMENSION);
         initialize_schedule(&mut schedule, &mut world)?;
+        if let Some(plan) = crate::health::plan_checks::<D>(&schedule, &world) {
+            world.insert_resource(plan);
+        }
         Ok(Self {
             world,
             dimension: D::DIMENSION,

@@ -22,7 +22,8 @@ pub enum BenchPipeline {
     /// `basis/lme` (γ̂ = 3.5) + Newmark predictor-corrector + linear elasticity.
     LmeNewmark,
     /// `linear+usl` plus `neighbour/kdtree` and `damage/eigensoftening` (strength too high to
-    /// crack, so every step evaluates the non-local stress): the neighbourhood and damage cost.
+    /// crack): the cost of the every-step neighbour lists and damage update of a body below its
+    /// strength, where eigensoftening's bound skips the non-local sums.
     KdtreeSoftening,
     /// As `KdtreeSoftening` with `neighbour/node_linked`.
     NodeLinkedSoftening,
@@ -58,8 +59,8 @@ impl BenchPipeline {
                 .system("advection/usl")
         };
         let usl = |spec: Spec<D>| usl_on(spec, "basis/linear");
-        // Strength too high to crack, so every step evaluates the non-local stress of every
-        // particle.
+        // Strength too high to crack: the lists are filtered every step, and the non-local sums
+        // are skipped by eigensoftening's bound (BENCHMARKS.md gives the cost with them).
         let softening = |spec: Spec<D>, neighbour: &str| {
             usl(spec.system_with(neighbour, "(c_epsilon: 2.0)")).system_with(
                 "damage/eigensoftening",

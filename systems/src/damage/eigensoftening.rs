@@ -11,12 +11,17 @@
 //!   the particle is scaled by `1 − χ` by the force transfer (eq. 16).
 //! - Jacobi: every particle reads its neighbours' damage from before this update, so the
 //!   result does not depend on particle order.
+//! - The sum of eq. (15) is skipped for an intact particle that is not stretched or whose
+//!   neighbourhood cannot reach `f_t` (a bound from binned stresses, `damage::stress_reach`,
+//!   that holds for the rounded sum too): in a body mostly below its strength the damage update
+//!   costs little, and no result changes.
 //! - Onset needs a tensile largest principal strain (ε_I > 0): the onset strain is also the
 //!   "has cracked" flag of Algorithm 2 (`ε_f > 0`).
 //! - Publishes `series.csv` columns `damaged_particles` (χ > 0), `failed_particles` (χ = 1)
 //!   and `dissipated_energy`: the crack-band estimate `Σ_p V₀,p / h_ε · ∫₀^{w(χ_p)} σ dw`.
 
 use super::softening::{SofteningLaw, SofteningShape};
+use super::stress_reach::StressReach;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -183,6 +188,7 @@ type ParticleQuery<'w, 's, D> = Query<
     'w,
     's,
     (
+        &'static Position<D>,
         &'static Mass,
         &'static MaterialId,
         &'static InitialVolume,
@@ -199,9 +205,10 @@ pub fn eigensoftening<D: Dim>(
     params: Res<EigensofteningParams>,
     neighbourhoods: Res<Neighbourhoods>,
     mut columns: ResMut<SeriesColumns>,
+    mut reach: Local<StressReach<D>>,
     mut particles: ParticleQuery<D>,
 ) {
-    let Some((mass, material, v0, stress, strain, mut damage, mut history)) =
+    let Some((positions, mass, material, v0, stress, strain, mut damage, mut history)) =
         single_table(particles.contiguous_iter_mut(), "particles")
     else {
         return;
@@ -211,26 +218,43 @@ pub fn eigensoftening<D: Dim>(
     let previous: &[Damage] = damage;
     // Each particle's largest principal stress, once, for all the neighbourhoods it is in.
     let principal: Vec<f64> = stress.par_iter().map(|s| s.0.largest_principal()).collect();
+    // What each particle adds to its neighbours' sums, for the bound of where they can reach
+    // f_t (a failed particle adds nothing).
+    let contributed: Vec<f64> = principal
+        .iter()
+        .zip(previous)
+        .map(|(s, d)| if d.0 < 1.0 { *s } else { 0.0 })
+        .collect();
+    reach.refill(positions, &contributed, neighbourhoods.radius);
+    let reach = &*reach;
     let updated: Vec<(f64, f64)> = (0..mass.len())
         .into_par_iter()
         .map(|p| {
+            let state = (previous[p].0, history[p].0);
             if !params.materials.applies(material[p]) {
-                return (previous[p].0, history[p].0);
+                return state;
             }
             let neighbours = if p < neighbourhoods.particle_count() {
                 neighbourhoods.of(p)
             } else {
                 &[]
             };
-            let sigma = equivalent_stress(neighbours, mass, &principal, previous);
             let strain_1 = strain[p].0.largest_principal();
-            soften(
-                (previous[p].0, history[p].0),
-                sigma,
-                strain_1,
-                &law,
-                params.band_width,
-            )
+            // An intact particle whose neighbourhood cannot reach f_t, or that is not
+            // stretched, stays intact: soften() would return the same without the sum.
+            let intact = state == (0.0, 0.0);
+            if intact
+                && !(strain_1 > 0.0
+                    && reach.may_reach(positions[p].0, neighbours.len(), law.tensile_strength))
+            {
+                return state;
+            }
+            let sigma = if intact {
+                equivalent_stress(neighbours, mass, &principal, previous)
+            } else {
+                0.0
+            };
+            soften(state, sigma, strain_1, &law, params.band_width)
         })
         .collect();
     let (mut damaged, mut failed, mut dissipated) = (0usize, 0usize, 0.0);

@@ -2,3 +2,4 @@
 pub mod eigenerosion;
 pub mod eigensoftening;
 pub mod softening;
+pub mod stress_reach;

@@ -38,33 +38,37 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
 pub struct KdTreeCandidates<D: Dim> {
     /// Positions at the last build.
     pub anchors: Vec<D::Vector>,
-    /// Candidate rows per particle.
-    pub candidates: Vec<Vec<u32>>,
+    /// Candidate rows per particle, sorted, within the radius ε(1 + skin) of the last build.
+    pub candidates: Neighbourhoods,
+    /// Block buffers reused by every fill of the candidate and neighbour lists.
+    pub scratch: RowBlocks,
 }
 
 impl<D: Dim> Default for KdTreeCandidates<D> {
     fn default() -> Self {
         Self {
             anchors: Vec::new(),
-            candidates: Vec::new(),
+            candidates: Neighbourhoods::default(),
+            scratch: RowBlocks::default(),
         }
     }
 }
 
-/// Candidate lists for all particles from a fresh kd-tree, each sorted once here so that the
-/// every-step filtering keeps them sorted.
-pub fn build_candidates<D: Spatial>(positions: &[Position<D>], radius: f64) -> Vec<Vec<u32>> {
+/// Fills `candidates` with the rows within `radius` of each particle, from a fresh kd-tree,
+/// each sorted once here so that the every-step filtering keeps them sorted.
+pub fn build_candidates<D: Spatial>(
+    positions: &[Position<D>],
+    radius: f64,
+    candidates: &mut Neighbourhoods,
+    scratch: &mut RowBlocks,
+) {
     let points: Vec<D::Vector> = positions.iter().map(|p| p.0).collect();
     let tree = D::tree(&points);
-    points
-        .par_iter()
-        .map(|x| {
-            let mut found = Vec::new();
-            D::within(&tree, *x, radius, &mut found);
-            found.sort_unstable();
-            found
-        })
-        .collect()
+    candidates.fill_rows(points.len(), radius, scratch, |p, out| {
+        let start = out.len();
+        D::within(&tree, points[p], radius, out);
+        out[start..].sort_unstable();
+    });
 }
 
 /// The `neighbour/kdtree` system.
@@ -79,26 +83,25 @@ pub fn kdtree_neighbours<D: Spatial>(
         single_table(particles.contiguous_iter(), "particles").unwrap_or((&[], &[]));
     let epsilon = params.c_epsilon * grid.spacing;
     let skin = params.skin * epsilon;
+    let KdTreeCandidates {
+        anchors,
+        candidates,
+        scratch,
+    } = &mut *state;
     let moved = |(anchor, x): (&D::Vector, &Position<D>)| (x.0 - *anchor).length() > 0.5 * skin;
-    let stale = state.anchors.len() != positions.len()
-        || state
-            .anchors
-            .par_iter()
-            .zip(positions.par_iter())
-            .any(moved);
+    let stale =
+        anchors.len() != positions.len() || anchors.par_iter().zip(positions.par_iter()).any(moved);
     if stale {
-        state.candidates = build_candidates(positions, epsilon + skin);
-        state.anchors = positions.iter().map(|p| p.0).collect();
+        build_candidates(positions, epsilon + skin, candidates, scratch);
+        anchors.clear();
+        anchors.extend(positions.iter().map(|p| p.0));
         neighbourhoods.rebuilds += 1;
     }
-    let rows: Vec<Vec<u32>> = (0..positions.len())
-        .into_par_iter()
-        .map(|p| {
-            let candidates = state.candidates[p].iter().copied();
-            filter_row(p, candidates, positions, bodies, epsilon, params.same_body)
-        })
-        .collect();
-    neighbourhoods.set_rows(&rows, epsilon);
+    let candidates = &*candidates;
+    neighbourhoods.fill_rows(positions.len(), epsilon, scratch, |p, out| {
+        let row = candidates.of(p);
+        filter_row(p, row, positions, bodies, epsilon, params.same_body, out);
+    });
 }
 
 #[cfg(test)]

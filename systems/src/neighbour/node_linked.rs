@@ -73,6 +73,7 @@ pub fn node_linked_neighbours<D: Dim>(
     grid: Res<Grid<D>>,
     params: Res<NeighbourParams>,
     mut neighbourhoods: ResMut<Neighbourhoods>,
+    mut scratch: Local<RowBlocks>,
     particles: Query<(&Position<D>, &BodyId), With<Particle>>,
 ) {
     let (positions, bodies) =
@@ -86,32 +87,37 @@ pub fn node_linked_neighbours<D: Dim>(
         .collect();
     let (offsets, members) = link_particles(&grid, &linked);
     let near = near_offsets::<D>((epsilon + (D::N as f64).sqrt() * h) / h);
-    let rows: Vec<Vec<u32>> = (0..positions.len())
-        .into_par_iter()
-        .map(|p| {
-            let home = linked[p];
-            let candidates = near.iter().filter_map(|d| {
-                let mut node = home;
-                for a in 0..D::N {
-                    let c = home[a] as isize + d[a];
-                    if c < 0 || c as usize >= counts[a] {
-                        return None;
-                    }
-                    node[a] = c as usize;
-                }
-                Some(grid.node_index(node))
-            });
-            let candidates =
-                candidates.flat_map(|k| members[offsets[k]..offsets[k + 1]].iter().copied());
-            // Each particle is linked to one node and each node visited once: no duplicates,
-            // but the order is by node.
-            let mut row = filter_row(p, candidates, positions, bodies, epsilon, params.same_body);
-            row.sort_unstable();
-            row
-        })
-        .collect();
     neighbourhoods.rebuilds += 1;
-    neighbourhoods.set_rows(&rows, epsilon);
+    neighbourhoods.fill_rows(positions.len(), epsilon, &mut scratch, |p, out| {
+        let home = linked[p];
+        let candidates = near.iter().filter_map(|d| {
+            let mut node = home;
+            for a in 0..D::N {
+                let c = home[a] as isize + d[a];
+                if c < 0 || c as usize >= counts[a] {
+                    return None;
+                }
+                node[a] = c as usize;
+            }
+            Some(grid.node_index(node))
+        });
+        // Each particle is linked to one node and each node visited once: no duplicates, but
+        // the order is by node.
+        let start = out.len();
+        for k in candidates {
+            let members = &members[offsets[k]..offsets[k + 1]];
+            filter_row(
+                p,
+                members,
+                positions,
+                bodies,
+                epsilon,
+                params.same_body,
+                out,
+            );
+        }
+        out[start..].sort_unstable();
+    });
 }
 
 #[cfg(test)]

@@ -78,7 +78,9 @@ pub struct DfgNeighbours<D: Dim> {
     /// Positions at the last build.
     pub anchors: Vec<D::Vector>,
     /// Candidates of the same contact group per particle, sorted.
-    pub rows: Vec<Vec<u32>>,
+    pub rows: Neighbourhoods,
+    /// Block buffers reused by the builds.
+    pub scratch: RowBlocks,
     /// Builds so far.
     pub rebuilds: u64,
 }
@@ -87,7 +89,8 @@ impl<D: Dim> Default for DfgNeighbours<D> {
     fn default() -> Self {
         Self {
             anchors: Vec::new(),
-            rows: Vec::new(),
+            rows: Neighbourhoods::default(),
+            scratch: RowBlocks::default(),
             rebuilds: 0,
         }
     }
@@ -107,16 +110,23 @@ impl<D: Spatial> DfgNeighbours<D> {
         if !stale {
             return;
         }
-        self.rows = crate::neighbour::kdtree::build_candidates(positions, radius + skin)
-            .into_par_iter()
-            .enumerate()
-            .map(|(p, row)| {
-                row.into_iter()
-                    .filter(|&q| groups[q as usize] == groups[p])
-                    .collect()
-            })
-            .collect();
-        self.anchors = positions.iter().map(|p| p.0).collect();
+        let Self {
+            rows,
+            scratch,
+            anchors,
+            ..
+        } = self;
+        crate::neighbour::kdtree::build_candidates(positions, radius + skin, rows, scratch);
+        let all = std::mem::take(rows);
+        rows.fill_rows(positions.len(), all.radius, scratch, |p, out| {
+            out.extend(
+                all.of(p)
+                    .iter()
+                    .filter(|&&q| groups[q as usize] == groups[p]),
+            );
+        });
+        anchors.clear();
+        anchors.extend(positions.iter().map(|p| p.0));
         self.rebuilds += 1;
     }
 }
@@ -268,17 +278,7 @@ pub fn dfg_partition<D: Spatial>(
     let neighbours = &candidates.rows;
     let surface: &mut [SurfaceFlag] = &mut surface;
     if let (Some(threshold), false) = (params.surface, detected.0) {
-        let same_body: Vec<Vec<u32>> = neighbours
-            .par_iter()
-            .enumerate()
-            .map(|(p, row)| {
-                row.iter()
-                    .copied()
-                    .filter(|&q| bodies[q as usize] == bodies[p])
-                    .collect()
-            })
-            .collect();
-        detect_surface(positions, &same_body, radius, threshold, surface);
+        detect_surface(positions, neighbours, bodies, radius, threshold, surface);
         detected.0 = true;
     }
     let effective: Vec<f64> = damage
@@ -293,7 +293,7 @@ pub fn dfg_partition<D: Spatial>(
     let mut near_damage = vec![false; positions.len()];
     for (q, &d) in effective.iter().enumerate() {
         if d != 0.0 {
-            for &p in &neighbours[q] {
+            for &p in neighbours.of(q) {
                 near_damage[p as usize] = true;
             }
         }
@@ -304,7 +304,8 @@ pub fn dfg_partition<D: Spatial>(
             g.0 = D::Vector::ZERO;
             return;
         }
-        let row = neighbours[p]
+        let row = neighbours
+            .of(p)
             .iter()
             .map(|&q| (positions[q as usize].0, effective[q as usize]));
         g.0 = normalised_gradient(kernel_sums(positions[p].0, row, radius));
@@ -328,10 +329,12 @@ pub fn dfg_partition<D: Spatial>(
     });
 }
 
-/// Flags the particles whose kernel sum is below `threshold` times the largest (§2.4).
+/// Flags the particles whose kernel sum over their own body's neighbours is below `threshold`
+/// times the largest (§2.4).
 fn detect_surface<D: Dim>(
     positions: &[Position<D>],
-    neighbours: &[Vec<u32>],
+    neighbours: &Neighbourhoods,
+    bodies: &[BodyId],
     radius: f64,
     threshold: f64,
     surface: &mut [SurfaceFlag],
@@ -339,8 +342,10 @@ fn detect_surface<D: Dim>(
     let sums: Vec<f64> = (0..positions.len())
         .into_par_iter()
         .map(|p| {
-            let row = neighbours[p]
+            let row = neighbours
+                .of(p)
                 .iter()
+                .filter(|&&q| bodies[q as usize] == bodies[p])
                 .map(|&q| (positions[q as usize].0, 0.0));
             kernel_sums(positions[p].0, row, radius).0
         })
