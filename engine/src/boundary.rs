@@ -121,7 +121,15 @@ impl<D: Dim> Default for Reactions<D> {
 impl BoundaryConditions {
     /// For each of `node_count` nodes, which velocity components (x, y, z) some region holds.
     pub fn held_mask(&self, node_count: usize) -> Vec<[bool; MAX_COMPONENTS]> {
-        let mut mask = vec![[false; MAX_COMPONENTS]; node_count];
+        let mut mask = Vec::new();
+        self.fill_held_mask(node_count, &mut mask);
+        mask
+    }
+
+    /// [`Self::held_mask`] into a reused buffer.
+    pub fn fill_held_mask(&self, node_count: usize, mask: &mut Vec<[bool; MAX_COMPONENTS]>) {
+        mask.clear();
+        mask.resize(node_count, [false; MAX_COMPONENTS]);
         for region in &self.regions {
             for &node in &region.nodes {
                 for (c, held) in region.velocity.iter().enumerate() {
@@ -129,7 +137,6 @@ impl BoundaryConditions {
                 }
             }
         }
-        mask
     }
 
     /// Sets the held velocity components of every field with mass at time `time`.

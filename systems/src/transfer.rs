@@ -179,18 +179,19 @@ pub fn force_contribution<D: Dim>(
         - particles.stress[p].0.dot(c.gradients[e]) * (intact * particles.volume[p].0)
 }
 
-/// Per-field force sums `Σ N (m b + f_ext) − Σ (1 − D) V σ·∇N` of every node.
+/// Per-field force sums `Σ N (m b + f_ext) − Σ (1 − D) V σ·∇N` of every node, into `forces`
+/// (resized to `node_count`; every slot is overwritten).
 pub fn field_forces<D: Dim>(
     c: &Connectivity<D>,
     particles: &ParticleSlices<D>,
     body_force: D::Vector,
     node_count: usize,
-) -> Vec<[D::Vector; MAX_FIELDS]> {
-    let mut forces = vec![[D::Vector::ZERO; MAX_FIELDS]; node_count];
-    c.accumulate_to_nodes(&mut forces, |f: &mut [D::Vector; MAX_FIELDS], e, p| {
+    forces: &mut Vec<[D::Vector; MAX_FIELDS]>,
+) {
+    forces.resize(node_count, [D::Vector::ZERO; MAX_FIELDS]);
+    c.accumulate_to_nodes(forces, |f: &mut [D::Vector; MAX_FIELDS], e, p| {
         f[c.field(e)] += force_contribution(c, particles, body_force, e, p);
     });
-    forces
 }
 
 /// `(Σ N a_I, Σ N v_I)` over particle row `p`, each node's value taken from the particle's field.

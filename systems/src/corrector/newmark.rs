@@ -16,6 +16,7 @@
 use crate::predictor::newmark::NewmarkParams;
 use crate::transfer::{ForceSourceQuery, ParticleSlices, field_forces};
 use fractum_engine::prelude::*;
+use rayon::prelude::*;
 
 /// Registration of `corrector/newmark`.
 pub const REGISTRATION: Registration = Registration {
@@ -66,6 +67,7 @@ pub fn newmark_corrector<D: Dim>(
     connectivity: Res<Connectivity<D>>,
     particles: ForceSourceQuery<D>,
     mut nodes: NodeQuery<D>,
+    mut buffers: Local<NodeBuffers<D>>,
 ) {
     let Some(slices) = ParticleSlices::of(&particles) else {
         return;
@@ -75,42 +77,67 @@ pub fn newmark_corrector<D: Dim>(
     else {
         return;
     };
-    let mut forces = field_forces(&connectivity, &slices, body_force.0, node_mass.len());
-    for (f, c) in forces.iter_mut().zip(contact) {
-        for (fk, ck) in f.iter_mut().zip(c.0) {
-            *fk += ck;
-        }
-    }
+    let NodeBuffers { forces, held } = &mut *buffers;
+    field_forces(
+        &connectivity,
+        &slices,
+        body_force.0,
+        node_mass.len(),
+        forces,
+    );
     let gamma_dt = params.gamma * clock.dt;
     let velocities: &mut [NodeVelocity<D>] = &mut node_velocity;
-    for (i, v) in velocities.iter_mut().enumerate() {
-        for (k, vk) in v.0.iter_mut().enumerate() {
-            *vk = correct(node_mass[i].0[k], *vk, forces[i][k], gamma_dt);
-        }
-    }
+    velocities
+        .par_iter_mut()
+        .zip(forces.par_iter_mut())
+        .zip(contact.par_iter())
+        .zip(node_mass.par_iter())
+        .for_each(|(((v, f), c), m)| {
+            for k in 0..MAX_FIELDS {
+                f[k] += c.0[k];
+                v.0[k] = correct(m.0[k], v.0[k], f[k], gamma_dt);
+            }
+        });
     bcs.enforce(
         clock.time + clock.dt,
         node_mass,
         velocities,
         Some((gamma_dt, &mut reactions)),
     );
-    let held = bcs.held_mask(forces.len());
+    bcs.fill_held_mask(forces.len(), held);
     let (accelerations, stored_forces): (&mut [NodeAcceleration<D>], &mut [NodeForce<D>]) =
         (&mut node_acceleration, &mut node_force);
-    for i in 0..forces.len() {
-        for (k, &m) in node_mass[i].0.iter().enumerate() {
-            let mut f = if m > 0.0 {
-                forces[i][k]
-            } else {
-                D::Vector::ZERO
-            };
-            for (c, is_held) in held[i][..D::N].iter().enumerate() {
-                if *is_held {
-                    f[c] = 0.0;
+    accelerations
+        .par_iter_mut()
+        .zip(stored_forces.par_iter_mut())
+        .zip(forces.par_iter())
+        .zip(held.par_iter())
+        .zip(node_mass.par_iter())
+        .for_each(|((((acceleration, stored), force), held), mass)| {
+            for (k, &m) in mass.0.iter().enumerate() {
+                let mut f = if m > 0.0 { force[k] } else { D::Vector::ZERO };
+                for (c, is_held) in held[..D::N].iter().enumerate() {
+                    if *is_held {
+                        f[c] = 0.0;
+                    }
                 }
+                stored.0[k] = f;
+                acceleration.0[k] = if m > 0.0 { f / m } else { D::Vector::ZERO };
             }
-            stored_forces[i].0[k] = f;
-            accelerations[i].0[k] = if m > 0.0 { f / m } else { D::Vector::ZERO };
+        });
+}
+
+/// Per-node buffers of the corrector, kept between steps.
+pub struct NodeBuffers<D: Dim> {
+    forces: Vec<[D::Vector; MAX_FIELDS]>,
+    held: Vec<[bool; fractum_engine::boundary::MAX_COMPONENTS]>,
+}
+
+impl<D: Dim> Default for NodeBuffers<D> {
+    fn default() -> Self {
+        Self {
+            forces: Vec::new(),
+            held: Vec::new(),
         }
     }
 }

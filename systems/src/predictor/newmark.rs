@@ -12,6 +12,7 @@
 
 use crate::transfer::{NodeSums, NodeTransferQuery, field_velocity};
 use fractum_engine::prelude::*;
+use rayon::prelude::*;
 use serde::Deserialize;
 
 /// Registration of `predictor/newmark`.
@@ -116,6 +117,7 @@ pub fn newmark_predictor<D: Dim>(
     connectivity: Res<Connectivity<D>>,
     particles: ParticleQuery<D>,
     mut nodes: NodeTransferQuery<D>,
+    mut sums: Local<Vec<NodeSums<D>>>,
 ) {
     let Some((mass, velocity, acceleration)) =
         single_table(particles.contiguous_iter(), "particles")
@@ -127,7 +129,8 @@ pub fn newmark_predictor<D: Dim>(
     else {
         return;
     };
-    let mut sums = vec![NodeSums::default(); node_mass.len()];
+    // Every slot is overwritten by the transfer: the buffer is only resized, never cleared.
+    sums.resize(node_mass.len(), NodeSums::default());
     let gamma_dt = (params.gamma, clock.dt);
     connectivity.accumulate_to_nodes(&mut sums, |sum, e, p| {
         add_predictor_contribution(
@@ -146,13 +149,20 @@ pub fn newmark_predictor<D: Dim>(
         &mut [NodeMomentum<D>],
         &mut [NodeVelocity<D>],
     ) = (&mut node_mass, &mut momentum, &mut node_velocity);
-    for (i, s) in sums.iter().enumerate() {
-        node_mass[i] = NodeMass(s.mass);
-        momentum[i] = NodeMomentum(s.momentum);
-        node_velocity[i] = NodeVelocity(std::array::from_fn(|k| field_velocity(s, k, 0.0)));
-    }
-    node_acceleration.fill(NodeAcceleration::default());
-    force.fill(NodeForce::default());
+    node_mass
+        .par_iter_mut()
+        .zip(momentum.par_iter_mut())
+        .zip(node_velocity.par_iter_mut())
+        .zip(sums.par_iter())
+        .for_each(|(((mass, momentum), velocity), s)| {
+            *mass = NodeMass(s.mass);
+            *momentum = NodeMomentum(s.momentum);
+            *velocity = NodeVelocity(std::array::from_fn(|k| field_velocity(s, k, 0.0)));
+        });
+    node_acceleration
+        .par_iter_mut()
+        .for_each(|a| *a = NodeAcceleration::default());
+    force.par_iter_mut().for_each(|f| *f = NodeForce::default());
     bcs.enforce(clock.time + clock.dt, node_mass, node_velocity, None);
 }
 

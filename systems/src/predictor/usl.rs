@@ -28,6 +28,7 @@ use crate::transfer::{
     ForceSourceQuery, NodeSums, NodeTransferQuery, ParticleSlices, add_contribution, field_velocity,
 };
 use fractum_engine::prelude::*;
+use rayon::prelude::*;
 use serde::Deserialize;
 
 /// Registration of `predictor/usl`.
@@ -99,32 +100,47 @@ pub fn grid_update<D: Dim>(
     reactions: &mut Reactions<D>,
 ) {
     let zero = D::Vector::ZERO;
-    for (i, s) in sums.iter().enumerate() {
-        nodes.mass[i] = NodeMass(s.mass);
-        nodes.momentum[i] = NodeMomentum(s.momentum);
-        nodes.force[i] = NodeForce(s.force);
-        nodes.velocity[i] = NodeVelocity(std::array::from_fn(|k| {
-            field_velocity(s, k, ctx.min_node_mass)
-        }));
-    }
+    nodes
+        .mass
+        .par_iter_mut()
+        .zip(nodes.momentum.par_iter_mut())
+        .zip(nodes.force.par_iter_mut())
+        .zip(nodes.velocity.par_iter_mut())
+        .zip(sums.par_iter())
+        .for_each(|((((mass, momentum), force), velocity), s)| {
+            *mass = NodeMass(s.mass);
+            *momentum = NodeMomentum(s.momentum);
+            *force = NodeForce(s.force);
+            *velocity = NodeVelocity(std::array::from_fn(|k| {
+                field_velocity(s, k, ctx.min_node_mass)
+            }));
+        });
     ctx.bcs.enforce(ctx.time, nodes.mass, nodes.velocity, None);
-    let start: Vec<NodeVelocity<D>> = nodes.velocity.to_vec();
-    for (i, s) in sums.iter().enumerate() {
-        for k in 0..MAX_FIELDS {
-            let occupied = s.mass[k] > ctx.min_node_mass && s.mass[k] > 0.0;
-            nodes.velocity[i].0[k] = if occupied {
-                start[i].0[k] + s.force[k] * ctx.dt / s.mass[k]
-            } else {
-                zero
-            };
-        }
-    }
+    // The acceleration column holds the start-of-step velocity until the end velocity is known.
+    nodes
+        .acceleration
+        .par_iter_mut()
+        .zip(nodes.velocity.par_iter_mut())
+        .zip(sums.par_iter())
+        .for_each(|((start, velocity), s)| {
+            start.0 = velocity.0;
+            for k in 0..MAX_FIELDS {
+                let occupied = s.mass[k] > ctx.min_node_mass && s.mass[k] > 0.0;
+                velocity.0[k] = if occupied {
+                    start.0[k] + s.force[k] * ctx.dt / s.mass[k]
+                } else {
+                    zero
+                };
+            }
+        });
     let end = ctx.time + ctx.dt;
     ctx.bcs
         .enforce(end, nodes.mass, nodes.velocity, Some((ctx.dt, reactions)));
-    for (i, a) in nodes.acceleration.iter_mut().enumerate() {
-        a.0 = std::array::from_fn(|k| (nodes.velocity[i].0[k] - start[i].0[k]) / ctx.dt);
-    }
+    nodes
+        .acceleration
+        .par_iter_mut()
+        .zip(nodes.velocity.par_iter())
+        .for_each(|(a, v)| a.0 = std::array::from_fn(|k| (v.0[k] - a.0[k]) / ctx.dt));
 }
 
 /// The `predictor/usl` system.
@@ -138,6 +154,7 @@ pub fn usl_predictor<D: Dim>(
     params: Res<UslPredictorParams>,
     particles: ForceSourceQuery<D>,
     mut nodes: NodeTransferQuery<D>,
+    mut sums: Local<Vec<NodeSums<D>>>,
 ) {
     let Some(slices) = ParticleSlices::of(&particles) else {
         return;
@@ -147,7 +164,8 @@ pub fn usl_predictor<D: Dim>(
     else {
         return;
     };
-    let mut sums = vec![NodeSums::default(); node_mass.len()];
+    // Every slot is overwritten by the transfer: the buffer is only resized, never cleared.
+    sums.resize(node_mass.len(), NodeSums::default());
     connectivity.accumulate_to_nodes(&mut sums, |sum, e, p| {
         add_contribution(sum, &connectivity, &slices, body_force.0, e, p)
     });
