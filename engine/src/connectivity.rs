@@ -136,6 +136,76 @@ impl<D: Dim> Connectivity<D> {
         self.rebuild_transpose(node_count);
     }
 
+    /// Refills the tables with rows of varying width and no intermediate row buffers:
+    /// `width(p)` gives the number of entries of row `p` (in parallel), then
+    /// `fill(scratch, p, nodes, weights, gradients)` writes exactly that many entries into the
+    /// row's own slices of the tables and returns a per-row value, collected in row order.
+    /// Rows go in fixed blocks, each with its own `init()` scratch, so the result does not
+    /// depend on the thread count. Rebuilds the transpose.
+    pub fn fill_rows<S, T, W, F>(
+        &mut self,
+        particles: usize,
+        node_count: usize,
+        width: W,
+        init: impl Fn() -> S + Sync,
+        fill: F,
+    ) -> Vec<T>
+    where
+        T: Send,
+        W: Fn(usize) -> usize + Sync,
+        F: Fn(&mut S, usize, &mut [u32], &mut [f64], &mut [D::Vector]) -> T + Sync,
+    {
+        const BLOCK: usize = 1024;
+        self.row_offsets.resize(particles + 1, 0);
+        self.row_offsets[0] = 0;
+        self.row_offsets[1..]
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(p, end)| *end = width(p));
+        for p in 0..particles {
+            self.row_offsets[p + 1] += self.row_offsets[p];
+        }
+        let total = self.row_offsets[particles];
+        self.nodes.resize(total, 0);
+        self.weights.resize(total, 0.0);
+        self.gradients.resize(total, D::Vector::ZERO);
+        let offsets = &self.row_offsets;
+        let mut blocks = Vec::with_capacity(particles.div_ceil(BLOCK));
+        let (mut nodes, mut weights, mut gradients) = (
+            &mut self.nodes[..],
+            &mut self.weights[..],
+            &mut self.gradients[..],
+        );
+        for start in (0..particles).step_by(BLOCK) {
+            let end = (start + BLOCK).min(particles);
+            let len = offsets[end] - offsets[start];
+            let (n, rest_n) = nodes.split_at_mut(len);
+            let (w, rest_w) = weights.split_at_mut(len);
+            let (g, rest_g) = gradients.split_at_mut(len);
+            (nodes, weights, gradients) = (rest_n, rest_w, rest_g);
+            blocks.push((start..end, n, w, g));
+        }
+        let values: Vec<Vec<T>> = blocks
+            .into_par_iter()
+            .map(|(rows, mut n, mut w, mut g)| {
+                let mut scratch = init();
+                let mut values = Vec::with_capacity(rows.len());
+                for p in rows {
+                    let len = offsets[p + 1] - offsets[p];
+                    let (row_n, rest_n) = std::mem::take(&mut n).split_at_mut(len);
+                    let (row_w, rest_w) = std::mem::take(&mut w).split_at_mut(len);
+                    let (row_g, rest_g) = std::mem::take(&mut g).split_at_mut(len);
+                    (n, w, g) = (rest_n, rest_w, rest_g);
+                    values.push(fill(&mut scratch, p, row_n, row_w, row_g));
+                }
+                values
+            })
+            .collect();
+        self.reset_fields();
+        self.rebuild_transpose(node_count);
+        values.into_iter().flatten().collect()
+    }
+
     /// Maps every entry to slot 0 (one velocity field per node).
     fn reset_fields(&mut self) {
         self.fields.clear();
@@ -211,6 +281,53 @@ impl<D: Dim> Connectivity<D> {
             }
             *slot = sum;
         });
+    }
+}
+
+#[cfg(test)]
+mod fill_rows_tests {
+    use super::*;
+    use crate::dim::Two;
+    use glam::DVec2;
+
+    /// Rows of varying width over several blocks equal the same rows given whole to `rebuild`.
+    #[test]
+    fn rows_filled_in_place_equal_rows_given_whole() {
+        let particles = 2500;
+        let width = |p: usize| p % 5;
+        let entry = |p: usize, k: usize| {
+            let node = ((p * 7 + k * 3) % 50) as u32;
+            (node, (p + k) as f64, DVec2::new(k as f64, -(p as f64)))
+        };
+        let rows: Vec<Vec<(u32, f64, DVec2)>> = (0..particles)
+            .map(|p| (0..width(p)).map(|k| entry(p, k)).collect())
+            .collect();
+        let mut expected = Connectivity::<Two>::default();
+        expected.rebuild(&rows, 50);
+        let mut filled = Connectivity::<Two>::default();
+        let values = filled.fill_rows(
+            particles,
+            50,
+            width,
+            || 0usize,
+            |calls, p, n, w, g| {
+                *calls += 1;
+                for k in 0..n.len() {
+                    (n[k], w[k], g[k]) = entry(p, k);
+                }
+                (p, *calls)
+            },
+        );
+        assert_eq!(filled.row_offsets, expected.row_offsets);
+        assert_eq!(filled.nodes, expected.nodes);
+        assert_eq!(filled.weights, expected.weights);
+        assert_eq!(filled.gradients, expected.gradients);
+        assert_eq!(filled.node_offsets, expected.node_offsets);
+        assert_eq!(filled.node_entries, expected.node_entries);
+        // One value per row in row order; each block starts from a fresh scratch.
+        assert_eq!(values.len(), particles);
+        assert!(values.iter().enumerate().all(|(p, v)| v.0 == p));
+        assert_eq!(values[1024].1, 1);
     }
 }
 

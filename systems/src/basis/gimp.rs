@@ -26,7 +26,6 @@
 
 use fractum_engine::health::{Blowup, Health, fmt_vector};
 use fractum_engine::prelude::*;
-use rayon::prelude::*;
 
 /// Registration of `basis/gimp`.
 pub const REGISTRATION: Registration = Registration {
@@ -72,28 +71,46 @@ pub fn half_width(initial_volume: f64, thickness: f64, dimensions: usize, h: f64
 pub type Row<D> = Vec<(u32, f64, <D as Dim>::Vector)>;
 
 /// The GIMP row of a particle at `x` with half-width `l` (an allocating convenience over
-/// [`fill_gimp_row`]).
+/// [`gimp_axes`] and [`write_gimp_row`]).
 pub fn gimp_row<D: Dim>(grid: &Grid<D>, x: D::Vector, l: f64) -> Result<Row<D>, usize> {
-    let mut row = Vec::new();
-    fill_gimp_row(grid, x, l, &mut row).map(|_| row)
+    let axes = gimp_axes(grid, x, l)?;
+    let width = axes.width(D::N);
+    let mut nodes = vec![0; width];
+    let mut weights = vec![0.0; width];
+    let mut gradients = vec![D::Vector::ZERO; width];
+    write_gimp_row(grid, &axes, (&mut nodes, &mut weights, &mut gradients));
+    Ok(nodes
+        .into_iter()
+        .zip(weights)
+        .zip(gradients)
+        .map(|((i, w), g)| (i, w, g))
+        .collect())
 }
 
-/// Refills `row` with the GIMP row of a particle at `x` with half-width `l`: `(node, S̄, ∇S̄)`
-/// for every node with a positive weight; or returns the first axis along which the support
-/// leaves the grid.
-pub fn fill_gimp_row<D: Dim>(
-    grid: &Grid<D>,
-    x: D::Vector,
-    l: f64,
-    row: &mut Row<D>,
-) -> Result<(), usize> {
-    row.clear();
+/// Along each axis, the nodes with a positive weight (two or three, consecutive): lattice index,
+/// `S` and `dS/dr`.
+#[derive(Clone, Copy, Debug)]
+pub struct GimpAxes {
+    nodes: [[(usize, f64, f64); 3]; 3],
+    count: [usize; 3],
+}
+
+impl GimpAxes {
+    /// Entries of the row: the product of the per-axis counts.
+    pub fn width(&self, dimensions: usize) -> usize {
+        self.count[..dimensions].iter().product()
+    }
+}
+
+/// The per-axis factors of the GIMP row of a particle at `x` with half-width `l`, or the first
+/// axis along which the support leaves the grid.
+pub fn gimp_axes<D: Dim>(grid: &Grid<D>, x: D::Vector, l: f64) -> Result<GimpAxes, usize> {
     let h = grid.spacing;
     let nodes = grid.nodes_per_axis();
-    // Along each axis, the nodes with a positive weight (two or three, consecutive):
-    // (lattice index, S, dS/dr).
-    let mut axis = [[(0usize, 0.0, 0.0); 3]; 3];
-    let mut count = [0usize; 3];
+    let mut axes = GimpAxes {
+        nodes: [[(0usize, 0.0, 0.0); 3]; 3],
+        count: [0; 3],
+    };
     for a in 0..D::N {
         let s = (x[a] - grid.min[a]) / h;
         let low = (s - (1.0 + l / h)).ceil() as isize;
@@ -105,36 +122,48 @@ pub fn fill_gimp_row<D: Dim>(
                 if node < 0 || node as usize >= nodes[a] {
                     return Err(a);
                 }
-                axis[a][count[a]] = (node as usize, weight, slope);
-                count[a] += 1;
+                axes.nodes[a][axes.count[a]] = (node as usize, weight, slope);
+                axes.count[a] += 1;
             }
         }
-        if count[a] == 0 {
-            return Ok(());
+        if axes.count[a] == 0 {
+            break;
         }
     }
-    // Their tensor product, first axis fastest (lattice order).
+    Ok(axes)
+}
+
+/// Writes the tensor product of `axes` (first axis fastest, lattice order) into a row of
+/// `axes.width()` entries: node, `S̄`, `∇S̄`.
+pub fn write_gimp_row<D: Dim>(
+    grid: &Grid<D>,
+    axes: &GimpAxes,
+    (nodes, weights, gradients): (&mut [u32], &mut [f64], &mut [D::Vector]),
+) {
+    if axes.width(D::N) == 0 {
+        return;
+    }
+    let axis = &axes.nodes;
     let mut digit = [0usize; 3];
-    loop {
-        let weight = (0..D::N).fold(1.0, |w, a| w * axis[a][digit[a]].1);
-        let gradient = D::Vector::from_fn(|a| {
+    for k in 0.. {
+        weights[k] = (0..D::N).fold(1.0, |w, a| w * axis[a][digit[a]].1);
+        gradients[k] = D::Vector::from_fn(|a| {
             (0..D::N).fold(1.0, |g, b| {
                 let (_, s, ds) = axis[b][digit[b]];
                 g * if b == a { ds } else { s }
             })
         });
-        let lattice = D::Cell::from_fn(|a| axis[a][digit[a]].0);
-        row.push((grid.node_index(lattice) as u32, weight, gradient));
+        nodes[k] = grid.node_index(D::Cell::from_fn(|a| axis[a][digit[a]].0)) as u32;
         let mut a = 0;
         loop {
             digit[a] += 1;
-            if digit[a] < count[a] {
+            if digit[a] < axes.count[a] {
                 break;
             }
             digit[a] = 0;
             a += 1;
             if a == D::N {
-                return Ok(());
+                return;
             }
         }
     }
@@ -147,23 +176,28 @@ pub fn gimp_basis<D: Dim>(
     thickness: Option<Res<Thickness>>,
     mut health: ResMut<Health>,
     mut connectivity: ResMut<Connectivity<D>>,
-    mut rows: Local<Vec<Row<D>>>,
     particles: Query<(&ParticleId, &Position<D>, &InitialVolume), With<Particle>>,
 ) {
     let (ids, positions, volumes) =
         single_table(particles.contiguous_iter(), "particles").unwrap_or((&[], &[], &[]));
     let grid = *grid;
     let t = thickness.map_or(1.0, |t| t.0);
-    // Each particle's row buffer is refilled in place, step after step.
-    rows.resize_with(positions.len(), Vec::new);
-    let results: Vec<Result<(), usize>> = rows
-        .par_iter_mut()
-        .zip(positions.par_iter().zip(volumes.par_iter()))
-        .map(|(row, (x, v))| {
-            let l = half_width(v.0, t, D::N, grid.spacing);
-            fill_gimp_row(&grid, x.0, l, row)
-        })
-        .collect();
+    let axes = |p: usize| {
+        let l = half_width(volumes[p].0, t, D::N, grid.spacing);
+        gimp_axes(&grid, positions[p].0, l)
+    };
+    // The rows go straight into the connectivity tables (a failed particle gets none).
+    let results: Vec<Result<(), usize>> = connectivity.fill_rows(
+        positions.len(),
+        grid.node_count(),
+        |p| axes(p).map_or(0, |a| a.width(D::N)),
+        || (),
+        |_, p, nodes, weights, gradients| {
+            let axes = axes(p)?;
+            write_gimp_row(&grid, &axes, (nodes, weights, gradients));
+            Ok(())
+        },
+    );
     if let Some((p, Err(axis))) = results.iter().enumerate().find(|(_, r)| r.is_err()) {
         health.failure = Some(Blowup {
             step: clock.step + 1,
@@ -175,9 +209,7 @@ pub fn gimp_basis<D: Dim>(
                 fmt_vector(positions[p].0, D::N)
             ),
         });
-        return;
     }
-    connectivity.rebuild(&rows, grid.node_count());
 }
 
 #[cfg(test)]

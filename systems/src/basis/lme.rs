@@ -123,8 +123,6 @@ pub struct LmeState<D: Dim> {
     pub anchors: Vec<D::Vector>,
     /// Nodes within radius + skin of the anchor, ascending.
     pub candidates: Vec<Vec<u32>>,
-    /// Each particle's last connectivity row: the buffers are refilled in place every step.
-    pub rows: Vec<Row<D>>,
 }
 
 impl<D: Dim> Default for LmeState<D> {
@@ -135,7 +133,6 @@ impl<D: Dim> Default for LmeState<D> {
             solved_at: Vec::new(),
             anchors: Vec::new(),
             candidates: Vec::new(),
-            rows: Vec::new(),
         }
     }
 }
@@ -148,7 +145,6 @@ impl<D: Dim> LmeState<D> {
             self.solved_at = vec![D::Vector::ZERO; particles];
             self.anchors = vec![D::Vector::splat(f64::INFINITY); particles];
             self.candidates = vec![Vec::new(); particles];
-            self.rows = vec![Vec::new(); particles];
         }
     }
 }
@@ -192,9 +188,6 @@ impl<D: Spatial> NodeCloud<D> {
     }
 }
 
-/// One particle's connectivity: `(node, N, ∇N)` per support node.
-pub type Row<D> = Vec<(u32, f64, <D as Dim>::Vector)>;
-
 /// Per-thread buffers for [`particle_row`].
 #[derive(Clone, Debug)]
 pub struct RowScratch<D: Dim> {
@@ -216,8 +209,17 @@ impl<D: Dim> Default for RowScratch<D> {
 /// What the solve of one particle gives beside its row: λ and `J⁻¹`.
 pub type Solved<D> = (<D as Dim>::Vector, <D as Dim>::Matrix);
 
-/// One particle's connectivity row (written into `row`), λ and `J⁻¹` over the `candidates`
-/// within `radius` of `x`, or the reason it has none.
+/// Whether node position `xi` is in the support of a particle at `x` (`radius2` = radius²).
+/// The one test both the row width and the row itself use.
+fn in_support<V: VectorOps>(x: V, xi: V, radius2: f64) -> bool {
+    (x - xi).length_squared() <= radius2
+}
+
+/// The row slices of one particle in the connectivity tables: nodes, `N`, `∇N`.
+pub type RowSlices<'a, D> = (&'a mut [u32], &'a mut [f64], &'a mut [<D as Dim>::Vector]);
+
+/// One particle's connectivity row (written into `row`, whose length is the number of
+/// `candidates` within `radius` of `x`), λ and `J⁻¹`, or the reason it has none.
 #[allow(clippy::too_many_arguments)]
 pub fn particle_row<D: Spatial>(
     cloud: &NodeCloud<D>,
@@ -227,18 +229,19 @@ pub fn particle_row<D: Spatial>(
     radius: f64,
     lambda_guess: D::Vector,
     scratch: &mut RowScratch<D>,
-    row: &mut Row<D>,
+    row: RowSlices<'_, D>,
 ) -> Result<Solved<D>, String> {
     let radius2 = radius * radius;
     scratch.support.clear();
     scratch.positions.clear();
     for &i in candidates {
         let xi = cloud.position(i);
-        if (x - xi).length_squared() <= radius2 {
+        if in_support(x, xi, radius2) {
             scratch.support.push(i);
             scratch.positions.push(xi);
         }
     }
+    debug_assert_eq!(scratch.support.len(), row.0.len());
     match lme_solve::<D>(
         x,
         &scratch.positions,
@@ -247,15 +250,18 @@ pub fn particle_row<D: Spatial>(
         &mut scratch.lme,
     ) {
         Ok((lambda, j_inverse, _)) => {
-            row.clear();
-            row.extend(
-                scratch
-                    .support
-                    .iter()
-                    .zip(&scratch.positions)
-                    .zip(&scratch.lme.values)
-                    .map(|((&i, &xi), &n)| (i, n, lme_gradient::<D>(x, xi, n, j_inverse))),
-            );
+            let (nodes, weights, gradients) = row;
+            for (k, ((&i, &xi), &n)) in scratch
+                .support
+                .iter()
+                .zip(&scratch.positions)
+                .zip(&scratch.lme.values)
+                .enumerate()
+            {
+                nodes[k] = i;
+                weights[k] = n;
+                gradients[k] = lme_gradient::<D>(x, xi, n, j_inverse);
+            }
             Ok((lambda, j_inverse))
         }
         Err(f) => Err(format!(
@@ -309,26 +315,39 @@ pub fn lme_basis<D: Spatial>(
         solved_at,
         anchors,
         candidates,
-        rows,
     } = &mut *state;
-    let solved: Vec<_> = anchors
+    anchors
         .par_iter_mut()
         .zip(candidates.par_iter_mut())
-        .zip(rows.par_iter_mut())
-        .enumerate()
-        .map_init(
-            RowScratch::default,
-            |scratch, (p, ((anchor, list), row))| {
-                let x = positions[p].0;
-                if (x - *anchor).length() > skin {
-                    *list = cloud.within(x, radius + skin);
-                    *anchor = x;
-                }
-                let guess = lambda[p] + lambda_slope[p] * (x - solved_at[p]);
-                particle_row(cloud, x, list, &settings, radius, guess, scratch, row)
-            },
-        )
-        .collect();
+        .zip(positions.par_iter())
+        .for_each(|((anchor, list), x)| {
+            if (x.0 - *anchor).length() > skin {
+                *list = cloud.within(x.0, radius + skin);
+                *anchor = x.0;
+            }
+        });
+    let radius2 = radius * radius;
+    let (candidates, guesses) = (&*candidates, (&*lambda, &*lambda_slope, &*solved_at));
+    // The rows go straight into the connectivity tables: no per-particle row buffers.
+    let solved = connectivity.fill_rows(
+        positions.len(),
+        cloud.len(),
+        |p| {
+            let x = positions[p].0;
+            let support = candidates[p].iter();
+            support
+                .filter(|&&i| in_support(x, cloud.position(i), radius2))
+                .count()
+        },
+        RowScratch::default,
+        |scratch, p, nodes, weights, gradients| {
+            let x = positions[p].0;
+            let guess = guesses.0[p] + guesses.1[p] * (x - guesses.2[p]);
+            let row = (nodes, weights, gradients);
+            let list = &candidates[p];
+            particle_row(cloud, x, list, &settings, radius, guess, scratch, row)
+        },
+    );
     if let Some((p, Err(message))) = solved.iter().enumerate().find(|(_, r)| r.is_err()) {
         let x = positions[p].0;
         health.failure = Some(Blowup {
@@ -350,7 +369,6 @@ pub fn lme_basis<D: Spatial>(
             solved_at[p] = positions[p].0;
         }
     }
-    connectivity.rebuild(rows, cloud.len());
 }
 
 #[cfg(test)]
