@@ -93,9 +93,9 @@ pub fn newmark_corrector<D: Dim>(
         .zip(contact.par_iter())
         .zip(node_mass.par_iter())
         .for_each(|(((v, f), c), m)| {
-            for k in 0..MAX_FIELDS {
-                f[k] += c.0[k];
-                v.0[k] = correct(m.0[k], v.0[k], f[k], gamma_dt);
+            for (k, fk) in f.iter_mut().enumerate() {
+                *fk += c.0[k];
+                v.0[k] = correct(m.0[k], v.0[k], *fk, gamma_dt);
             }
         });
     bcs.enforce(
