@@ -41,7 +41,7 @@ pub mod prelude {
         Three, Two, Vector, VectorOps, lattice_range,
     };
     pub use crate::health::single_table;
-    pub use crate::neighbourhood::{Neighbourhoods, RowBlocks};
+    pub use crate::neighbourhood::Neighbourhoods;
     pub use crate::registry::{
         Installer, MaterialFilter, ParamDoc, Params, Registration, Registry,
     };

@@ -40,8 +40,6 @@ pub struct KdTreeCandidates<D: Dim> {
     pub anchors: Vec<D::Vector>,
     /// Candidate rows per particle, sorted, within the radius ε(1 + skin) of the last build.
     pub candidates: Neighbourhoods,
-    /// Block buffers reused by every fill of the candidate and neighbour lists.
-    pub scratch: RowBlocks,
 }
 
 impl<D: Dim> Default for KdTreeCandidates<D> {
@@ -49,7 +47,6 @@ impl<D: Dim> Default for KdTreeCandidates<D> {
         Self {
             anchors: Vec::new(),
             candidates: Neighbourhoods::default(),
-            scratch: RowBlocks::default(),
         }
     }
 }
@@ -60,11 +57,10 @@ pub fn build_candidates<D: Spatial>(
     positions: &[Position<D>],
     radius: f64,
     candidates: &mut Neighbourhoods,
-    scratch: &mut RowBlocks,
 ) {
     let points: Vec<D::Vector> = positions.iter().map(|p| p.0).collect();
     let tree = D::tree(&points);
-    candidates.fill_rows(points.len(), radius, scratch, |p, out| {
+    candidates.fill_rows(points.len(), radius, |p, out| {
         let start = out.len();
         D::within(&tree, points[p], radius, out);
         out[start..].sort_unstable();
@@ -86,19 +82,18 @@ pub fn kdtree_neighbours<D: Spatial>(
     let KdTreeCandidates {
         anchors,
         candidates,
-        scratch,
     } = &mut *state;
     let moved = |(anchor, x): (&D::Vector, &Position<D>)| (x.0 - *anchor).length() > 0.5 * skin;
     let stale =
         anchors.len() != positions.len() || anchors.par_iter().zip(positions.par_iter()).any(moved);
     if stale {
-        build_candidates(positions, epsilon + skin, candidates, scratch);
+        build_candidates(positions, epsilon + skin, candidates);
         anchors.clear();
         anchors.extend(positions.iter().map(|p| p.0));
         neighbourhoods.rebuilds += 1;
     }
     let candidates = &*candidates;
-    neighbourhoods.fill_rows(positions.len(), epsilon, scratch, |p, out| {
+    neighbourhoods.fill_rows(positions.len(), epsilon, |p, out| {
         let row = candidates.of(p);
         filter_row(p, row, positions, bodies, epsilon, params.same_body, out);
     });

@@ -79,8 +79,6 @@ pub struct DfgNeighbours<D: Dim> {
     pub anchors: Vec<D::Vector>,
     /// Candidates of the same contact group per particle, sorted.
     pub rows: Neighbourhoods,
-    /// Block buffers reused by the builds.
-    pub scratch: RowBlocks,
     /// Builds so far.
     pub rebuilds: u64,
 }
@@ -90,7 +88,6 @@ impl<D: Dim> Default for DfgNeighbours<D> {
         Self {
             anchors: Vec::new(),
             rows: Neighbourhoods::default(),
-            scratch: RowBlocks::default(),
             rebuilds: 0,
         }
     }
@@ -110,15 +107,10 @@ impl<D: Spatial> DfgNeighbours<D> {
         if !stale {
             return;
         }
-        let Self {
-            rows,
-            scratch,
-            anchors,
-            ..
-        } = self;
-        crate::neighbour::kdtree::build_candidates(positions, radius + skin, rows, scratch);
-        let all = std::mem::take(rows);
-        rows.fill_rows(positions.len(), all.radius, scratch, |p, out| {
+        let Self { rows, anchors, .. } = self;
+        let mut all = Neighbourhoods::default();
+        crate::neighbour::kdtree::build_candidates(positions, radius + skin, &mut all);
+        rows.fill_rows(positions.len(), all.radius, |p, out| {
             out.extend(
                 all.of(p)
                     .iter()
