@@ -47,7 +47,7 @@ impl Neighbourhoods {
 
     /// The neighbours of row `p` (itself included).
     pub fn of(&self, p: usize) -> &[u32] {
-        let start = if p % ROWS_PER_BLOCK == 0 {
+        let start = if p.is_multiple_of(ROWS_PER_BLOCK) {
             0
         } else {
             self.ends[p - 1] as usize
