@@ -249,7 +249,7 @@ impl<D: Dim> Connectivity<D> {
             counts[i + 1] += counts[i];
         }
         self.node_offsets.clone_from(&counts);
-        self.node_entries.clear();
+        // Every slot is overwritten below: only the length needs setting.
         self.node_entries.resize(self.nodes.len(), (0, 0));
         let mut cursor = counts;
         for p in 0..self.particle_count() {
