@@ -329,6 +329,42 @@ mod fill_rows_tests {
         assert!(values.iter().enumerate().all(|(p, v)| v.0 == p));
         assert_eq!(values[1024].1, 1);
     }
+
+    /// The transpose lists each node's entries in particle order, whatever the thread count.
+    #[test]
+    fn the_transpose_lists_each_nodes_entries_in_particle_order() {
+        let (particles, nodes) = (3000, 97);
+        let rows: Vec<Vec<(u32, f64, DVec2)>> = (0..particles)
+            .map(|p| {
+                (0..1 + p % 6)
+                    .map(|k| (((p / 7 + k * 13) % nodes) as u32, 1.0, DVec2::ZERO))
+                    .collect()
+            })
+            .collect();
+        let mut expected = Vec::new();
+        for node in 0..nodes as u32 {
+            let mut entry = 0u32;
+            for (p, row) in rows.iter().enumerate() {
+                for &(n, _, _) in row {
+                    if n == node {
+                        expected.push((entry, p as u32));
+                    }
+                    entry += 1;
+                }
+            }
+        }
+        for threads in 1..=5 {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let mut c = Connectivity::<Two>::default();
+            pool.install(|| c.rebuild(&rows, nodes));
+            assert_eq!(c.node_entries, expected, "{threads} threads");
+            assert_eq!(c.node_offsets.len(), nodes + 1);
+            assert_eq!(c.node_offsets[nodes], expected.len());
+        }
+    }
 }
 
 #[cfg(test)]
