@@ -277,24 +277,38 @@ pub fn assign_fields<D: Dim>(
         fields,
         ..
     } = c;
-    let mut chunks: Vec<&mut [u8]> = Vec::with_capacity(rows.len().saturating_sub(1));
+    // Rows in fixed blocks, each block one contiguous part of the slot table.
+    const BLOCK: usize = 1024;
+    let particles = rows.len().saturating_sub(1);
+    let mut blocks = Vec::with_capacity(particles.div_ceil(BLOCK));
     let mut rest: &mut [u8] = fields;
-    for w in rows.windows(2) {
-        let (head, tail) = rest.split_at_mut(w[1] - w[0]);
-        chunks.push(head);
+    for start in (0..particles).step_by(BLOCK) {
+        let end = (start + BLOCK).min(particles);
+        let (head, tail) = rest.split_at_mut(rows[end] - rows[start]);
+        blocks.push((start..end, head));
         rest = tail;
     }
     let node_fields: &[NodeFields] = node_fields;
-    chunks.into_par_iter().enumerate().for_each(|(p, row)| {
-        let g = groups[p].0;
-        for (k, slot) in row.iter_mut().enumerate() {
-            let node = nodes[rows[p] + k] as usize;
-            let key = references[node].key(g, gradient(p));
-            *slot = node_fields[node]
-                .active()
-                .iter()
-                .position(|&k| k == key)
-                .unwrap_or(0) as u8;
+    blocks.into_par_iter().for_each(|(block, slots)| {
+        let base = rows[block.start];
+        for p in block {
+            let row = &mut slots[rows[p] - base..rows[p + 1] - base];
+            let entries = &nodes[rows[p]..rows[p + 1]];
+            // Where every node of the row has one field, every slot is 0: no keys to compute.
+            if entries.iter().all(|&n| node_fields[n as usize].count <= 1) {
+                row.fill(0);
+                continue;
+            }
+            let g = groups[p].0;
+            for (slot, &node) in row.iter_mut().zip(entries) {
+                let node = node as usize;
+                let key = references[node].key(g, gradient(p));
+                *slot = node_fields[node]
+                    .active()
+                    .iter()
+                    .position(|&k| k == key)
+                    .unwrap_or(0) as u8;
+            }
         }
     });
     Ok(())

@@ -161,10 +161,10 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
 
 /// Whether some particle starts damaged (a body's `cracks`).
 fn any_damage(installer: &Installer) -> bool {
-    installer
-        .world()
-        .iter_entities()
-        .any(|e| e.get::<Damage>().is_some_and(|d| d.0 > 0.0))
+    let world = installer.world();
+    world
+        .try_query::<&Damage>()
+        .is_some_and(|mut query| query.iter(world).any(|d| d.0 > 0.0))
 }
 
 /// The cubic kernel `ω(r̄) = 1 − 3r̄² + 2r̄³` for `r̄ ≤ 1`, else 0 (eq. 18).
