@@ -132,7 +132,7 @@ pub struct Simulation {
     pool: Option<rayon::ThreadPool>,
     /// Whether [`Simulation::set_threads`] was called: without it steps use rayon's global
     /// pool; with it, one thread or a small scene steps on the calling thread.
-    serial: bool,
+    threads_set: bool,
     /// Particle count below which steps run on the calling thread alone.
     serial_below: usize,
     /// Particles when the pools were made (removals only make a scene smaller).
@@ -163,7 +163,7 @@ impl Simulation {
             dimension: D::DIMENSION,
             schedule,
             pool: None,
-            serial: false,
+            threads_set: false,
             serial_below: match D::DIMENSION {
                 Dimension::Two => SERIAL_BELOW[0],
                 Dimension::Three => SERIAL_BELOW[1],
@@ -188,7 +188,7 @@ impl Simulation {
         } else {
             None
         };
-        self.serial = true;
+        self.threads_set = true;
         self.particles_at_start = self.particle_count();
         Ok(())
     }
@@ -201,14 +201,14 @@ impl Simulation {
 
     /// Whether steps run on the calling thread alone: one thread asked, or a small scene.
     fn runs_serially(&self) -> bool {
-        self.serial && (self.pool.is_none() || self.particles_at_start < self.serial_below)
+        self.threads_set && (self.pool.is_none() || self.particles_at_start < self.serial_below)
     }
 
     /// Threads asked for with [`Simulation::set_threads`] (rayon's default without it).
     pub fn threads_asked(&self) -> usize {
         match &self.pool {
             Some(pool) => pool.current_num_threads(),
-            None if self.serial => 1,
+            None if self.threads_set => 1,
             None => rayon::current_num_threads(),
         }
     }
@@ -325,7 +325,7 @@ impl Simulation {
     pub fn install<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
         match &self.pool {
             Some(pool) => pool.install(f),
-            None if self.serial => on_this_thread(f),
+            None if self.threads_set => on_this_thread(f),
             None => f(),
         }
     }

@@ -9,6 +9,9 @@
 //! largest value over the 3^d bins around a particle bounds the largest over its neighbourhood.
 //! Where that bound, widened by the rounding of the sum ([`StressReach::may_reach`]), is below
 //! `f_t`, the computed sum would be too: skipping it changes no result, bit for bit.
+//!
+//! The bins are built from the positions at the damage stage, the lists from those at the
+//! neighbour stage; in between no stock system moves particles (only advection does).
 
 use fractum_engine::prelude::*;
 
