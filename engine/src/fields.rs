@@ -233,6 +233,16 @@ pub fn assign_fields<D: Dim>(
         .enumerate()
         .map(|(node, (fields, refs))| {
             let entries = node_entries(c_ref, node);
+            // One group and no damage gradient at the node (most nodes): one field, side 0,
+            // which is what the general path below finds, without its three passes.
+            if let Some(group) = one_group_without_gradient::<D>(entries, groups, &gradient) {
+                *refs = NodeReferences::empty();
+                (refs.count, refs.groups[0]) = (1, group);
+                fields.count = 1;
+                fields.keys = [FieldKey::default(); MAX_FIELDS];
+                fields.keys[0] = FieldKey::new(group, 0);
+                return None;
+            }
             *refs = reference_gradients::<D>(entries, groups, &gradient);
             if let (Some(separation), Some(_)) = (separation, gradients) {
                 refs.merge_inseparable(entries, &c_ref.weights, groups, &gradient, separation);
@@ -320,6 +330,20 @@ fn node_entries<D: Dim>(c: &Connectivity<D>, node: usize) -> &[(u32, u32)] {
     } else {
         &[]
     }
+}
+
+/// The group of every particle at the node when there is one group and no particle there has a
+/// damage gradient; `None` otherwise (or for a node without particles).
+fn one_group_without_gradient<D: Dim>(
+    entries: &[(u32, u32)],
+    groups: &[ContactGroup],
+    gradient: &impl Fn(usize) -> D::Vector,
+) -> Option<u8> {
+    let group = groups[entries.first()?.1 as usize].0;
+    entries
+        .iter()
+        .all(|&(_, p)| groups[p as usize].0 == group && gradient(p as usize) == D::Vector::ZERO)
+        .then_some(group)
 }
 
 /// Algorithm 1 for one node: for each contact group present, the particle gradient of largest
