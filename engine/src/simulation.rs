@@ -385,3 +385,29 @@ pub fn stable_time_step<D: Dim>(world: &mut World) -> StableStep {
         factor: limit.factor,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rayon::prelude::*;
+
+    /// Work handed to `on_this_thread` runs on the caller, with rayon's parallel sections
+    /// sequential in it (one thread), however often it is called.
+    #[test]
+    fn serial_work_runs_on_the_calling_thread() {
+        let caller = std::thread::current().id();
+        for _ in 0..3 {
+            let (thread, threads, sum) = on_this_thread(|| {
+                let sum: u64 = (0..10_000u64).into_par_iter().sum();
+                (
+                    std::thread::current().id(),
+                    rayon::current_num_threads(),
+                    sum,
+                )
+            });
+            assert_eq!(thread, caller);
+            assert_eq!(threads, 1);
+            assert_eq!(sum, 49_995_000);
+        }
+    }
+}
