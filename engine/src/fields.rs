@@ -71,6 +71,7 @@ pub fn assign_fields_system<D: Dim>(
     gradients: Query<&DamageGradient<D>, With<Particle>>,
     surface: Query<&SurfaceFlag, With<Particle>>,
     mut nodes: Query<&mut NodeFields, With<Node>>,
+    mut buffers: Local<(Vec<f64>, Vec<f64>)>,
 ) {
     let Some((groups, damage, mass)) = single_table(particles.contiguous_iter(), "particles")
     else {
@@ -81,19 +82,22 @@ pub fn assign_fields_system<D: Dim>(
         return;
     };
     let flags = single_table(surface.contiguous_iter(), "particles");
-    let effective: Vec<f64> = match flags {
-        Some(flags) => damage
-            .iter()
-            .zip(flags)
-            .map(|(d, s)| d.0.max(s.0))
-            .collect(),
-        None => damage.iter().map(|d| d.0).collect(),
-    };
-    let masses: Vec<f64> = mass.iter().map(|m| m.0).collect();
-    let separation = separability.map(|s| Separation {
-        damage: &effective,
-        mass: &masses,
-        threshold: s.0,
+    // The separability condition's inputs, only when the pipeline asks for it, into buffers
+    // kept between steps.
+    let (effective, masses) = &mut *buffers;
+    let separation = separability.map(|s| {
+        effective.clear();
+        match flags {
+            Some(flags) => effective.extend(damage.iter().zip(flags).map(|(d, f)| d.0.max(f.0))),
+            None => effective.extend(damage.iter().map(|d| d.0)),
+        }
+        masses.clear();
+        masses.extend(mass.iter().map(|m| m.0));
+        Separation {
+            damage: effective,
+            mass: masses,
+            threshold: s.0,
+        }
     });
     let result = assign_fields(
         &mut connectivity,
@@ -227,7 +231,8 @@ pub fn assign_fields<D: Dim>(
     let node_count = node_fields.len();
     let mut references = vec![NodeReferences::<D::Vector>::empty(); node_count];
     let c_ref: &Connectivity<D> = c;
-    let node_results: Vec<Option<TooManyFields>> = node_fields
+    // The failure at the lowest node, whatever the thread count; no per-node results kept.
+    let failure = node_fields
         .par_iter_mut()
         .zip(references.par_iter_mut())
         .enumerate()
@@ -277,8 +282,9 @@ pub fn assign_fields<D: Dim>(
             fields.keys = keys;
             None
         })
-        .collect();
-    if let Some(failure) = node_results.into_iter().flatten().next() {
+        .filter_map(|result| result)
+        .min_by_key(|failure| failure.node);
+    if let Some(failure) = failure {
         return Err(failure);
     }
     let Connectivity {

@@ -251,6 +251,7 @@ type ParticleQuery<'w, 's, D> = Query<
 >;
 
 /// The `partition/dfg` system.
+#[allow(clippy::too_many_arguments)]
 pub fn dfg_partition<D: Spatial>(
     grid: Res<Grid<D>>,
     params: Res<DfgParams>,
@@ -259,6 +260,7 @@ pub fn dfg_partition<D: Spatial>(
     connectivity: Res<Connectivity<D>>,
     mut particles: ParticleQuery<D>,
     mut nodes: Query<(&NodeFields, &mut NodeFieldDamage), With<Node>>,
+    mut buffers: Local<(Vec<f64>, Vec<bool>)>,
 ) {
     let Some((positions, groups, bodies, damage, mass, mut surface, mut gradients)) =
         single_table(particles.contiguous_iter_mut(), "particles")
@@ -273,16 +275,15 @@ pub fn dfg_partition<D: Spatial>(
         detect_surface(positions, neighbours, bodies, radius, threshold, surface);
         detected.0 = true;
     }
-    let effective: Vec<f64> = damage
-        .iter()
-        .zip(surface.iter())
-        .map(|(d, s)| d.0.max(s.0))
-        .collect();
+    let (effective, near_damage) = &mut *buffers;
+    effective.clear();
+    effective.extend(damage.iter().zip(surface.iter()).map(|(d, s)| d.0.max(s.0)));
     // Without damage among its neighbours a particle has D = ∇D = 0, and so ∇D̄ = 0: most
     // particles of a body skip the kernel sums. The lists are symmetric (one radius, one
     // distance for both orders), so the particles with a damaged neighbour are found from the
     // damaged particles alone, in a pass over those instead of over every list.
-    let mut near_damage = vec![false; positions.len()];
+    near_damage.clear();
+    near_damage.resize(positions.len(), false);
     for (q, &d) in effective.iter().enumerate() {
         if d != 0.0 {
             for &p in neighbours.of(q) {
