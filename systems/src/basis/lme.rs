@@ -251,16 +251,13 @@ pub fn particle_row<D: Spatial>(
     ) {
         Ok((lambda, j_inverse, _)) => {
             let (nodes, weights, gradients) = row;
-            for (k, ((&i, &xi), &n)) in scratch
-                .support
-                .iter()
-                .zip(&scratch.positions)
-                .zip(&scratch.lme.values)
-                .enumerate()
+            let support = scratch.support.iter().zip(&scratch.positions);
+            let entries = nodes.iter_mut().zip(weights.iter_mut()).zip(gradients);
+            for (((node, weight), gradient), ((&i, &xi), &n)) in
+                entries.zip(support.zip(&scratch.lme.values))
             {
-                nodes[k] = i;
-                weights[k] = n;
-                gradients[k] = lme_gradient::<D>(x, xi, n, j_inverse);
+                (*node, *weight) = (i, n);
+                *gradient = lme_gradient::<D>(x, xi, n, j_inverse);
             }
             Ok((lambda, j_inverse))
         }
