@@ -177,4 +177,13 @@ fn each_check_looks_at_what_its_stage_can_write() {
     for (stage, columns) in expected {
         assert_eq!(plan.of(stage), columns, "{stage:?}");
     }
+    // Under the remove policy a system with deferred commands shares the advection check's
+    // set: that check then looks at everything.
+    let file = scene_with_safety("(0.0, 0.0)", "", "\n    safety: (on_leave_grid: Remove),");
+    let sim = build_simulation(&file, &fractum_systems::stock_registry())
+        .unwrap()
+        .simulation;
+    let plan = sim.world.resource::<CheckPlan>();
+    assert_eq!(plan.of(Stage::Advection), Columns::ALL);
+    assert_eq!(plan.of(Stage::Stress), Columns::STRESS | Columns::VOLUME);
 }

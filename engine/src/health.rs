@@ -120,13 +120,13 @@ impl CheckPlan {
 }
 
 /// The check plan of an initialised schedule: walks its systems in execution order, collecting
-/// the checked columns each may write (an exclusive system may write anything), and hands the
-/// collection to each stage check it meets. The systems after the last check run before the
+/// the checked columns each may write (an exclusive system, or one with deferred commands, may
+/// write anything), and hands the collection to each stage check it meets. The systems after the last check run before the
 /// first check of the next step, so they are added to that one. Returns `None` when the
 /// schedule is not initialised.
 pub fn plan_checks<D: Dim>(schedule: &Schedule, world: &World) -> Option<CheckPlan> {
     use bevy_ecs::schedule::SystemSet;
-    use bevy_ecs::system::SystemAccess;
+    use bevy_ecs::system::{System, SystemAccess};
     use std::collections::HashMap;
     let graph = schedule.graph();
     let mut checks = HashMap::new();
@@ -159,13 +159,21 @@ pub fn plan_checks<D: Dim>(schedule: &Schedule, world: &World) -> Option<CheckPl
     };
     let (mut pending, mut first) = (Columns::NONE, None);
     for (key, system) in schedule.systems_with_access().ok()? {
+        // Deferred commands may change any component when they are applied.
+        let own = if system.has_deferred() {
+            Columns::ALL
+        } else {
+            writes(system.access())
+        };
         match checks.get(&key) {
+            // A check's set may hold other engine systems (the removal of escaped particles):
+            // whatever they write is credited to the check too.
             Some(&stage) => {
-                plan.columns[stage as usize] = pending;
+                plan.columns[stage as usize] |= pending | own;
                 first.get_or_insert(stage);
                 pending = Columns::NONE;
             }
-            None => pending |= writes(system.access()),
+            None => pending |= own,
         }
     }
     if let Some(stage) = first {
