@@ -64,49 +64,23 @@ impl<D: Dim> Connectivity<D> {
     /// Replaces the tables from per-particle rows of `(node, N, ∇N)` and rebuilds the transpose.
     ///
     /// `rows` must be in particle-row order. `node_count` is the number of grid nodes. The
-    /// tables keep their capacity from step to step, and are filled in one parallel pass over
-    /// blocks of rows, each block writing its own contiguous range.
+    /// tables keep their capacity from step to step (see [`Self::fill_rows`]).
     pub fn rebuild<R: AsRef<[(u32, f64, D::Vector)]> + Sync>(
         &mut self,
         rows: &[R],
         node_count: usize,
     ) {
-        self.row_offsets.clear();
-        self.row_offsets.push(0);
-        let mut total = 0;
-        for row in rows {
-            total += row.as_ref().len();
-            self.row_offsets.push(total);
-        }
-        self.nodes.resize(total, 0);
-        self.weights.resize(total, 0.0);
-        self.gradients.resize(total, D::Vector::ZERO);
-        const BLOCK: usize = 1024;
-        let mut blocks = Vec::with_capacity(rows.len().div_ceil(BLOCK));
-        let (mut nodes, mut weights, mut gradients) = (
-            &mut self.nodes[..],
-            &mut self.weights[..],
-            &mut self.gradients[..],
+        self.fill_rows(
+            rows.len(),
+            node_count,
+            |p| rows[p].as_ref().len(),
+            || (),
+            |_, p, nodes, weights, gradients| {
+                for (k, &(node, weight, gradient)) in rows[p].as_ref().iter().enumerate() {
+                    (nodes[k], weights[k], gradients[k]) = (node, weight, gradient);
+                }
+            },
         );
-        for (b, block_rows) in rows.chunks(BLOCK).enumerate() {
-            let len = self.row_offsets[(b * BLOCK + block_rows.len()).min(rows.len())]
-                - self.row_offsets[b * BLOCK];
-            let (n, rest_n) = nodes.split_at_mut(len);
-            let (w, rest_w) = weights.split_at_mut(len);
-            let (g, rest_g) = gradients.split_at_mut(len);
-            (nodes, weights, gradients) = (rest_n, rest_w, rest_g);
-            blocks.push((block_rows, n, w, g));
-        }
-        blocks.into_par_iter().for_each(|(block_rows, n, w, g)| {
-            let entries = block_rows.iter().flat_map(|r| r.as_ref().iter());
-            for (k, &(node, weight, gradient)) in entries.enumerate() {
-                n[k] = node;
-                w[k] = weight;
-                g[k] = gradient;
-            }
-        });
-        self.reset_fields();
-        self.rebuild_transpose(node_count);
     }
 
     /// Refills the tables with exactly `width` entries per particle row, computed in parallel by
@@ -290,20 +264,22 @@ mod fill_rows_tests {
     use crate::dim::Two;
     use glam::DVec2;
 
-    /// Rows of varying width over several blocks equal the same rows given whole to `rebuild`.
+    /// Rows of varying width over several blocks land in row order, each in its own range.
     #[test]
-    fn rows_filled_in_place_equal_rows_given_whole() {
+    fn rows_filled_in_place_land_in_row_order() {
         let particles = 2500;
         let width = |p: usize| p % 5;
         let entry = |p: usize, k: usize| {
             let node = ((p * 7 + k * 3) % 50) as u32;
             (node, (p + k) as f64, DVec2::new(k as f64, -(p as f64)))
         };
-        let rows: Vec<Vec<(u32, f64, DVec2)>> = (0..particles)
-            .map(|p| (0..width(p)).map(|k| entry(p, k)).collect())
+        let flat: Vec<(u32, f64, DVec2)> = (0..particles)
+            .flat_map(|p| (0..width(p)).map(move |k| entry(p, k)))
             .collect();
-        let mut expected = Connectivity::<Two>::default();
-        expected.rebuild(&rows, 50);
+        let mut offsets = vec![0];
+        for p in 0..particles {
+            offsets.push(offsets[p] + width(p));
+        }
         let mut filled = Connectivity::<Two>::default();
         let values = filled.fill_rows(
             particles,
@@ -318,12 +294,14 @@ mod fill_rows_tests {
                 (p, *calls)
             },
         );
-        assert_eq!(filled.row_offsets, expected.row_offsets);
-        assert_eq!(filled.nodes, expected.nodes);
-        assert_eq!(filled.weights, expected.weights);
-        assert_eq!(filled.gradients, expected.gradients);
-        assert_eq!(filled.node_offsets, expected.node_offsets);
-        assert_eq!(filled.node_entries, expected.node_entries);
+        assert_eq!(filled.row_offsets, offsets);
+        assert_eq!(filled.nodes, flat.iter().map(|e| e.0).collect::<Vec<_>>());
+        assert_eq!(filled.weights, flat.iter().map(|e| e.1).collect::<Vec<_>>());
+        assert_eq!(
+            filled.gradients,
+            flat.iter().map(|e| e.2).collect::<Vec<_>>()
+        );
+        assert_eq!(filled.node_offsets[50], flat.len());
         // One value per row in row order; each block starts from a fresh scratch.
         assert_eq!(values.len(), particles);
         assert!(values.iter().enumerate().all(|(p, v)| v.0 == p));
