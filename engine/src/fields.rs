@@ -44,17 +44,47 @@ use rayon::prelude::*;
 #[derive(Resource, Clone, Copy, Debug, PartialEq)]
 pub struct Separability(pub f64);
 
-/// What the separability condition needs at assignment: each particle's damage (`max(D, s)`)
-/// and mass, and D̄_min.
+/// What the separability condition needs at assignment: each particle's damage (`max(D, s)`
+/// with the surface flag, when there is one) and mass, and D̄_min.
 #[derive(Clone, Copy, Debug)]
 pub struct Separation<'a> {
     /// Damage per particle row.
-    pub damage: &'a [f64],
+    pub damage: &'a [Damage],
+    /// Surface flag per particle row, when the pipeline detects surfaces.
+    pub surface: Option<&'a [SurfaceFlag]>,
     /// Mass per particle row.
-    pub mass: &'a [f64],
+    pub mass: &'a [Mass],
     /// D̄_min.
     pub threshold: f64,
 }
+
+impl Separation<'_> {
+    /// The damage of particle row `p` that the separability condition uses: `max(D, s)`.
+    fn damage_of(&self, p: usize) -> f64 {
+        let d = self.damage[p].0;
+        self.surface.map_or(d, |s| d.max(s[p].0))
+    }
+}
+
+/// The field assignment's per-step buffers, kept between steps by its system so that a step
+/// does not allocate them.
+#[derive(Clone, Debug, Default)]
+pub struct FieldScratch<V: Copy> {
+    /// Per particle row: its contact group when its damage gradient is zero, else [`GRADED`].
+    plain: Vec<u16>,
+    /// Algorithm 1's references; meaningful only at the nodes given two fields or more.
+    references: Vec<NodeReferences<V>>,
+    /// Per node: some particle with a damage gradient has it in its row.
+    graded_nodes: Vec<bool>,
+    /// Per particle row: the row touches a node with two fields or more.
+    touched: Vec<bool>,
+    /// The rows of the particles with a damage gradient.
+    graded: Vec<usize>,
+}
+
+/// The class of a particle with a non-zero damage gradient in [`FieldScratch::plain`] (no group
+/// number reaches it: groups are `u8`).
+const GRADED: u16 = u16::MAX;
 
 /// The engine's field assignment, after the basis stage and before its health check.
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -71,7 +101,7 @@ pub fn assign_fields_system<D: Dim>(
     gradients: Query<&DamageGradient<D>, With<Particle>>,
     surface: Query<&SurfaceFlag, With<Particle>>,
     mut nodes: Query<&mut NodeFields, With<Node>>,
-    mut buffers: Local<(Vec<f64>, Vec<f64>)>,
+    mut scratch: Local<FieldScratch<D::Vector>>,
 ) {
     let Some((groups, damage, mass)) = single_table(particles.contiguous_iter(), "particles")
     else {
@@ -81,25 +111,15 @@ pub fn assign_fields_system<D: Dim>(
     let Some(mut fields) = single_table(nodes.contiguous_iter_mut(), "nodes") else {
         return;
     };
-    let flags = single_table(surface.contiguous_iter(), "particles");
-    // The separability condition's inputs, only when the pipeline asks for it, into buffers
-    // kept between steps.
-    let (effective, masses) = &mut *buffers;
-    let separation = separability.map(|s| {
-        effective.clear();
-        match flags {
-            Some(flags) => effective.extend(damage.iter().zip(flags).map(|(d, f)| d.0.max(f.0))),
-            None => effective.extend(damage.iter().map(|d| d.0)),
-        }
-        masses.clear();
-        masses.extend(mass.iter().map(|m| m.0));
-        Separation {
-            damage: effective,
-            mass: masses,
-            threshold: s.0,
-        }
+    // The separability condition's inputs, only when the pipeline asks for it.
+    let separation = separability.map(|s| Separation {
+        damage,
+        surface: single_table(surface.contiguous_iter(), "particles"),
+        mass,
+        threshold: s.0,
     });
     let result = assign_fields(
+        &mut scratch,
         &mut connectivity,
         groups,
         gradients,
@@ -195,8 +215,8 @@ impl<V: VectorOps> NodeReferences<V> {
                 continue;
             };
             let side = field_key(g, gradient(p), self.gradients[k]).side() as usize;
-            let nm = weights[e as usize] * separation.mass[p];
-            let d = separation.damage[p];
+            let nm = weights[e as usize] * separation.mass[p].0;
+            let d = separation.damage_of(p);
             let s = &mut sums[k][side];
             *s = (s.0 + nm * d, s.1 + nm, s.2.max(d));
         }
@@ -219,18 +239,29 @@ pub fn field_key<V: VectorOps>(group: u8, gradient: V, reference: V) -> FieldKey
 
 /// Assigns every entry of `c` to a field slot and lists each node's fields in `node_fields`.
 ///
-/// `gradients` are the particles' damage-field gradients (`None`: one field per contact group).
+/// `gradients` are the particles' damage-field gradients (`None`: one field per contact group);
+/// `scratch` holds buffers reused from call to call (a default one will do).
 pub fn assign_fields<D: Dim>(
+    scratch: &mut FieldScratch<D::Vector>,
     c: &mut Connectivity<D>,
     groups: &[ContactGroup],
     gradients: Option<&[DamageGradient<D>]>,
     separation: Option<&Separation>,
     node_fields: &mut [NodeFields],
 ) -> Result<(), TooManyFields> {
+    let FieldScratch {
+        plain,
+        references,
+        graded_nodes,
+        touched,
+        graded,
+    } = scratch;
+    let single_group = classify_particles::<D>(groups, gradients, plain);
+    references.resize(node_fields.len(), NodeReferences::empty());
+    mark_graded_nodes(c, plain, node_fields.len(), graded, graded_nodes);
     let gradient = |p: usize| gradients.map_or(D::Vector::ZERO, |g| g[p].0);
-    let node_count = node_fields.len();
-    let mut references = vec![NodeReferences::<D::Vector>::empty(); node_count];
     let c_ref: &Connectivity<D> = c;
+    let (plain, graded_nodes): (&[u16], &[bool]) = (plain, graded_nodes);
     // The failure at the lowest node, whatever the thread count; no per-node results kept.
     let failure = node_fields
         .par_iter_mut()
@@ -239,10 +270,13 @@ pub fn assign_fields<D: Dim>(
         .map(|(node, (fields, refs))| {
             let entries = node_entries(c_ref, node);
             // One group and no damage gradient at the node (most nodes): one field, side 0,
-            // which is what the general path below finds, without its three passes.
-            if let Some(group) = one_group_without_gradient::<D>(entries, groups, &gradient) {
-                *refs = NodeReferences::empty();
-                (refs.count, refs.groups[0]) = (1, group);
+            // which is what the general path below finds, without its three passes. With one
+            // group in the whole body of particles, the node's mark says so without a scan.
+            let one = match single_group {
+                Some(group) => (!graded_nodes[node] && !entries.is_empty()).then_some(group),
+                None => one_plain_group(entries, plain),
+            };
+            if let Some(group) = one {
                 fields.count = 1;
                 fields.keys = [FieldKey::default(); MAX_FIELDS];
                 fields.keys[0] = FieldKey::new(group, 0);
@@ -252,41 +286,130 @@ pub fn assign_fields<D: Dim>(
             if let (Some(separation), Some(_)) = (separation, gradients) {
                 refs.merge_inseparable(entries, &c_ref.weights, groups, &gradient, separation);
             }
-            // The distinct keys in order, in a small array: no allocation per node.
-            let mut keys = [FieldKey::default(); MAX_FIELDS];
-            let mut count = 0;
-            for &(_, p) in entries {
-                let g = groups[p as usize].0;
-                let key = refs.key(g, gradient(p as usize));
-                let at = keys[..count].partition_point(|&k| k < key);
-                if at < count && keys[at] == key {
-                    continue;
+            match node_keys(entries, groups, refs, &gradient) {
+                Ok((keys, count)) => {
+                    fields.count = count as u8;
+                    fields.keys = keys;
+                    None
                 }
-                if count == MAX_FIELDS {
-                    let mut all: Vec<FieldKey> = entries
-                        .iter()
-                        .map(|&(_, p)| {
-                            let g = groups[p as usize].0;
-                            refs.key(g, gradient(p as usize))
-                        })
-                        .collect();
-                    all.sort_unstable();
-                    all.dedup();
-                    return Some(TooManyFields { node, keys: all });
-                }
-                keys.copy_within(at..count, at + 1);
-                keys[at] = key;
-                count += 1;
+                Err(keys) => Some(TooManyFields { node, keys }),
             }
-            fields.count = count as u8;
-            fields.keys = keys;
-            None
         })
         .filter_map(|result| result)
         .min_by_key(|failure| failure.node);
     if let Some(failure) = failure {
         return Err(failure);
     }
+    mark_touched_rows(c, node_fields, touched);
+    assign_slots(c, groups, &gradient, references, node_fields, touched);
+    Ok(())
+}
+
+/// Marks the nodes in the rows of the particles with a damage gradient (usually a few, near
+/// damage and surfaces).
+fn mark_graded_nodes<D: Dim>(
+    c: &Connectivity<D>,
+    plain: &[u16],
+    node_count: usize,
+    graded: &mut Vec<usize>,
+    graded_nodes: &mut Vec<bool>,
+) {
+    // The graded rows are found in parallel; only the marking from their rows is serial.
+    graded.clear();
+    graded.par_extend(
+        (0..plain.len())
+            .into_par_iter()
+            .filter(|&p| plain[p] == GRADED),
+    );
+    graded_nodes.clear();
+    graded_nodes.resize(node_count, false);
+    for &p in graded.iter() {
+        for &node in &c.nodes[c.row_offsets[p]..c.row_offsets[p + 1]] {
+            graded_nodes[node as usize] = true;
+        }
+    }
+}
+
+/// Marks the particle rows that touch a node with two fields or more, from those nodes'
+/// entries.
+fn mark_touched_rows<D: Dim>(
+    c: &Connectivity<D>,
+    node_fields: &[NodeFields],
+    touched: &mut Vec<bool>,
+) {
+    touched.clear();
+    touched.resize(c.row_offsets.len().saturating_sub(1), false);
+    for (node, _) in node_fields.iter().enumerate().filter(|(_, f)| f.count >= 2) {
+        for &(_, p) in node_entries(c, node) {
+            touched[p as usize] = true;
+        }
+    }
+}
+
+/// Each particle row's class: its group when its damage gradient is zero, else [`GRADED`].
+/// Returns the group when every particle has the same one.
+fn classify_particles<D: Dim>(
+    groups: &[ContactGroup],
+    gradients: Option<&[DamageGradient<D>]>,
+    plain: &mut Vec<u16>,
+) -> Option<u8> {
+    plain.clear();
+    match gradients {
+        Some(gradients) => plain.par_extend(groups.par_iter().zip(gradients).map(|(g, d)| {
+            if d.0 == D::Vector::ZERO {
+                u16::from(g.0)
+            } else {
+                GRADED
+            }
+        })),
+        None => plain.extend(groups.iter().map(|g| u16::from(g.0))),
+    }
+    let first = groups.first()?.0;
+    groups.par_iter().all(|g| g.0 == first).then_some(first)
+}
+
+/// The distinct keys of a node's entries in ascending order, or all of them (sorted) when they
+/// are more than [`MAX_FIELDS`].
+fn node_keys<V: VectorOps>(
+    entries: &[(u32, u32)],
+    groups: &[ContactGroup],
+    refs: &NodeReferences<V>,
+    gradient: &impl Fn(usize) -> V,
+) -> Result<([FieldKey; MAX_FIELDS], usize), Vec<FieldKey>> {
+    // In a small array: no allocation per node.
+    let mut keys = [FieldKey::default(); MAX_FIELDS];
+    let mut count = 0;
+    let key_of = |p: u32| refs.key(groups[p as usize].0, gradient(p as usize));
+    for &(_, p) in entries {
+        let key = key_of(p);
+        let at = keys[..count].partition_point(|&k| k < key);
+        if at < count && keys[at] == key {
+            continue;
+        }
+        if count == MAX_FIELDS {
+            let mut all: Vec<FieldKey> = entries.iter().map(|&(_, p)| key_of(p)).collect();
+            all.sort_unstable();
+            all.dedup();
+            return Err(all);
+        }
+        keys.copy_within(at..count, at + 1);
+        keys[at] = key;
+        count += 1;
+    }
+    Ok((keys, count))
+}
+
+/// The slot of every entry: the position of its key in its node's list. A node with one field
+/// gives slot 0 whatever the key, so only the `touched` rows (those that touch a node with two
+/// fields or more) look their keys up.
+fn assign_slots<D: Dim>(
+    c: &mut Connectivity<D>,
+    groups: &[ContactGroup],
+    gradient: &(impl Fn(usize) -> D::Vector + Sync),
+    references: &[NodeReferences<D::Vector>],
+    node_fields: &[NodeFields],
+    touched: &[bool],
+) {
     let Connectivity {
         row_offsets: rows,
         nodes,
@@ -304,30 +427,26 @@ pub fn assign_fields<D: Dim>(
         blocks.push((start..end, head));
         rest = tail;
     }
-    let node_fields: &[NodeFields] = node_fields;
     blocks.into_par_iter().for_each(|(block, slots)| {
         let base = rows[block.start];
+        slots.fill(0);
         for p in block {
-            let row = &mut slots[rows[p] - base..rows[p + 1] - base];
-            let entries = &nodes[rows[p]..rows[p + 1]];
-            // Where every node of the row has one field, every slot is 0: no keys to compute.
-            if entries.iter().all(|&n| node_fields[n as usize].count <= 1) {
-                row.fill(0);
+            if !touched[p] {
                 continue;
             }
+            let row = &mut slots[rows[p] - base..rows[p + 1] - base];
+            let entries = &nodes[rows[p]..rows[p + 1]];
             let g = groups[p].0;
             for (slot, &node) in row.iter_mut().zip(entries) {
-                let node = node as usize;
-                let key = references[node].key(g, gradient(p));
-                *slot = node_fields[node]
-                    .active()
-                    .iter()
-                    .position(|&k| k == key)
-                    .unwrap_or(0) as u8;
+                let fields = &node_fields[node as usize];
+                if fields.count <= 1 {
+                    continue;
+                }
+                let key = references[node as usize].key(g, gradient(p));
+                *slot = fields.active().iter().position(|&k| k == key).unwrap_or(0) as u8;
             }
         }
     });
-    Ok(())
 }
 
 fn node_entries<D: Dim>(c: &Connectivity<D>, node: usize) -> &[(u32, u32)] {
@@ -339,17 +458,13 @@ fn node_entries<D: Dim>(c: &Connectivity<D>, node: usize) -> &[(u32, u32)] {
 }
 
 /// The group of every particle at the node when there is one group and no particle there has a
-/// damage gradient; `None` otherwise (or for a node without particles).
-fn one_group_without_gradient<D: Dim>(
-    entries: &[(u32, u32)],
-    groups: &[ContactGroup],
-    gradient: &impl Fn(usize) -> D::Vector,
-) -> Option<u8> {
-    let group = groups[entries.first()?.1 as usize].0;
-    entries
-        .iter()
-        .all(|&(_, p)| groups[p as usize].0 == group && gradient(p as usize) == D::Vector::ZERO)
-        .then_some(group)
+/// damage gradient (from the particles' classes); `None` otherwise (or for a node without
+/// particles).
+fn one_plain_group(entries: &[(u32, u32)], plain: &[u16]) -> Option<u8> {
+    let class = plain[entries.first()?.1 as usize];
+    let one = class != GRADED && entries.iter().all(|&(_, p)| plain[p as usize] == class);
+    // Every class but GRADED is a u8 group.
+    one.then_some(class as u8)
 }
 
 /// Algorithm 1 for one node: for each contact group present, the particle gradient of largest
@@ -408,7 +523,15 @@ mod tests {
         let mut c = connectivity();
         let groups = [ContactGroup(0), ContactGroup(0), ContactGroup(3)];
         let mut fields = vec![NodeFields::default(); 2];
-        assign_fields(&mut c, &groups, None, None, &mut fields).unwrap();
+        assign_fields(
+            &mut FieldScratch::default(),
+            &mut c,
+            &groups,
+            None,
+            None,
+            &mut fields,
+        )
+        .unwrap();
         assert_eq!(
             fields[0].active(),
             &[FieldKey::new(0, 0), FieldKey::new(3, 0)]
@@ -427,7 +550,15 @@ mod tests {
             DamageGradient(DVec2::new(0.2, 0.0)),
         ];
         let mut fields = vec![NodeFields::default(); 2];
-        assign_fields(&mut c, &groups, Some(&gradients), None, &mut fields).unwrap();
+        assign_fields(
+            &mut FieldScratch::default(),
+            &mut c,
+            &groups,
+            Some(&gradients),
+            None,
+            &mut fields,
+        )
+        .unwrap();
         assert_eq!(
             fields[0].active(),
             &[FieldKey::new(0, 0), FieldKey::new(0, 1)]
@@ -451,16 +582,19 @@ mod tests {
             DamageGradient(DVec2::new(2.0, 0.0)),
             DamageGradient(DVec2::new(0.2, 0.0)),
         ];
-        let mass = [1.0; 3];
+        let mass = [Mass(1.0); 3];
         let assign = |damage: &[f64]| {
             let mut c = connectivity();
             let mut fields = vec![NodeFields::default(); 2];
+            let damage: Vec<Damage> = damage.iter().map(|&d| Damage(d)).collect();
             let separation = Separation {
-                damage,
+                damage: &damage,
+                surface: None,
                 mass: &mass,
                 threshold: 0.25,
             };
             assign_fields(
+                &mut FieldScratch::default(),
                 &mut c,
                 &groups,
                 Some(&gradients),
@@ -492,8 +626,100 @@ mod tests {
         c.rebuild(&vec![vec![(1, 1.0, g)]; 5], 2);
         let groups: Vec<_> = (0..5).map(ContactGroup).collect();
         let mut fields = vec![NodeFields::default(); 2];
-        let e = assign_fields(&mut c, &groups, None, None, &mut fields).unwrap_err();
+        let e = assign_fields(
+            &mut FieldScratch::default(),
+            &mut c,
+            &groups,
+            None,
+            None,
+            &mut fields,
+        )
+        .unwrap_err();
         assert_eq!(e.node, 1);
         assert!(e.to_string().contains("node 1 holds 5 velocity fields"));
+    }
+
+    /// Algorithms 1–2 written out plainly (no shortcuts), without separability: the fields of
+    /// each node and the slot of each entry.
+    fn plain_assignment(
+        rows: &[Vec<u32>],
+        groups: &[ContactGroup],
+        gradients: &[DamageGradient<Two>],
+        node_count: usize,
+    ) -> (Vec<Vec<FieldKey>>, Vec<u8>) {
+        let key_at = |node: u32, p: usize| {
+            let g = groups[p].0;
+            // The largest gradient of the group at the node, the first in row order on a tie.
+            let mut reference = (f64::NEG_INFINITY, DVec2::ZERO);
+            for (q, row) in rows.iter().enumerate() {
+                let norm = gradients[q].0.length_squared();
+                if groups[q].0 == g && row.contains(&node) && norm > reference.0 {
+                    reference = (norm, gradients[q].0);
+                }
+            }
+            field_key(g, gradients[p].0, reference.1)
+        };
+        let mut keys = vec![Vec::new(); node_count];
+        for (p, row) in rows.iter().enumerate() {
+            for &node in row {
+                keys[node as usize].push(key_at(node, p));
+            }
+        }
+        for k in &mut keys {
+            k.sort_unstable();
+            k.dedup();
+        }
+        let slots = rows
+            .iter()
+            .enumerate()
+            .flat_map(|(p, row)| row.iter().map(move |&n| (n, p)))
+            .map(|(n, p)| {
+                let at = keys[n as usize].iter().position(|&k| k == key_at(n, p));
+                at.unwrap_or(0) as u8
+            })
+            .collect();
+        (keys, slots)
+    }
+
+    proptest::proptest! {
+        /// The shortcuts (one-group nodes, nodes without graded particles, untouched rows)
+        /// give what Algorithms 1–2 give, with one contact group and with two.
+        #[test]
+        fn shortcuts_agree_with_the_plain_algorithms(
+            rows in proptest::collection::vec(
+                proptest::collection::btree_set(0u32..6, 1..4), 1..12),
+            two_groups in proptest::bool::ANY,
+            seeds in proptest::collection::vec((0u8..2, -2i8..3, -2i8..3), 12),
+        ) {
+            let rows: Vec<Vec<u32>> = rows.into_iter().map(|r| r.into_iter().collect()).collect();
+            let n = rows.len();
+            let groups: Vec<_> = seeds[..n]
+                .iter()
+                .map(|s| ContactGroup(if two_groups { s.0 } else { 0 }))
+                .collect();
+            // Mostly zero gradients, as away from damage.
+            let gradients: Vec<_> = seeds[..n]
+                .iter()
+                .map(|s| DamageGradient(DVec2::new(f64::from(s.1.max(0)), f64::from(s.2))))
+                .collect();
+            let mut c = Connectivity::<Two>::default();
+            let weighted: Vec<Vec<_>> = rows
+                .iter()
+                .map(|r| r.iter().map(|&node| (node, 0.25, DVec2::ZERO)).collect())
+                .collect();
+            c.rebuild(&weighted, 6);
+            let mut fields = vec![NodeFields::default(); 6];
+            let mut scratch = FieldScratch::default();
+            // Twice with one scratch: the buffers kept between calls change nothing.
+            for _ in 0..2 {
+                assign_fields(&mut scratch, &mut c, &groups, Some(&gradients), None, &mut fields)
+                    .unwrap();
+                let (keys, slots) = plain_assignment(&rows, &groups, &gradients, 6);
+                for (node, k) in keys.iter().enumerate() {
+                    proptest::prop_assert_eq!(fields[node].active(), k.as_slice());
+                }
+                proptest::prop_assert_eq!(&c.fields, &slots);
+            }
+        }
     }
 }

@@ -260,7 +260,7 @@ pub fn dfg_partition<D: Spatial>(
     connectivity: Res<Connectivity<D>>,
     mut particles: ParticleQuery<D>,
     mut nodes: Query<(&NodeFields, &mut NodeFieldDamage), With<Node>>,
-    mut buffers: Local<(Vec<f64>, Vec<bool>)>,
+    mut buffers: Local<(Vec<f64>, Vec<bool>, Vec<usize>)>,
 ) {
     let Some((positions, groups, bodies, damage, mass, mut surface, mut gradients)) =
         single_table(particles.contiguous_iter_mut(), "particles")
@@ -275,26 +275,34 @@ pub fn dfg_partition<D: Spatial>(
         detect_surface(positions, neighbours, bodies, radius, threshold, surface);
         detected.0 = true;
     }
-    let (effective, near_damage) = &mut *buffers;
+    let (effective, near_damage, damaged) = &mut *buffers;
     effective.clear();
-    effective.extend(damage.iter().zip(surface.iter()).map(|(d, s)| d.0.max(s.0)));
+    effective.par_extend(damage.par_iter().zip(&*surface).map(|(d, s)| d.0.max(s.0)));
     // Without damage among its neighbours a particle has D = ∇D = 0, and so ∇D̄ = 0: most
     // particles of a body skip the kernel sums. The lists are symmetric (one radius, one
     // distance for both orders), so the particles with a damaged neighbour are found from the
     // damaged particles alone, in a pass over those instead of over every list.
+    // The damaged rows are found in parallel; only the marking from their lists is serial.
+    damaged.clear();
+    damaged.par_extend(
+        (0..effective.len())
+            .into_par_iter()
+            .filter(|&q| effective[q] != 0.0),
+    );
     near_damage.clear();
     near_damage.resize(positions.len(), false);
-    for (q, &d) in effective.iter().enumerate() {
-        if d != 0.0 {
-            for &p in neighbours.of(q) {
-                near_damage[p as usize] = true;
-            }
+    for &q in damaged.iter() {
+        for &p in neighbours.of(q) {
+            near_damage[p as usize] = true;
         }
     }
     let gradients: &mut [DamageGradient<D>] = &mut gradients;
     gradients.par_iter_mut().enumerate().for_each(|(p, g)| {
         if !near_damage[p] {
-            g.0 = D::Vector::ZERO;
+            // Mostly zero already: a read instead of a write.
+            if g.0 != D::Vector::ZERO {
+                g.0 = D::Vector::ZERO;
+            }
             return;
         }
         let row = neighbours
@@ -310,15 +318,17 @@ pub fn dfg_partition<D: Spatial>(
     // Only a node with two fields or more has a pair to separate.
     let stats: &mut [NodeFieldDamage] = &mut stats;
     stats.par_iter_mut().enumerate().for_each(|(node, out)| {
-        *out = match c.node_offsets.get(node..node + 2) {
+        match c.node_offsets.get(node..node + 2) {
             Some(&[from, to]) if fields[node].count >= 2 => {
-                field_damage(c.node_entries[from..to].iter().map(|&(e, p)| {
+                *out = field_damage(c.node_entries[from..to].iter().map(|&(e, p)| {
                     let (e, p) = (e as usize, p as usize);
                     (c.field(e), c.weights[e] * mass[p].0, effective[p])
-                }))
+                }));
             }
-            _ => NodeFieldDamage::default(),
-        };
+            // Mostly default already: a read instead of a write.
+            _ if *out != NodeFieldDamage::default() => *out = NodeFieldDamage::default(),
+            _ => {}
+        }
     });
 }
 
