@@ -178,6 +178,12 @@ pub struct WaveSpeed(pub f64);
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
 pub struct Damage(pub f64);
 
+/// Tensile strength `σ_f` of one particle (Pa), for damage laws whose strength varies from
+/// particle to particle (Weibull, dfg-partitioning-mpm.md eq. 25). Written to the frames as
+/// `strength` when the pipeline has it.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct Strength(pub f64);
+
 /// History variable of the damage law, e.g. the strain at crack onset; 0 until the law sets it.
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
 pub struct DamageHistory(pub f64);

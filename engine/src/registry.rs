@@ -255,6 +255,41 @@ impl<'a> Installer<'a> {
         }
     }
 
+    /// Gives particles a component of the system's own computed per particle: `value` is
+    /// asked for each particle (read-only, with every component it has) and returns the
+    /// particle's value, or `None` for a particle this entry does not own (another material),
+    /// which gets `default` unless it already has the component (from another entry). All
+    /// particles end with the component, so they stay in one storage table.
+    pub fn add_particle_component_with<C: Component + Clone>(
+        &mut self,
+        default: C,
+        mut value: impl FnMut(bevy_ecs::world::EntityRef<'_>) -> Option<C>,
+    ) {
+        let particles: Vec<Entity> = self
+            .world
+            .query_filtered::<Entity, With<Particle>>()
+            .iter(self.world)
+            .collect();
+        let values: Vec<(Entity, Option<C>, bool)> = particles
+            .into_iter()
+            .map(|particle| {
+                let entity = self.world.entity(particle);
+                (particle, value(entity), entity.contains::<C>())
+            })
+            .collect();
+        for (particle, value, has) in values {
+            match value {
+                Some(v) => {
+                    self.world.entity_mut(particle).insert(v);
+                }
+                None if !has => {
+                    self.world.entity_mut(particle).insert(default.clone());
+                }
+                None => {}
+            }
+        }
+    }
+
     /// Inserts a resource (typically the system's parsed parameters).
     pub fn insert_resource<R: Resource>(&mut self, resource: R) {
         self.world.insert_resource(resource);

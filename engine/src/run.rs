@@ -155,6 +155,11 @@ fn partition_fields<D: Dim>(world: &mut World, f: &mut ParticleFrame) {
     if gradient.len() == f.id.len() {
         f.vectors.push(("damage_gradient".into(), gradient));
     }
+    let mut strengths = world.query_filtered::<&crate::components::Strength, With<Particle>>();
+    let strength: Vec<f64> = strengths.iter(world).map(|s| s.0).collect();
+    if strength.len() == f.id.len() {
+        f.scalars.push(("strength".into(), strength));
+    }
     let mut flags = world.query_filtered::<&SurfaceFlag, With<Particle>>();
     let surface: Vec<f64> = flags.iter(world).map(|s| s.0).collect();
     if surface.len() == f.id.len() {

@@ -159,6 +159,7 @@ impl Plain {
             stress: &self.stress,
             damage: &self.damage,
             external: &self.external,
+            damage_scales_force: true,
         };
         self.sums.resize(grid.node_count(), NodeSums::default());
         c.accumulate_to_nodes(&mut self.sums, |sum, e, p| {

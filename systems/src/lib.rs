@@ -32,6 +32,8 @@ pub const ALL: &[Registration] = &[
     stress::neo_hookean::REGISTRATION,
     damage::eigenerosion::REGISTRATION,
     damage::eigensoftening::REGISTRATION,
+    damage::rankine::REGISTRATION,
+    damage::time_to_failure::REGISTRATION,
     partition::bodies::REGISTRATION,
     partition::dfg::REGISTRATION,
     contact::frictional::REGISTRATION,

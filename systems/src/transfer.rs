@@ -12,23 +12,37 @@
 //! particle only ever sees, and contributes to, its own field at each node (Algorithm 2).
 //! Generic over the dimension `D`.
 
+use bevy_ecs::system::SystemParam;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 
-/// Particle data the force transfer reads: mass, velocity, volume, stress, damage.
-pub type ForceSourceQuery<'w, 's, D> = Query<
-    'w,
-    's,
-    (
-        &'static Mass,
-        &'static Velocity<D>,
-        &'static Volume,
-        &'static Stress<D>,
-        &'static Damage,
-        &'static ExternalForce<D>,
-    ),
-    With<Particle>,
->;
+/// Marks a pipeline whose damage system degrades the stress tensor itself (only the tensile
+/// principal stresses, dfg-partitioning-mpm.md eqs. 26–27: `damage/rankine`,
+/// `damage/time_to_failure`): the force transfer then uses the stress as it is, instead of
+/// scaling it by `1 − D` (eq. 16 of the eigensoftening paper, for eigenerosion and
+/// eigensoftening). The two kinds cannot share a pipeline; their installs check.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DamageInStress;
+
+/// Particle data the force transfer reads: mass, velocity, volume, stress, damage, loads; and
+/// whether damage already sits in the stress ([`DamageInStress`]).
+#[derive(SystemParam)]
+pub struct ForceSources<'w, 's, D: Dim> {
+    query: Query<
+        'w,
+        's,
+        (
+            &'static Mass,
+            &'static Velocity<D>,
+            &'static Volume,
+            &'static Stress<D>,
+            &'static Damage,
+            &'static ExternalForce<D>,
+        ),
+        With<Particle>,
+    >,
+    damage_in_stress: Option<Res<'w, DamageInStress>>,
+}
 
 /// Node data a particle-to-grid predictor writes.
 pub type NodeTransferQuery<'w, 's, D> = Query<
@@ -122,13 +136,16 @@ pub struct ParticleSlices<'a, D: Dim> {
     pub damage: &'a [Damage],
     /// Forces of scene loads.
     pub external: &'a [ExternalForce<D>],
+    /// Whether the internal force is scaled by `1 − D` (false where the damage system has
+    /// degraded the stress itself, [`DamageInStress`]).
+    pub damage_scales_force: bool,
 }
 
 impl<'a, D: Dim> ParticleSlices<'a, D> {
     /// The columns of the particle table a force transfer reads, or `None` without particles.
-    pub fn of(query: &'a ForceSourceQuery<'_, '_, D>) -> Option<Self> {
+    pub fn of(sources: &'a ForceSources<'_, '_, D>) -> Option<Self> {
         let (mass, velocity, volume, stress, damage, external) =
-            single_table(query.contiguous_iter(), "particles")?;
+            single_table(sources.query.contiguous_iter(), "particles")?;
         Some(Self {
             mass,
             velocity,
@@ -136,6 +153,7 @@ impl<'a, D: Dim> ParticleSlices<'a, D> {
             stress,
             damage,
             external,
+            damage_scales_force: sources.damage_in_stress.is_none(),
         })
     }
 }
@@ -173,13 +191,18 @@ pub fn force_contribution<D: Dim>(
     e: usize,
     p: usize,
 ) -> D::Vector {
-    let intact = 1.0 - particles.damage[p].0;
+    let intact = if particles.damage_scales_force {
+        1.0 - particles.damage[p].0
+    } else {
+        1.0
+    };
     let n = c.weights[e];
     body_force * (n * particles.mass[p].0) + particles.external[p].0 * n
         - particles.stress[p].0.dot(c.gradients[e]) * (intact * particles.volume[p].0)
 }
 
-/// Per-field force sums `Σ N (m b + f_ext) − Σ (1 − D) V σ·∇N` of every node, into `forces`
+/// Per-field force sums `Σ N (m b + f_ext) − Σ (1 − D) V σ·∇N` (without `1 − D` under
+/// [`DamageInStress`]) of every node, into `forces`
 /// (resized to `node_count`; every slot is overwritten).
 pub fn field_forces<D: Dim>(
     c: &Connectivity<D>,

@@ -295,6 +295,23 @@ pub trait SymOps<V, M>: Copy + Clone + Debug + Default + PartialEq + Send + Sync
     fn is_finite(&self) -> bool;
     /// Components in the row-major 3×3 order VTK expects: xx xy xz yx yy yz zx zy zz.
     fn as_3x3(&self) -> [f64; 9];
+
+    /// The tensor with `f` applied to each of its three principal values, the principal
+    /// directions kept: `Σ f(σ_i) v_i ⊗ v_i` (in plane strain `zz` is a principal value on its
+    /// own). Exact to round-off, whatever the spacing of the values (Jacobi, [`eigen`]).
+    fn map_principal(&self, f: impl Fn(f64) -> f64) -> Self
+    where
+        Self: Sized,
+    {
+        let a = std::array::from_fn(|i| std::array::from_fn(|j| self.get(i, j)));
+        let (values, vectors) = eigen::symmetric_eigen(a);
+        let mapped = values.map(f);
+        Self::from_fn(|i, j| {
+            (0..3)
+                .map(|k| mapped[k] * vectors[k][i] * vectors[k][j])
+                .sum()
+        })
+    }
 }
 
 /// Lattice coordinates `[usize; N]` of a grid cell or node.

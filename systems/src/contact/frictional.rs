@@ -64,7 +64,7 @@
 //!   mass, mass² or mass⁴, or taking the larger mass gradient, did worse on both.
 
 use crate::predictor::newmark::NewmarkParams;
-use crate::transfer::{ForceSourceQuery, ParticleSlices, force_contribution};
+use crate::transfer::{ForceSources, ParticleSlices, force_contribution};
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -582,7 +582,7 @@ fn run_contact<D: Dim>(
     body_force: D::Vector,
     bcs: &BoundaryConditions,
     connectivity: &Connectivity<D>,
-    particles: &ForceSourceQuery<D>,
+    particles: &ForceSources<D>,
     nodes: &mut NodeQuery<D>,
     integrator: Integrator,
     use_damage: bool,
@@ -626,7 +626,7 @@ pub fn frictional_contact<D: Dim>(
     body_force: Res<BodyForce<D>>,
     bcs: Res<BoundaryConditions>,
     connectivity: Res<Connectivity<D>>,
-    particles: ForceSourceQuery<D>,
+    particles: ForceSources<D>,
     mut nodes: NodeQuery<D>,
 ) {
     let integrator = Integrator::Newmark(newmark.gamma * clock.dt);
@@ -654,7 +654,7 @@ pub fn frictional_contact_usl<D: Dim>(
     body_force: Res<BodyForce<D>>,
     bcs: Res<BoundaryConditions>,
     connectivity: Res<Connectivity<D>>,
-    particles: ForceSourceQuery<D>,
+    particles: ForceSources<D>,
     mut nodes: NodeQuery<D>,
 ) {
     run_contact(

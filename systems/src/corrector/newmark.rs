@@ -14,7 +14,7 @@
 //!   feed energy into the body.
 
 use crate::predictor::newmark::NewmarkParams;
-use crate::transfer::{ForceSourceQuery, ParticleSlices, field_forces};
+use crate::transfer::{ForceSources, ParticleSlices, field_forces};
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 
@@ -65,7 +65,7 @@ pub fn newmark_corrector<D: Dim>(
     bcs: Res<BoundaryConditions>,
     mut reactions: ResMut<Reactions<D>>,
     connectivity: Res<Connectivity<D>>,
-    particles: ForceSourceQuery<D>,
+    particles: ForceSources<D>,
     mut nodes: NodeQuery<D>,
     mut buffers: Local<NodeBuffers<D>>,
 ) {

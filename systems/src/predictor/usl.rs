@@ -25,7 +25,7 @@
 //!   the grid, as in sliding contact.
 
 use crate::transfer::{
-    ForceSourceQuery, NodeSums, NodeTransferQuery, ParticleSlices, add_contribution, field_velocity,
+    ForceSources, NodeSums, NodeTransferQuery, ParticleSlices, add_contribution, field_velocity,
 };
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
@@ -152,7 +152,7 @@ pub fn usl_predictor<D: Dim>(
     mut reactions: ResMut<Reactions<D>>,
     connectivity: Res<Connectivity<D>>,
     params: Res<UslPredictorParams>,
-    particles: ForceSourceQuery<D>,
+    particles: ForceSources<D>,
     mut nodes: NodeTransferQuery<D>,
     mut sums: Local<Vec<NodeSums<D>>>,
 ) {

@@ -1,0 +1,355 @@
+//! Rankine damage with linear strain softening tied to the fracture energy.
+//!
+//! - Stage: damage. Registration name: `damage/rankine`. Needs `stress/neo_hookean`.
+//! - dfg-partitioning-mpm.md §2.7, eq. (23) (Cervera et al.'s model): once the largest principal
+//!   trial stress `r` (of the three, `σ_zz` included in plane strain) exceeds the particle's
+//!   strength `σ_f`, `D = (1 + H_s)(1 − σ_f / r̂)` with `r̂` the largest `r` so far (damage never
+//!   heals; kept as `D = max(D_prev, ·)`, which is the same since the law grows with `r̂`), capped
+//!   at 1. The brittleness `H̄_s = σ_f² / (2 E G_f)` is scaled by the characteristic length,
+//!   `H_s = H̄_s l_ch / (1 − H̄_s l_ch)`, so that a band of width `l_ch` dissipates `G_f` per unit
+//!   area: in uniaxial tension the stress then falls linearly from `σ_f` with slope `−H_s E`,
+//!   and the energy per unit volume to full failure is `σ_f² (1 + H_s) / (2 E H_s) = G_f / l_ch`.
+//!   `l_ch` defaults to the cell diagonal; `H̄_s l_ch ≥ 1` has no softening branch (the stress
+//!   would have to snap back) and is refused at install.
+//! - The damage scales the tensile principal stresses only (eqs. 26–27,
+//!   `damage::tensile_degradation`), written back into `Stress`.
+//! - Strength per particle: `tensile_strength`, or drawn from a Weibull distribution (eq. 25)
+//!   with the `weibull` option (`damage::weibull`).
+//! - Publishes `series.csv` columns `damaged_particles` (D > 0), `failed_particles` (D = 1) and
+//!   `dissipated_energy`, the model's own account: `Σ_p V₀,p g(D_p)` with the energy per unit
+//!   volume dissipated in uniaxial tension up to damage `D`,
+//!   `g = σ_f² (1 + H_s) D / (2 E (1 + H_s − D))` (the work of the softening curve less the
+//!   elastic energy left on the unloading line); J per scene thickness in 2D.
+
+use super::tensile_degradation::{
+    cell_diagonal, degrade_tensile, install_strength, largest_trial_principal,
+    require_stress_degrading_pipeline,
+};
+use super::weibull::WeibullOption;
+use fractum_engine::prelude::*;
+use rayon::prelude::*;
+use serde::Deserialize;
+
+/// Registration of `damage/rankine`.
+pub const REGISTRATION: Registration = Registration {
+    name: "damage/rankine",
+    summary: "Rankine damage, linear strain softening tied to G_f over l_ch (eq. 23), tensile \
+              principal stresses degraded (eqs. 26-27)",
+    params: &[
+        ParamDoc {
+            name: "tensile_strength",
+            ty: "f64",
+            default: None,
+            doc: "σ_f (Pa); with `weibull`, the median strength at the reference volume",
+        },
+        ParamDoc {
+            name: "fracture_energy",
+            ty: "f64",
+            default: None,
+            doc: "G_f (J/m²)",
+        },
+        ParamDoc {
+            name: "characteristic_length",
+            ty: "f64",
+            default: Some("cell diagonal"),
+            doc: "l_ch (m), the width over which a crack dissipates G_f",
+        },
+        ParamDoc {
+            name: "weibull",
+            ty: "(modulus, reference_volume, seed, thickness)",
+            default: Some("none: every particle has tensile_strength"),
+            doc: "Weibull-distributed strength of eq. 25; `thickness` (m) only in 2D",
+        },
+    ],
+    requires: &["stress/neo_hookean"],
+    install,
+};
+
+/// Parameters as written in the scene.
+#[derive(Deserialize, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+struct RawParams {
+    tensile_strength: f64,
+    fracture_energy: f64,
+    #[serde(default)]
+    characteristic_length: Option<f64>,
+    #[serde(default)]
+    weibull: Option<WeibullOption>,
+}
+
+/// Installed parameters of `damage/rankine`.
+#[derive(Resource, Clone, Debug, PartialEq)]
+pub struct RankineParams {
+    /// G_f (J/m²).
+    pub fracture_energy: f64,
+    /// l_ch (m).
+    pub characteristic_length: f64,
+    /// Young's modulus of each material (the scene's material table order).
+    pub youngs_modulus: Vec<f64>,
+    /// Slots of the published columns: damaged, failed, dissipated energy.
+    pub columns: [usize; 3],
+    /// Which materials this entry damages.
+    pub materials: MaterialFilter,
+}
+
+fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    let raw: RawParams = params.parse()?;
+    require_stress_degrading_pipeline(installer, params, "damage/rankine")?;
+    if !(raw.fracture_energy.is_finite() && raw.fracture_energy > 0.0) {
+        return Err(params.error("fracture_energy", "expected G_f > 0 (J/m²)"));
+    }
+    let length = match raw.characteristic_length {
+        Some(l) if l.is_finite() && l > 0.0 => l,
+        Some(_) => {
+            return Err(params.error("characteristic_length", "expected l_ch > 0 (m)"));
+        }
+        None => cell_diagonal(installer),
+    };
+    let youngs_modulus: Vec<f64> = installer
+        .world()
+        .resource::<Materials>()
+        .0
+        .iter()
+        .map(|m| m.youngs_modulus)
+        .collect();
+    let strengths = install_strength(installer, params, raw.tensile_strength, raw.weibull)?;
+    // The strongest particle of each material has the largest H̄_s l_ch.
+    let worst = strengths
+        .iter()
+        .map(|&(m, s)| {
+            (
+                brittleness(s, youngs_modulus[m.0 as usize], raw.fracture_energy) * length,
+                s,
+            )
+        })
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    if let Some((scaled, strength)) = worst
+        && scaled >= 1.0
+    {
+        let field = if raw.characteristic_length.is_some() {
+            "characteristic_length"
+        } else {
+            "fracture_energy"
+        };
+        return Err(params.error(
+            field,
+            format!(
+                "H̄_s l_ch = σ_f² l_ch / (2 E G_f) = {scaled:.3} ≥ 1 (σ_f = {strength:e} Pa, l_ch = \
+                 {length:e} m): the softening branch would have to snap back; use l_ch < {:e} m \
+                 (a finer grid, when it defaults to the cell diagonal) or a larger G_f",
+                length / scaled
+            ),
+        ));
+    }
+    let materials = installer.materials().clone();
+    let columns = [
+        installer.add_series_column("damaged_particles"),
+        installer.add_series_column("failed_particles"),
+        installer.add_series_column("dissipated_energy"),
+    ];
+    installer.insert_resource(RankineParams {
+        fracture_energy: raw.fracture_energy,
+        characteristic_length: length,
+        youngs_modulus,
+        columns,
+        materials,
+    });
+    with_dim!(installer.dimension(), D => installer.add_systems(rankine::<D>));
+    Ok(())
+}
+
+/// `H̄_s = σ_f² / (2 E G_f)` (1/m).
+pub fn brittleness(strength: f64, youngs_modulus: f64, fracture_energy: f64) -> f64 {
+    strength * strength / (2.0 * youngs_modulus * fracture_energy)
+}
+
+/// The softening modulus `H_s = H̄_s l / (1 − H̄_s l)` for strength `σ_f`, modulus `E`, fracture
+/// energy `G_f` and characteristic length `l`.
+pub fn softening_modulus(
+    strength: f64,
+    youngs_modulus: f64,
+    fracture_energy: f64,
+    length: f64,
+) -> f64 {
+    let scaled = brittleness(strength, youngs_modulus, fracture_energy) * length;
+    scaled / (1.0 - scaled)
+}
+
+/// Eq. (23): the damage after a step whose largest principal trial stress is `trial`, from
+/// `previous`, for strength `strength` and softening modulus `h`.
+pub fn rankine_damage(previous: f64, trial: f64, strength: f64, h: f64) -> f64 {
+    if trial <= strength {
+        return previous;
+    }
+    let law = (1.0 + h) * (1.0 - strength / trial);
+    law.max(previous).min(1.0)
+}
+
+/// Energy per unit volume dissipated in uniaxial tension up to damage `d`:
+/// `σ_f² (1 + H) d / (2 E (1 + H − d))`.
+pub fn dissipated_density(d: f64, strength: f64, youngs_modulus: f64, h: f64) -> f64 {
+    strength * strength * (1.0 + h) * d / (2.0 * youngs_modulus * (1.0 + h - d))
+}
+
+type ParticleQuery<'w, 's, D> = Query<
+    'w,
+    's,
+    (
+        &'static MaterialId,
+        &'static InitialVolume,
+        &'static Strength,
+        &'static mut Stress<D>,
+        &'static mut Damage,
+    ),
+    With<Particle>,
+>;
+
+/// The `damage/rankine` system.
+pub fn rankine<D: Dim>(
+    params: Res<RankineParams>,
+    mut columns: ResMut<SeriesColumns>,
+    mut particles: ParticleQuery<D>,
+) {
+    let Some((material, v0, strength, mut stress, mut damage)) =
+        single_table(particles.contiguous_iter_mut(), "particles")
+    else {
+        return;
+    };
+    let p = &*params;
+    let dissipated: Vec<f64> = stress
+        .par_iter_mut()
+        .zip(damage.par_iter_mut())
+        .enumerate()
+        .map(|(i, (s, d))| {
+            if !p.materials.applies(material[i]) {
+                return 0.0;
+            }
+            let (sigma_f, e) = (strength[i].0, p.youngs_modulus[material[i].0 as usize]);
+            let h = softening_modulus(sigma_f, e, p.fracture_energy, p.characteristic_length);
+            d.0 = rankine_damage(d.0, largest_trial_principal(&s.0), sigma_f, h);
+            if d.0 > 0.0 {
+                s.0 = degrade_tensile(&s.0, d.0);
+                v0[i].0 * dissipated_density(d.0, sigma_f, e, h)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let owned = |i: &usize| p.materials.applies(material[*i]);
+    let damaged = (0..damage.len())
+        .filter(owned)
+        .filter(|&i| damage[i].0 > 0.0)
+        .count();
+    let failed = (0..damage.len())
+        .filter(owned)
+        .filter(|&i| damage[i].0 >= 1.0)
+        .count();
+    let [cd, cf, ce] = p.columns;
+    columns.values[cd] = damaged as f64;
+    columns.values[cf] = failed as f64;
+    // Summed in row order, whatever the thread count.
+    columns.values[ce] = dissipated.iter().sum();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fractum_engine::testing::*;
+
+    #[test]
+    fn softening_is_linear_and_dissipates_the_fracture_energy_over_the_length() {
+        let (sigma_f, e, gf, l) = (2.0, 1000.0, 0.01, 0.05);
+        let h = softening_modulus(sigma_f, e, gf, l);
+        // H̄ = 4 / 20 = 0.2 /m, H̄ l = 0.01, H = 0.01/0.99.
+        assert!((h - 0.01 / 0.99).abs() < 1e-15);
+        // Uniaxial: σ = (1 − D) E ε falls linearly with slope −H E after σ_f.
+        for eps in [0.0025, 0.004, 0.1] {
+            let d = rankine_damage(0.0, e * eps, sigma_f, h);
+            let sigma = (1.0 - d) * e * eps;
+            let linear = (sigma_f - h * e * (eps - sigma_f / e)).max(0.0);
+            assert!(
+                (sigma - linear).abs() < 1e-12,
+                "ε {eps}: {sigma} against {linear}"
+            );
+        }
+        // Below strength nothing; no healing on unloading.
+        assert_eq!(rankine_damage(0.0, 1.9, sigma_f, h), 0.0);
+        let d = rankine_damage(0.0, 4.0, sigma_f, h);
+        assert_eq!(rankine_damage(d, 2.5, sigma_f, h), d);
+        // Full failure dissipates G_f / l_ch per unit volume.
+        assert!((dissipated_density(1.0, sigma_f, e, h) * l - gf).abs() < 1e-15);
+    }
+
+    fn insert_params(world: &mut World) -> [usize; 3] {
+        let mut columns = SeriesColumns::default();
+        let slots = [
+            columns.declare("damaged_particles"),
+            columns.declare("failed_particles"),
+            columns.declare("dissipated_energy"),
+        ];
+        world.insert_resource(columns);
+        world.insert_resource(RankineParams {
+            fracture_energy: 0.01,
+            characteristic_length: 0.05,
+            youngs_modulus: vec![test_material().youngs_modulus],
+            columns: slots,
+            materials: MaterialFilter::all(),
+        });
+        slots
+    }
+
+    /// Two particles under the same trial stress, strengths 1 and 10: the weak one damages and
+    /// its tensile stress is scaled back, its compression kept; the strong one is untouched.
+    fn damages_the_weak_particle<D: Dim>(trial: D::Sym)
+    where
+        D::Vector: SpaceVector,
+    {
+        let mut world = tiny_world::<D>(4, 0.25, 1e-3);
+        let slots = insert_params(&mut world);
+        for (k, strength) in [(0, 1.0), (1, 10.0)] {
+            let x = D::Vector::from_fn(|a| if a == 0 { 0.3 + 0.3 * k as f64 } else { 0.5 });
+            let p = spawn_particle(&mut world, x, D::Vector::ZERO, 1.0, 0.01);
+            world.entity_mut(p).insert(Strength(strength));
+            world.get_mut::<Stress<D>>(p).unwrap().0 = trial;
+        }
+        run_system(&mut world, rankine::<D>);
+        let damage = particle_values::<Damage>(&mut world);
+        let h = softening_modulus(1.0, 100.0, 0.01, 0.05);
+        let expected = rankine_damage(0.0, 2.0, 1.0, h);
+        assert!(expected > 0.0 && expected < 1.0);
+        assert_eq!(damage[0].0, expected);
+        assert_eq!(damage[1].0, 0.0);
+        let stress = particle_values::<Stress<D>>(&mut world);
+        let values = stress[0].0.principal_values();
+        // Principal trial values (2, 0, −1): tension scaled, compression kept.
+        assert!(
+            (values[0] - 2.0 * (1.0 - expected)).abs() < 1e-12,
+            "{values:?}"
+        );
+        assert!((values[2] + 1.0).abs() < 1e-12, "{values:?}");
+        assert_eq!(stress[1].0, trial);
+        let columns = world.resource::<SeriesColumns>();
+        assert_eq!(columns.values[slots[0]], 1.0);
+        assert_eq!(columns.values[slots[1]], 0.0);
+        let energy = 0.01 * dissipated_density(expected, 1.0, 100.0, h);
+        assert!((columns.values[slots[2]] - energy).abs() < 1e-18);
+    }
+
+    #[test]
+    fn system_damages_the_particles_above_their_strength() {
+        // Plane strain: σ_xx = 2, σ_yy = −1.
+        damages_the_weak_particle::<Two>(SymTensor2 {
+            xx: 2.0,
+            yy: -1.0,
+            ..SymTensor2::ZERO
+        });
+        // 3D, tension along (1, 1, 0)/√2 and compression along z.
+        damages_the_weak_particle::<Three>(SymTensor3 {
+            xx: 1.0,
+            yy: 1.0,
+            zz: -1.0,
+            xy: 1.0,
+            ..SymTensor3::ZERO
+        });
+    }
+}

@@ -1,0 +1,182 @@
+//! What `damage/rankine` and `damage/time_to_failure` share (a kernel and install helpers, not
+//! a system): the degradation of the tensile principal stresses, the strength of each particle,
+//! and the pipeline they need.
+//!
+//! - dfg-partitioning-mpm.md eqs. (26)–(27): the damage scales the tensile principal values of
+//!   the trial stress, `σ_i⁺ = (1 − D) σ_i` for `σ_i > 0`, leaves the compressive ones, and the
+//!   tensor is rebuilt on the original principal directions, `σ = Σ σ_i⁺ v_i ⊗ v_i`. In plane
+//!   strain the three principal values are the in-plane pair and `σ_zz`; in 3D the three
+//!   eigenvalues. A failed particle (D = 1) so still carries compression: crack faces pressed
+//!   together push back.
+//! - The damage is in the stress itself, so the force transfer must not scale by `1 − D` as
+//!   well: the install inserts [`DamageInStress`]. That is why these laws cannot share a
+//!   pipeline with `damage/eigenerosion` or `damage/eigensoftening`, which rely on the scaling.
+//! - The trial stress is eq. (22)'s neo-Hookean stress, which `stress/neo_hookean` computes
+//!   afresh from `F` every step; the degraded stress written back is what the transfers read.
+//!   `stress/linear_elastic` integrates the stress in rate form from its previous value, so it
+//!   would start the next step from the degraded stress; the install refuses it.
+//! - Strength: `tensile_strength` for every particle of the entry's materials, or, with the
+//!   `weibull` option, a per-particle strength drawn by eq. (25) (`damage::weibull`). Either
+//!   way each particle carries it as a [`Strength`] component, written to the frames.
+
+use super::weibull::{Weibull, WeibullOption};
+use crate::transfer::DamageInStress;
+use fractum_engine::prelude::*;
+
+/// Eqs. (26)–(27): the stress with its tensile principal values scaled by `1 − damage`. A
+/// particle without damage keeps its stress bit for bit.
+pub fn degrade_tensile<S: SymOps<V, M>, V, M>(stress: &S, damage: f64) -> S {
+    if damage <= 0.0 {
+        return *stress;
+    }
+    let intact = 1.0 - damage.min(1.0);
+    stress.map_principal(|s| if s > 0.0 { intact * s } else { s })
+}
+
+/// The largest of the three principal values of the trial stress, the one compared with `σ_f`
+/// (eq. 22's text; in plane strain `σ_zz` included).
+pub fn largest_trial_principal<S: SymOps<V, M>, V, M>(stress: &S) -> f64 {
+    stress.principal_values()[0]
+}
+
+/// Refuses a pipeline these laws cannot run in (see the module header) and marks it as one
+/// whose damage is in the stress.
+pub fn require_stress_degrading_pipeline(
+    installer: &mut Installer,
+    params: &Params,
+    name: &str,
+) -> Result<(), SceneError> {
+    if installer.pipeline_has("damage/eigenerosion")
+        || installer.pipeline_has("damage/eigensoftening")
+    {
+        return Err(params.error(
+            "",
+            format!(
+                "{name} degrades the tensile principal stresses itself (eqs. 26-27), while \
+                 damage/eigenerosion and damage/eigensoftening scale the whole internal force by \
+                 1 - D; one pipeline cannot do both"
+            ),
+        ));
+    }
+    if installer.pipeline_has("stress/linear_elastic")
+        || !installer.pipeline_has("stress/neo_hookean")
+    {
+        return Err(params.error(
+            "",
+            format!(
+                "{name} needs stress/neo_hookean (and not stress/linear_elastic): it degrades the \
+                 trial stress of eq. 22, which neo-Hookean recomputes from F every step, while \
+                 linear elasticity would integrate on from the degraded stress"
+            ),
+        ));
+    }
+    installer.insert_resource(DamageInStress);
+    Ok(())
+}
+
+/// Checks `tensile_strength` and the `weibull` option, and gives every particle of the entry's
+/// materials its [`Strength`] (the others get an infinite one unless another entry gave them
+/// theirs). Returns the strengths given, in no particular order.
+pub fn install_strength(
+    installer: &mut Installer,
+    params: &Params,
+    tensile_strength: f64,
+    weibull: Option<WeibullOption>,
+) -> Result<Vec<(MaterialId, f64)>, SceneError> {
+    if !(tensile_strength.is_finite() && tensile_strength > 0.0) {
+        return Err(params.error("tensile_strength", "expected σ_f > 0 (Pa)"));
+    }
+    let weibull = match weibull {
+        Some(option) => {
+            let dimension = installer.dimension().count();
+            let thickness = installer.world().resource::<Thickness>().0;
+            let error = |field: &str, message: &str| {
+                let field = if field.is_empty() {
+                    "weibull".to_string()
+                } else {
+                    format!("weibull.{field}")
+                };
+                params.error(&field, message)
+            };
+            Some(Weibull::new(option, dimension, thickness, error)?)
+        }
+        None => None,
+    };
+    let materials = installer.materials().clone();
+    let mut given = Vec::new();
+    installer.add_particle_component_with(Strength(f64::INFINITY), |particle| {
+        let material = *particle.get::<MaterialId>()?;
+        if !materials.applies(material) {
+            return None;
+        }
+        let strength = match &weibull {
+            Some(w) => {
+                let id = particle.get::<ParticleId>()?.0;
+                let volume = particle.get::<InitialVolume>()?.0;
+                w.strength(tensile_strength, id, volume)
+            }
+            None => tensile_strength,
+        };
+        given.push((material, strength));
+        Some(Strength(strength))
+    });
+    Ok(given)
+}
+
+/// The default characteristic length: the cell diagonal, `h √d`.
+pub fn cell_diagonal(installer: &Installer) -> f64 {
+    with_dim!(installer.dimension(), D => {
+        let grid = installer.world().resource::<Grid<D>>();
+        grid.spacing * (D::N as f64).sqrt()
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_tensile_principal_values_are_scaled_in_plane_strain() {
+        // In-plane principal values 3 and −1 along the diagonals, σ_zz = 0.5.
+        let s = SymTensor2 {
+            xx: 1.0,
+            yy: 1.0,
+            zz: 0.5,
+            xy: 2.0,
+        };
+        let d = degrade_tensile(&s, 0.75);
+        let [a, b] = d.in_plane_principal();
+        assert!(
+            (a - 0.75).abs() < 1e-14 && (b + 1.0).abs() < 1e-14,
+            "{a} {b}"
+        );
+        assert!((d.zz - 0.125).abs() < 1e-15);
+        // The directions are kept: still diagonal, so xx = yy.
+        assert!((d.xx - d.yy).abs() < 1e-14);
+        // Fully failed: the compression alone is left.
+        let failed = degrade_tensile(&s, 1.0);
+        assert!((failed.in_plane_principal()[0]).abs() < 1e-14);
+        assert_eq!(degrade_tensile(&s, 0.0), s);
+    }
+
+    #[test]
+    fn only_tensile_principal_values_are_scaled_in_3d() {
+        // 2 n⊗n − 1 m⊗m with n = (1, 1, 0)/√2, m = e_z: tension along n, compression along z.
+        let s = SymTensor3 {
+            xx: 1.0,
+            yy: 1.0,
+            zz: -1.0,
+            xy: 1.0,
+            yz: 0.0,
+            xz: 0.0,
+        };
+        let d = degrade_tensile(&s, 0.5);
+        let values = d.principal_values();
+        let expected = [1.0, 0.0, -1.0];
+        for (v, e) in values.iter().zip(expected) {
+            assert!((v - e).abs() < 1e-14, "{values:?}");
+        }
+        assert!((d.xx - 0.5).abs() < 1e-14 && (d.xy - 0.5).abs() < 1e-14);
+        assert_eq!(largest_trial_principal(&s), 2.0);
+    }
+}

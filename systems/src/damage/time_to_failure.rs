@@ -1,0 +1,258 @@
+//! Time-to-failure damage: a failing particle loses its tensile strength over the time a crack
+//! takes to cross it.
+//!
+//! - Stage: damage. Registration name: `damage/time_to_failure`. Needs `stress/neo_hookean`.
+//! - dfg-partitioning-mpm.md §2.7, eq. (24): `D ← min(1, D + Δt / τ)` with `τ = l_ch / c_f`, the
+//!   transit time of a crack running at the prescribed speed `c_f` across the characteristic
+//!   length `l_ch` (default: the cell diagonal, as in the paper). The paper prints `τ = c_f / ℓ`,
+//!   which is a rate (1/s), not a time; the transit time it describes is `ℓ / c_f`, used here.
+//! - A particle starts failing in the first step its largest principal trial stress (of the
+//!   three, `σ_zz` included in plane strain) exceeds its strength `σ_f`, and then keeps failing
+//!   at that rate until `D = 1`, whatever its stress does meanwhile: the damage growing means a
+//!   crack crossing it, which does not stop half-way. (`D > 0` is the record that it started.)
+//! - The damage scales the tensile principal stresses only (eqs. 26–27,
+//!   `damage::tensile_degradation`), written back into `Stress`.
+//! - Strength per particle: `tensile_strength`, or drawn from a Weibull distribution (eq. 25)
+//!   with the `weibull` option (`damage::weibull`), as in the paper's Brazilian test.
+//! - Publishes `series.csv` columns `damaged_particles` (D > 0) and `failed_particles` (D = 1).
+
+use super::tensile_degradation::{
+    cell_diagonal, degrade_tensile, install_strength, largest_trial_principal,
+    require_stress_degrading_pipeline,
+};
+use super::weibull::WeibullOption;
+use fractum_engine::prelude::*;
+use rayon::prelude::*;
+use serde::Deserialize;
+
+/// Registration of `damage/time_to_failure`.
+pub const REGISTRATION: Registration = Registration {
+    name: "damage/time_to_failure",
+    summary: "time-to-failure damage: D grows by Δt c_f / l_ch once σ_f is exceeded (eq. 24), \
+              tensile principal stresses degraded (eqs. 26-27)",
+    params: &[
+        ParamDoc {
+            name: "tensile_strength",
+            ty: "f64",
+            default: None,
+            doc: "σ_f (Pa); with `weibull`, the median strength at the reference volume",
+        },
+        ParamDoc {
+            name: "crack_speed",
+            ty: "f64",
+            default: None,
+            doc: "c_f (m/s), the speed a crack crosses a particle at",
+        },
+        ParamDoc {
+            name: "characteristic_length",
+            ty: "f64",
+            default: Some("cell diagonal"),
+            doc: "l_ch (m); the time to failure is τ = l_ch / c_f",
+        },
+        ParamDoc {
+            name: "weibull",
+            ty: "(modulus, reference_volume, seed, thickness)",
+            default: Some("none: every particle has tensile_strength"),
+            doc: "Weibull-distributed strength of eq. 25; `thickness` (m) only in 2D",
+        },
+    ],
+    requires: &["stress/neo_hookean"],
+    install,
+};
+
+/// Parameters as written in the scene.
+#[derive(Deserialize, Clone, Debug)]
+#[serde(deny_unknown_fields)]
+struct RawParams {
+    tensile_strength: f64,
+    crack_speed: f64,
+    #[serde(default)]
+    characteristic_length: Option<f64>,
+    #[serde(default)]
+    weibull: Option<WeibullOption>,
+}
+
+/// Installed parameters of `damage/time_to_failure`.
+#[derive(Resource, Clone, Debug, PartialEq)]
+pub struct TimeToFailureParams {
+    /// τ = l_ch / c_f (s).
+    pub time_to_failure: f64,
+    /// Slots of the published columns: damaged, failed.
+    pub columns: [usize; 2],
+    /// Which materials this entry damages.
+    pub materials: MaterialFilter,
+}
+
+fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    let raw: RawParams = params.parse()?;
+    require_stress_degrading_pipeline(installer, params, "damage/time_to_failure")?;
+    if !(raw.crack_speed.is_finite() && raw.crack_speed > 0.0) {
+        return Err(params.error("crack_speed", "expected c_f > 0 (m/s)"));
+    }
+    let length = match raw.characteristic_length {
+        Some(l) if l.is_finite() && l > 0.0 => l,
+        Some(_) => {
+            return Err(params.error("characteristic_length", "expected l_ch > 0 (m)"));
+        }
+        None => cell_diagonal(installer),
+    };
+    install_strength(installer, params, raw.tensile_strength, raw.weibull)?;
+    let materials = installer.materials().clone();
+    let columns = [
+        installer.add_series_column("damaged_particles"),
+        installer.add_series_column("failed_particles"),
+    ];
+    installer.insert_resource(TimeToFailureParams {
+        time_to_failure: length / raw.crack_speed,
+        columns,
+        materials,
+    });
+    with_dim!(installer.dimension(), D => installer.add_systems(time_to_failure::<D>));
+    Ok(())
+}
+
+/// Eq. (24): the damage after a step of `dt` from `previous`, for a largest principal trial
+/// stress `trial`, strength `strength` and time to failure `tau`.
+pub fn time_to_failure_damage(previous: f64, trial: f64, strength: f64, dt: f64, tau: f64) -> f64 {
+    if previous > 0.0 || trial > strength {
+        (previous + dt / tau).min(1.0)
+    } else {
+        previous
+    }
+}
+
+type ParticleQuery<'w, 's, D> = Query<
+    'w,
+    's,
+    (
+        &'static MaterialId,
+        &'static Strength,
+        &'static mut Stress<D>,
+        &'static mut Damage,
+    ),
+    With<Particle>,
+>;
+
+/// The `damage/time_to_failure` system.
+pub fn time_to_failure<D: Dim>(
+    clock: Res<SimClock>,
+    params: Res<TimeToFailureParams>,
+    mut columns: ResMut<SeriesColumns>,
+    mut particles: ParticleQuery<D>,
+) {
+    let Some((material, strength, mut stress, mut damage)) =
+        single_table(particles.contiguous_iter_mut(), "particles")
+    else {
+        return;
+    };
+    let (p, dt) = (&*params, clock.dt);
+    stress
+        .par_iter_mut()
+        .zip(damage.par_iter_mut())
+        .enumerate()
+        .for_each(|(i, (s, d))| {
+            if !p.materials.applies(material[i]) {
+                return;
+            }
+            let trial = largest_trial_principal(&s.0);
+            d.0 = time_to_failure_damage(d.0, trial, strength[i].0, dt, p.time_to_failure);
+            if d.0 > 0.0 {
+                s.0 = degrade_tensile(&s.0, d.0);
+            }
+        });
+    let owned = |i: &usize| p.materials.applies(material[*i]);
+    let damaged = (0..damage.len())
+        .filter(owned)
+        .filter(|&i| damage[i].0 > 0.0)
+        .count();
+    let failed = (0..damage.len())
+        .filter(owned)
+        .filter(|&i| damage[i].0 >= 1.0)
+        .count();
+    let [cd, cf] = p.columns;
+    columns.values[cd] = damaged as f64;
+    columns.values[cf] = failed as f64;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fractum_engine::testing::*;
+
+    #[test]
+    fn damage_starts_above_strength_and_then_grows_at_the_crack_speed() {
+        let (dt, tau) = (1.0, 4.0);
+        assert_eq!(time_to_failure_damage(0.0, 0.9, 1.0, dt, tau), 0.0);
+        let mut d = time_to_failure_damage(0.0, 1.1, 1.0, dt, tau);
+        assert_eq!(d, 0.25);
+        // Started: it goes on under any stress, to 1 in τ.
+        for _ in 0..3 {
+            d = time_to_failure_damage(d, -5.0, 1.0, dt, tau);
+        }
+        assert_eq!(d, 1.0);
+        assert_eq!(time_to_failure_damage(d, 5.0, 1.0, dt, tau), 1.0);
+    }
+
+    /// Two particles under the same trial stress, strengths 1 and 10, for two steps.
+    fn fails_the_weak_particle<D: Dim>(trial: D::Sym)
+    where
+        D::Vector: SpaceVector,
+    {
+        let mut world = tiny_world::<D>(4, 0.25, 1e-3);
+        let mut columns = SeriesColumns::default();
+        let slots = [
+            columns.declare("damaged_particles"),
+            columns.declare("failed_particles"),
+        ];
+        world.insert_resource(columns);
+        world.insert_resource(TimeToFailureParams {
+            time_to_failure: 2e-3,
+            columns: slots,
+            materials: MaterialFilter::all(),
+        });
+        for (k, strength) in [(0, 1.0), (1, 10.0)] {
+            let x = D::Vector::from_fn(|a| if a == 0 { 0.3 + 0.3 * k as f64 } else { 0.5 });
+            let p = spawn_particle(&mut world, x, D::Vector::ZERO, 1.0, 0.01);
+            world.entity_mut(p).insert(Strength(strength));
+        }
+        for (step, expected) in [(1, 0.5), (2, 1.0)] {
+            // The stress stage would write the trial stress afresh each step.
+            let mut q = world.query::<&mut Stress<D>>();
+            for mut s in q.iter_mut(&mut world) {
+                s.0 = trial;
+            }
+            run_system(&mut world, time_to_failure::<D>);
+            let damage = particle_values::<Damage>(&mut world);
+            assert_eq!((damage[0].0, damage[1].0), (expected, 0.0), "step {step}");
+        }
+        let stress = particle_values::<Stress<D>>(&mut world);
+        let values = stress[0].0.principal_values();
+        // Trial principal values (2, 0, −1): failed in tension, compression kept.
+        assert!(
+            values[0].abs() < 1e-12 && (values[2] + 1.0).abs() < 1e-12,
+            "{values:?}"
+        );
+        assert_eq!(stress[1].0, trial);
+        let columns = world.resource::<SeriesColumns>();
+        assert_eq!(
+            (columns.values[slots[0]], columns.values[slots[1]]),
+            (1.0, 1.0)
+        );
+    }
+
+    #[test]
+    fn system_fails_the_particles_above_their_strength_in_two_time_steps() {
+        fails_the_weak_particle::<Two>(SymTensor2 {
+            xx: 2.0,
+            yy: -1.0,
+            ..SymTensor2::ZERO
+        });
+        fails_the_weak_particle::<Three>(SymTensor3 {
+            xx: 1.0,
+            yy: 1.0,
+            zz: -1.0,
+            xy: 1.0,
+            ..SymTensor3::ZERO
+        });
+    }
+}
