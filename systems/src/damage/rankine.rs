@@ -22,7 +22,7 @@
 //!   elastic energy left on the unloading line); J per scene thickness in 2D.
 
 use super::tensile_degradation::{
-    cell_diagonal, degrade_tensile, install_strength, largest_trial_principal,
+    cell_diagonal, degrade_tensile, degraded_energy, install_strength, largest_trial_principal,
     require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
@@ -198,7 +198,9 @@ type ParticleQuery<'w, 's, D> = Query<
         &'static MaterialId,
         &'static InitialVolume,
         &'static Strength,
+        &'static Strain<D>,
         &'static mut Stress<D>,
+        &'static mut StrainEnergyDensity,
         &'static mut Damage,
     ),
     With<Particle>,
@@ -210,7 +212,7 @@ pub fn rankine<D: Dim>(
     mut columns: ResMut<SeriesColumns>,
     mut particles: ParticleQuery<D>,
 ) {
-    let Some((material, v0, strength, mut stress, mut damage)) =
+    let Some((material, v0, strength, strain, mut stress, mut energy, mut damage)) =
         single_table(particles.contiguous_iter_mut(), "particles")
     else {
         return;
@@ -218,9 +220,10 @@ pub fn rankine<D: Dim>(
     let p = &*params;
     let dissipated: Vec<f64> = stress
         .par_iter_mut()
+        .zip(energy.par_iter_mut())
         .zip(damage.par_iter_mut())
         .enumerate()
-        .map(|(i, (s, d))| {
+        .map(|(i, ((s, w), d))| {
             if !p.materials.applies(material[i]) {
                 return 0.0;
             }
@@ -228,7 +231,9 @@ pub fn rankine<D: Dim>(
             let h = softening_modulus(sigma_f, e, p.fracture_energy, p.characteristic_length);
             d.0 = rankine_damage(d.0, largest_trial_principal(&s.0), sigma_f, h);
             if d.0 > 0.0 {
-                s.0 = degrade_tensile(&s.0, d.0);
+                let trial = s.0;
+                s.0 = degrade_tensile(&trial, d.0);
+                w.0 = degraded_energy(w.0, &trial, &s.0, &strain[i].0);
                 v0[i].0 * dissipated_density(d.0, sigma_f, e, h)
             } else {
                 0.0

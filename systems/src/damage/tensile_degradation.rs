@@ -15,6 +15,9 @@
 //!   afresh from `F` every step; the degraded stress written back is what the transfers read.
 //!   `stress/linear_elastic` integrates the stress in rate form from its previous value, so it
 //!   would start the next step from the degraded stress; the install refuses it.
+//! - The stored energy density (`StrainEnergyDensity`, which the stress stage writes for the
+//!   undamaged material) is scaled to what the damaged particle still stores
+//!   ([`degraded_energy`]), so `strain_energy` in `series.csv` is recoverable energy.
 //! - Strength: `tensile_strength` for every particle of the entry's materials, or, with the
 //!   `weibull` option, a per-particle strength drawn by eq. (25) (`damage::weibull`). Either
 //!   way each particle carries it as a [`Strength`] component, written to the frames.
@@ -31,6 +34,20 @@ pub fn degrade_tensile<S: SymOps<V, M>, V, M>(stress: &S, damage: f64) -> S {
     }
     let intact = 1.0 - damage.min(1.0);
     stress.map_principal(|s| if s > 0.0 { intact * s } else { s })
+}
+
+/// The stored energy density left in a damaged particle: the undamaged `w` scaled by the
+/// secant energies `σ⁺ : ε / σ : ε` of the degraded and the trial stress on the particle's
+/// strain (clamped to [0, 1]). In uniaxial tension that is `(1 − D) w`, the energy recovered
+/// by unloading along the secant at fixed damage, and a fully failed particle in tension
+/// stores nothing; compression keeps its share.
+pub fn degraded_energy<S: SymOps<V, M>, V, M>(w: f64, trial: &S, degraded: &S, strain: &S) -> f64 {
+    let full = trial.double_dot(strain);
+    if full > 0.0 {
+        w * (degraded.double_dot(strain) / full).clamp(0.0, 1.0)
+    } else {
+        w
+    }
 }
 
 /// The largest of the three principal values of the trial stress, the one compared with `σ_f`
@@ -178,5 +195,27 @@ mod tests {
         }
         assert!((d.xx - 0.5).abs() < 1e-14 && (d.xy - 0.5).abs() < 1e-14);
         assert_eq!(largest_trial_principal(&s), 2.0);
+    }
+
+    #[test]
+    fn a_damaged_particle_stores_the_secant_energy() {
+        let trial = SymTensor2 {
+            xx: 2.0,
+            ..SymTensor2::ZERO
+        };
+        let strain = SymTensor2 {
+            xx: 0.02,
+            ..SymTensor2::ZERO
+        };
+        let degraded = degrade_tensile(&trial, 0.25);
+        // Uniaxial: (1 − D) of the undamaged energy.
+        assert!((degraded_energy(0.02, &trial, &degraded, &strain) - 0.015).abs() < 1e-15);
+        let failed = degrade_tensile(&trial, 1.0);
+        assert_eq!(degraded_energy(0.02, &trial, &failed, &strain), 0.0);
+        // Compression is not degraded: all its energy stays.
+        let pressed = trial.scaled(-1.0);
+        let kept = degrade_tensile(&pressed, 1.0);
+        let squeezed = strain.scaled(-1.0);
+        assert_eq!(degraded_energy(0.02, &pressed, &kept, &squeezed), 0.02);
     }
 }

@@ -17,7 +17,7 @@
 //! - Publishes `series.csv` columns `damaged_particles` (D > 0) and `failed_particles` (D = 1).
 
 use super::tensile_degradation::{
-    cell_diagonal, degrade_tensile, install_strength, largest_trial_principal,
+    cell_diagonal, degrade_tensile, degraded_energy, install_strength, largest_trial_principal,
     require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
@@ -127,7 +127,9 @@ type ParticleQuery<'w, 's, D> = Query<
     (
         &'static MaterialId,
         &'static Strength,
+        &'static Strain<D>,
         &'static mut Stress<D>,
+        &'static mut StrainEnergyDensity,
         &'static mut Damage,
     ),
     With<Particle>,
@@ -140,7 +142,7 @@ pub fn time_to_failure<D: Dim>(
     mut columns: ResMut<SeriesColumns>,
     mut particles: ParticleQuery<D>,
 ) {
-    let Some((material, strength, mut stress, mut damage)) =
+    let Some((material, strength, strain, mut stress, mut energy, mut damage)) =
         single_table(particles.contiguous_iter_mut(), "particles")
     else {
         return;
@@ -148,16 +150,19 @@ pub fn time_to_failure<D: Dim>(
     let (p, dt) = (&*params, clock.dt);
     stress
         .par_iter_mut()
+        .zip(energy.par_iter_mut())
         .zip(damage.par_iter_mut())
         .enumerate()
-        .for_each(|(i, (s, d))| {
+        .for_each(|(i, ((s, w), d))| {
             if !p.materials.applies(material[i]) {
                 return;
             }
-            let trial = largest_trial_principal(&s.0);
-            d.0 = time_to_failure_damage(d.0, trial, strength[i].0, dt, p.time_to_failure);
+            let trial = s.0;
+            let largest = largest_trial_principal(&trial);
+            d.0 = time_to_failure_damage(d.0, largest, strength[i].0, dt, p.time_to_failure);
             if d.0 > 0.0 {
-                s.0 = degrade_tensile(&s.0, d.0);
+                s.0 = degrade_tensile(&trial, d.0);
+                w.0 = degraded_energy(w.0, &trial, &s.0, &strain[i].0);
             }
         });
     let owned = |i: &usize| p.materials.applies(material[*i]);
