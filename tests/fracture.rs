@@ -180,6 +180,15 @@ fn rankine_band_absorbs(fracture_energy: f64, end: f64) -> (f64, f64) {
     }
     let end = totals(&mut sim.world);
     let absorbed = work - (end.kinetic_energy - kinetic_start) - end.strain_energy;
+    // The engine's energy account finds the same work (the end's displacement is exact).
+    let account = sim
+        .world
+        .resource::<fractum_engine::energy::EnergyAccount>();
+    assert!(
+        (account.external_work / work - 1.0).abs() < 1e-9,
+        "account {:e} J, reactions {work:e} J",
+        account.external_work
+    );
     (absorbed, 0.2 * fracture_energy)
 }
 

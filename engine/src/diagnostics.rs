@@ -3,7 +3,7 @@
 //! Sums run sequentially in particle order, so they are bitwise reproducible for any number of
 //! threads; they are only evaluated on output steps.
 
-use crate::components::{InitialVolume, Mass, Particle, StrainEnergyDensity, Velocity};
+use crate::components::{Damage, InitialVolume, Mass, Particle, StrainEnergyDensity, Velocity};
 use crate::dim::{Dim, Dimension, VectorOps};
 use crate::with_dim;
 use bevy_ecs::prelude::*;
@@ -39,16 +39,26 @@ impl Totals {
 
 /// Computes the totals of the current state of a world built for dimension `D`.
 pub fn totals_of<D: Dim>(world: &mut World) -> Totals {
+    // Where damage scales the internal force (eq. 16 of the eigensoftening paper), a particle
+    // stores (1 − D) of its undamaged energy (the secant energy); where the damage system
+    // degraded the stress itself it has scaled the energy density too.
+    let damage_scales_force = !world.contains_resource::<crate::resources::DamageInStress>();
     let mut query = world.query_filtered::<(
         &Mass,
         &Velocity<D>,
         &StrainEnergyDensity,
         &InitialVolume,
+        &Damage,
     ), With<Particle>>();
     let (mut kinetic, mut strain, mut momentum, mut mass) = (0.0, 0.0, D::Vector::ZERO, 0.0);
-    for (m, v, w, v0) in query.iter(world) {
+    for (m, v, w, v0, d) in query.iter(world) {
         kinetic += 0.5 * m.0 * v.0.length_squared();
-        strain += w.0 * v0.0;
+        let stored = w.0 * v0.0;
+        strain += if damage_scales_force && d.0 > 0.0 {
+            (1.0 - d.0) * stored
+        } else {
+            stored
+        };
         momentum += v.0 * m.0;
         mass += m.0;
     }

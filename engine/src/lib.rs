@@ -15,6 +15,7 @@ pub mod components;
 pub mod connectivity;
 pub mod diagnostics;
 pub mod dim;
+pub mod energy;
 pub mod fields;
 pub mod health;
 pub mod loads;

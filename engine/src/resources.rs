@@ -98,6 +98,15 @@ impl<D: Dim> Grid<D> {
     }
 }
 
+/// Marks a pipeline whose damage system degrades the stress tensor itself (only the tensile
+/// principal stresses, dfg-partitioning-mpm.md eqs. 26–27: `damage/rankine`,
+/// `damage/time_to_failure`): the force transfer then uses the stress as it is, instead of
+/// scaling it by `1 − D` (eq. 16 of the eigensoftening paper, for eigenerosion and
+/// eigensoftening), and the energy totals take the stored energy as the damage system left it.
+/// The two kinds cannot share a pipeline; their installs check.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DamageInStress;
+
 /// The out-of-plane thickness of a 2D scene (m): particle volumes, and so masses, forces and
 /// energies, are for this thickness. 1 in 3D, where volumes are volumes.
 #[derive(Resource, Clone, Copy, Debug, PartialEq)]

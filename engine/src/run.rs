@@ -252,12 +252,23 @@ fn series_row_of<D: Dim>(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
         let value = probe_value::<D>(world, probe, &t);
         row.extend((0..D::N).map(|a| value[a]));
     }
+    let mut dissipated = 0.0;
     if let Some(extra) = world.get_resource::<crate::series::SeriesColumns>() {
         row.extend(plan.system_columns.iter().map(|name| {
             let slot = extra.names.iter().position(|n| n == name);
             slot.map_or(f64::NAN, |i| extra.values[i])
         }));
+        if let Some(i) = extra.names.iter().position(|n| n == "dissipated_energy") {
+            dissipated = extra.values[i];
+        }
     }
+    let (work, initial) = world
+        .get_resource::<crate::energy::EnergyAccount>()
+        .map_or((f64::NAN, f64::NAN), |a| {
+            (a.external_work, a.initial_energy)
+        });
+    row.push(work);
+    row.push(work - (t.total_energy() - initial) - dissipated);
     row
 }
 

@@ -60,6 +60,11 @@ pub fn step_schedule() -> Schedule {
             .before(StageCheck(Stage::Predictor))
             .run_if(healthy),
     );
+    schedule.configure_sets(
+        crate::energy::AccountWork
+            .after(StageCheck(Stage::PostStep))
+            .run_if(healthy),
+    );
     for stage in Stage::ORDER {
         schedule.configure_sets(stage.run_if(healthy));
     }

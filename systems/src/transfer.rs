@@ -16,31 +16,28 @@ use bevy_ecs::system::SystemParam;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 
-/// Marks a pipeline whose damage system degrades the stress tensor itself (only the tensile
-/// principal stresses, dfg-partitioning-mpm.md eqs. 26–27: `damage/rankine`,
-/// `damage/time_to_failure`): the force transfer then uses the stress as it is, instead of
-/// scaling it by `1 − D` (eq. 16 of the eigensoftening paper, for eigenerosion and
-/// eigensoftening). The two kinds cannot share a pipeline; their installs check.
-#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct DamageInStress;
+pub use fractum_engine::resources::DamageInStress;
 
-/// Particle data the force transfer reads: mass, velocity, volume, stress, damage, loads; and
-/// whether damage already sits in the stress ([`DamageInStress`]).
+/// The particle columns a force transfer reads: mass, velocity, volume, stress, damage, loads.
+type ForceColumns<'w, 's, D> = Query<
+    'w,
+    's,
+    (
+        &'static Mass,
+        &'static Velocity<D>,
+        &'static Volume,
+        &'static Stress<D>,
+        &'static Damage,
+        &'static ExternalForce<D>,
+    ),
+    With<Particle>,
+>;
+
+/// Particle data the force transfer reads, and whether damage already sits in the stress
+/// ([`DamageInStress`]).
 #[derive(SystemParam)]
 pub struct ForceSources<'w, 's, D: Dim> {
-    query: Query<
-        'w,
-        's,
-        (
-            &'static Mass,
-            &'static Velocity<D>,
-            &'static Volume,
-            &'static Stress<D>,
-            &'static Damage,
-            &'static ExternalForce<D>,
-        ),
-        With<Particle>,
-    >,
+    query: ForceColumns<'w, 's, D>,
     damage_in_stress: Option<Res<'w, DamageInStress>>,
 }
 

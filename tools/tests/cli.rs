@@ -118,7 +118,8 @@ fn run_writes_frames_collection_and_series_and_prints_a_summary() {
     assert_eq!(
         header,
         "step,time,kinetic_energy,strain_energy,total_energy,momentum_x,momentum_y,\
-         reaction_base_x,reaction_base_y,reaction_top_x,reaction_top_y"
+         reaction_base_x,reaction_base_y,reaction_top_x,reaction_top_y,external_work,\
+         energy_residual"
     );
     // Rows at steps 0, 5, ..., 60.
     assert_eq!(csv.lines().count(), 1 + 13);

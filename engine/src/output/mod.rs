@@ -111,6 +111,10 @@ pub const BASE_COLUMNS: [&str; 7] = [
     "momentum_y",
 ];
 
+/// The energy balance's columns, last in every `series.csv`: the work of the loads since the
+/// start and the residual `W_ext − (E − E₀) − D` (`crate::energy`).
+pub const ACCOUNT_COLUMNS: [&str; 2] = ["external_work", "energy_residual"];
+
 /// One column per axis: `stem_x`, `stem_y` (and `stem_z` in 3D).
 pub fn axis_columns(stem: &str, dimension: Dimension) -> Vec<String> {
     dimension
@@ -129,13 +133,14 @@ pub fn base_columns(dimension: Dimension) -> Vec<String> {
 
 impl OutputPlan {
     /// All CSV column names: base columns, then one per axis for each probe, then the system
-    /// columns.
+    /// columns, then the energy account's [`ACCOUNT_COLUMNS`].
     pub fn columns(&self) -> Vec<String> {
         let mut columns = base_columns(self.dimension);
         for probe in &self.probes {
             columns.extend(axis_columns(&probe.stem(), self.dimension));
         }
         columns.extend(self.system_columns.iter().cloned());
+        columns.extend(ACCOUNT_COLUMNS.iter().map(|c| c.to_string()));
         columns
     }
 }
@@ -155,7 +160,7 @@ mod tests {
         assert_eq!(
             plan.columns().join(","),
             "step,time,kinetic_energy,strain_energy,total_energy,momentum_x,momentum_y,\
-             reaction_base_x,reaction_base_y,failed_particles"
+             reaction_base_x,reaction_base_y,failed_particles,external_work,energy_residual"
         );
         plan.dimension = Dimension::Three;
         let columns = plan.columns();

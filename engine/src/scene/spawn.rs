@@ -66,6 +66,19 @@ impl<D: Dim> Spec<D> {
         if world.contains_resource::<FieldRule>() {
             schedule.add_systems(assign_fields_system::<D>.in_set(AssignFields));
         }
+        let start = crate::diagnostics::totals(&mut world);
+        let moment = {
+            let mut query = world.query_filtered::<(
+                &crate::components::Mass,
+                &crate::components::Position<D>,
+            ), bevy_ecs::query::With<crate::components::Particle>>();
+            crate::energy::first_moment::<D>(query.iter(&world).map(|(m, x)| (m.0, x.0)))
+        };
+        world.insert_resource(crate::energy::EnergyAccount::new(
+            start.total_energy(),
+            moment,
+        ));
+        schedule.add_systems(crate::energy::account_work::<D>.in_set(crate::energy::AccountWork));
         if self.on_leave_grid == LeaveGrid::Remove {
             schedule
                 .add_systems(remove_escaped_particles::<D>.in_set(StageCheck(Stage::Advection)));
