@@ -10,6 +10,7 @@
 //! ```
 
 pub mod bench;
+pub mod fragments;
 pub mod plot;
 
 use bench::{BenchCase, BenchPipeline, default_steps, measure, table};
@@ -106,6 +107,29 @@ pub enum Command {
         #[arg(long, default_value_t = 0.0)]
         from: f64,
     },
+    /// Fragments of runs at one time: connected components of intact material, with size and
+    /// speed; writes fragments.csv and fragment_sizes.csv into each run's folder and one PNG
+    /// of the cumulative size distributions.
+    Fragments {
+        /// Output folders of runs (several: their distributions on one plot).
+        #[arg(required = true)]
+        out: Vec<PathBuf>,
+        /// Time of the frame to analyse (the nearest written) [default: the last frame].
+        #[arg(long)]
+        time: Option<f64>,
+        /// Particles with damage below this are intact material.
+        #[arg(long, default_value_t = 0.5)]
+        damage_below: f64,
+        /// Link length (m) joining intact particles [default: 1.5 particle spacings].
+        #[arg(long)]
+        link: Option<f64>,
+        /// The scene's thickness (m) for 2D runs.
+        #[arg(long, default_value_t = 1.0)]
+        thickness: f64,
+        /// Output PNG [default: fragment_sizes.png in the first run's folder].
+        #[arg(long)]
+        output: Option<PathBuf>,
+    },
     /// Measure particle-steps per second of the stock pipelines on a generated scene.
     Bench {
         /// Pipelines to measure.
@@ -167,6 +191,21 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             output,
         } => plot_command(&csv, &x, &columns, bar.as_deref(), output),
         Command::Curve { csv, x, y, from } => curve_command(&csv, &x, &y, from),
+        Command::Fragments {
+            out,
+            time,
+            damage_below,
+            link,
+            thickness,
+            output,
+        } => {
+            let options = fragments::FragmentOptions {
+                damage_below,
+                link,
+                thickness,
+            };
+            fragments_command(&out, time, &options, output)
+        }
         Command::Bench {
             pipeline,
             dimensions,
@@ -235,6 +274,44 @@ fn plot_command(
         Err(e) => {
             eprintln!("error: {e}");
             EXIT_BAD_SCENE
+        }
+    }
+}
+
+fn fragments_command(
+    dirs: &[PathBuf],
+    time: Option<f64>,
+    options: &fragments::FragmentOptions,
+    output: Option<PathBuf>,
+) -> i32 {
+    let result = (|| {
+        let mut runs = Vec::new();
+        for dir in dirs {
+            let run = fragments::run_fragments(dir, time, options)?;
+            fragments::write_fragment_tables(&run)?;
+            let largest = run.fragments.first().map_or(0.0, |f| f.diameter);
+            println!(
+                "{}: t = {:e} s, {} fragments (largest {largest:e} m across), mass-weighted mean \
+                 speed {:e} m/s, link {:e} m; wrote fragments.csv and fragment_sizes.csv",
+                dir.display(),
+                run.time,
+                run.fragments.len(),
+                fragments::mean_speed(&run.fragments),
+                run.link
+            );
+            runs.push(run);
+        }
+        let output = output.unwrap_or_else(|| dirs[0].join("fragment_sizes.png"));
+        fragments::plot_size_distributions(&runs, &output)
+    })();
+    match result {
+        Ok(path) => {
+            println!("wrote {}", path.display());
+            0
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            EXIT_IO
         }
     }
 }

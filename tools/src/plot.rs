@@ -184,7 +184,23 @@ pub fn plot_runs(
                 .collect(),
         ));
     }
-    let (x0, x1) = range(time.iter().copied());
+    let x_desc = if x == "time" {
+        "time (s)".to_string()
+    } else {
+        x.to_string()
+    };
+    draw_curves(&curves, &x_desc, output)
+}
+
+/// Draws labelled `curves` (x, y points) on one chart into the PNG `output`, written to a
+/// temporary name and renamed. Returns the path written.
+pub fn draw_curves(
+    curves: &[(String, Vec<(f64, f64)>)],
+    x_desc: &str,
+    output: &Path,
+) -> Result<PathBuf, String> {
+    register_font();
+    let (x0, x1) = range(curves.iter().flat_map(|(_, c)| c.iter().map(|p| p.0)));
     let (y0, y1) = range(curves.iter().flat_map(|(_, c)| c.iter().map(|p| p.1)));
     // The encoder chooses the format from the extension, so the temporary name ends in .png.
     let name = output
@@ -203,11 +219,7 @@ pub fn plot_runs(
             .map_err(|e| e.to_string())?;
         chart
             .configure_mesh()
-            .x_desc(if x == "time" {
-                "time (s)".to_string()
-            } else {
-                x.to_string()
-            })
+            .x_desc(x_desc)
             .x_label_formatter(&|v| tick_label(*v))
             .y_label_formatter(&|v| tick_label(*v))
             .label_style(("sans-serif", 18))

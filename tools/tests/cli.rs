@@ -182,3 +182,33 @@ fn run_writes_grid_frames_with_the_velocity_fields() {
     }
     let _ = std::fs::remove_dir_all(&out_dir);
 }
+
+#[test]
+fn fragments_finds_the_two_halves_of_a_bar_broken_by_a_rankine_band() {
+    let out_dir =
+        std::env::temp_dir().join(format!("fractum-cli-fragments-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out_dir);
+    let dir = out_dir.to_str().unwrap();
+    let run = fractum(&["run", "scenes/tension_rankine.ron", "--out", dir, "--quiet"]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    // The band has failed by 2.5 ms: the left and the right piece, 20 × 8 = 160 and 18 × 8 = 144
+    // particles (the band's 16 failed ones are in neither).
+    let out = fractum(&["fragments", dir, "--time", "4.0e-3"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let summary = text(&out.stdout);
+    assert!(summary.contains("2 fragments"), "{summary}");
+    let table = std::fs::read_to_string(out_dir.join("fragments.csv")).unwrap();
+    let particles: Vec<usize> = table
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(particles, vec![160, 144]);
+    assert!(out_dir.join("fragment_sizes.csv").exists());
+    assert!(out_dir.join("fragment_sizes.png").exists());
+    // A folder that holds no run is an error with exit code 4, not a panic.
+    let missing = fractum(&["fragments", "scenes"]);
+    assert_eq!(missing.status.code(), Some(4));
+    assert!(text(&missing.stderr).contains("particles.pvd"));
+    let _ = std::fs::remove_dir_all(&out_dir);
+}

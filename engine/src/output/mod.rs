@@ -9,8 +9,10 @@ mod vtu;
 
 pub use atomic::write_atomically;
 pub use csv::SeriesWriter;
-pub use pvd::write_pvd;
-pub use vtu::{GridFrame, ParticleFrame, write_grid_frame, write_particle_frame};
+pub use pvd::{read_pvd, write_pvd};
+pub use vtu::{
+    GridFrame, ParticleFrame, read_particle_frame, write_grid_frame, write_particle_frame,
+};
 
 use crate::dim::Dimension;
 

@@ -106,6 +106,136 @@ fn i64_bytes(values: impl Iterator<Item = i64>) -> Vec<u8> {
     values.flat_map(i64::to_le_bytes).collect()
 }
 
+/// One named array of a frame file: its type, components and little-endian bytes.
+struct ReadArray {
+    name: Option<String>,
+    ty: String,
+    components: usize,
+    bytes: Vec<u8>,
+}
+
+/// The `DataArray`s of a file written by this module, in file order.
+fn read_arrays(xml: &str) -> Result<Vec<ReadArray>, String> {
+    let mut arrays = Vec::new();
+    for piece in xml.split("<DataArray").skip(1) {
+        let (tag, rest) = piece
+            .split_once('>')
+            .ok_or("a DataArray tag that does not close")?;
+        let body = rest
+            .split_once("</DataArray>")
+            .ok_or("a DataArray without its end tag")?
+            .0;
+        let block = BASE64
+            .decode(body.trim())
+            .map_err(|e| format!("a DataArray that is not base64: {e}"))?;
+        if block.len() < 8 {
+            return Err("a DataArray without its byte count".into());
+        }
+        let (count, data) = block.split_at(8);
+        let count = u64::from_le_bytes(count.try_into().expect("8 bytes")) as usize;
+        if count != data.len() {
+            return Err(format!(
+                "a DataArray of {} bytes that says {count}",
+                data.len()
+            ));
+        }
+        arrays.push(ReadArray {
+            name: super::pvd::attribute(tag, "Name").map(str::to_string),
+            ty: super::pvd::attribute(tag, "type")
+                .unwrap_or_default()
+                .to_string(),
+            components: super::pvd::attribute(tag, "NumberOfComponents")
+                .and_then(|c| c.parse().ok())
+                .unwrap_or(1),
+            bytes: data.to_vec(),
+        });
+    }
+    Ok(arrays)
+}
+
+impl ReadArray {
+    fn f64s(&self) -> Result<Vec<f64>, String> {
+        match self.ty.as_str() {
+            "Float64" => Ok(self
+                .bytes
+                .chunks_exact(8)
+                .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+                .collect()),
+            "Int32" => Ok(self
+                .bytes
+                .chunks_exact(4)
+                .map(|c| f64::from(i32::from_le_bytes(c.try_into().expect("4 bytes"))))
+                .collect()),
+            other => Err(format!("array {:?} of type {other}", self.name)),
+        }
+    }
+
+    fn triples(&self) -> Result<Vec<[f64; 3]>, String> {
+        Ok(self
+            .f64s()?
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect())
+    }
+}
+
+/// Reads a particle frame written by [`write_particle_frame`] (the arrays it writes, extra
+/// scalars and vectors by name; a frame from elsewhere is refused with the reason).
+pub fn read_particle_frame(path: &Path) -> Result<ParticleFrame, String> {
+    let xml = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let at = |e: String| format!("{}: {e}", path.display());
+    let arrays = read_arrays(&xml).map_err(at)?;
+    let mut f = ParticleFrame::default();
+    let mut seen_points = false;
+    for a in &arrays {
+        match (a.name.as_deref(), a.components) {
+            (None, 3) => {
+                f.position = a.triples().map_err(at)?;
+                seen_points = true;
+            }
+            (Some("id"), 1) => f.id = a.f64s().map_err(at)?.iter().map(|&v| v as u32).collect(),
+            (Some("body"), 1) => f.body = a.f64s().map_err(at)?.iter().map(|&v| v as u16).collect(),
+            (Some("material"), 1) => {
+                f.material = a.f64s().map_err(at)?.iter().map(|&v| v as u16).collect();
+            }
+            (Some("velocity"), 3) => f.velocity = a.triples().map_err(at)?,
+            (Some("mass"), 1) => f.mass = a.f64s().map_err(at)?,
+            (Some("volume"), 1) => f.volume = a.f64s().map_err(at)?,
+            (Some("stress"), 9) => {
+                f.stress = a
+                    .f64s()
+                    .map_err(at)?
+                    .chunks_exact(9)
+                    .map(|c| c.try_into().expect("9 values"))
+                    .collect();
+            }
+            (Some("damage"), 1) => f.damage = a.f64s().map_err(at)?,
+            (Some("strain_energy_density"), 1) => f.strain_energy_density = a.f64s().map_err(at)?,
+            (Some("connectivity" | "offsets" | "types"), _) => {}
+            (Some(name), 1) => f.scalars.push((name.to_string(), a.f64s().map_err(at)?)),
+            (Some(name), 3) => f.vectors.push((name.to_string(), a.triples().map_err(at)?)),
+            (name, n) => return Err(at(format!("an array {name:?} of {n} components"))),
+        }
+    }
+    let n = f.position.len();
+    let complete = seen_points
+        && [
+            f.id.len(),
+            f.mass.len(),
+            f.volume.len(),
+            f.damage.len(),
+            f.velocity.len(),
+        ]
+        .iter()
+        .all(|&len| len == n);
+    if !complete {
+        return Err(at(
+            "not a particle frame of fractum (missing or short arrays)".into(),
+        ));
+    }
+    Ok(f)
+}
+
 /// The grid nodes that carry mass, with their velocity fields (see [`crate::components`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct GridFrame {
@@ -239,4 +369,45 @@ pub fn write_particle_frame(path: &Path, frame: &ParticleFrame) -> std::io::Resu
         );
     }
     out.finish(path, &frame.position)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_particle_frame_reads_back_as_written() {
+        let frame = ParticleFrame {
+            id: vec![3, 1],
+            body: vec![0, 2],
+            material: vec![1, 0],
+            position: vec![[0.1, 0.2, 0.0], [0.3, -0.4, 0.5]],
+            velocity: vec![[1.0, 2.0, 3.0], [-1.0, 0.0, 0.5]],
+            mass: vec![2.0, 3.0],
+            volume: vec![0.01, 0.02],
+            stress: vec![[1.0; 9], [2.0; 9]],
+            damage: vec![0.0, 1.0],
+            strain_energy_density: vec![5.0, 6.0],
+            scalars: vec![("strength".into(), vec![7.0, 8.0])],
+            vectors: vec![("damage_gradient".into(), vec![[0.0; 3], [1.0, 0.0, 0.0]])],
+        };
+        let dir = std::env::temp_dir().join(format!("fractum-vtu-read-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("frame.vtu");
+        write_particle_frame(&path, &frame).unwrap();
+        let read = read_particle_frame(&path).unwrap();
+        assert_eq!(read.id, frame.id);
+        assert_eq!(read.body, frame.body);
+        assert_eq!(read.material, frame.material);
+        assert_eq!(read.position, frame.position);
+        assert_eq!(read.velocity, frame.velocity);
+        assert_eq!(read.mass, frame.mass);
+        assert_eq!(read.volume, frame.volume);
+        assert_eq!(read.stress, frame.stress);
+        assert_eq!(read.damage, frame.damage);
+        assert_eq!(read.strain_energy_density, frame.strain_energy_density);
+        assert_eq!(read.scalars, frame.scalars);
+        assert_eq!(read.vectors, frame.vectors);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
