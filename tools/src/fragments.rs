@@ -123,8 +123,9 @@ pub fn equivalent_diameter(volume: f64, planar: bool, thickness: f64) -> f64 {
     }
 }
 
-/// The median particle spacing from the particle volumes.
-fn median_spacing(frame: &ParticleFrame, planar: bool, thickness: f64) -> f64 {
+/// The median particle spacing from the particle volumes (`planar`: a 2D frame of scene
+/// thickness `thickness`).
+pub fn median_spacing(frame: &ParticleFrame, planar: bool, thickness: f64) -> f64 {
     let mut volumes = frame.volume.clone();
     if volumes.is_empty() {
         return 0.0;

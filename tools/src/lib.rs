@@ -10,12 +10,14 @@
 //! ```
 
 pub mod bench;
+pub mod crack;
 pub mod fragments;
 pub mod plot;
 
 use bench::{BenchCase, BenchPipeline, default_steps, measure, table};
 use clap::{Parser, Subcommand, ValueEnum};
 use fractum_engine::dim::{Dim, Dimension};
+use fractum_engine::output::{read_particle_frame, read_pvd, write_atomically};
 use fractum_engine::registry::Registry;
 use fractum_engine::resources::{Grid, Materials, Thickness};
 use fractum_engine::run::{RunError, RunSummary, run};
@@ -130,6 +132,36 @@ pub enum Command {
         #[arg(long)]
         output: Option<PathBuf>,
     },
+    /// A crack from a notch: its tip against time (crack.csv in the run's folder), initial
+    /// angle and speed, beside the Rayleigh speed of the material.
+    Crack {
+        /// Output folder of a run.
+        out: PathBuf,
+        /// The notch tip, x,y (or x,y,z).
+        #[arg(long, value_delimiter = ',', required = true)]
+        notch: Vec<f64>,
+        /// The notch's direction, from its mouth to its tip.
+        #[arg(long, value_delimiter = ',', default_values = ["1", "0"])]
+        direction: Vec<f64>,
+        /// Particles damaged at least this much are crack.
+        #[arg(long, default_value_t = 1.0)]
+        damage_above: f64,
+        /// Link length (m) joining crack particles [default: 1.5 particle spacings].
+        #[arg(long)]
+        link: Option<f64>,
+        /// Crack length (m) at which the initial angle is taken [default: 4 link lengths].
+        #[arg(long)]
+        angle_length: Option<f64>,
+        /// The run's scene, for the Rayleigh speed of its material.
+        #[arg(long)]
+        scene: Option<PathBuf>,
+        /// The material of the cracked body [default: the scene's first].
+        #[arg(long)]
+        material: Option<String>,
+        /// The scene's thickness (m) for 2D runs (for the default link).
+        #[arg(long, default_value_t = 1.0)]
+        thickness: f64,
+    },
     /// Measure particle-steps per second of the stock pipelines on a generated scene.
     Bench {
         /// Pipelines to measure.
@@ -191,6 +223,29 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             output,
         } => plot_command(&csv, &x, &columns, bar.as_deref(), output),
         Command::Curve { csv, x, y, from } => curve_command(&csv, &x, &y, from),
+        Command::Crack {
+            out,
+            notch,
+            direction,
+            damage_above,
+            link,
+            angle_length,
+            scene,
+            material,
+            thickness,
+        } => {
+            let request = CrackRequest {
+                notch,
+                direction,
+                damage_above,
+                link,
+                angle_length,
+                scene,
+                material,
+                thickness,
+            };
+            crack_command(&out, &request, registry)
+        }
         Command::Fragments {
             out,
             time,
@@ -274,6 +329,134 @@ fn plot_command(
         Err(e) => {
             eprintln!("error: {e}");
             EXIT_BAD_SCENE
+        }
+    }
+}
+
+/// The `crack` command's arguments.
+struct CrackRequest {
+    notch: Vec<f64>,
+    direction: Vec<f64>,
+    damage_above: f64,
+    link: Option<f64>,
+    angle_length: Option<f64>,
+    scene: Option<PathBuf>,
+    material: Option<String>,
+    thickness: f64,
+}
+
+/// A point of 2 or 3 coordinates as three.
+fn point3(values: &[f64], what: &str) -> Result<[f64; 3], String> {
+    match values {
+        [x, y] => Ok([*x, *y, 0.0]),
+        [x, y, z] => Ok([*x, *y, *z]),
+        _ => Err(format!("--{what} takes 2 or 3 comma-separated numbers")),
+    }
+}
+
+/// The Rayleigh speed of `material` (or the first) of the scene at `path`, with its name.
+fn scene_rayleigh_speed(
+    path: &Path,
+    material: Option<&str>,
+    registry: &Registry,
+) -> Result<(String, f64), String> {
+    let (_, built) = load(path, registry).map_err(|e| e.to_string())?;
+    let materials = &built.simulation.world.resource::<Materials>().0;
+    let m = match material {
+        Some(name) => materials.iter().find(|m| m.name == name).ok_or_else(|| {
+            let names: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+            format!(
+                "no material {name:?} in {}; it has {names:?}",
+                path.display()
+            )
+        })?,
+        None => materials
+            .first()
+            .ok_or_else(|| format!("{} has no materials", path.display()))?,
+    };
+    let speed = crack::rayleigh_speed(m.youngs_modulus, m.poisson_ratio, m.density);
+    Ok((m.name.clone(), speed))
+}
+
+fn crack_command(dir: &Path, request: &CrackRequest, registry: &Registry) -> i32 {
+    let result = (|| {
+        let notch_tip = point3(&request.notch, "notch")?;
+        let notch_direction = point3(&request.direction, "direction")?;
+        let link = match request.link {
+            Some(l) => l,
+            None => {
+                let frames = read_pvd(&dir.join("particles.pvd"))?;
+                let first = frames.first().ok_or_else(|| {
+                    format!("{}: the run wrote no particle frames", dir.display())
+                })?;
+                let frame = read_particle_frame(&dir.join(&first.1))?;
+                let planar = frame.position.iter().all(|p| p[2] == 0.0);
+                1.5 * fragments::median_spacing(&frame, planar, request.thickness)
+            }
+        };
+        let options = crack::CrackOptions {
+            notch_tip,
+            notch_direction,
+            damage_above: request.damage_above,
+            link,
+            angle_length: request.angle_length.unwrap_or(4.0 * link),
+        };
+        let history = crack::crack_history(dir, &options)?;
+        let mut table = String::from("time,tip_x,tip_y,tip_z,length\n");
+        for t in &history {
+            let [x, y, z] = t.tip;
+            table.push_str(&format!("{:e},{x:e},{y:e},{z:e},{:e}\n", t.time, t.length));
+        }
+        let path = dir.join("crack.csv");
+        write_atomically(&path, table.as_bytes())
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        let length = history.last().map_or(0.0, |t| t.length);
+        let mut report = format!(
+            "crack length {length:e} m (link {link:e} m); wrote {}",
+            path.display()
+        );
+        match crack::initial_angle(&history, &options) {
+            Some(a) => report.push_str(&format!(
+                "\ninitial angle {a:.1}° from the notch direction (at {:e} m of crack)",
+                options.angle_length
+            )),
+            None => report.push_str(&format!(
+                "\nno initial angle: the crack never reached {:e} m",
+                options.angle_length
+            )),
+        }
+        let rayleigh = request
+            .scene
+            .as_deref()
+            .map(|s| scene_rayleigh_speed(s, request.material.as_deref(), registry))
+            .transpose()?;
+        match crack::crack_speed(&history) {
+            Some((mean, largest)) => {
+                report.push_str(&format!(
+                    "\ncrack speed {mean:e} m/s (least squares over the growth), largest \
+                     between frames {largest:e} m/s"
+                ));
+                if let Some((name, c_r)) = rayleigh {
+                    report.push_str(&format!(
+                        "\nRayleigh speed of {name}: {c_r:e} m/s (crack speed {:.2} of it, \
+                         largest {:.2})",
+                        mean / c_r,
+                        largest / c_r
+                    ));
+                }
+            }
+            None => report.push_str("\nno crack speed: the crack did not grow between frames"),
+        }
+        Ok::<String, String>(report)
+    })();
+    match result {
+        Ok(report) => {
+            println!("{report}");
+            0
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            EXIT_IO
         }
     }
 }

@@ -212,3 +212,44 @@ fn fragments_finds_the_two_halves_of_a_bar_broken_by_a_rankine_band() {
     assert!(text(&missing.stderr).contains("particles.pvd"));
     let _ = std::fs::remove_dir_all(&out_dir);
 }
+
+#[test]
+fn crack_follows_the_tip_from_the_notch_and_compares_its_speed_with_rayleigh() {
+    let out_dir = std::env::temp_dir().join(format!("fractum-cli-crack-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out_dir);
+    let dir = out_dir.to_str().unwrap();
+    let run = fractum(&[
+        "run",
+        "scenes/time_to_failure_strip.ron",
+        "--out",
+        dir,
+        "--quiet",
+    ]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    let scene = "scenes/time_to_failure_strip.ron";
+    let out = fractum(&["crack", dir, "--notch", "0.1,0.2", "--scene", scene]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let report = text(&out.stdout);
+    assert!(report.contains("initial angle"), "{report}");
+    assert!(report.contains("Rayleigh speed of strip: 5.88"), "{report}");
+    // The crack crosses the strip (0.9 m from the notch tip), below the Rayleigh speed.
+    let table = std::fs::read_to_string(out_dir.join("crack.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = table
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    let last = rows.last().unwrap();
+    assert!(last[1] > 0.95 && last[4] > 0.85, "{last:?}");
+    let lengths: Vec<f64> = rows.iter().map(|r| r[4]).collect();
+    assert!(lengths.windows(2).all(|w| w[1] >= w[0]), "{lengths:?}");
+    let fastest = rows
+        .windows(2)
+        .map(|w| (w[1][4] - w[0][4]) / (w[1][0] - w[0][0]))
+        .fold(0.0, f64::max);
+    assert!(fastest < 588.0, "{fastest} m/s");
+    let bad = fractum(&["crack", dir, "--notch", "0.1"]);
+    assert_eq!(bad.status.code(), Some(4));
+    assert!(text(&bad.stderr).contains("--notch takes 2 or 3"));
+    let _ = std::fs::remove_dir_all(&out_dir);
+}
