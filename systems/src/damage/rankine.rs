@@ -16,7 +16,8 @@
 //! - Strength per particle: `tensile_strength`, or drawn from a Weibull distribution (eq. 25)
 //!   with the `weibull` option (`damage::weibull`).
 //! - Publishes `series.csv` columns `damaged_particles` (D > 0), `failed_particles` (D = 1) and
-//!   `dissipated_energy`, the model's own account: `Σ_p V₀,p g(D_p)` with the energy per unit
+//!   `dissipated_energy`, the model's own account of what the run has dissipated (the damage a
+//!   scene seeds, e.g. a notch, left out): `Σ_p V₀,p g(D_p)` with the energy per unit
 //!   volume dissipated in uniaxial tension up to damage `D`,
 //!   `g = σ_f² (1 + H_s) D / (2 E (1 + H_s − D))` (the work of the softening curve less the
 //!   elastic energy left on the unloading line); J per scene thickness in 2D.
@@ -90,6 +91,9 @@ pub struct RankineParams {
     pub columns: [usize; 3],
     /// Which materials this entry damages.
     pub materials: MaterialFilter,
+    /// `Σ V₀ g(D)` of the damage the particles start with (seeded cracks), which the run does
+    /// not dissipate and the published column leaves out.
+    pub initial_dissipation: f64,
 }
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
@@ -142,6 +146,8 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         ));
     }
     let materials = installer.materials().clone();
+    let initial_dissipation =
+        seeded_dissipation(installer, &materials, &youngs_modulus, raw.fracture_energy, length);
     let columns = [
         installer.add_series_column("damaged_particles"),
         installer.add_series_column("failed_particles"),
@@ -153,9 +159,38 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         youngs_modulus,
         columns,
         materials,
+        initial_dissipation,
     });
     with_dim!(installer.dimension(), D => installer.add_systems(rankine::<D>));
     Ok(())
+}
+
+/// `Σ V₀ g(D)` over the particles of `materials` as the scene seeds them.
+fn seeded_dissipation(
+    installer: &mut Installer,
+    materials: &MaterialFilter,
+    youngs_modulus: &[f64],
+    fracture_energy: f64,
+    length: f64,
+) -> f64 {
+    let world = installer.world();
+    let mut total = 0.0;
+    for entity in world.iter_entities() {
+        let (Some(m), Some(v0), Some(d), Some(s)) = (
+            entity.get::<MaterialId>(),
+            entity.get::<InitialVolume>(),
+            entity.get::<Damage>(),
+            entity.get::<Strength>(),
+        ) else {
+            continue;
+        };
+        if d.0 > 0.0 && materials.applies(*m) {
+            let e = youngs_modulus[m.0 as usize];
+            let h = softening_modulus(s.0, e, fracture_energy, length);
+            total += v0.0 * dissipated_density(d.0.min(1.0), s.0, e, h);
+        }
+    }
+    total
 }
 
 /// `H̄_s = σ_f² / (2 E G_f)` (1/m).
@@ -253,7 +288,7 @@ pub fn rankine<D: Dim>(
     columns.values[cd] = damaged as f64;
     columns.values[cf] = failed as f64;
     // Summed in row order, whatever the thread count.
-    columns.values[ce] = dissipated.iter().sum();
+    columns.values[ce] = dissipated.iter().sum::<f64>() - p.initial_dissipation;
 }
 
 #[cfg(test)]
@@ -299,6 +334,7 @@ mod tests {
             youngs_modulus: vec![test_material().youngs_modulus],
             columns: slots,
             materials: MaterialFilter::all(),
+            initial_dissipation: 0.0,
         });
         slots
     }
