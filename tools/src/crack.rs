@@ -2,8 +2,8 @@
 //! and its speed, from the damage field of a run's frames (for the DFG paper's §3.2
 //! Kalthoff–Winkler test: crack angle and speed).
 //!
-//! - The crack at a frame: the particles damaged at or above `damage_above` (default 1: fully
-//!   failed) that were not damaged in the first frame (the notch itself, seeded as failed), and
+//! - The crack at a frame: the particles damaged at or above `damage_above` (default 0.5) that
+//!   were not damaged in the first frame (the notch itself, seeded as failed), and
 //!   are connected, within the link length, to the particles nearest the notch tip.
 //! - Its tip: the crack particle farthest from the notch tip, among those not behind it (more
 //!   than one link length back along the notch direction: damage at the notch's faces or mouth

@@ -143,8 +143,9 @@ pub enum Command {
         /// The notch's direction, from its mouth to its tip.
         #[arg(long, value_delimiter = ',', default_values = ["1", "0"])]
         direction: Vec<f64>,
-        /// Particles damaged at least this much are crack.
-        #[arg(long, default_value_t = 1.0)]
+        /// Particles damaged at least this much are crack (a softening law's crack band is
+        /// rarely damaged fully).
+        #[arg(long, default_value_t = 0.5)]
         damage_above: f64,
         /// Link length (m) joining crack particles [default: 1.5 particle spacings].
         #[arg(long)]
