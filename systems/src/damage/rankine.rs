@@ -146,8 +146,13 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         ));
     }
     let materials = installer.materials().clone();
-    let initial_dissipation =
-        seeded_dissipation(installer, &materials, &youngs_modulus, raw.fracture_energy, length);
+    let initial_dissipation = seeded_dissipation(
+        installer,
+        &materials,
+        &youngs_modulus,
+        raw.fracture_energy,
+        length,
+    );
     let columns = [
         installer.add_series_column("damaged_particles"),
         installer.add_series_column("failed_particles"),
