@@ -321,3 +321,32 @@ fn weibull_strengths_follow_eq_25_per_particle_and_reach_the_frames() {
         .expect("a strength array in the frame");
     assert_eq!(written.1.len(), strengths.len());
 }
+
+#[test]
+fn rankine_leaves_the_damage_a_scene_seeds_out_of_its_dissipated_energy() {
+    // The band of tension_rankine.ron with its lower half seeded as failed: after a step far
+    // below the strength, nothing has been dissipated, though 8 particles are failed.
+    let path = repo_root().join("scenes/tension_rankine.ron");
+    let text = std::fs::read_to_string(&path).unwrap().replace(
+        "            material: \"band\",\n",
+        "            material: \"band\",\n            cracks: [Rectangle(min: (0.5, 0.0), max: (0.55, 0.1))],\n",
+    );
+    let file = fractum_engine::scene::SceneFile::parse("seeded_band.ron", text)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut built =
+        fractum_engine::scene::build_simulation(&file, &fractum_systems::stock_registry())
+            .unwrap_or_else(|e| panic!("{e}"));
+    let sim = &mut built.simulation;
+    sim.step().unwrap_or_else(|e| panic!("{e}"));
+    let columns = sim.world.resource::<SeriesColumns>();
+    let value = |name: &str| {
+        let i = columns.names.iter().position(|n| n == name).unwrap();
+        columns.values[i]
+    };
+    assert_eq!(value("failed_particles"), 8.0);
+    assert!(
+        value("dissipated_energy").abs() < 1e-18,
+        "{}",
+        value("dissipated_energy")
+    );
+}
