@@ -137,3 +137,22 @@ fn a_small_scene_steps_on_one_thread_unless_told_otherwise() {
     sim.set_serial_below(0);
     assert_eq!(sim.threads(), 2);
 }
+
+#[test]
+fn time_to_failure_with_weibull_strength_one_and_two_threads_give_identical_bits() {
+    // The strip's crack running (steps 250-400), with strengths drawn per particle: damage in
+    // the stress (eqs. 26-27) and the transfer without the 1 - D scaling.
+    let mut spec = spec::<Two>("time_to_failure_strip.ron", None);
+    let damage = spec
+        .pipeline
+        .iter()
+        .position(|e| e.system == "damage/time_to_failure")
+        .unwrap();
+    spec.pipeline[damage] = PipelineEntry::with_params(
+        "damage/time_to_failure",
+        "(tensile_strength: 100.0, crack_speed: 200.0, weibull: (modulus: 6.0, \
+         reference_volume: 1.0e-7, seed: 3, thickness: 1.0e-3))",
+    );
+    let run = |threads| state_after(spec.clone(), threads, 400);
+    assert_same(&run(1), &run(2));
+}
