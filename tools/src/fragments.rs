@@ -4,7 +4,8 @@
 //! distribution (the paper's Fig. 18).
 //!
 //! - Intact: a particle whose damage is below `damage_below` (default 0.5: a particle more than
-//!   half failed belongs to a crack, not to a fragment).
+//!   half failed belongs to a crack, not to a fragment), of the chosen bodies (all by default;
+//!   e.g. the specimen without the platens that load it).
 //! - Connected: two intact particles closer than the link length, by default 1.5 particle
 //!   spacings (the spacing from the median particle volume: `V^{1/3}` in 3D, `√(V / t)` in 2D
 //!   with the scene's thickness `t`), which joins the diagonal neighbours of a lattice with two
@@ -19,7 +20,7 @@ use fractum_engine::prelude::{DVec3, Three};
 use fractum_systems::spatial::Spatial;
 
 /// What counts as a fragment.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct FragmentOptions {
     /// Particles with damage below this are intact material.
     pub damage_below: f64,
@@ -27,6 +28,8 @@ pub struct FragmentOptions {
     pub link: Option<f64>,
     /// The scene's thickness (m) for 2D frames, whose volumes are per that thickness.
     pub thickness: f64,
+    /// Only the particles of these bodies (indices in the scene's order); all when empty.
+    pub bodies: Vec<u16>,
 }
 
 impl Default for FragmentOptions {
@@ -35,6 +38,7 @@ impl Default for FragmentOptions {
             damage_below: 0.5,
             link: None,
             thickness: 1.0,
+            bodies: Vec::new(),
         }
     }
 }
@@ -66,8 +70,15 @@ impl Fragment {
 /// The fragments of `frame`, largest mass first, and the link length used.
 pub fn find_fragments(frame: &ParticleFrame, options: &FragmentOptions) -> (Vec<Fragment>, f64) {
     let planar = frame.position.iter().all(|p| p[2] == 0.0);
+    let chosen = |p: usize| {
+        options.bodies.is_empty()
+            || frame
+                .body
+                .get(p)
+                .is_some_and(|b| options.bodies.contains(b))
+    };
     let intact: Vec<usize> = (0..frame.position.len())
-        .filter(|&p| frame.damage[p] < options.damage_below)
+        .filter(|&p| frame.damage[p] < options.damage_below && chosen(p))
         .collect();
     let link = options
         .link
@@ -344,6 +355,20 @@ mod tests {
         assert_eq!(fragments[0].velocity, [-1.0, 0.0, 0.0]);
         assert_eq!(fragments[1].speed(), 1.0);
         assert!((fragments[0].centroid[0] - 2.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn only_the_chosen_bodies_are_counted() {
+        let mut frame = lattice(10, |i, _| i == 5);
+        // The right half is another body.
+        frame.body = (0..100).map(|k| u16::from(k / 10 > 5)).collect();
+        let options = FragmentOptions {
+            bodies: vec![0],
+            ..FragmentOptions::default()
+        };
+        let (fragments, _) = find_fragments(&frame, &options);
+        assert_eq!(fragments.len(), 1);
+        assert_eq!(fragments[0].particles, 50);
     }
 
     #[test]

@@ -128,6 +128,10 @@ pub enum Command {
         /// The scene's thickness (m) for 2D runs.
         #[arg(long, default_value_t = 1.0)]
         thickness: f64,
+        /// Only these bodies, by index in the scene's order (e.g. the specimen, not its
+        /// platens) [default: all].
+        #[arg(long, value_delimiter = ',')]
+        body: Vec<u16>,
         /// Output PNG [default: fragment_sizes.png in the first run's folder].
         #[arg(long)]
         output: Option<PathBuf>,
@@ -253,12 +257,14 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             damage_below,
             link,
             thickness,
+            body,
             output,
         } => {
             let options = fragments::FragmentOptions {
                 damage_below,
                 link,
                 thickness,
+                bodies: body,
             };
             fragments_command(&out, time, &options, output)
         }
