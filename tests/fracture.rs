@@ -27,6 +27,19 @@ fn history(scene: &str) -> Vec<Vec<(f64, f64)>> {
     steps
 }
 
+/// A shipped scene with text edits (each `(from, to)` must match), built with the stock systems.
+fn scene_with(scene: &str, edits: &[(&str, &str)]) -> fractum_engine::scene::Built {
+    let mut text = std::fs::read_to_string(repo_root().join("scenes").join(scene)).unwrap();
+    for (from, to) in edits {
+        assert!(text.contains(from), "{scene} has no {from:?}");
+        text = text.replace(from, to);
+    }
+    let file =
+        fractum_engine::scene::SceneFile::parse(scene, text).unwrap_or_else(|e| panic!("{e}"));
+    fractum_engine::scene::build_simulation(&file, &fractum_systems::stock_registry())
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
 /// Onset and failure of every particle against the analytic steps.
 fn onset_and_failure_at_the_analytic_times(scene: &str) {
     let steps = history(scene);
@@ -134,19 +147,15 @@ fn eigensoftening_absorbs_the_work_its_traction_law_implies() {
 /// work of the moving end less the change of kinetic energy and the stored elastic energy left
 /// (which `damage/rankine` scales down where damage has opened). Returns (absorbed, A G_f).
 fn rankine_band_absorbs(fracture_energy: f64, end: f64) -> (f64, f64) {
-    let path = repo_root().join("scenes/tension_rankine.ron");
-    let text = std::fs::read_to_string(&path).unwrap();
-    let text = text
-        .replace(
-            "fracture_energy: 1.26253125e-2",
-            &format!("fracture_energy: {fracture_energy:e}"),
-        )
-        .replace("end: Time(4.5e-3)", &format!("end: Time({end:e})"));
-    let file = fractum_engine::scene::SceneFile::parse("tension_rankine.ron", text)
-        .unwrap_or_else(|e| panic!("{e}"));
-    let mut built =
-        fractum_engine::scene::build_simulation(&file, &fractum_systems::stock_registry())
-            .unwrap_or_else(|e| panic!("{e}"));
+    let energy = format!("fracture_energy: {fracture_energy:e}");
+    let time = format!("end: Time({end:e})");
+    let mut built = scene_with(
+        "tension_rankine.ron",
+        &[
+            ("fracture_energy: 1.26253125e-2", &energy),
+            ("end: Time(4.5e-3)", &time),
+        ],
+    );
     let sim = &mut built.simulation;
     let kinetic_start = totals(&mut sim.world).kinetic_energy;
     let right = sim
@@ -210,16 +219,11 @@ fn a_rankine_band_as_wide_as_its_length_absorbs_the_fracture_energy_per_unit_are
 /// crack speed replaced by `crack_speed`: (time, the largest x of a fully failed particle on
 /// the crack line).
 fn time_to_failure_tip(crack_speed: f64) -> Vec<(f64, f64)> {
-    let path = repo_root().join("scenes/time_to_failure_strip.ron");
-    let text = std::fs::read_to_string(&path).unwrap().replace(
-        "crack_speed: 200.0",
-        &format!("crack_speed: {crack_speed:?}"),
+    let speed = format!("crack_speed: {crack_speed:?}");
+    let mut built = scene_with(
+        "time_to_failure_strip.ron",
+        &[("crack_speed: 200.0", &speed)],
     );
-    let file = fractum_engine::scene::SceneFile::parse("time_to_failure_strip.ron", text)
-        .unwrap_or_else(|e| panic!("{e}"));
-    let mut built =
-        fractum_engine::scene::build_simulation(&file, &fractum_systems::stock_registry())
-            .unwrap_or_else(|e| panic!("{e}"));
     let sim = &mut built.simulation;
     let mut tips = Vec::new();
     while !sim.finished() {
@@ -287,17 +291,14 @@ fn a_time_to_failure_crack_runs_within_ten_percent_of_c_f_at_the_shipped_resolut
 fn weibull_strengths_follow_eq_25_per_particle_and_reach_the_frames() {
     // The strip with Weibull strengths: 0.4 m² × 1 mm particles of 1e-4 m² × 1e-3 m = 1e-7 m³
     // against a reference volume of 1e-7 m³, so the median stays σ̄_f = 100 Pa.
-    let path = repo_root().join("scenes/time_to_failure_strip.ron");
-    let text = std::fs::read_to_string(&path).unwrap().replace(
-        "crack_speed: 200.0)",
-        "crack_speed: 200.0, weibull: (modulus: 6.0, reference_volume: 1.0e-7, seed: 11, \
-         thickness: 1.0e-3))",
+    let mut built = scene_with(
+        "time_to_failure_strip.ron",
+        &[(
+            "crack_speed: 200.0)",
+            "crack_speed: 200.0, weibull: (modulus: 6.0, reference_volume: 1.0e-7, seed: 11, \
+             thickness: 1.0e-3))",
+        )],
     );
-    let file = fractum_engine::scene::SceneFile::parse("weibull_strip.ron", text)
-        .unwrap_or_else(|e| panic!("{e}"));
-    let mut built =
-        fractum_engine::scene::build_simulation(&file, &fractum_systems::stock_registry())
-            .unwrap_or_else(|e| panic!("{e}"));
     let world = &mut built.simulation.world;
     let mut query =
         world.query_filtered::<(&ParticleId, &InitialVolume, &Strength), With<Particle>>();
@@ -326,16 +327,13 @@ fn weibull_strengths_follow_eq_25_per_particle_and_reach_the_frames() {
 fn rankine_leaves_the_damage_a_scene_seeds_out_of_its_dissipated_energy() {
     // The band of tension_rankine.ron with its lower half seeded as failed: after a step far
     // below the strength, nothing has been dissipated, though 8 particles are failed.
-    let path = repo_root().join("scenes/tension_rankine.ron");
-    let text = std::fs::read_to_string(&path).unwrap().replace(
-        "            material: \"band\",\n",
-        "            material: \"band\",\n            cracks: [Rectangle(min: (0.5, 0.0), max: (0.55, 0.1))],\n",
+    let mut built = scene_with(
+        "tension_rankine.ron",
+        &[(
+            "            material: \"band\",\n",
+            "            material: \"band\",\n            cracks: [Rectangle(min: (0.5, 0.0), max: (0.55, 0.1))],\n",
+        )],
     );
-    let file = fractum_engine::scene::SceneFile::parse("seeded_band.ron", text)
-        .unwrap_or_else(|e| panic!("{e}"));
-    let mut built =
-        fractum_engine::scene::build_simulation(&file, &fractum_systems::stock_registry())
-            .unwrap_or_else(|e| panic!("{e}"));
     let sim = &mut built.simulation;
     sim.step().unwrap_or_else(|e| panic!("{e}"));
     let columns = sim.world.resource::<SeriesColumns>();

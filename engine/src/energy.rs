@@ -104,16 +104,17 @@ pub fn account_work<D: Dim>(
     particles: WorkQuery<D>,
     mut account: ResMut<EnergyAccount>,
 ) {
-    let moment = first_moment::<D>(particles.iter().map(|(m, x, _, _)| (m.0, x.0)));
+    // One pass over the particles for both sums.
+    let mut power = 0.0;
+    let moment = first_moment::<D>(particles.iter().map(|(m, x, v, f)| {
+        power += f.0.dot(v.0);
+        (m.0, x.0)
+    }));
     let b = body_force.0;
     let body: f64 = (0..D::N)
         .map(|a| b[a] * (moment[a] - account.first_moment[a]))
         .sum();
-    let loads: f64 = particles
-        .iter()
-        .map(|(_, _, v, f)| f.0.dot(v.0))
-        .sum::<f64>()
-        * clock.dt;
+    let loads = power * clock.dt;
     account.external_work += boundary_work(&bcs, &reactions, clock.time, clock.dt) + body + loads;
     account.first_moment = moment;
 }

@@ -138,35 +138,7 @@ pub enum Command {
     },
     /// A crack from a notch: its tip against time (crack.csv in the run's folder), initial
     /// angle and speed, beside the Rayleigh speed of the material.
-    Crack {
-        /// Output folder of a run.
-        out: PathBuf,
-        /// The notch tip, x,y (or x,y,z).
-        #[arg(long, value_delimiter = ',', required = true)]
-        notch: Vec<f64>,
-        /// The notch's direction, from its mouth to its tip.
-        #[arg(long, value_delimiter = ',', default_values = ["1", "0"])]
-        direction: Vec<f64>,
-        /// Particles damaged at least this much are crack (a softening law's crack band is
-        /// rarely damaged fully).
-        #[arg(long, default_value_t = 0.5)]
-        damage_above: f64,
-        /// Link length (m) joining crack particles [default: 1.5 particle spacings].
-        #[arg(long)]
-        link: Option<f64>,
-        /// Crack length (m) at which the initial angle is taken [default: 4 link lengths].
-        #[arg(long)]
-        angle_length: Option<f64>,
-        /// The run's scene, for the Rayleigh speed of its material.
-        #[arg(long)]
-        scene: Option<PathBuf>,
-        /// The material of the cracked body [default: the scene's first].
-        #[arg(long)]
-        material: Option<String>,
-        /// The scene's thickness (m) for 2D runs (for the default link).
-        #[arg(long, default_value_t = 1.0)]
-        thickness: f64,
-    },
+    Crack(CrackArgs),
     /// Measure particle-steps per second of the stock pipelines on a generated scene.
     Bench {
         /// Pipelines to measure.
@@ -185,6 +157,38 @@ pub enum Command {
         #[arg(long)]
         steps: Option<u64>,
     },
+}
+
+/// The arguments of `fractum crack`.
+#[derive(Debug, clap::Args)]
+pub struct CrackArgs {
+    /// Output folder of a run.
+    pub out: PathBuf,
+    /// The notch tip, x,y (or x,y,z).
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub notch: Vec<f64>,
+    /// The notch's direction, from its mouth to its tip.
+    #[arg(long, value_delimiter = ',', default_values = ["1", "0"])]
+    pub direction: Vec<f64>,
+    /// Particles damaged at least this much are crack (a softening law's crack band is
+    /// rarely damaged fully).
+    #[arg(long, default_value_t = 0.5)]
+    pub damage_above: f64,
+    /// Link length (m) joining crack particles [default: 1.5 particle spacings].
+    #[arg(long)]
+    pub link: Option<f64>,
+    /// Crack length (m) at which the initial angle is taken [default: 4 link lengths].
+    #[arg(long)]
+    pub angle_length: Option<f64>,
+    /// The run's scene, for the Rayleigh speed of its material.
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    /// The material of the cracked body [default: the scene's first].
+    #[arg(long)]
+    pub material: Option<String>,
+    /// The scene's thickness (m) for 2D runs (for the default link).
+    #[arg(long, default_value_t = 1.0)]
+    pub thickness: f64,
 }
 
 /// Pipelines `fractum bench` knows.
@@ -228,29 +232,7 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             output,
         } => plot_command(&csv, &x, &columns, bar.as_deref(), output),
         Command::Curve { csv, x, y, from } => curve_command(&csv, &x, &y, from),
-        Command::Crack {
-            out,
-            notch,
-            direction,
-            damage_above,
-            link,
-            angle_length,
-            scene,
-            material,
-            thickness,
-        } => {
-            let request = CrackRequest {
-                notch,
-                direction,
-                damage_above,
-                link,
-                angle_length,
-                scene,
-                material,
-                thickness,
-            };
-            crack_command(&out, &request, registry)
-        }
+        Command::Crack(args) => crack_command(&args, registry),
         Command::Fragments {
             out,
             time,
@@ -340,18 +322,6 @@ fn plot_command(
     }
 }
 
-/// The `crack` command's arguments.
-struct CrackRequest {
-    notch: Vec<f64>,
-    direction: Vec<f64>,
-    damage_above: f64,
-    link: Option<f64>,
-    angle_length: Option<f64>,
-    scene: Option<PathBuf>,
-    material: Option<String>,
-    thickness: f64,
-}
-
 /// A point of 2 or 3 coordinates as three.
 fn point3(values: &[f64], what: &str) -> Result<[f64; 3], String> {
     match values {
@@ -385,7 +355,8 @@ fn scene_rayleigh_speed(
     Ok((m.name.clone(), speed))
 }
 
-fn crack_command(dir: &Path, request: &CrackRequest, registry: &Registry) -> i32 {
+fn crack_command(request: &CrackArgs, registry: &Registry) -> i32 {
+    let dir = request.out.as_path();
     let result = (|| {
         let notch_tip = point3(&request.notch, "notch")?;
         let notch_direction = point3(&request.direction, "direction")?;

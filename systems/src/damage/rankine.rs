@@ -23,8 +23,8 @@
 //!   elastic energy left on the unloading line); J per scene thickness in 2D.
 
 use super::tensile_degradation::{
-    cell_diagonal, degrade_tensile, degraded_energy, install_strength, largest_trial_principal,
-    require_stress_degrading_pipeline,
+    TENSILE_STRENGTH_PARAM, WEIBULL_PARAM, characteristic_length, damage_counts, degrade_tensile,
+    degraded_energy, install_strength, largest_trial_principal, require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
 use fractum_engine::prelude::*;
@@ -37,12 +37,7 @@ pub const REGISTRATION: Registration = Registration {
     summary: "Rankine damage, linear strain softening tied to G_f over l_ch (eq. 23), tensile \
               principal stresses degraded (eqs. 26-27)",
     params: &[
-        ParamDoc {
-            name: "tensile_strength",
-            ty: "f64",
-            default: None,
-            doc: "σ_f (Pa); with `weibull`, the median strength at the reference volume",
-        },
+        TENSILE_STRENGTH_PARAM,
         ParamDoc {
             name: "fracture_energy",
             ty: "f64",
@@ -55,12 +50,7 @@ pub const REGISTRATION: Registration = Registration {
             default: Some("cell diagonal"),
             doc: "l_ch (m), the width over which a crack dissipates G_f",
         },
-        ParamDoc {
-            name: "weibull",
-            ty: "(modulus, reference_volume, seed, thickness)",
-            default: Some("none: every particle has tensile_strength"),
-            doc: "Weibull-distributed strength of eq. 25; `thickness` (m) only in 2D",
-        },
+        WEIBULL_PARAM,
     ],
     requires: &["stress/neo_hookean"],
     install,
@@ -102,13 +92,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     if !(raw.fracture_energy.is_finite() && raw.fracture_energy > 0.0) {
         return Err(params.error("fracture_energy", "expected G_f > 0 (J/m²)"));
     }
-    let length = match raw.characteristic_length {
-        Some(l) if l.is_finite() && l > 0.0 => l,
-        Some(_) => {
-            return Err(params.error("characteristic_length", "expected l_ch > 0 (m)"));
-        }
-        None => cell_diagonal(installer),
-    };
+    let length = characteristic_length(installer, params, raw.characteristic_length)?;
     let youngs_modulus: Vec<f64> = installer
         .world()
         .resource::<Materials>()
@@ -280,15 +264,7 @@ pub fn rankine<D: Dim>(
             }
         })
         .collect();
-    let owned = |i: &usize| p.materials.applies(material[*i]);
-    let damaged = (0..damage.len())
-        .filter(owned)
-        .filter(|&i| damage[i].0 > 0.0)
-        .count();
-    let failed = (0..damage.len())
-        .filter(owned)
-        .filter(|&i| damage[i].0 >= 1.0)
-        .count();
+    let (damaged, failed) = damage_counts(material, &damage, &p.materials);
     let [cd, cf, ce] = p.columns;
     columns.values[cd] = damaged as f64;
     columns.values[cf] = failed as f64;

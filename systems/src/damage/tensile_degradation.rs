@@ -148,6 +148,53 @@ pub fn cell_diagonal(installer: &Installer) -> f64 {
     })
 }
 
+/// The `characteristic_length` given (checked positive) or, when absent, the cell diagonal.
+pub fn characteristic_length(
+    installer: &Installer,
+    params: &Params,
+    given: Option<f64>,
+) -> Result<f64, SceneError> {
+    match given {
+        Some(l) if l.is_finite() && l > 0.0 => Ok(l),
+        Some(_) => Err(params.error("characteristic_length", "expected l_ch > 0 (m)")),
+        None => Ok(cell_diagonal(installer)),
+    }
+}
+
+/// The number of particles of `materials` that are damaged (D > 0) and failed (D = 1).
+pub fn damage_counts(
+    material: &[MaterialId],
+    damage: &[Damage],
+    materials: &MaterialFilter,
+) -> (usize, usize) {
+    material
+        .iter()
+        .zip(damage)
+        .filter(|(m, _)| materials.applies(**m))
+        .fold((0, 0), |(damaged, failed), (_, d)| {
+            (
+                damaged + usize::from(d.0 > 0.0),
+                failed + usize::from(d.0 >= 1.0),
+            )
+        })
+}
+
+/// The `tensile_strength` parameter both laws take.
+pub const TENSILE_STRENGTH_PARAM: ParamDoc = ParamDoc {
+    name: "tensile_strength",
+    ty: "f64",
+    default: None,
+    doc: "σ_f (Pa); with `weibull`, the median strength at the reference volume",
+};
+
+/// The `weibull` parameter both laws take.
+pub const WEIBULL_PARAM: ParamDoc = ParamDoc {
+    name: "weibull",
+    ty: "(modulus, reference_volume, seed, thickness)",
+    default: Some("none: every particle has tensile_strength"),
+    doc: "Weibull-distributed strength of eq. 25; `thickness` (m) only in 2D",
+};
+
 #[cfg(test)]
 mod tests {
     use super::*;

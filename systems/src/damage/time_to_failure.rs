@@ -17,8 +17,8 @@
 //! - Publishes `series.csv` columns `damaged_particles` (D > 0) and `failed_particles` (D = 1).
 
 use super::tensile_degradation::{
-    cell_diagonal, degrade_tensile, degraded_energy, install_strength, largest_trial_principal,
-    require_stress_degrading_pipeline,
+    TENSILE_STRENGTH_PARAM, WEIBULL_PARAM, characteristic_length, damage_counts, degrade_tensile,
+    degraded_energy, install_strength, largest_trial_principal, require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
 use fractum_engine::prelude::*;
@@ -31,12 +31,7 @@ pub const REGISTRATION: Registration = Registration {
     summary: "time-to-failure damage: D grows by Δt c_f / l_ch once σ_f is exceeded (eq. 24), \
               tensile principal stresses degraded (eqs. 26-27)",
     params: &[
-        ParamDoc {
-            name: "tensile_strength",
-            ty: "f64",
-            default: None,
-            doc: "σ_f (Pa); with `weibull`, the median strength at the reference volume",
-        },
+        TENSILE_STRENGTH_PARAM,
         ParamDoc {
             name: "crack_speed",
             ty: "f64",
@@ -49,12 +44,7 @@ pub const REGISTRATION: Registration = Registration {
             default: Some("cell diagonal"),
             doc: "l_ch (m); the time to failure is τ = l_ch / c_f",
         },
-        ParamDoc {
-            name: "weibull",
-            ty: "(modulus, reference_volume, seed, thickness)",
-            default: Some("none: every particle has tensile_strength"),
-            doc: "Weibull-distributed strength of eq. 25; `thickness` (m) only in 2D",
-        },
+        WEIBULL_PARAM,
     ],
     requires: &["stress/neo_hookean"],
     install,
@@ -89,13 +79,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     if !(raw.crack_speed.is_finite() && raw.crack_speed > 0.0) {
         return Err(params.error("crack_speed", "expected c_f > 0 (m/s)"));
     }
-    let length = match raw.characteristic_length {
-        Some(l) if l.is_finite() && l > 0.0 => l,
-        Some(_) => {
-            return Err(params.error("characteristic_length", "expected l_ch > 0 (m)"));
-        }
-        None => cell_diagonal(installer),
-    };
+    let length = characteristic_length(installer, params, raw.characteristic_length)?;
     install_strength(installer, params, raw.tensile_strength, raw.weibull)?;
     let materials = installer.materials().clone();
     let columns = [
@@ -165,15 +149,7 @@ pub fn time_to_failure<D: Dim>(
                 w.0 = degraded_energy(w.0, &trial, &s.0, &strain[i].0);
             }
         });
-    let owned = |i: &usize| p.materials.applies(material[*i]);
-    let damaged = (0..damage.len())
-        .filter(owned)
-        .filter(|&i| damage[i].0 > 0.0)
-        .count();
-    let failed = (0..damage.len())
-        .filter(owned)
-        .filter(|&i| damage[i].0 >= 1.0)
-        .count();
+    let (damaged, failed) = damage_counts(material, &damage, &p.materials);
     let [cd, cf] = p.columns;
     columns.values[cd] = damaged as f64;
     columns.values[cf] = failed as f64;
