@@ -12,7 +12,7 @@ use crate::output::{
     GridFrame, OutputPlan, ParticleFrame, ProbeKind, SeriesWriter, write_grid_frame,
     write_particle_frame, write_pvd,
 };
-use crate::resources::SimClock;
+use crate::resources::{SimClock, Thickness};
 use crate::simulation::Simulation;
 use crate::with_dim;
 use bevy_ecs::prelude::*;
@@ -105,6 +105,9 @@ fn particle_frame_of<D: Dim>(world: &mut World) -> ParticleFrame {
         f.strain_energy_density.push(w.0);
     }
     partition_fields::<D>(world, &mut f);
+    if D::N == 2 {
+        f.thickness = world.get_resource::<Thickness>().map(|t| t.0);
+    }
     f
 }
 

@@ -10,7 +10,9 @@
 //!   spacings (the spacing from the median particle volume: `V^{1/3}` in 3D, `√(V / t)` in 2D
 //!   with the scene's thickness `t`), which joins the diagonal neighbours of a lattice with two
 //!   particles per cell and nothing further. Components by union-find over a kd-tree's pairs.
-//! - A frame is 2D when every particle has z = 0 exactly (the frames write z = 0 in 2D).
+//! - A frame is 2D when it records the scene's thickness (`fractum run` writes it into every 2D
+//!   frame's field data), or, for a frame that does not, when every particle has z = 0 exactly.
+//!   The recorded thickness is used unless the options give one.
 //! - Per fragment: particle count, mass, volume, equivalent diameter (of the disk of the same
 //!   area in 2D, of the sphere of the same volume in 3D), centroid, velocity (its momentum over
 //!   its mass) and speed.
@@ -26,8 +28,9 @@ pub struct FragmentOptions {
     pub damage_below: f64,
     /// Link length (m); `None`: 1.5 median particle spacings.
     pub link: Option<f64>,
-    /// The scene's thickness (m) for 2D frames, whose volumes are per that thickness.
-    pub thickness: f64,
+    /// The scene's thickness (m) for 2D frames, whose volumes are per that thickness; `None`:
+    /// the thickness the frame records.
+    pub thickness: Option<f64>,
     /// Only the particles of these bodies (indices in the scene's order); all when empty.
     pub bodies: Vec<u16>,
 }
@@ -37,7 +40,7 @@ impl Default for FragmentOptions {
         Self {
             damage_below: 0.5,
             link: None,
-            thickness: 1.0,
+            thickness: None,
             bodies: Vec::new(),
         }
     }
@@ -67,9 +70,34 @@ impl Fragment {
     }
 }
 
-/// The fragments of `frame`, largest mass first, and the link length used.
-pub fn find_fragments(frame: &ParticleFrame, options: &FragmentOptions) -> (Vec<Fragment>, f64) {
-    let planar = frame.position.iter().all(|p| p[2] == 0.0);
+/// Whether `frame` is 2D, and the thickness its volumes are per (`thickness` if given, else the
+/// one the frame records; 1 in 3D). A 2D frame that records none needs `thickness`.
+pub fn frame_thickness(
+    frame: &ParticleFrame,
+    thickness: Option<f64>,
+) -> Result<(bool, f64), String> {
+    let planar = frame.thickness.is_some() || frame.position.iter().all(|p| p[2] == 0.0);
+    if !planar {
+        return Ok((false, 1.0));
+    }
+    match thickness.or(frame.thickness) {
+        Some(t) if t > 0.0 && t.is_finite() => Ok((true, t)),
+        Some(t) => Err(format!("a thickness of {t} m: expected a positive length")),
+        None => Err(
+            "a 2D frame that does not record its scene's thickness (written by an \
+                     older fractum): give the scene's thickness with --thickness"
+                .into(),
+        ),
+    }
+}
+
+/// The fragments of `frame`, largest mass first, and the link length used; an error when the
+/// frame's thickness is unknown (see [`frame_thickness`]).
+pub fn find_fragments(
+    frame: &ParticleFrame,
+    options: &FragmentOptions,
+) -> Result<(Vec<Fragment>, f64), String> {
+    let (planar, thickness) = frame_thickness(frame, options.thickness)?;
     let chosen = |p: usize| {
         options.bodies.is_empty()
             || frame
@@ -82,7 +110,7 @@ pub fn find_fragments(frame: &ParticleFrame, options: &FragmentOptions) -> (Vec<
         .collect();
     let link = options
         .link
-        .unwrap_or_else(|| 1.5 * median_spacing(frame, planar, options.thickness));
+        .unwrap_or_else(|| 1.5 * median_spacing(frame, planar, thickness));
     let labels = components(&intact, &frame.position, link);
     let mut fragments: Vec<Option<Fragment>> = vec![None; intact.len()];
     for (k, &p) in intact.iter().enumerate() {
@@ -117,12 +145,12 @@ pub fn find_fragments(frame: &ParticleFrame, options: &FragmentOptions) -> (Vec<
                 f.centroid[a] /= f.mass;
                 f.velocity[a] /= f.mass;
             }
-            f.diameter = equivalent_diameter(f.volume, planar, options.thickness);
+            f.diameter = equivalent_diameter(f.volume, planar, thickness);
             f
         })
         .collect();
     fragments.sort_by(|a, b| b.mass.total_cmp(&a.mass));
-    (fragments, link)
+    Ok((fragments, link))
 }
 
 /// The diameter of the disk (2D, area `volume / thickness`) or sphere of the same size.
@@ -243,7 +271,8 @@ pub fn run_fragments(
     }
     .ok_or_else(|| format!("{}: the run wrote no particle frames", dir.display()))?;
     let frame = fractum_engine::output::read_particle_frame(&dir.join(&chosen.1))?;
-    let (fragments, link) = find_fragments(&frame, options);
+    let (fragments, link) = find_fragments(&frame, options)
+        .map_err(|e| format!("{}: {e}", dir.join(&chosen.1).display()))?;
     Ok(RunFragments {
         dir: dir.to_path_buf(),
         time: chosen.0,
@@ -339,13 +368,36 @@ mod tests {
                 f.damage.push(if failed(i, j) { 1.0 } else { 0.0 });
             }
         }
+        f.thickness = Some(1.0);
         f
+    }
+
+    #[test]
+    fn the_frame_s_thickness_sets_the_spacing_unless_one_is_given() {
+        // Volumes of 2 per unit spacing of a 2-thick scene: the spacing is still 1.
+        let mut frame = lattice(4, |_, _| false);
+        frame.volume.iter_mut().for_each(|v| *v = 2.0);
+        frame.thickness = Some(2.0);
+        let (fragments, link) = find_fragments(&frame, &FragmentOptions::default()).unwrap();
+        assert_eq!(link, 1.5);
+        let area = 16.0;
+        assert!((fragments[0].diameter - 2.0 * (area / std::f64::consts::PI).sqrt()).abs() < 1e-12);
+        // A thickness given overrides the recorded one.
+        let options = FragmentOptions {
+            thickness: Some(0.5),
+            ..FragmentOptions::default()
+        };
+        assert_eq!(find_fragments(&frame, &options).unwrap().1, 3.0);
+        // A 2D frame of an older fractum, without its thickness: asked for, not guessed.
+        frame.thickness = None;
+        let error = find_fragments(&frame, &FragmentOptions::default()).unwrap_err();
+        assert!(error.contains("--thickness"), "{error}");
     }
 
     #[test]
     fn a_failed_column_splits_the_lattice_in_two() {
         let frame = lattice(10, |i, _| i == 5);
-        let (fragments, link) = find_fragments(&frame, &FragmentOptions::default());
+        let (fragments, link) = find_fragments(&frame, &FragmentOptions::default()).unwrap();
         assert_eq!(link, 1.5);
         assert_eq!(fragments.len(), 2);
         // Columns 0-4 (50 particles) and 6-9 (40): the larger first.
@@ -366,7 +418,7 @@ mod tests {
             bodies: vec![0],
             ..FragmentOptions::default()
         };
-        let (fragments, _) = find_fragments(&frame, &options);
+        let (fragments, _) = find_fragments(&frame, &options).unwrap();
         assert_eq!(fragments.len(), 1);
         assert_eq!(fragments[0].particles, 50);
     }
@@ -377,7 +429,7 @@ mod tests {
         let frame = lattice(11, |i, j| {
             i == 5 || j == 5 || (i, j) == (1, 0) || (i, j) == (0, 1) || (i, j) == (1, 1)
         });
-        let (fragments, _) = find_fragments(&frame, &FragmentOptions::default());
+        let (fragments, _) = find_fragments(&frame, &FragmentOptions::default()).unwrap();
         let mut counts: Vec<usize> = fragments.iter().map(|f| f.particles).collect();
         counts.sort_unstable();
         assert_eq!(counts, vec![1, 21, 25, 25, 25]);
@@ -395,12 +447,18 @@ mod tests {
         // separates.
         let thin = lattice(10, |i, j| i + j == 9);
         assert_eq!(
-            find_fragments(&thin, &FragmentOptions::default()).0.len(),
+            find_fragments(&thin, &FragmentOptions::default())
+                .unwrap()
+                .0
+                .len(),
             1
         );
         let thick = lattice(10, |i, j| i + j == 9 || i + j == 10);
         assert_eq!(
-            find_fragments(&thick, &FragmentOptions::default()).0.len(),
+            find_fragments(&thick, &FragmentOptions::default())
+                .unwrap()
+                .0
+                .len(),
             2
         );
     }

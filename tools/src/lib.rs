@@ -125,9 +125,9 @@ pub enum Command {
         /// Link length (m) joining intact particles [default: 1.5 particle spacings].
         #[arg(long)]
         link: Option<f64>,
-        /// The scene's thickness (m) for 2D runs.
-        #[arg(long, default_value_t = 1.0)]
-        thickness: f64,
+        /// The scene's thickness (m) for 2D runs [default: the one the frames record].
+        #[arg(long)]
+        thickness: Option<f64>,
         /// Only these bodies, by index in the scene's order (e.g. the specimen, not its
         /// platens) [default: all].
         #[arg(long, value_delimiter = ',')]
@@ -186,9 +186,10 @@ pub struct CrackArgs {
     /// The material of the cracked body [default: the scene's first].
     #[arg(long)]
     pub material: Option<String>,
-    /// The scene's thickness (m) for 2D runs (for the default link).
-    #[arg(long, default_value_t = 1.0)]
-    pub thickness: f64,
+    /// The scene's thickness (m) for 2D runs, for the default link [default: the one the frames
+    /// record].
+    #[arg(long)]
+    pub thickness: Option<f64>,
 }
 
 /// Pipelines `fractum bench` knows.
@@ -367,9 +368,11 @@ fn crack_command(request: &CrackArgs, registry: &Registry) -> i32 {
                 let first = frames.first().ok_or_else(|| {
                     format!("{}: the run wrote no particle frames", dir.display())
                 })?;
-                let frame = read_particle_frame(&dir.join(&first.1))?;
-                let planar = frame.position.iter().all(|p| p[2] == 0.0);
-                1.5 * fragments::median_spacing(&frame, planar, request.thickness)
+                let path = dir.join(&first.1);
+                let frame = read_particle_frame(&path)?;
+                let (planar, thickness) = fragments::frame_thickness(&frame, request.thickness)
+                    .map_err(|e| format!("{}: {e}", path.display()))?;
+                1.5 * fragments::median_spacing(&frame, planar, thickness)
             }
         };
         let options = crack::CrackOptions {

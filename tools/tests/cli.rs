@@ -188,8 +188,17 @@ fn fragments_finds_the_two_halves_of_a_bar_broken_by_a_rankine_band() {
     let out_dir =
         std::env::temp_dir().join(format!("fractum-cli-fragments-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out_dir);
-    let dir = out_dir.to_str().unwrap();
-    let run = fractum(&["run", "scenes/tension_rankine.ron", "--out", dir, "--quiet"]);
+    // The bar 2 cm thick: the frames record it, so the spacing (0.025 m) and the link (1.5
+    // spacings) come out right without `--thickness`.
+    std::fs::create_dir_all(&out_dir).unwrap();
+    let scene = std::fs::read_to_string(root().join("scenes/tension_rankine.ron")).unwrap();
+    let thin = scene.replacen("    title:", "    thickness: 0.02,\n    title:", 1);
+    assert_ne!(thin, scene);
+    let scene_path = out_dir.join("thin_bar.ron");
+    std::fs::write(&scene_path, thin).unwrap();
+    let run_dir = out_dir.join("run");
+    let dir = run_dir.to_str().unwrap();
+    let run = fractum(&["run", scene_path.to_str().unwrap(), "--out", dir, "--quiet"]);
     assert!(run.status.success(), "{}", text(&run.stderr));
     // The band has failed by 2.5 ms: the left and the right piece, 20 × 8 = 160 and 18 × 8 = 144
     // particles (the band's 16 failed ones are in neither).
@@ -197,15 +206,23 @@ fn fragments_finds_the_two_halves_of_a_bar_broken_by_a_rankine_band() {
     assert!(out.status.success(), "{}", text(&out.stderr));
     let summary = text(&out.stdout);
     assert!(summary.contains("2 fragments"), "{summary}");
-    let table = std::fs::read_to_string(out_dir.join("fragments.csv")).unwrap();
+    let link: f64 = summary
+        .split("link ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|value| value.parse().ok())
+        .unwrap_or_else(|| panic!("no link in {summary}"));
+    // Current volumes: the stretched bar's spacing is a little above 0.025 m.
+    assert!((link / 0.0375 - 1.0).abs() < 1e-3, "{summary}");
+    let table = std::fs::read_to_string(run_dir.join("fragments.csv")).unwrap();
     let particles: Vec<usize> = table
         .lines()
         .skip(1)
         .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
         .collect();
     assert_eq!(particles, vec![160, 144]);
-    assert!(out_dir.join("fragment_sizes.csv").exists());
-    assert!(out_dir.join("fragment_sizes.png").exists());
+    assert!(run_dir.join("fragment_sizes.csv").exists());
+    assert!(run_dir.join("fragment_sizes.png").exists());
     // A folder that holds no run is an error with exit code 4, not a panic.
     let missing = fractum(&["fragments", "scenes"]);
     assert_eq!(missing.status.code(), Some(4));

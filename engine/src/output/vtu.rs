@@ -40,6 +40,9 @@ pub struct ParticleFrame {
     pub scalars: Vec<(String, Vec<f64>)>,
     /// Further per-particle vectors (the damage-field gradient), by name.
     pub vectors: Vec<(String, Vec<[f64; 3]>)>,
+    /// The scene's thickness (m) of a 2D frame, whose masses and volumes are per this thickness;
+    /// `None` in 3D. Written as the file's field data, so analysis tools need not be told it.
+    pub thickness: Option<f64>,
 }
 
 struct Inline {
@@ -47,14 +50,24 @@ struct Inline {
 }
 
 impl Inline {
-    /// Starts a file of `n` VTK vertices, opening their point data.
-    fn vertices(n: usize, scalars: &str, vectors: &str) -> Self {
+    /// Starts a file of `n` VTK vertices, with `field_data` (name, value) as the grid's field
+    /// data, opening the vertices' point data.
+    fn vertices(n: usize, field_data: &[(&str, f64)], scalars: &str, vectors: &str) -> Self {
         let mut out = Inline { xml: String::new() };
+        out.xml.push_str(
+            "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" \
+             byte_order=\"LittleEndian\" header_type=\"UInt64\">\n  <UnstructuredGrid>\n",
+        );
+        if !field_data.is_empty() {
+            out.xml.push_str("    <FieldData>\n");
+            for &(name, value) in field_data {
+                out.array(Some(name), "Float64", 1, value.to_le_bytes().to_vec());
+            }
+            out.xml.push_str("    </FieldData>\n");
+        }
         let _ = write!(
             out.xml,
-            "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" \
-             byte_order=\"LittleEndian\" header_type=\"UInt64\">\n  <UnstructuredGrid>\n    \
-             <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">\n      <PointData \
+            "    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">\n      <PointData \
              Scalars=\"{scalars}\" Vectors=\"{vectors}\">\n"
         );
         out
@@ -184,8 +197,17 @@ impl ReadArray {
 pub fn read_particle_frame(path: &Path) -> Result<ParticleFrame, String> {
     let xml = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let at = |e: String| format!("{}: {e}", path.display());
-    let arrays = read_arrays(&xml).map_err(at)?;
+    let (field_data, piece) = match xml.split_once("<Piece") {
+        Some((head, piece)) => (read_arrays(head).map_err(at)?, piece),
+        None => (Vec::new(), xml.as_str()),
+    };
+    let arrays = read_arrays(piece).map_err(at)?;
     let mut f = ParticleFrame::default();
+    for a in &field_data {
+        if a.name.as_deref() == Some("thickness") {
+            f.thickness = a.f64s().map_err(at)?.first().copied();
+        }
+    }
     let mut seen_points = false;
     for a in &arrays {
         match (a.name.as_deref(), a.components) {
@@ -258,7 +280,7 @@ pub struct GridFrame {
 /// Writes the grid `frame` to `path` atomically: one VTK vertex per node, with `index`,
 /// `fields`, and `key_k`, `mass_k`, `velocity_k`, `normal_k` for each field slot `k`.
 pub fn write_grid_frame(path: &Path, frame: &GridFrame) -> std::io::Result<()> {
-    let mut out = Inline::vertices(frame.position.len(), "fields", "velocity_0");
+    let mut out = Inline::vertices(frame.position.len(), &[], "fields", "velocity_0");
     out.array(
         Some("index"),
         "Int32",
@@ -302,7 +324,12 @@ pub fn write_grid_frame(path: &Path, frame: &GridFrame) -> std::io::Result<()> {
 
 /// Writes `frame` to `path` atomically.
 pub fn write_particle_frame(path: &Path, frame: &ParticleFrame) -> std::io::Result<()> {
-    let mut out = Inline::vertices(frame.position.len(), "damage", "velocity");
+    let field_data: Vec<(&str, f64)> = frame
+        .thickness
+        .map(|t| ("thickness", t))
+        .into_iter()
+        .collect();
+    let mut out = Inline::vertices(frame.position.len(), &field_data, "damage", "velocity");
     out.array(
         Some("id"),
         "Int32",
@@ -390,6 +417,7 @@ mod tests {
             strain_energy_density: vec![5.0, 6.0],
             scalars: vec![("strength".into(), vec![7.0, 8.0])],
             vectors: vec![("damage_gradient".into(), vec![[0.0; 3], [1.0, 0.0, 0.0]])],
+            thickness: Some(2.0e-3),
         };
         let dir = std::env::temp_dir().join(format!("fractum-vtu-read-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
@@ -408,6 +436,7 @@ mod tests {
         assert_eq!(read.strain_energy_density, frame.strain_energy_density);
         assert_eq!(read.scalars, frame.scalars);
         assert_eq!(read.vectors, frame.vectors);
+        assert_eq!(read.thickness, frame.thickness);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
