@@ -15,6 +15,12 @@
 //! `series.csv` gets `external_work` (accumulated since the start) and `energy_residual`
 //! `= W_ext − (E − E₀) − D`, with `E` the total (kinetic + stored) energy and `D` the sum of the
 //! damage systems' `dissipated_energy` column when there is one.
+//!
+//! A negative residual is energy the scheme created. An explicit scheme that creates energy is
+//! usually on its way to a blow-up (a time step too long for the stiffness it meets, or the
+//! cell-crossing of the linear tents under a steep stress), long before any value turns
+//! non-finite; [`EnergyWatch`] follows the series rows and records when the created energy
+//! passes [`CREATION_WARNING`] of the energy in play, so that the run can say so while it goes.
 
 use crate::boundary::{BoundaryConditions, Reactions};
 use crate::components::{ExternalForce, Mass, Particle, Position, Velocity};
@@ -119,6 +125,75 @@ pub fn account_work<D: Dim>(
     account.first_moment = moment;
 }
 
+/// The fraction of the energy in play (the largest of the initial energy, the total energy and
+/// the work done so far) that the scheme may create before [`EnergyWatch`] reports it. Well below
+/// the energy creation that precedes a blow-up (tens of percent within a few hundred steps),
+/// above the few percent a sound run can create where a stiff contact first closes (the
+/// Brazilian disk's platens: 2-3%, which then stays).
+pub const CREATION_WARNING: f64 = 0.05;
+
+/// Energy the scheme had created at one series row.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EnergyCreation {
+    /// Step of the row.
+    pub step: u64,
+    /// Simulated time of the row (s).
+    pub time: f64,
+    /// Energy created, `−energy_residual` (J; per scene thickness in 2D).
+    pub created: f64,
+    /// `created` over the energy in play.
+    pub fraction: f64,
+}
+
+/// Follows the energy balance of the series rows for energy the scheme creates (a resource the
+/// run loop updates at every row, and a front end may read to warn while the run goes on).
+#[derive(Resource, Clone, Debug, Default, PartialEq)]
+pub struct EnergyWatch {
+    /// The energy in play: the largest initial energy, total energy or work done seen so far.
+    pub scale: f64,
+    /// The first row at which the created energy passed [`CREATION_WARNING`] of the scale.
+    pub first: Option<EnergyCreation>,
+    /// The row with the largest created fraction, once `first` is set.
+    pub worst: Option<EnergyCreation>,
+}
+
+impl EnergyWatch {
+    /// Takes in one series row: the step, time, total energy, initial energy, work done and
+    /// residual. Returns true when this row is the first past the warning level.
+    pub fn observe(
+        &mut self,
+        step: u64,
+        time: f64,
+        total_energy: f64,
+        initial_energy: f64,
+        work: f64,
+        residual: f64,
+    ) -> bool {
+        for e in [total_energy, initial_energy, work] {
+            if e.is_finite() {
+                self.scale = self.scale.max(e);
+            }
+        }
+        if !(residual < 0.0 && self.scale > 0.0) {
+            return false;
+        }
+        let row = EnergyCreation {
+            step,
+            time,
+            created: -residual,
+            fraction: -residual / self.scale,
+        };
+        let first = self.first.is_none() && row.fraction > CREATION_WARNING;
+        if first {
+            self.first = Some(row);
+        }
+        if self.first.is_some() && self.worst.is_none_or(|w| row.fraction > w.fraction) {
+            self.worst = Some(row);
+        }
+        first
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -156,5 +231,27 @@ mod tests {
         let work = world.resource::<EnergyAccount>().external_work;
         // Gravity: m g Δy = 2 × 10 × 0.05 = 1; the load: 3 × 1 × 0.1 = 0.3; the region: 5 × 0.2.
         assert!((work - 2.3).abs() < 1e-12, "{work}");
+    }
+
+    #[test]
+    fn the_watch_reports_creation_past_five_percent_of_the_energy_in_play_once() {
+        let mut watch = EnergyWatch::default();
+        // Dissipation and 4% created: quiet.
+        assert!(!watch.observe(10, 1.0, 9.0, 10.0, 0.0, 1.0));
+        assert!(!watch.observe(20, 2.0, 10.4, 10.0, 0.0, -0.4));
+        assert_eq!(watch.first, None);
+        // Work done raises the scale to 20.5: 1.25 J created is 6.1%.
+        assert!(watch.observe(30, 3.0, 20.5, 10.0, 20.0, -1.25));
+        let first = watch.first.unwrap();
+        assert_eq!((first.step, first.created), (30, 1.25));
+        assert!((first.fraction - 1.25 / 20.5).abs() < 1e-15);
+        // Reported once; the worst row is followed.
+        assert!(!watch.observe(40, 4.0, 25.0, 10.0, 20.0, -5.0));
+        assert!(!watch.observe(50, 5.0, 22.0, 10.0, 20.0, -2.0));
+        assert_eq!(watch.first.unwrap().step, 30);
+        assert_eq!(watch.worst.unwrap().step, 40);
+        // A non-finite row does not poison the scale.
+        assert!(!watch.observe(60, 6.0, f64::NAN, 10.0, f64::INFINITY, f64::NAN));
+        assert_eq!(watch.scale, 25.0);
     }
 }

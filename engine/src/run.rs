@@ -7,6 +7,7 @@ use crate::components::{
 };
 use crate::diagnostics::{Totals, totals};
 use crate::dim::{Dim, Dimension, SymOps, VectorOps};
+use crate::energy::EnergyWatch;
 use crate::health::Blowup;
 use crate::output::{
     GridFrame, OutputPlan, ParticleFrame, ProbeKind, SeriesWriter, write_grid_frame,
@@ -55,6 +56,9 @@ pub struct RunSummary {
     pub frames: usize,
     /// Particles removed on leaving the grid.
     pub removed: u64,
+    /// The most energy the scheme created, when it passed the watch's warning level
+    /// ([`EnergyWatch`]).
+    pub energy_created: Option<crate::energy::EnergyCreation>,
 }
 
 impl RunSummary {
@@ -275,6 +279,19 @@ fn series_row_of<D: Dim>(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
     row
 }
 
+/// Feeds a series row (time, kinetic, strain, total, …, work, residual) to the world's
+/// [`EnergyWatch`].
+fn watch_energy(sim: &mut Simulation, row: &[f64]) {
+    let step = sim.clock().step;
+    let initial = sim
+        .world
+        .get_resource::<crate::energy::EnergyAccount>()
+        .map_or(f64::NAN, |a| a.initial_energy);
+    let n = row.len();
+    let mut watch = sim.world.get_resource_or_init::<EnergyWatch>();
+    watch.observe(step, row[0], row[3], initial, row[n - 2], row[n - 1]);
+}
+
 struct Outputs<'a> {
     plan: &'a OutputPlan,
     dir: &'a Path,
@@ -289,6 +306,7 @@ impl Outputs<'_> {
         let due = |every: u64| every > 0 && step.is_multiple_of(every);
         if force || due(self.plan.csv_every) || (self.plan.csv_every == 0 && step == 0) {
             let row = series_row(&mut sim.world, self.plan);
+            watch_energy(sim, &row);
             let path = self.dir.join("series.csv");
             self.series.push(step, &row).map_err(io_error(&path))?;
         }
@@ -369,5 +387,9 @@ pub fn run(
             .world
             .resource::<crate::health::EscapedParticles>()
             .count,
+        energy_created: sim
+            .world
+            .get_resource::<EnergyWatch>()
+            .and_then(|w| w.worst),
     })
 }

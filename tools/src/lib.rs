@@ -17,6 +17,7 @@ pub mod plot;
 use bench::{BenchCase, BenchPipeline, default_steps, measure, table};
 use clap::{Parser, Subcommand, ValueEnum};
 use fractum_engine::dim::{Dim, Dimension};
+use fractum_engine::energy::{EnergyCreation, EnergyWatch};
 use fractum_engine::output::{read_particle_frame, read_pvd, write_atomically};
 use fractum_engine::registry::Registry;
 use fractum_engine::resources::{Grid, Materials, Thickness};
@@ -751,7 +752,17 @@ fn run_command(
     let bar = progress_bar(quiet);
     let started = Instant::now();
     let mut last_draw = Instant::now();
+    let mut warned = false;
     let result = run(sim, &built.output, &out_dir, |sim| {
+        if !warned
+            && let Some(first) = sim
+                .world
+                .get_resource::<EnergyWatch>()
+                .and_then(|w| w.first)
+        {
+            warned = true;
+            bar.suspend(|| eprintln!("warning: {}", energy_warning(&first)));
+        }
         if last_draw.elapsed() > Duration::from_millis(100) || sim.finished() {
             last_draw = Instant::now();
             let clock = sim.clock();
@@ -791,6 +802,20 @@ fn run_command(
     }
 }
 
+/// The warning printed when a run first creates more energy than the watch allows.
+pub fn energy_warning(first: &EnergyCreation) -> String {
+    format!(
+        "at step {} (t = {:.4e} s) the scheme has created {:.4e} J, {:.1}% of the energy in play \
+         (energy_residual in series.csv). An explicit run that creates energy is usually heading \
+         for a blow-up: a smaller CFL factor, or a smoother basis (basis/gimp) than the linear \
+         tents where a stiff contact or a steep stress moves particles across cells, usually cures it",
+        first.step,
+        first.time,
+        first.created,
+        100.0 * first.fraction
+    )
+}
+
 /// The end-of-run summary.
 pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
     let removed = if s.removed > 0 {
@@ -806,8 +831,18 @@ pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
     } else {
         s.threads.to_string()
     };
+    let energy = s.energy_created.map_or(String::new(), |worst| {
+        format!(
+            "energy: the scheme created up to {:.4e} J ({:.1}% of the energy in play) at step {}, \
+             t = {:.4e} s (energy_residual in series.csv)\n",
+            worst.created,
+            100.0 * worst.fraction,
+            worst.step,
+            worst.time
+        )
+    });
     format!(
-        "steps {}, simulated time {:.6e} s, particles {}, threads {threads}\nwall time {:.3} s, {:.4e} particle-steps/s\n{} VTU frames, output in {}\n{removed}",
+        "steps {}, simulated time {:.6e} s, particles {}, threads {threads}\nwall time {:.3} s, {:.4e} particle-steps/s\n{} VTU frames, output in {}\n{removed}{energy}",
         s.steps,
         s.time,
         s.particles,
