@@ -19,8 +19,11 @@
 //!   `Δp − (Δp·n) n`, so no tangent basis is built: there is no basis that could differ between
 //!   the two fields, and the friction acts against the actual slip direction in 2D and 3D.
 //! - Impulses are computed once per pair and applied with opposite signs, so momentum is
-//!   conserved to round-off; a node with more than two fields sums its pairwise impulses.
-//!   Velocity components held by a boundary condition are left alone on both fields.
+//!   conserved to round-off. A node with more than two fields takes its pairs one after the
+//!   other, each from the velocities the pairs before it left, in sweeps until no pair acts
+//!   ([`node_impulses`]); summed from the velocities before contact, the pairs would stop a field
+//!   once per partner. Velocity components held by a boundary condition are left alone on both
+//!   fields.
 //! - Integrators. With `predictor/newmark` this system runs in the contact stage: the
 //!   end-of-step velocity is `ṽ + γΔt f/m` with the forces of the new stress; the system forms
 //!   it and leaves the contact force `Δp/(γΔt)` in `NodeContactForce` for the corrector to
@@ -349,9 +352,22 @@ pub fn separable(
             && damage.mean[ka].min(damage.mean[kb]) > threshold)
 }
 
+/// Gauss–Seidel sweeps over the pairs of a node with three fields or more (two fields need one
+/// pass, which is exact).
+pub const MAX_SWEEPS: usize = 8;
+
 /// Contact impulses of every field of one node. A pair in which one field holds less than
 /// `merge_below` of the node's mass moves as one field (the stick impulse, whatever the
 /// separability); `merge_below = 0` leaves every pair to Algorithm 3.
+///
+/// With three fields or more (two contact groups where one is split by its damage gradient),
+/// the pairs are taken one after the other, each from the velocities the pairs before it left
+/// (Gauss–Seidel), in sweeps until no pair is approaching, at most [`MAX_SWEEPS`]. Every pair's
+/// impulse only removes approach and bounded slip, so no sweep can add energy. Summing the pairs'
+/// impulses, each from the velocities before contact, applies a field's approach once per
+/// partner: a platen field meeting both sides of a cracked disk at one node was stopped twice
+/// and sent back, and the Brazilian disk with DFG partitioning at Δx = 0.067 mm created 13% of
+/// its energy in 1.5 µs.
 pub fn node_impulses<V: VectorOps>(
     fields: &NodeFields,
     states: &[FieldState<V>; MAX_FIELDS],
@@ -364,37 +380,55 @@ pub fn node_impulses<V: VectorOps>(
     let count = fields.count as usize;
     let total: f64 = states[..count].iter().map(|s| s.mass).sum();
     let present = |k: usize| states[k].mass > params.min_mass_fraction * total;
-    for a in 0..count {
-        for b in a + 1..count {
-            let lighter = states[a].mass.min(states[b].mass);
-            let merged = lighter > 0.0 && lighter < merge_below * total;
-            let takes_part = merged || (present(a) && present(b));
-            if !takes_part {
-                continue;
-            }
-            let can_separate = !merged
-                && separable(
-                    fields.keys[a],
-                    fields.keys[b],
-                    damage,
-                    (a, b),
-                    params.separability,
-                );
-            let friction = params.friction_between(fields.keys[a].group(), fields.keys[b].group());
-            let mut dp = pair_impulse(
-                &states[a],
-                &states[b],
-                friction,
-                can_separate,
-                params.normals,
-            );
-            for (c, is_held) in held.iter().enumerate() {
-                if *is_held {
-                    dp[c] = 0.0;
+    let mut current = *states;
+    let sweeps = if count > 2 { MAX_SWEEPS } else { 1 };
+    for _ in 0..sweeps {
+        let mut acted = false;
+        for a in 0..count {
+            for b in a + 1..count {
+                let lighter = states[a].mass.min(states[b].mass);
+                let merged = lighter > 0.0 && lighter < merge_below * total;
+                let takes_part = merged || (present(a) && present(b));
+                if !takes_part {
+                    continue;
                 }
+                let can_separate = !merged
+                    && separable(
+                        fields.keys[a],
+                        fields.keys[b],
+                        damage,
+                        (a, b),
+                        params.separability,
+                    );
+                let friction =
+                    params.friction_between(fields.keys[a].group(), fields.keys[b].group());
+                let mut dp = pair_impulse(
+                    &current[a],
+                    &current[b],
+                    friction,
+                    can_separate,
+                    params.normals,
+                );
+                for (c, is_held) in held.iter().enumerate() {
+                    if *is_held {
+                        dp[c] = 0.0;
+                    }
+                }
+                // Round-off of a pair already moving together is not an action.
+                let scale = (current[a].velocity * current[a].mass).length()
+                    + (current[b].velocity * current[b].mass).length();
+                if dp.length() <= 1e-14 * scale {
+                    continue;
+                }
+                acted = true;
+                impulses[a] += dp;
+                impulses[b] -= dp;
+                current[a].velocity += dp / current[a].mass;
+                current[b].velocity -= dp / current[b].mass;
             }
-            impulses[a] += dp;
-            impulses[b] -= dp;
+        }
+        if !acted {
+            break;
         }
     }
     impulses
@@ -793,6 +827,58 @@ mod tests {
         let v_cm = (states[0].velocity * 1e-7 + states[1].velocity * 2.0) / (2.0 + 1e-7);
         assert!((after - v_cm).length() < 1e-9, "{after}");
         assert_eq!(merged[0] + merged[1], DVec2::ZERO);
+    }
+
+    /// A light platen field meets both sides of a cracked body at one node, each side heavy and
+    /// at rest. The pairs taken one after the other stop the platen once; summed, each pair
+    /// would stop it again, and the particles, which take `Δp/(γ m)` of the contact impulse
+    /// under Newmark (`γ = 1/2`), would leave at three times their speed.
+    #[test]
+    fn three_fields_at_a_node_stop_the_approach_once() {
+        let fields = NodeFields {
+            count: 3,
+            keys: [FieldKey(0), FieldKey(1), FieldKey(2), FieldKey(0)],
+        };
+        let mut states = [state(0.0, DVec2::ZERO, DVec2::ZERO); MAX_FIELDS];
+        // The two sides of group 0 below (normals up and a little apart), group 1 above.
+        states[0] = state(100.0, DVec2::ZERO, DVec2::new(0.1, 1.0).normalize());
+        states[1] = state(100.0, DVec2::ZERO, DVec2::new(-0.1, 1.0).normalize());
+        states[2] = state(1.0, DVec2::new(0.0, -10.0), DVec2::new(0.0, -1.0));
+        // The two sides are separable: failed and damaged beyond D̄_min.
+        let damage = NodeFieldDamage {
+            mean: [1.0; MAX_FIELDS],
+            max: [1.0; MAX_FIELDS],
+        };
+        let params = FrictionalParams {
+            friction: 0.3,
+            ..FrictionalParams::default()
+        };
+        let dp = node_impulses(&fields, &states, &damage, &params, &[false; 2], 0.0);
+        let momentum: DVec2 = (0..3).map(|k| dp[k]).sum();
+        assert!(momentum.length() < 1e-12, "{momentum}");
+        let energy = |scale: f64| -> f64 {
+            (0..3)
+                .map(|k| {
+                    let v = states[k].velocity + dp[k] * scale / states[k].mass;
+                    0.5 * states[k].mass * v.length_squared()
+                })
+                .sum()
+        };
+        let before = energy(0.0);
+        // Nodal velocities: the approach is removed, and with it energy.
+        assert!(energy(1.0) < before, "{} vs {before}", energy(1.0));
+        let platen = states[2].velocity + dp[2] / states[2].mass;
+        for side in 0..2 {
+            let side_velocity = states[side].velocity + dp[side] / states[side].mass;
+            let approach = (platen - side_velocity).dot(DVec2::new(0.0, -1.0));
+            assert!(
+                approach < 1e-9,
+                "side {side} still approached at {approach}"
+            );
+        }
+        // Particle velocities under Newmark (twice the impulse): about an elastic bounce (52 J
+        // here, with the tilted normals and friction), where the summed pairs give 440 J.
+        assert!(energy(2.0) < 1.1 * before, "{} vs {before}", energy(2.0));
     }
 
     #[test]
