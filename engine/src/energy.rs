@@ -16,11 +16,14 @@
 //! `= W_ext − (E − E₀) − D`, with `E` the total (kinetic + stored) energy and `D` the sum of the
 //! damage systems' `dissipated_energy` column when there is one.
 //!
-//! A negative residual is energy the scheme created. An explicit scheme that creates energy is
-//! usually on its way to a blow-up (a time step too long for the stiffness it meets, or the
-//! cell-crossing of the linear tents under a steep stress), long before any value turns
-//! non-finite; [`EnergyWatch`] follows the series rows and records when the created energy
-//! passes [`CREATION_WARNING`] of the energy in play, so that the run can say so while it goes.
+//! A total energy above the work done, `W_ext − (E − E₀) < 0`, is energy the scheme created.
+//! An explicit scheme that creates energy is usually on its way to a blow-up (a time step too
+//! long for the stiffness it meets, or the cell-crossing of the linear tents under a steep
+//! stress), long before any value turns non-finite; [`EnergyWatch`] follows the series rows and
+//! records when the created energy passes [`CREATION_WARNING`] of the energy in play, so that
+//! the run can say so while it goes. It leaves the damage laws' `dissipated_energy` out of its
+//! balance: dissipation cannot be negative, so what it sees created is created, whatever the
+//! accuracy of those accounts.
 
 use crate::boundary::{BoundaryConditions, Reactions};
 use crate::components::{ExternalForce, Mass, Particle, Position, Velocity};
@@ -139,7 +142,7 @@ pub struct EnergyCreation {
     pub step: u64,
     /// Simulated time of the row (s).
     pub time: f64,
-    /// Energy created, `−energy_residual` (J; per scene thickness in 2D).
+    /// Energy created, `(E − E₀) − W_ext` (J; per scene thickness in 2D).
     pub created: f64,
     /// `created` over the energy in play.
     pub fraction: f64,
@@ -159,7 +162,8 @@ pub struct EnergyWatch {
 
 impl EnergyWatch {
     /// Takes in one series row: the step, time, total energy, initial energy, work done and
-    /// residual. Returns true when this row is the first past the warning level.
+    /// the balance `W_ext − (E − E₀)` (negative: energy created). Returns true when this row
+    /// is the first past the warning level.
     pub fn observe(
         &mut self,
         step: u64,
@@ -167,21 +171,21 @@ impl EnergyWatch {
         total_energy: f64,
         initial_energy: f64,
         work: f64,
-        residual: f64,
+        balance: f64,
     ) -> bool {
         for e in [total_energy, initial_energy, work] {
             if e.is_finite() {
                 self.scale = self.scale.max(e);
             }
         }
-        if !(residual < 0.0 && self.scale > 0.0) {
+        if !(balance < 0.0 && self.scale > 0.0) {
             return false;
         }
         let row = EnergyCreation {
             step,
             time,
-            created: -residual,
-            fraction: -residual / self.scale,
+            created: -balance,
+            fraction: -balance / self.scale,
         };
         let first = self.first.is_none() && row.fraction > CREATION_WARNING;
         if first {

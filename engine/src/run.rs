@@ -280,7 +280,10 @@ fn series_row_of<D: Dim>(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
 }
 
 /// Feeds a series row (time, kinetic, strain, total, …, work, residual) to the world's
-/// [`EnergyWatch`].
+/// [`EnergyWatch`], with the balance `W_ext − (E − E₀)` left before the damage laws' own
+/// `dissipated_energy` accounts: dissipation is never negative, so a total energy above the
+/// work done is created energy whatever those accounts say (the uniaxial account of the
+/// Rankine laws reads up to 25% high, which alone would look like creation).
 fn watch_energy(sim: &mut Simulation, row: &[f64]) {
     let step = sim.clock().step;
     let initial = sim
@@ -288,8 +291,9 @@ fn watch_energy(sim: &mut Simulation, row: &[f64]) {
         .get_resource::<crate::energy::EnergyAccount>()
         .map_or(f64::NAN, |a| a.initial_energy);
     let n = row.len();
+    let (total, work) = (row[3], row[n - 2]);
     let mut watch = sim.world.get_resource_or_init::<EnergyWatch>();
-    watch.observe(step, row[0], row[3], initial, row[n - 2], row[n - 1]);
+    watch.observe(step, row[0], total, initial, work, work - (total - initial));
 }
 
 struct Outputs<'a> {

@@ -806,7 +806,7 @@ fn run_command(
 pub fn energy_warning(first: &EnergyCreation) -> String {
     format!(
         "at step {} (t = {:.4e} s) the scheme has created {:.4e} J, {:.1}% of the energy in play \
-         (energy_residual in series.csv). An explicit run that creates energy is usually heading \
+         (the total energy above external_work in series.csv). An explicit run that creates energy is usually heading \
          for a blow-up: a smaller CFL factor, or a smoother basis (basis/gimp) than the linear \
          tents where a stiff contact or a steep stress moves particles across cells, usually cures it",
         first.step,
@@ -834,7 +834,7 @@ pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
     let energy = s.energy_created.map_or(String::new(), |worst| {
         format!(
             "energy: the scheme created up to {:.4e} J ({:.1}% of the energy in play) at step {}, \
-             t = {:.4e} s (energy_residual in series.csv)\n",
+             t = {:.4e} s (the total energy above external_work in series.csv)\n",
             worst.created,
             100.0 * worst.fraction,
             worst.step,
