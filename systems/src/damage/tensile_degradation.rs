@@ -8,6 +8,13 @@
 //!   strain the three principal values are the in-plane pair and `σ_zz`; in 3D the three
 //!   eigenvalues. A failed particle (D = 1) so still carries compression: crack faces pressed
 //!   together push back.
+//! - The degraded stress derives from no potential (clipping one principal value leaves the
+//!   others depending on its stretch through `λ ln J`). A failed particle taken round a closed
+//!   strain cycle whose principal axes turn (stretches 0.9 ± 0.05 and 1.05 ± 0.05, axes ± 0.5 rad,
+//!   the disk's moduli) takes up 4.9 × 10⁸ J/m³ one way round and gives as much back the other;
+//!   intact, the same cycle does nothing. Rubble of failed particles can so return energy the
+//!   loads never put in; it is the first suspect for the energy the finest Brazilian runs create
+//!   (README).
 //! - The damage is in the stress itself, so the force transfer must not scale by `1 − D` as
 //!   well: the install inserts [`DamageInStress`]. That is why these laws cannot share a
 //!   pipeline with `damage/eigenerosion` or `damage/eigensoftening`, which rely on the scaling.
@@ -209,6 +216,57 @@ pub const WEIBULL_PARAM: ParamDoc = ParamDoc {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The work done on one particle round a closed strain cycle whose principal axes turn
+    /// (`F = R diag(a, b) Rᵀ`, plane strain, midpoint rule), with the disk's moduli; failed
+    /// (`D = 1`) or intact.
+    fn cycle_work(failed: bool, backwards: bool) -> f64 {
+        use crate::stress::neo_hookean::neo_hookean_stress_of;
+        use std::f64::consts::TAU;
+        let (lambda, mu) = (109.6e9, 73.077e9);
+        let f_at = |t: f64| {
+            let phase = if backwards { -TAU * t } else { TAU * t };
+            let (a, b, angle) = (
+                0.9 + 0.05 * phase.sin(),
+                1.05 + 0.05 * phase.cos(),
+                0.5 * phase.sin(),
+            );
+            let r = DMat2::from_angle(angle);
+            r * DMat2::from_diagonal(DVec2::new(a, b)) * r.transpose()
+        };
+        let steps = 4000;
+        (0..steps)
+            .map(|k| {
+                let (t0, t1) = (k as f64 / steps as f64, (k + 1) as f64 / steps as f64);
+                let f = f_at(0.5 * (t0 + t1));
+                let l = (f_at(t1) - f_at(t0)) * f.inverse();
+                let trial = neo_hookean_stress_of::<Two>(f, lambda, mu).unwrap();
+                let stress = degrade_tensile(&trial, if failed { 1.0 } else { 0.0 });
+                let rate = SymTensor2 {
+                    xx: l.x_axis.x,
+                    yy: l.y_axis.y,
+                    zz: 0.0,
+                    xy: 0.5 * (l.y_axis.x + l.x_axis.y),
+                };
+                f.determinant() * stress.double_dot(&rate)
+            })
+            .sum()
+    }
+
+    /// Eqs. (26)–(27) derive from no potential: round a closed cycle a failed particle takes up
+    /// energy one way and gives it back the other, where intact material does no net work.
+    #[test]
+    fn a_failed_particle_round_a_closed_cycle_is_not_conservative() {
+        let forward = cycle_work(true, false);
+        let backward = cycle_work(true, true);
+        let intact = cycle_work(false, false);
+        assert!(forward > 4.0e8, "{forward}");
+        assert!(
+            (backward + forward).abs() < 1e-3 * forward,
+            "{backward} vs {forward}"
+        );
+        assert!(intact.abs() < 1e-6 * forward, "{intact}");
+    }
 
     #[test]
     fn only_tensile_principal_values_are_scaled_in_plane_strain() {
