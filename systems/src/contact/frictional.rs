@@ -382,7 +382,7 @@ pub fn node_impulses<V: VectorOps>(
     let present = |k: usize| states[k].mass > params.min_mass_fraction * total;
     let mut current = *states;
     let sweeps = if count > 2 { MAX_SWEEPS } else { 1 };
-    for _ in 0..sweeps {
+    for sweep in 0..sweeps {
         let mut acted = false;
         for a in 0..count {
             for b in a + 1..count {
@@ -414,13 +414,21 @@ pub fn node_impulses<V: VectorOps>(
                         dp[c] = 0.0;
                     }
                 }
-                // Round-off of a pair already moving together is not an action.
-                let scale = (current[a].velocity * current[a].mass).length()
-                    + (current[b].velocity * current[b].mass).length();
-                if dp.length() <= 1e-14 * scale {
+                if dp == V::ZERO {
                     continue;
                 }
-                acted = true;
+                // With sweeps: round-off of a pair already moving together is no reason for
+                // another sweep, and after the first not worth applying. (Two fields take one
+                // pass and every impulse.)
+                if sweeps > 1 {
+                    let scale = (current[a].velocity * current[a].mass).length()
+                        + (current[b].velocity * current[b].mass).length();
+                    let round_off = dp.length() <= 1e-14 * scale;
+                    if round_off && sweep > 0 {
+                        continue;
+                    }
+                    acted |= !round_off;
+                }
                 impulses[a] += dp;
                 impulses[b] -= dp;
                 current[a].velocity += dp / current[a].mass;
