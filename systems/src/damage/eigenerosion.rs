@@ -12,6 +12,27 @@
 //! - Jacobi: every particle reads its neighbours' state from before this update.
 //! - Publishes `failed_particles` and `dissipated_energy`, the stored energy the failed points
 //!   held when they failed (the elastic energy the erosion removes).
+//!
+//! # Normalisation
+//!
+//! `normalisation: Published` (the default) is the formula above. It does not fail a point
+//! when the energy release rate `G` of a sharp crack reaches `G_F`, but at about seven times
+//! it. `normalisation: Griffith` multiplies `G_p` by the constant `k` for which a point at a
+//! sharp crack tip fails when `G = G_F`. Derivation (linear elasticity, mode I):
+//!
+//! - Near the tip the strain energy density is `W = K² (1 + cos θ)(κ − cos θ) / (16 π μ r)`
+//!   (Sih's strain-energy-density factor `a₁₁`), with `κ = 3 − 4ν` (plane strain and 3D).
+//! - In 2D, over the disk `B_ε` centred at the tip, `∫ W dA = K² ε (2κ − 1) / (16 μ)`, since
+//!   `∫_{−π}^{π} (1 + cos θ)(κ − cos θ) dθ = π (2κ − 1)`. The average is that over `π ε²`, so
+//!   `G_p = ε · avg W = K² (2κ − 1) / (16 π μ)`: independent of ε, as it must be.
+//! - Irwin: `G = K² (κ + 1) / (8 μ)`. Hence `G_p / G = (2κ − 1) / (2π (κ + 1))`, which is
+//!   0.139 for ν = 1/3 (the point fails at `G ≈ 7.2 G_F`), and `k = 2π (κ + 1) / (2κ − 1)`.
+//! - In 3D, over the ball `B_ε` centred on a straight front (plane strain in each section), the
+//!   sections of radius `√(ε² − z²)` give `∫ W dV = K² (2κ − 1) π ε² / (32 μ)`; over `4π ε³/3`,
+//!   `G_p / G = 3 (2κ − 1) / (16 (κ + 1))` and `k = 16 (κ + 1) / (3 (2κ − 1))`.
+//!
+//! The failed points of the crack lie where `W → 0` (θ = ±π) and still count in `Σ V_q`, as
+//! in the derivation. `k` is taken per material from its Poisson ratio.
 
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
@@ -21,12 +42,20 @@ use serde::Deserialize;
 pub const REGISTRATION: Registration = Registration {
     name: "damage/eigenerosion",
     summary: "eigenerosion (eqs. 11-12): a point fails when its neighbourhood energy release exceeds G_F",
-    params: &[ParamDoc {
-        name: "fracture_energy",
-        ty: "f64",
-        default: None,
-        doc: "G_F (J/m²)",
-    }],
+    params: &[
+        ParamDoc {
+            name: "fracture_energy",
+            ty: "f64",
+            default: None,
+            doc: "G_F (J/m²)",
+        },
+        ParamDoc {
+            name: "normalisation",
+            ty: "Published | Griffith",
+            default: Some("Published"),
+            doc: "Published: G_p of eq. (11); Griffith: G_p scaled so a sharp crack tip fails at G = G_F",
+        },
+    ],
     requires: &["neighbour/*"],
     install,
 };
@@ -36,6 +65,29 @@ pub const REGISTRATION: Registration = Registration {
 #[serde(deny_unknown_fields)]
 struct RawParams {
     fracture_energy: f64,
+    #[serde(default)]
+    normalisation: Normalisation,
+}
+
+/// How `G_p` is normalised (see the module docs).
+#[derive(Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Normalisation {
+    /// Eq. (11) as published and as the authors' code computes it.
+    #[default]
+    Published,
+    /// Eq. (11) times the constant that makes a sharp crack tip fail at `G = G_F`.
+    Griffith,
+}
+
+/// The factor `k` that turns eq. (11) into a Griffith-consistent `G_p` for Poisson ratio `nu`
+/// in `dimensions` 2 or 3 (module docs).
+pub fn griffith_factor(nu: f64, dimensions: usize) -> f64 {
+    let kappa = 3.0 - 4.0 * nu;
+    if dimensions == 2 {
+        2.0 * std::f64::consts::PI * (kappa + 1.0) / (2.0 * kappa - 1.0)
+    } else {
+        16.0 * (kappa + 1.0) / (3.0 * (2.0 * kappa - 1.0))
+    }
 }
 
 /// Installed parameters and running totals of `damage/eigenerosion`.
@@ -49,12 +101,31 @@ pub struct EigenerosionState {
     pub columns: [usize; 2],
     /// Which materials can fail: the entry's `materials`.
     pub materials: MaterialFilter,
+    /// Factor on eq. (11) per material: 1 (published) or [`griffith_factor`].
+    pub factor: Vec<f64>,
 }
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let raw: RawParams = params.parse()?;
     if !(raw.fracture_energy.is_finite() && raw.fracture_energy > 0.0) {
         return Err(params.error("fracture_energy", "expected G_F > 0"));
+    }
+    let dimensions = installer.dimension().count();
+    let factor: Vec<f64> = installer
+        .world()
+        .resource::<Materials>()
+        .0
+        .iter()
+        .map(|m| match raw.normalisation {
+            Normalisation::Published => 1.0,
+            Normalisation::Griffith => griffith_factor(m.poisson_ratio, dimensions),
+        })
+        .collect();
+    if factor.iter().any(|k| !(k.is_finite() && *k > 0.0)) {
+        return Err(params.error(
+            "normalisation",
+            "Griffith needs every material's Poisson ratio below 0.5 (2κ − 1 > 0)",
+        ));
     }
     let columns = [
         installer.add_series_column("failed_particles"),
@@ -65,6 +136,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         released: 0.0,
         columns,
         materials: installer.materials().clone(),
+        factor,
     });
     with_dim!(installer.dimension(), D => installer.add_systems(eigenerosion::<D>));
     Ok(())
@@ -137,7 +209,7 @@ pub fn eigenerosion<D: Dim>(
                 return false;
             }
             let g = energy_release_rate(neighbourhoods.of(p), epsilon, volume, stored, previous);
-            g > state.fracture_energy
+            g * state.factor[material[p].0 as usize] > state.fracture_energy
         })
         .collect();
     for (p, fail) in fails.into_iter().enumerate() {
@@ -167,6 +239,72 @@ mod tests {
         assert_eq!(g, 0.5 * 2.0 / 4.0);
     }
 
+    /// Near-tip strain energy density of mode I (Sih): `K² (1 + cos θ)(κ − cos θ) / (16 π μ r)`.
+    fn tip_energy_density(k: f64, mu: f64, kappa: f64, r: f64, theta: f64) -> f64 {
+        k * k * (1.0 + theta.cos()) * (kappa - theta.cos()) / (16.0 * std::f64::consts::PI * mu * r)
+    }
+
+    #[test]
+    fn griffith_factor_makes_eq_11_equal_g_at_a_sharp_crack_tip() {
+        // Eq. (11) evaluated by quadrature over the singular tip field, times the factor,
+        // against Irwin's G = K² (κ + 1) / (8 μ); ε drops out, so two radii are tried.
+        let (k, mu) = (2.0, 0.4);
+        for nu in [0.0, 0.25, 1.0 / 3.0, 0.45] {
+            let kappa = 3.0 - 4.0 * nu;
+            let g = k * k * (kappa + 1.0) / (8.0 * mu);
+            for epsilon in [0.05, 0.3] {
+                let (nr, nt) = (400, 720);
+                let (dr, dt) = (epsilon / nr as f64, std::f64::consts::TAU / nt as f64);
+                let (mut disk, mut ball) = (0.0, 0.0);
+                for i in 0..nr {
+                    let r = (i as f64 + 0.5) * dr;
+                    for j in 0..nt {
+                        let theta = -std::f64::consts::PI + (j as f64 + 0.5) * dt;
+                        let w = tip_energy_density(k, mu, kappa, r, theta) * r * dr * dt;
+                        disk += w;
+                        // The ball: each section at distance z from the tip's plane has radius
+                        // √(ε² − z²); a ring at r lies in the sections with |z| < √(ε² − r²).
+                        ball += w * 2.0 * (epsilon * epsilon - r * r).sqrt();
+                    }
+                }
+                let area = std::f64::consts::PI * epsilon * epsilon;
+                let volume = 4.0 / 3.0 * std::f64::consts::PI * epsilon.powi(3);
+                let g2 = griffith_factor(nu, 2) * epsilon * disk / area;
+                let g3 = griffith_factor(nu, 3) * epsilon * ball / volume;
+                assert!((g2 / g - 1.0).abs() < 1e-3, "2D, nu {nu}: {g2} against {g}");
+                assert!((g3 / g - 1.0).abs() < 1e-3, "3D, nu {nu}: {g3} against {g}");
+            }
+        }
+        // ν = 1/3: a published point fails at G ≈ 7.2 G_F.
+        assert!((griffith_factor(1.0 / 3.0, 2) - 7.18).abs() < 0.01);
+    }
+
+    #[test]
+    fn griffith_normalisation_fails_a_point_the_published_one_keeps() {
+        let mut world = tiny_world::<Two>(4, 0.25, 1e-3);
+        let mut columns = SeriesColumns::default();
+        let slots = [columns.declare("failed"), columns.declare("dissipated")];
+        world.insert_resource(columns);
+        let mut neighbourhoods = Neighbourhoods::default();
+        neighbourhoods.set_rows(&[vec![0]], 0.5);
+        world.insert_resource(neighbourhoods);
+        let p = spawn_particle(&mut world, DVec2::splat(0.5), DVec2::ZERO, 1.0, 1.0);
+        world.get_mut::<StrainEnergyDensity>(p).unwrap().0 = 1.0;
+        world.get_mut::<Stress<Two>>(p).unwrap().0.xx = 1.0;
+        // G_p = 0.5 against G_F = 1: kept as published, failed with k = 7.2.
+        for (factor, failed) in [(1.0, 0.0), (griffith_factor(1.0 / 3.0, 2), 1.0)] {
+            world.insert_resource(EigenerosionState {
+                fracture_energy: 1.0,
+                released: 0.0,
+                columns: slots,
+                materials: MaterialFilter::all(),
+                factor: vec![factor],
+            });
+            run_system(&mut world, eigenerosion::<Two>);
+            assert_eq!(particle_values::<Damage>(&mut world)[0].0, failed);
+        }
+    }
+
     #[test]
     fn system_fails_the_particles_above_g_f_from_previous_step_state() {
         let mut world = tiny_world::<Two>(4, 0.25, 1e-3);
@@ -181,6 +319,7 @@ mod tests {
             released: 0.0,
             columns: slots,
             materials: MaterialFilter::all(),
+            factor: vec![1.0],
         });
         let mut neighbourhoods = Neighbourhoods::default();
         neighbourhoods.set_rows(&[vec![0, 1], vec![0, 1], vec![2], vec![3]], 0.5);
@@ -236,6 +375,7 @@ mod tests {
             released: 0.0,
             columns: slots,
             materials: MaterialFilter::all(),
+            factor: vec![1.0],
         });
         let mut neighbourhoods = Neighbourhoods::default();
         neighbourhoods.set_rows(&[vec![0], vec![1]], 0.5);
