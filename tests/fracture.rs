@@ -142,6 +142,77 @@ fn eigensoftening_absorbs_the_work_its_traction_law_implies() {
     // by the factor above: 1 + E w_c / (3 h_ε f_t) = 1.66 here.
 }
 
+/// Work absorbed by the bar of `scenes/tension_softening.ron` (the right end's work less the
+/// change of kinetic energy) with the cohesive traction, the softening law `shape`, band width
+/// `band` and end time `end`; and the share of particles fully failed at the end.
+fn cohesive_bar_absorbs(shape: &str, band: f64, end: f64) -> (f64, f64) {
+    let band_text = format!("band_width: {band:e}");
+    let shape_text = format!("softening: {shape}, traction: Cohesive,");
+    let end_text = format!("end: Time({end:e})");
+    let mut built = scene_with(
+        "tension_softening.ron",
+        &[
+            ("band_width: 0.05", &band_text),
+            ("softening: Linear,", &shape_text),
+            ("end: Time(4.0e-3)", &end_text),
+        ],
+    );
+    let sim = &mut built.simulation;
+    let kinetic_start = totals(&mut sim.world).kinetic_energy;
+    let right = sim
+        .world
+        .resource::<BoundaryConditions>()
+        .regions
+        .iter()
+        .position(|r| r.name == "right")
+        .unwrap();
+    let mut work = 0.0;
+    while !sim.finished() {
+        sim.step().unwrap_or_else(|e| panic!("{e}"));
+        work += sim.world.resource::<Reactions<Two>>().0[right].x * 0.1 * sim.clock().dt;
+    }
+    let kinetic_change = totals(&mut sim.world).kinetic_energy - kinetic_start;
+    let mut damage = sim.world.query_filtered::<&Damage, With<Particle>>();
+    let all: Vec<f64> = damage.iter(&sim.world).map(|d| d.0).collect();
+    let failed = all.iter().filter(|d| **d >= 1.0).count() as f64 / all.len() as f64;
+    (work - kinetic_change, failed)
+}
+
+#[test]
+fn cohesive_eigensoftening_dissipates_g_f_per_unit_crack_area_for_each_law() {
+    use fractum_systems::damage::softening::{SofteningLaw, SofteningShape};
+    // The bar (1 m x 0.2 m, unit thickness) cracks everywhere at once: every particle is a
+    // band of width h_ε, so the crack area per unit volume is 1/h_ε and the bar must absorb
+    // V G_F / h_ε. Each band is under its snap-back limit (E G_F / (c f_t²): 0.099, 0.050 and
+    // 0.060 m for c = 1/2, 1, 5/6); each run lasts until the bar has failed.
+    let (ft, gf, volume) = (1.005, 5.0124375e-6, 0.2);
+    for (shape, law_shape, band, end) in [
+        ("Linear", SofteningShape::Linear, 0.05, 4.0e-3),
+        ("Exponential", SofteningShape::Exponential, 0.04, 1.2e-2),
+        ("Bilinear", SofteningShape::Bilinear, 0.05, 6.0e-3),
+    ] {
+        let law = SofteningLaw {
+            shape: law_shape,
+            tensile_strength: ft,
+            fracture_energy: gf,
+        };
+        // The exponential law is cut at f_t/1000: 0.1% of G_F is never dissipated.
+        let expected = volume / band * law.dissipated(law.critical_opening());
+        let (absorbed, failed) = cohesive_bar_absorbs(shape, band, end);
+        println!(
+            "{shape}: absorbed {absorbed:e} J against V G_F / h_ε = {expected:e} J ({:+.2}%), \
+             failed {:.0}%",
+            100.0 * (absorbed / expected - 1.0),
+            100.0 * failed
+        );
+        assert_eq!(failed, 1.0, "{shape}: the bar has not failed by {end} s");
+        assert!(
+            (absorbed / expected - 1.0).abs() < 0.02,
+            "{shape}: absorbed {absorbed:e} J, expected {expected:e} J"
+        );
+    }
+}
+
 /// Energy absorbed by the weak band of `scenes/tension_rankine.ron` once it has failed, with
 /// the fracture energy and end time of the scene replaced by `fracture_energy` and `end`: the
 /// work of the moving end less the change of kinetic energy and the stored elastic energy left

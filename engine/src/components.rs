@@ -184,6 +184,12 @@ pub struct Damage(pub f64);
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
 pub struct Strength(pub f64);
 
+/// Largest crack opening `w` (m) a cracking particle has reached, for damage laws with a
+/// cohesive crack band (eigensoftening). Written to the frames as `crack_opening` when the
+/// pipeline has it.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct CrackOpening(pub f64);
+
 /// History variable of the damage law, e.g. the strain at crack onset; 0 until the law sets it.
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
 pub struct DamageHistory(pub f64);

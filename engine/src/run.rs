@@ -153,7 +153,8 @@ fn grid_frame_of<D: Dim>(world: &mut World) -> GridFrame {
     f
 }
 
-/// The partition stage's particle data, when the pipeline has one: the damage-field gradient,
+/// The damage and partition stages' particle data, when the pipeline has them: the damage-field
+/// gradient, the strength, the crack opening,
 /// the surface flag, and the velocity field of the particle at its nearest node (the key
 /// `2 × group + side` of the field its largest-weight node puts it in).
 fn partition_fields<D: Dim>(world: &mut World, f: &mut ParticleFrame) {
@@ -166,6 +167,11 @@ fn partition_fields<D: Dim>(world: &mut World, f: &mut ParticleFrame) {
     let strength: Vec<f64> = strengths.iter(world).map(|s| s.0).collect();
     if strength.len() == f.id.len() {
         f.scalars.push(("strength".into(), strength));
+    }
+    let mut openings = world.query_filtered::<&crate::components::CrackOpening, With<Particle>>();
+    let opening: Vec<f64> = openings.iter(world).map(|w| w.0).collect();
+    if opening.len() == f.id.len() {
+        f.scalars.push(("crack_opening".into(), opening));
     }
     let mut flags = world.query_filtered::<&SurfaceFlag, With<Particle>>();
     let surface: Vec<f64> = flags.iter(world).map(|s| s.0).collect();

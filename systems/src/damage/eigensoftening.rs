@@ -18,7 +18,29 @@
 //! - Onset needs a tensile largest principal strain (ε_I > 0): the onset strain is also the
 //!   "has cracked" flag of Algorithm 2 (`ε_f > 0`).
 //! - Publishes `series.csv` columns `damaged_particles` (χ > 0), `failed_particles` (χ = 1)
-//!   and `dissipated_energy`: the crack-band estimate `Σ_p V₀,p / h_ε · ∫₀^{w(χ_p)} σ dw`.
+//!   and `dissipated_energy`: the crack-band estimate `Σ_p V₀,p / h_ε · ∫₀^{w_p} σ dw`. Each
+//!   particle's largest opening `w_p` is its `CrackOpening` (frames: `crack_opening`).
+//!
+//! # Traction
+//!
+//! - `traction: Published` (the default, the paper's Algorithm 2): the opening is the whole
+//!   principal strain past onset, `w = (ε_I − ε_f) h_ε`, and `χ = χ_law(w)` scales the
+//!   still-growing elastic stress. The traction a cracking point carries is then
+//!   `(1 − χ(w)) E ε`, not `σ(w)`: a crack dissipates `G_F (1 + E w_c / (3 h_ε f_t) +
+//!   f_t h_ε / (E w_c))` per unit area with the linear law (the last term is the elastic energy
+//!   at onset, which the damage releases), and the stress can overshoot `f_t` when
+//!   `w_c / h_ε > f_t / E`.
+//! - `traction: Cohesive`: the band's normal strain is split into an elastic part and a crack
+//!   part, `ε = t / M + w / h_ε`, with `M = λ + 2μ` the normal modulus and one traction
+//!   `t = σ(w)` (`SofteningLaw::cohesive_opening`). With `σ_I` the undamaged largest principal
+//!   stress, `w` solves `σ(w) + M w / h_ε = σ_I` and `χ = 1 − σ(w) / σ_I`, so the force
+//!   transfer's `(1 − χ) σ_I` is exactly the law's traction. The band's work is then
+//!   `∫ t dε = [t² / 2M] + ∫ σ dw / h_ε`: its elastic energy comes back as the traction falls
+//!   to zero, and it dissipates `G_F / h_ε` per unit volume, `G_F` per unit crack area. χ (and
+//!   `w`) never decrease: unloading is secant, towards the origin. The scalar χ scales every
+//!   stress component, as in the published scheme. The band must be narrower than the
+//!   snap-back limit `M / max|σ'(w)|` (checked when the scene is built); a wider band cannot
+//!   follow the law.
 
 use super::softening::{SofteningLaw, SofteningShape};
 use super::stress_reach::StressReach;
@@ -61,6 +83,12 @@ pub const REGISTRATION: Registration = Registration {
             default: Some("Linear"),
             doc: "shape of the cohesive law",
         },
+        ParamDoc {
+            name: "traction",
+            ty: "Published | Cohesive",
+            default: Some("Published"),
+            doc: "Published: eq. (16), (1 - chi) scales the growing elastic stress; Cohesive: the stress follows the law, G_F per crack area",
+        },
     ],
     requires: &["neighbour/*"],
     install,
@@ -78,6 +106,18 @@ struct RawParams {
     band_width: f64,
     #[serde(default)]
     softening: SofteningShape,
+    #[serde(default)]
+    traction: Traction,
+}
+
+/// Which traction a cracking point carries (see the module docs).
+#[derive(Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Traction {
+    /// Eq. (16) with Algorithm 2: `(1 − χ(w))` times the growing elastic stress.
+    #[default]
+    Published,
+    /// The softening law's `σ(w)`, from an elastic/crack split of the band's strain.
+    Cohesive,
 }
 
 /// Installed parameters of `damage/eigensoftening`.
@@ -91,6 +131,10 @@ pub struct EigensofteningParams {
     pub columns: [usize; 3],
     /// Which materials soften: the entry's `materials` (e.g. not a steel impactor).
     pub materials: MaterialFilter,
+    /// The traction a cracking point carries.
+    pub traction: Traction,
+    /// Normal modulus `λ + 2μ` of each material, for `Traction::Cohesive`.
+    pub normal_modulus: Vec<f64>,
 }
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
@@ -126,22 +170,69 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         ));
     }
     let materials = installer.materials().clone();
+    let law = SofteningLaw {
+        shape: raw.softening,
+        tensile_strength: ft,
+        fracture_energy,
+    };
+    let normal_modulus: Vec<f64> = installer
+        .world()
+        .resource::<Materials>()
+        .0
+        .iter()
+        .map(|m| {
+            let (lambda, mu) = m.lame();
+            lambda + 2.0 * mu
+        })
+        .collect();
+    if raw.traction == Traction::Cohesive {
+        check_snap_back(installer, params, &law, raw.band_width, &normal_modulus)?;
+    }
+    installer.add_particle_component(CrackOpening(0.0));
     let columns = [
         installer.add_series_column("damaged_particles"),
         installer.add_series_column("failed_particles"),
         installer.add_series_column("dissipated_energy"),
     ];
     installer.insert_resource(EigensofteningParams {
-        law: SofteningLaw {
-            shape: raw.softening,
-            tensile_strength: ft,
-            fracture_energy,
-        },
+        law,
         band_width: raw.band_width,
         columns,
         materials,
+        traction: raw.traction,
+        normal_modulus,
     });
     with_dim!(installer.dimension(), D => installer.add_systems(eigensoftening::<D>));
+    Ok(())
+}
+
+/// `traction: Cohesive` needs a band narrower than the snap-back limit of every material the
+/// entry softens.
+fn check_snap_back(
+    installer: &Installer,
+    params: &Params,
+    law: &SofteningLaw,
+    band_width: f64,
+    normal_modulus: &[f64],
+) -> Result<(), SceneError> {
+    let materials = installer.world().resource::<Materials>();
+    for (m, material) in materials.0.iter().enumerate() {
+        if !installer.materials().applies(MaterialId(m as u16)) {
+            continue;
+        }
+        let limit = law.snap_back_band(normal_modulus[m]);
+        if band_width > limit {
+            return Err(params.error(
+                "band_width",
+                format!(
+                    "with `traction: Cohesive` the band must be narrower than the snap-back \
+                     limit (λ + 2μ) / max|dσ/dw| = {limit:e} m for material \"{}\"; a band of \
+                     {band_width:e} m cannot follow the softening law and would fail at once",
+                    material.name
+                ),
+            ));
+        }
+    }
     Ok(())
 }
 
@@ -162,6 +253,28 @@ pub fn equivalent_stress(
         }
     }
     if total > 0.0 { weighted / total } else { 0.0 }
+}
+
+/// One cracking particle's update under `Traction::Cohesive`: `(χ, w)` from the previous
+/// values, the undamaged largest principal stress `trial` and the normal modulus (module docs).
+pub fn soften_cohesive(
+    previous: (f64, f64),
+    trial: f64,
+    law: &SofteningLaw,
+    band_width: f64,
+    normal_modulus: f64,
+) -> (f64, f64) {
+    let (chi, opening) = previous;
+    let w = law.cohesive_opening(trial, normal_modulus, band_width, opening);
+    if w >= law.critical_opening() {
+        return (1.0, w);
+    }
+    let carried = if trial > 0.0 {
+        (1.0 - law.stress(w) / trial).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (chi.max(carried), w)
 }
 
 /// One particle's update of Algorithm 2: `(χ, ε_f)` from the previous values.
@@ -196,6 +309,7 @@ type ParticleQuery<'w, 's, D> = Query<
         &'static Strain<D>,
         &'static mut Damage,
         &'static mut DamageHistory,
+        &'static mut CrackOpening,
     ),
     With<Particle>,
 >;
@@ -208,12 +322,13 @@ pub fn eigensoftening<D: Dim>(
     mut reach: Local<StressReach<D>>,
     mut particles: ParticleQuery<D>,
 ) {
-    let Some((positions, mass, material, v0, stress, strain, mut damage, mut history)) =
+    let Some((positions, mass, material, v0, stress, strain, mut damage, mut history, mut opening)) =
         single_table(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };
-    let (damage, history): (&mut [Damage], &mut [DamageHistory]) = (&mut damage, &mut history);
+    let (damage, history, opening): (&mut [Damage], &mut [DamageHistory], &mut [CrackOpening]) =
+        (&mut damage, &mut history, &mut opening);
     let law = params.law;
     let previous: &[Damage] = damage;
     // Each particle's largest principal stress, once, for all the neighbourhoods it is in.
@@ -227,12 +342,12 @@ pub fn eigensoftening<D: Dim>(
         .collect();
     reach.refill(positions, &contributed, neighbourhoods.radius);
     let reach = &*reach;
-    let updated: Vec<(f64, f64)> = (0..mass.len())
+    let updated: Vec<(f64, f64, f64)> = (0..mass.len())
         .into_par_iter()
         .map(|p| {
-            let state = (previous[p].0, history[p].0);
+            let (chi, onset, w) = (previous[p].0, history[p].0, opening[p].0);
             if !params.materials.applies(material[p]) {
-                return state;
+                return (chi, onset, w);
             }
             let neighbours = if p < neighbourhoods.particle_count() {
                 neighbourhoods.of(p)
@@ -242,28 +357,46 @@ pub fn eigensoftening<D: Dim>(
             let strain_1 = strain[p].0.largest_principal();
             // An intact particle whose neighbourhood cannot reach f_t, or that is not
             // stretched, stays intact: soften() would return the same without the sum.
-            let intact = state == (0.0, 0.0);
+            let intact = (chi, onset) == (0.0, 0.0);
             if intact
                 && !(strain_1 > 0.0
                     && reach.may_reach(positions[p].0, neighbours.len(), law.tensile_strength))
             {
-                return state;
+                return (chi, onset, w);
+            }
+            if params.traction == Traction::Cohesive && chi < 1.0 && onset > 0.0 {
+                let modulus = params.normal_modulus[material[p].0 as usize];
+                let (chi, w) =
+                    soften_cohesive((chi, w), principal[p], &law, params.band_width, modulus);
+                return (chi, onset, w);
             }
             let sigma = if intact {
                 equivalent_stress(neighbours, mass, &principal, previous)
             } else {
                 0.0
             };
-            soften(state, sigma, strain_1, &law, params.band_width)
+            let (chi, onset) = soften((chi, onset), sigma, strain_1, &law, params.band_width);
+            let w = if onset > 0.0 && params.traction == Traction::Published {
+                w.max((strain_1 - onset) * params.band_width)
+                    .min(law.critical_opening())
+            } else {
+                w
+            };
+            (chi, onset, w)
         })
         .collect();
     let (mut damaged, mut failed, mut dissipated) = (0usize, 0usize, 0.0);
-    for (p, (chi, onset)) in updated.into_iter().enumerate() {
+    for (p, (chi, onset, w)) in updated.into_iter().enumerate() {
         damage[p].0 = chi;
         history[p].0 = onset;
+        opening[p].0 = w;
         if chi > 0.0 {
             damaged += 1;
-            dissipated += v0[p].0 / params.band_width * law.dissipated(law.opening(chi));
+            let w = match params.traction {
+                Traction::Published => law.opening(chi),
+                Traction::Cohesive => w,
+            };
+            dissipated += v0[p].0 / params.band_width * law.dissipated(w);
         }
         if chi >= 1.0 {
             failed += 1;
@@ -303,6 +436,58 @@ mod tests {
     }
 
     #[test]
+    fn cohesive_traction_is_the_law_and_never_heals() {
+        // Linear law f_t = 1, w_c = 0.02; band 0.1, M = 10: snap-back limit 0.2.
+        let (l, h, m) = (law(), 0.1, 10.0);
+        let (chi, w) = soften_cohesive((0.0, 0.0), 0.9, &l, h, m);
+        assert_eq!((chi, w), (0.0, 0.0));
+        // σ(w) + 100 w = 1.2 with σ = 1 − 50 w: w = 0.004, traction 0.8 = (1 − χ) 1.2.
+        let (chi, w) = soften_cohesive((0.0, 0.0), 1.2, &l, h, m);
+        assert!((w - 0.004).abs() < 1e-12 && ((1.0 - chi) * 1.2 - 0.8).abs() < 1e-12);
+        // Unloading to half the stress keeps χ and w (secant unloading).
+        assert_eq!(soften_cohesive((chi, w), 0.6, &l, h, m), (chi, w));
+        // Past g(w_c) = 2 the band is fully open.
+        assert_eq!(soften_cohesive((chi, w), 2.5, &l, h, m).0, 1.0);
+    }
+
+    #[test]
+    fn cohesive_system_scales_a_cracked_particle_to_the_law() {
+        let mut world = tiny_world::<Two>(4, 0.25, 1e-3);
+        let mut columns = SeriesColumns::default();
+        let slots = [
+            columns.declare("damaged_particles"),
+            columns.declare("failed_particles"),
+            columns.declare("dissipated_energy"),
+        ];
+        world.insert_resource(columns);
+        world.insert_resource(EigensofteningParams {
+            law: law(),
+            band_width: 0.1,
+            columns: slots,
+            materials: MaterialFilter::all(),
+            traction: Traction::Cohesive,
+            normal_modulus: vec![10.0],
+        });
+        let mut neighbourhoods = Neighbourhoods::default();
+        neighbourhoods.set_rows(&[vec![0]], 0.5);
+        world.insert_resource(neighbourhoods);
+        // A particle that cracked earlier (onset strain 0.1) now at σ_I = 1.2.
+        let p = spawn_particle(&mut world, DVec2::splat(0.5), DVec2::ZERO, 1.0, 0.01);
+        world.entity_mut(p).insert(CrackOpening(0.0));
+        world.get_mut::<DamageHistory>(p).unwrap().0 = 0.1;
+        world.get_mut::<Stress<Two>>(p).unwrap().0.xx = 1.2;
+        world.get_mut::<Strain<Two>>(p).unwrap().0.xx = 0.12;
+        run_system(&mut world, eigensoftening::<Two>);
+        let chi = particle_values::<Damage>(&mut world)[0].0;
+        let w = particle_values::<CrackOpening>(&mut world)[0].0;
+        assert!((w - 0.004).abs() < 1e-12);
+        assert!(((1.0 - chi) * 1.2 - 0.8).abs() < 1e-12);
+        // Dissipated: V₀/h ∫₀ʷ σ dw = 0.01 / 0.1 · (0.004 − 25 · 0.004²).
+        let dissipated = world.resource::<SeriesColumns>().values[slots[2]];
+        assert!((dissipated - 0.1 * (0.004 - 25.0 * 0.004 * 0.004)).abs() < 1e-15);
+    }
+
+    #[test]
     fn failed_neighbours_carry_mass_but_no_stress() {
         let mass = [Mass(1.0), Mass(1.0)];
         let principal = [2.0, 4.0];
@@ -335,6 +520,8 @@ mod tests {
             band_width: 0.1,
             columns: slots,
             materials: MaterialFilter::all(),
+            traction: Traction::Published,
+            normal_modulus: vec![1.0],
         });
         let mut neighbourhoods = Neighbourhoods::default();
         neighbourhoods.set_rows(&[vec![0, 1], vec![0, 1], vec![2]], 0.5);
@@ -342,6 +529,7 @@ mod tests {
         for (k, s) in [(0, 1.5), (1, 1.0), (2, 0.5)] {
             let x = D::Vector::from_fn(|a| if a == 0 { 0.1 + 0.2 * k as f64 } else { 0.5 });
             let p = spawn_particle(&mut world, x, D::Vector::ZERO, 1.0, 0.01);
+            world.entity_mut(p).insert(CrackOpening(0.0));
             world.get_mut::<Stress<D>>(p).unwrap().0 = tension(s);
             world.get_mut::<Strain<D>>(p).unwrap().0 = tension(1e-3);
         }

@@ -7,6 +7,10 @@
 //! - exponential: `σ = f_t exp(−f_t w / G_F)`, cut to zero where it falls to `f_t/1000`
 //!   (`w_c = ln(1000) G_F / f_t`; the tail lost is 0.1% of `G_F`);
 //! - bilinear (Petersson): kink at `(0.8 G_F/f_t, f_t/3)`, `w_c = 3.6 G_F / f_t`.
+//!
+//! [`SofteningLaw::cohesive_opening`] is the kernel of eigensoftening's `traction: Cohesive`:
+//! the opening at which a crack band, whose elastic strain and crack strain share one
+//! traction, carries the law's stress.
 
 use serde::Deserialize;
 
@@ -91,6 +95,51 @@ impl SofteningLaw {
         0.5 * (lo + hi)
     }
 
+    /// Steepest descent of the law, `max |dσ/dw|` (at `w = 0` for every shape).
+    pub fn initial_slope(&self) -> f64 {
+        let (ft, gf) = (self.tensile_strength, self.fracture_energy);
+        match self.shape {
+            SofteningShape::Linear => ft / self.critical_opening(),
+            SofteningShape::Exponential => ft * ft / gf,
+            SofteningShape::Bilinear => (ft - ft / 3.0) / (0.8 * gf / ft),
+        }
+    }
+
+    /// Largest band width over which a crack band of normal modulus `modulus` softens without
+    /// snap-back: `modulus / initial_slope`. A wider band cannot follow the law and fails at
+    /// once.
+    pub fn snap_back_band(&self, modulus: f64) -> f64 {
+        modulus / self.initial_slope()
+    }
+
+    /// Opening `w ≥ previous` of a crack band of width `band` whose elastic normal stress,
+    /// were it uncracked, would be `trial` (the undamaged largest principal stress), for a
+    /// normal modulus `modulus` (λ + 2μ).
+    ///
+    /// The band's normal strain is elastic plus crack strain, `ε = t / M + w / h`, with one
+    /// traction `t` that the law sets: `t = σ(w)`. So `w` solves `g(w) = σ(w) + M w / h =
+    /// trial`. `g` is convex for the three laws (their slopes only flatten), so starting from
+    /// `previous` with `g < trial` there is one upward crossing, found by bisection; where
+    /// `g(previous) ≥ trial` the band is unloading or elastic and keeps its opening. Beyond the
+    /// snap-back band width the crossing lies at `w ≥ w_c`: the band fails at once.
+    pub fn cohesive_opening(&self, trial: f64, modulus: f64, band: f64, previous: f64) -> f64 {
+        let stiffness = modulus / band;
+        let g = |w: f64| self.stress(w) + stiffness * w;
+        if g(previous) >= trial {
+            return previous;
+        }
+        // g(hi) ≥ stiffness · hi ≥ trial.
+        let (mut lo, mut hi) = (previous, (trial / stiffness).max(self.critical_opening()));
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if mid <= lo || mid >= hi {
+                break;
+            }
+            if g(mid) < trial { lo = mid } else { hi = mid }
+        }
+        hi
+    }
+
     /// Energy dissipated per unit crack area up to opening `w`, `∫₀ʷ σ dw` (J/m²), in closed
     /// form.
     pub fn dissipated(&self, w: f64) -> f64 {
@@ -162,6 +211,43 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn cohesive_opening_gives_the_law_its_traction_and_the_band_its_strain() {
+        let modulus = 31e9;
+        for law in laws() {
+            let band = 0.5 * law.snap_back_band(modulus);
+            let stiffness = modulus / band;
+            let mut previous = 0.0;
+            // Trial stresses rising from below f_t to past g(w_c) = M w_c / h: each opening
+            // satisfies σ(w) + M w / h = trial and never closes; the law is followed exactly.
+            let (start, end) = (0.8 * law.tensile_strength, 1.1 * stiffness * law.critical_opening());
+            for k in 0..=60 {
+                let trial = start + (end - start) * k as f64 / 60.0;
+                let w = law.cohesive_opening(trial, modulus, band, previous);
+                assert!(w >= previous);
+                if trial <= law.tensile_strength {
+                    assert_eq!(w, 0.0);
+                } else if w < law.critical_opening() {
+                    let residual = law.stress(w) + stiffness * w - trial;
+                    assert!(residual.abs() < 1e-9 * trial, "{:?}: {residual}", law.shape);
+                }
+                previous = w;
+            }
+            assert!(previous >= law.critical_opening());
+            // Unloading keeps the opening.
+            assert_eq!(law.cohesive_opening(0.0, modulus, band, previous), previous);
+        }
+    }
+
+    #[test]
+    fn a_band_wider_than_the_snap_back_limit_opens_past_w_c_at_once() {
+        let law = laws()[0];
+        let modulus = 31e9;
+        let band = 2.0 * law.snap_back_band(modulus);
+        let w = law.cohesive_opening(1.001 * law.tensile_strength, modulus, band, 0.0);
+        assert!(w >= law.critical_opening());
     }
 
     #[test]
