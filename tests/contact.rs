@@ -221,6 +221,7 @@ fn slide(
         min: DVec2::ZERO,
         spacing: h,
         cells: [40, 10],
+        graded: None,
     })
     .time(TimeStep::Cfl(0.4), End::Time(end))
     .material(Material::new("stiff", 1000.0, 2.0e7, 0.25))
@@ -404,6 +405,7 @@ fn pull_cracked_bar(integrator: &[(&str, Option<&str>)], partition: Option<&str>
         min: DVec2::ZERO,
         spacing: h,
         cells: [24, 6],
+        graded: None,
     })
     .time(TimeStep::Cfl(0.4), End::Time(0.02))
     .material(Material::new("bar", 1000.0, 1.0e7, 0.0))

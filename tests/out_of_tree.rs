@@ -57,6 +57,7 @@ fn stretched_bar<D: Dim>() -> Spec<D> {
         min: D::Vector::ZERO,
         spacing: 0.1,
         cells: D::Cell::from_fn(|a| if a == 0 { 10 } else { 2 }),
+        graded: None,
     };
     let shape = match D::N {
         2 => Shape::Rectangle {

@@ -277,7 +277,16 @@ fn all_particles_healthy<D: Dim>(
     (0..blocks).into_par_iter().all(|b| {
         let rows = b * CHECK_BLOCK..((b + 1) * CHECK_BLOCK).min(positions.len());
         let mut healthy = true;
-        if columns.contains(Columns::POSITION) {
+        if columns.contains(Columns::POSITION) && grid.is_graded() {
+            let (lo, hi) = (grid.min, grid.max());
+            for x in &positions[rows.clone()] {
+                let mut inside = true;
+                for a in 0..D::N {
+                    inside &= (x.0[a] >= lo[a]) & (x.0[a] <= hi[a]);
+                }
+                healthy &= x.0.is_finite() & (outside_allowed | inside);
+            }
+        } else if columns.contains(Columns::POSITION) {
             for x in &positions[rows.clone()] {
                 let local = (x.0 - grid.min) / grid.spacing;
                 let mut inside = true;
@@ -485,6 +494,7 @@ mod tests {
             min: DVec2::new(-1.0, 0.5),
             spacing: 0.25,
             cells: [8, 4],
+            graded: None,
         }
     }
 

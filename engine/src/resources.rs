@@ -2,6 +2,7 @@
 
 use crate::dim::{Dim, Lattice, VectorOps};
 use bevy_ecs::prelude::Resource;
+use std::sync::Arc;
 
 /// Simulation clock. `step` counts completed steps; `dt` is the size of the step being taken.
 #[derive(Resource, Clone, Copy, Debug, Default, PartialEq)]
@@ -14,21 +15,91 @@ pub struct SimClock {
     pub dt: f64,
 }
 
-/// Uniform background grid over an axis-aligned box.
-#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+/// Background grid over an axis-aligned box: uniform, or rectilinear (graded) with its own node
+/// coordinates along each axis.
+#[derive(Resource, Clone, Debug, PartialEq)]
 pub struct Grid<D: Dim> {
     /// Lower corner.
     pub min: D::Vector,
-    /// Node spacing `h`.
+    /// Node spacing `h` of a uniform grid; the smallest cell width of a graded one (the scale of
+    /// ε-neighbourhoods and of default kernel radii).
     pub spacing: f64,
     /// Number of cells along each axis.
     pub cells: D::Cell,
+    /// Node coordinates along each axis of a graded grid (`None`: uniform).
+    pub graded: Option<Arc<GradedAxes>>,
+}
+
+/// Node coordinates along each axis of a graded (rectilinear) grid, strictly increasing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GradedAxes {
+    /// One list per axis, `cells + 1` coordinates each.
+    pub coordinates: Vec<Vec<f64>>,
 }
 
 impl<D: Dim> Grid<D> {
+    /// A uniform grid of `cells` cells of side `spacing` from `min`.
+    pub fn uniform(min: D::Vector, spacing: f64, cells: D::Cell) -> Self {
+        Self {
+            min,
+            spacing,
+            cells,
+            graded: None,
+        }
+    }
+
+    /// A rectilinear grid with the node coordinates `coordinates[a]` along each axis (each
+    /// strictly increasing, at least two). Returns `None` for lists that are not.
+    pub fn graded(coordinates: Vec<Vec<f64>>) -> Option<Self> {
+        if coordinates.len() != D::N {
+            return None;
+        }
+        let valid = coordinates.iter().all(|c| {
+            c.len() >= 2 && c.iter().all(|x| x.is_finite()) && c.windows(2).all(|w| w[1] > w[0])
+        });
+        if !valid {
+            return None;
+        }
+        let min = D::Vector::from_fn(|a| coordinates[a][0]);
+        let cells = D::Cell::from_fn(|a| coordinates[a].len() - 1);
+        let spacing = coordinates
+            .iter()
+            .flat_map(|c| c.windows(2).map(|w| w[1] - w[0]))
+            .fold(f64::INFINITY, f64::min);
+        Some(Self {
+            min,
+            spacing,
+            cells,
+            graded: Some(Arc::new(GradedAxes { coordinates })),
+        })
+    }
+
+    /// True for a graded (rectilinear) grid.
+    pub fn is_graded(&self) -> bool {
+        self.graded.is_some()
+    }
+
+    /// Coordinate of node `i` along axis `a`.
+    #[inline]
+    pub fn coordinate(&self, a: usize, i: usize) -> f64 {
+        match &self.graded {
+            None => self.min[a] + i as f64 * self.spacing,
+            Some(g) => g.coordinates[a][i],
+        }
+    }
+
+    /// Width of cell `i` along axis `a`.
+    #[inline]
+    pub fn cell_width(&self, a: usize, i: usize) -> f64 {
+        match &self.graded {
+            None => self.spacing,
+            Some(g) => g.coordinates[a][i + 1] - g.coordinates[a][i],
+        }
+    }
+
     /// Upper corner.
     pub fn max(&self) -> D::Vector {
-        self.min + D::Vector::from_fn(|a| self.cells[a] as f64) * self.spacing
+        D::Vector::from_fn(|a| self.coordinate(a, self.cells[a]))
     }
 
     /// Nodes along each axis.
@@ -68,26 +139,48 @@ impl<D: Dim> Grid<D> {
     /// Position of the node with linear index `index`.
     pub fn node_position(&self, index: usize) -> D::Vector {
         let node = self.node_lattice(index);
-        self.min + D::Vector::from_fn(|a| node[a] as f64) * self.spacing
+        D::Vector::from_fn(|a| self.coordinate(a, node[a]))
+    }
+
+    /// Position of the node with lattice coordinates `node`.
+    pub fn lattice_position(&self, node: D::Cell) -> D::Vector {
+        D::Vector::from_fn(|a| self.coordinate(a, node[a]))
+    }
+
+    /// Index along axis `a` of the cell holding coordinate `x`, or `None` outside. A point
+    /// exactly on the upper boundary belongs to the last cell.
+    #[inline]
+    pub fn axis_cell(&self, a: usize, x: f64) -> Option<usize> {
+        let n = self.cells[a];
+        match &self.graded {
+            None => {
+                let local = (x - self.min[a]) / self.spacing;
+                if local.is_nan() || local < 0.0 {
+                    return None;
+                }
+                let mut i = local.floor() as usize;
+                if i == n && local == n as f64 {
+                    i -= 1;
+                }
+                (i < n).then_some(i)
+            }
+            Some(g) => {
+                let c = &g.coordinates[a];
+                if x.is_nan() || x < c[0] || x > c[n] {
+                    return None;
+                }
+                // The last node not above x, clamped to the last cell at the upper boundary.
+                Some((c.partition_point(|&node| node <= x) - 1).min(n - 1))
+            }
+        }
     }
 
     /// Cell containing `x`, or `None` when `x` lies outside the grid box. A point exactly on
     /// the upper boundary belongs to the last cell.
     pub fn cell_of(&self, x: D::Vector) -> Option<D::Cell> {
-        let local = (x - self.min) / self.spacing;
         let mut cell = D::Cell::default();
         for a in 0..D::N {
-            if local[a].is_nan() || local[a] < 0.0 {
-                return None;
-            }
-            let mut i = local[a].floor() as usize;
-            if i == self.cells[a] && local[a] == self.cells[a] as f64 {
-                i -= 1;
-            }
-            if i >= self.cells[a] {
-                return None;
-            }
-            cell[a] = i;
+            cell[a] = self.axis_cell(a, x[a])?;
         }
         Some(cell)
     }
@@ -95,6 +188,56 @@ impl<D: Dim> Grid<D> {
     /// True when `x` lies inside the grid box (boundary included).
     pub fn contains(&self, x: D::Vector) -> bool {
         self.cell_of(x).is_some()
+    }
+
+    /// The smallest cell width along any axis among the cell holding `x` and its neighbours
+    /// (the cells a particle's support reaches first): the spacing that bounds the stable step
+    /// of a particle at `x`. `spacing` for a uniform grid or a point outside.
+    pub fn smallest_width_near(&self, x: D::Vector) -> f64 {
+        if self.graded.is_none() {
+            return self.spacing;
+        }
+        let Some(cell) = self.cell_of(x) else {
+            return self.spacing;
+        };
+        let mut smallest = f64::INFINITY;
+        for a in 0..D::N {
+            let lo = cell[a].saturating_sub(1);
+            let hi = (cell[a] + 1).min(self.cells[a] - 1);
+            for i in lo..=hi {
+                smallest = smallest.min(self.cell_width(a, i));
+            }
+        }
+        smallest
+    }
+
+    /// The local node spacing along each axis at `x`: the cell widths interpolated linearly
+    /// between nodes (each node takes the mean of its two cells), so it varies continuously
+    /// as a particle moves. `spacing` along every axis for a uniform grid.
+    pub fn local_spacing(&self, x: D::Vector) -> D::Vector {
+        if self.graded.is_none() {
+            return D::Vector::splat(self.spacing);
+        }
+        D::Vector::from_fn(|a| {
+            let n = self.cells[a];
+            let node_width = |i: usize| {
+                let left = if i > 0 {
+                    self.cell_width(a, i - 1)
+                } else {
+                    self.cell_width(a, 0)
+                };
+                let right = if i < n {
+                    self.cell_width(a, i)
+                } else {
+                    self.cell_width(a, n - 1)
+                };
+                0.5 * (left + right)
+            };
+            let xa = x[a].clamp(self.coordinate(a, 0), self.coordinate(a, n));
+            let i = self.axis_cell(a, xa).unwrap_or(0);
+            let t = ((xa - self.coordinate(a, i)) / self.cell_width(a, i)).clamp(0.0, 1.0);
+            (1.0 - t) * node_width(i) + t * node_width(i + 1)
+        })
     }
 }
 
@@ -219,6 +362,7 @@ mod tests {
             min: DVec2::new(-1.0, 0.0),
             spacing: 0.5,
             cells: [4, 2],
+            graded: None,
         };
         assert_eq!(grid.node_count(), 15);
         assert_eq!(grid.max(), DVec2::new(1.0, 1.0));
@@ -236,6 +380,7 @@ mod tests {
             min: DVec3::new(0.0, -1.0, 2.0),
             spacing: 0.25,
             cells: [4, 2, 3],
+            graded: None,
         };
         assert_eq!(grid.node_count(), 5 * 3 * 4);
         assert_eq!(grid.cell_count(), 24);

@@ -122,7 +122,7 @@ pub fn grid_frame(world: &mut World) -> GridFrame {
 }
 
 fn grid_frame_of<D: Dim>(world: &mut World) -> GridFrame {
-    let grid = *world.resource::<crate::resources::Grid<D>>();
+    let grid = world.resource::<crate::resources::Grid<D>>().clone();
     let mut query = world.query_filtered::<(
         &crate::components::NodeIndex,
         &NodeFields,

@@ -1,6 +1,6 @@
 //! [`Simulation`]: the world, the step schedule, the clock and the thread pool.
 
-use crate::components::{MaterialId, Particle, ParticleId, Velocity, WaveSpeed};
+use crate::components::{MaterialId, Particle, ParticleId, Position, Velocity, WaveSpeed};
 use crate::dim::{Dim, Dimension, VectorOps};
 use crate::health::{Blowup, Health, healthy, stage_check};
 use crate::resources::{Grid, Materials, SimClock, TimeStepLimit};
@@ -343,11 +343,12 @@ pub struct StableStep {
     pub dt: f64,
     /// Number of space dimensions `d` in `h / (√d (c + |v|))`.
     pub dimensions: usize,
-    /// Grid spacing `h` (m).
+    /// Grid spacing `h` (m): on a graded grid, the smallest cell width around the limiting
+    /// particle.
     pub spacing: f64,
-    /// The fastest signal `max_p (c_p + |v_p|)` (m/s).
+    /// The limiting particle's signal speed `c_p + |v_p|` (m/s): the fastest on a uniform grid.
     pub speed: f64,
-    /// Id and material index of the particle with the fastest signal.
+    /// Id and material index of the limiting particle: the least `h_p / (c_p + |v_p|)`.
     pub particle: Option<(u32, u16)>,
     /// The fraction of the central-difference limit the installed systems allow (see
     /// [`TimeStepLimit`] for the reason).
@@ -356,37 +357,56 @@ pub struct StableStep {
 
 /// The one rule for the stable step: [`TimeStepLimit::stable_step`] for the fastest particle
 /// signal `max_p (c_p + |v_p|)`, with `c_p` the particle's current wave speed, or its material's
-/// small-strain wave speed when no stress system has set one. Validation checks a fixed step
-/// against it and CFL steps follow it.
+/// small-strain wave speed when no stress system has set one. On a graded grid each particle
+/// counts with the smallest cell width its support touches ([`Grid::smallest_width_near`]),
+/// and the limit is the least `h_p / (c_p + |v_p|)`. Validation checks a fixed step against it
+/// and CFL steps follow it.
 pub fn stable_time_step<D: Dim>(world: &mut World) -> StableStep {
-    let h = world.resource::<Grid<D>>().spacing;
+    let grid = world.resource::<Grid<D>>().clone();
     let speeds: Vec<f64> = world
         .resource::<Materials>()
         .0
         .iter()
         .map(|m| m.wave_speed())
         .collect();
-    let mut fastest = (0.0, None);
-    let mut query = world
-        .query_filtered::<(&ParticleId, &MaterialId, &WaveSpeed, &Velocity<D>), With<Particle>>();
-    for (id, m, c, v) in query.iter(world) {
+    // The particle with the least time to cross its spacing: on a uniform grid the fastest,
+    // on a graded one the smallest cell width around each particle counts too.
+    let mut limiting: (f64, f64, f64, Option<(u32, u16)>) =
+        (f64::INFINITY, grid.spacing, 0.0, None);
+    let mut query = world.query_filtered::<(
+        &ParticleId,
+        &MaterialId,
+        &WaveSpeed,
+        &Velocity<D>,
+        &Position<D>,
+    ), With<Particle>>();
+    for (id, m, c, v, x) in query.iter(world) {
         let c = if c.0 > 0.0 {
             c.0
         } else {
             speeds.get(m.0 as usize).copied().unwrap_or(0.0)
         };
         let speed = c + v.0.length();
-        if speed > fastest.0 {
-            fastest = (speed, Some((id.0, m.0)));
+        if !grid.is_graded() {
+            // One spacing: the fastest particle (a comparison of speeds, not of quotients).
+            if speed > limiting.2 {
+                limiting = (0.0, grid.spacing, speed, Some((id.0, m.0)));
+            }
+            continue;
+        }
+        let h = grid.smallest_width_near(x.0);
+        if speed > 0.0 && h / speed < limiting.0 {
+            limiting = (h / speed, h, speed, Some((id.0, m.0)));
         }
     }
+    let (_, h, speed, particle) = limiting;
     let limit = world.get_resource_or_init::<TimeStepLimit>();
     StableStep {
-        dt: limit.stable_step(D::N, h, fastest.0),
+        dt: limit.stable_step(D::N, h, speed),
         dimensions: D::N,
         spacing: h,
-        speed: fastest.0,
-        particle: fastest.1,
+        speed,
+        particle,
         factor: limit.factor,
     }
 }

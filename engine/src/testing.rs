@@ -37,13 +37,16 @@ pub fn test_material() -> Material {
 /// nodes, one material ([`test_material`]), a clock with step `dt`, no body force and no
 /// boundary conditions.
 pub fn tiny_world<D: Dim>(n: usize, h: f64, dt: f64) -> World {
-    let grid = Grid::<D> {
-        min: D::Vector::ZERO,
-        spacing: h,
-        cells: D::Cell::from_fn(|_| n),
-    };
+    world_on_grid(
+        Grid::<D>::uniform(D::Vector::ZERO, h, D::Cell::from_fn(|_| n)),
+        dt,
+    )
+}
+
+/// As [`tiny_world`], on any grid (a graded one, say).
+pub fn world_on_grid<D: Dim>(grid: Grid<D>, dt: f64) -> World {
     let mut world = World::new();
-    world.insert_resource(grid);
+    world.insert_resource(grid.clone());
     world.insert_resource(D::DIMENSION);
     world.insert_resource(SimClock {
         step: 0,

@@ -33,6 +33,7 @@ fn simulation() -> Simulation {
         min: DVec2::ZERO,
         spacing: H,
         cells: [CELLS + 8; 2],
+        graded: None,
     };
     let spec = Spec::new(grid)
         .named("<ecs overhead>")
@@ -108,7 +109,7 @@ fn column<T: Component + Clone>(world: &mut World) -> Vec<T> {
 impl Plain {
     fn from(simulation: &mut Simulation) -> Self {
         let world = &mut simulation.world;
-        let grid = *world.resource::<Grid<Two>>();
+        let grid = world.resource::<Grid<Two>>().clone();
         let lame = world.resource::<Materials>().0[0].lame();
         let nodes = grid.node_count();
         Self {
@@ -141,14 +142,14 @@ impl Plain {
 
     /// Basis, predictor, stress and advection of the four stock systems, on plain slices.
     fn step(&mut self) {
-        let grid = self.grid;
+        let grid = &self.grid;
         let positions = &self.position;
         self.connectivity.fill_fixed_width(
             positions.len(),
             nodes_per_particle::<Two>(),
             grid.node_count(),
             |p, nodes, weights, gradients| {
-                fill_multilinear_row(&grid, positions[p].0, nodes, weights, gradients);
+                fill_multilinear_row(grid, positions[p].0, nodes, weights, gradients);
             },
         );
         let c = &self.connectivity;

@@ -19,6 +19,7 @@ fn grid<D: Dim>(cells: usize) -> Grid<D> {
         min: D::Vector::ZERO,
         spacing: 1.0 / cells as f64,
         cells: D::Cell::from_fn(|_| cells),
+        graded: None,
     }
 }
 

@@ -111,6 +111,7 @@ pub fn bench_spec<D: Dim>(pipeline: BenchPipeline, particles: usize) -> Spec<D> 
         min: D::Vector::ZERO,
         spacing: h,
         cells: D::Cell::from_fn(|_| cells + 8),
+        graded: None,
     };
     // Decreasing amplitudes along y (and z) so no two components are alike.
     let amplitude = D::Vector::from_fn(|a| 0.1 / (1 << a) as f64);

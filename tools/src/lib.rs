@@ -624,12 +624,22 @@ fn point<D: Dim>(v: D::Vector) -> String {
 
 /// The grid line of `fractum check`.
 fn grid_line<D: Dim>(built: &mut Built) -> String {
-    let grid = *built.simulation.world.resource::<Grid<D>>();
+    let grid = built.simulation.world.resource::<Grid<D>>().clone();
     let cells: Vec<String> = grid.cells.as_ref().iter().map(|c| c.to_string()).collect();
+    let spacing = match &grid.graded {
+        None => format!("h = {} m", grid.spacing),
+        Some(axes) => {
+            let largest = axes
+                .coordinates
+                .iter()
+                .flat_map(|c| c.windows(2).map(|w| w[1] - w[0]))
+                .fold(0.0, f64::max);
+            format!("graded, h = {} to {largest} m", grid.spacing)
+        }
+    };
     format!(
-        "{} cells, h = {} m, {} nodes, box {} to {}",
+        "{} cells, {spacing}, {} nodes, box {} to {}",
         cells.join(" x "),
-        grid.spacing,
         grid.node_count(),
         point::<D>(grid.min),
         point::<D>(grid.max())

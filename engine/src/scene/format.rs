@@ -124,7 +124,7 @@ pub enum EndSpec {
     Steps(u64),
 }
 
-/// Uniform background grid over a box.
+/// Background grid over a box: uniform, or graded by refinement intervals along the axes.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GridSpec {
@@ -132,7 +132,26 @@ pub struct GridSpec {
     pub min: Coords,
     /// Upper corner; `max − min` must be a whole number of cells along each axis.
     pub max: Coords,
-    /// Node spacing.
+    /// Node spacing (outside the refinement intervals).
+    pub spacing: f64,
+    /// Intervals along an axis with their own spacing: the grid is rectilinear, each axis's
+    /// nodes uniform inside each interval and at `spacing` between them.
+    #[serde(default)]
+    pub refine: Vec<RefineSpec>,
+}
+
+/// An interval along one axis of the grid with its own node spacing.
+#[derive(Debug, Deserialize, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RefineSpec {
+    /// The axis.
+    pub axis: Axis,
+    /// Lower end (m); the segment from the previous interval's end (or the grid's `min`) to it
+    /// must hold a whole number of cells of the grid's `spacing`.
+    pub min: f64,
+    /// Upper end (m); `max − min` must be a whole number of cells of this interval's spacing.
+    pub max: f64,
+    /// Node spacing inside the interval (m).
     pub spacing: f64,
 }
 

@@ -47,6 +47,9 @@ pub fn particles_in_shape<D: Dim>(
     };
     let (lo, hi) = shape.bounds();
     let (lo, hi) = (D::Vector::from_fn(|a| lo[a]), D::Vector::from_fn(|a| hi[a]));
+    if grid.is_graded() {
+        return graded_particles(shape, grid, &points, lo, hi, thickness);
+    }
     let h = grid.spacing;
     let first = ((lo - grid.min) / h).floor().max(D::Vector::ZERO);
     let last = ((hi - grid.min) / h).ceil();
@@ -71,6 +74,43 @@ pub fn particles_in_shape<D: Dim>(
     out
 }
 
+/// The tensor-product points of every cell of a graded grid that fall inside `shape`: each cell
+/// is the rule scaled to its own widths.
+fn graded_particles<D: Dim>(
+    shape: &Shape,
+    grid: &Grid<D>,
+    points: &[(f64, f64)],
+    lo: D::Vector,
+    hi: D::Vector,
+    thickness: f64,
+) -> Vec<(D::Vector, f64)> {
+    let axis_range = |a: usize| {
+        let clamp = |x: f64| x.clamp(grid.min[a], grid.coordinate(a, grid.cells[a]));
+        let first = grid.axis_cell(a, clamp(lo[a])).unwrap_or(0);
+        let last = grid
+            .axis_cell(a, clamp(hi[a]))
+            .map_or(grid.cells[a], |i| i + 1);
+        (first, last)
+    };
+    let first = D::Cell::from_fn(|a| axis_range(a).0);
+    let last = D::Cell::from_fn(|a| axis_range(a).1);
+    let in_cell: Vec<D::Cell> =
+        lattice_range(D::Cell::default(), D::Cell::from_fn(|_| points.len())).collect();
+    let mut out = Vec::new();
+    for cell in lattice_range(first, last) {
+        let half = D::Vector::from_fn(|a| 0.5 * grid.cell_width(a, cell[a]));
+        let centre = D::Vector::from_fn(|a| grid.coordinate(a, cell[a]) + half[a]);
+        for k in &in_cell {
+            let x = centre + D::Vector::from_fn(|a| points[k[a]].0 * half[a]);
+            if shape.contains(x.to_3d().into()) {
+                let volume = (0..D::N).fold(1.0, |v, a| v * half[a] * points[k[a]].1);
+                out.push((x, volume * thickness));
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -83,6 +123,7 @@ mod tests {
             min: DVec2::ZERO,
             spacing: 0.25,
             cells: [4, 4],
+            graded: None,
         };
         let shape = Shape::Rectangle {
             min: DVec2::ZERO,
@@ -102,11 +143,32 @@ mod tests {
     }
 
     #[test]
+    fn graded_cells_are_filled_each_at_its_own_size() {
+        // x nodes 0, 0.5, 0.625, 0.75, 1: one coarse cell, then three fine; y uniform 0.5.
+        let grid = Grid::<Two>::graded(vec![vec![0.0, 0.5, 0.625, 0.75, 1.0], vec![0.0, 0.5, 1.0]])
+            .unwrap();
+        let shape = Shape::Rectangle {
+            min: DVec2::ZERO,
+            max: DVec2::new(1.0, 1.0),
+        };
+        let particles = particles_in_shape(&shape, &grid, 2, Placement::Gauss, 1.0);
+        assert_eq!(particles.len(), 4 * 4 * 2);
+        let volume: f64 = particles.iter().map(|p| p.1).sum();
+        assert!((volume - 1.0).abs() < 1e-14);
+        // A particle of the coarse cell stands for 0.25 × 0.25, one of a fine cell for
+        // 0.0625 × 0.25.
+        let coarse = particles.iter().find(|p| p.0.x < 0.5).unwrap();
+        let fine = particles.iter().find(|p| p.0.x > 0.5).unwrap();
+        assert!((coarse.1 - 0.0625).abs() < 1e-15 && (fine.1 - 0.015625).abs() < 1e-15);
+    }
+
+    #[test]
     fn box_filling_whole_cells_has_exact_volume_in_3d() {
         let grid = Grid::<Three> {
             min: DVec3::ZERO,
             spacing: 0.25,
             cells: [4, 4, 4],
+            graded: None,
         };
         let shape = Shape::Box {
             min: DVec3::ZERO,

@@ -32,7 +32,7 @@ impl<D: Dim> Spec<D> {
     pub fn build(self, registry: &Registry) -> Result<Built, SceneError> {
         self.check()?;
         let mut world = World::new();
-        world.insert_resource(self.grid);
+        world.insert_resource(self.grid.clone());
         world.insert_resource(D::DIMENSION);
         world.insert_resource(Thickness(self.thickness));
         spawn_nodes(&mut world, &self.grid);

@@ -9,7 +9,7 @@
 //! use fractum_engine::scene::{Body, InitialVelocity, Shape, Spec};
 //! use fractum_engine::simulation::{End, TimeStep};
 //!
-//! let spec = Spec::<Three>::new(Grid { min: DVec3::ZERO, spacing: 0.1, cells: [10, 10, 10] })
+//! let spec = Spec::<Three>::new(Grid::uniform(DVec3::ZERO, 0.1, [10, 10, 10]))
 //!     .time(TimeStep::Cfl(0.5), End::Steps(10))
 //!     .material(Material::new("rubber", 1000.0, 1.0e6, 0.3))
 //!     .body(

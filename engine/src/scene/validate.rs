@@ -198,11 +198,120 @@ impl<D: Dim> Reader<D> {
             }
             cells[a] = count.round() as usize;
         }
-        Ok(Grid {
-            min,
-            spacing: g.spacing,
-            cells,
-        })
+        if g.refine.is_empty() {
+            return Ok(Grid {
+                min,
+                spacing: g.spacing,
+                cells,
+                graded: None,
+            });
+        }
+        if let Some(k) = g.refine.iter().position(|r| r.axis.index() >= D::N) {
+            return Err(self.error(
+                &format!("grid.refine[{k}].axis"),
+                "a 2D grid has only the axes X and Y",
+            ));
+        }
+        let coordinates: Vec<Vec<f64>> = (0..D::N)
+            .map(|a| self.graded_axis(g, a, min[a], max[a]))
+            .collect::<Result<_, _>>()?;
+        let total = coordinates
+            .iter()
+            .try_fold(1usize, |n, c| n.checked_mul(c.len() - 1));
+        if total.is_none_or(|n| n > 100_000_000) {
+            return Err(self.error("grid.refine", "the grid would have more than 10^8 cells"));
+        }
+        Grid::graded(coordinates)
+            .ok_or_else(|| self.error("grid.refine", "the node coordinates must increase"))
+    }
+
+    /// Node coordinates along axis `a` of a grid with refinement intervals: uniform at the
+    /// grid's spacing between intervals and at each interval's own spacing inside it.
+    fn graded_axis(
+        &self,
+        g: &GridSpec,
+        a: usize,
+        lo: f64,
+        hi: f64,
+    ) -> Result<Vec<f64>, SceneError> {
+        let mut intervals: Vec<(usize, &RefineSpec)> = g
+            .refine
+            .iter()
+            .enumerate()
+            .filter(|(_, r)| r.axis.index() == a)
+            .collect();
+        for &(k, r) in &intervals {
+            let field = |f: &str| format!("grid.refine[{k}].{f}");
+            if !(r.spacing.is_finite() && r.spacing > 0.0) {
+                return Err(self.error(&field("spacing"), "expected a positive spacing"));
+            }
+            if !(r.min.is_finite() && r.min >= lo && r.min < hi) {
+                return Err(self.error(
+                    &field("min"),
+                    format!("expected a coordinate inside the grid, from {lo} to {hi}"),
+                ));
+            }
+            if !(r.max.is_finite() && r.max > r.min && r.max <= hi) {
+                return Err(self.error(
+                    &field("max"),
+                    format!("expected a coordinate above `min` and at most {hi}"),
+                ));
+            }
+        }
+        intervals.sort_by(|x, y| x.1.min.total_cmp(&y.1.min));
+        let mut nodes = vec![lo];
+        let mut cursor = lo;
+        // Appends the nodes of a segment ending at `end`, `step` apart; the segment must hold a
+        // whole number of them. The last node is `end` itself, so nothing drifts.
+        let segment = |nodes: &mut Vec<f64>, start: f64, end: f64, step: f64, field: &str| {
+            let count = (end - start) / step;
+            if (count - count.round()).abs() > 1e-6 * count.max(1.0) {
+                return Err(self.error(
+                    field,
+                    format!(
+                        "the segment from {start} to {end} along {} must hold a whole number of \
+                         cells of {step}: it holds {count}",
+                        D::AXES[a]
+                    ),
+                ));
+            }
+            let count = count.round() as usize;
+            if count > 100_000_000 {
+                return Err(self.error(field, "the grid would have more than 10^8 cells"));
+            }
+            for i in 1..count {
+                nodes.push(start + i as f64 * step);
+            }
+            if count > 0 {
+                nodes.push(end);
+            }
+            Ok(())
+        };
+        for &(k, r) in &intervals {
+            if r.min < cursor {
+                return Err(self.error(
+                    &format!("grid.refine[{k}].min"),
+                    format!("overlaps another interval along {}", D::AXES[a]),
+                ));
+            }
+            segment(
+                &mut nodes,
+                cursor,
+                r.min,
+                g.spacing,
+                &format!("grid.refine[{k}].min"),
+            )?;
+            segment(
+                &mut nodes,
+                r.min,
+                r.max,
+                r.spacing,
+                &format!("grid.refine[{k}].max"),
+            )?;
+            cursor = r.max;
+        }
+        segment(&mut nodes, cursor, hi, g.spacing, "grid.max")?;
+        Ok(nodes)
     }
 
     fn shape(&self, field: &str, shape: &ShapeSpec) -> Result<Shape, SceneError> {

@@ -39,6 +39,17 @@ pub const REGISTRATION: Registration = Registration {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
+    let graded =
+        with_dim!(installer.dimension(), D => installer.world().resource::<Grid<D>>().is_graded());
+    if graded {
+        // The particle domain's overlap with a tent of two different widths is another
+        // integral; uGIMP here assumes one spacing.
+        return Err(params.error(
+            "",
+            "basis/gimp needs a uniform grid (this scene's grid has `refine` intervals); use \
+             basis/linear or basis/lme on a graded grid",
+        ));
+    }
     with_dim!(installer.dimension(), D => installer.add_systems(gimp_basis::<D>));
     Ok(())
 }
@@ -180,11 +191,11 @@ pub fn gimp_basis<D: Dim>(
 ) {
     let (ids, positions, volumes) =
         single_table(particles.contiguous_iter(), "particles").unwrap_or((&[], &[], &[]));
-    let grid = *grid;
+    let grid = &*grid;
     let t = thickness.map_or(1.0, |t| t.0);
     let axes = |p: usize| {
         let l = half_width(volumes[p].0, t, D::N, grid.spacing);
-        gimp_axes(&grid, positions[p].0, l)
+        gimp_axes(grid, positions[p].0, l)
     };
     // The rows go straight into the connectivity tables (a failed particle gets none).
     let results: Vec<Result<(), usize>> = connectivity.fill_rows(
@@ -194,7 +205,7 @@ pub fn gimp_basis<D: Dim>(
         || (),
         |_, p, nodes, weights, gradients| {
             let axes = axes(p)?;
-            write_gimp_row(&grid, &axes, (nodes, weights, gradients));
+            write_gimp_row(grid, &axes, (nodes, weights, gradients));
             Ok(())
         },
     );
@@ -243,6 +254,7 @@ mod tests {
             min: DVec2::new(-1.0, 2.0),
             spacing: 0.5,
             cells: [4, 4],
+            graded: None,
         };
         let l = 0.125; // two particles per cell
         // Well inside a cell: the four nodes of the cell only, as with the tents.
@@ -255,6 +267,7 @@ mod tests {
             min: DVec3::new(-1.0, 2.0, 0.5),
             spacing: 0.5,
             cells: [4, 4, 2],
+            graded: None,
         };
         check_consistency(&grid, DVec3::new(0.05, 2.95, 0.98), l, 27);
         check_consistency(&grid, DVec3::new(0.25, 3.25, 0.75), l, 8);

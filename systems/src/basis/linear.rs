@@ -1,9 +1,10 @@
-//! Multilinear tent shape functions on the uniform background grid: bilinear in 2D, trilinear
-//! in 3D.
+//! Multilinear tent shape functions on the background grid: bilinear in 2D, trilinear in 3D,
+//! on uniform and on graded (rectilinear) cells.
 //!
 //! - Stage: basis. Registration name: `basis/linear`.
 //! - Each particle is connected to the 2^d nodes of the cell that contains it, with
-//!   `N_I(x) = Π_a (1 − |x_a − x_I,a|/h)` and its gradient (the standard MPM basis of Sulsky et
+//!   `N_I(x) = Π_a (1 − |x_a − x_I,a|/h_a)` and its gradient, `h_a` the cell's width along
+//!   axis `a` (the standard MPM basis of Sulsky et
 //!   al.; the "Dirac delta" integration of eqs. (1)–(4) in Homel & Herbold,
 //!   dfg-partitioning-mpm.md §1.1).
 //! - Writes the [`Connectivity`] tables that every transfer reads.
@@ -46,9 +47,20 @@ pub fn fill_multilinear_row<D: Dim>(
         gradients.fill(D::Vector::ZERO);
         return false;
     };
-    let h = grid.spacing;
-    let corner = grid.min + D::Vector::from_fn(|a| cell[a] as f64) * h;
-    let xi = ((x - corner) / h).clamp(D::Vector::ZERO, D::Vector::ONE);
+    // The cell's lower corner and its widths (all h on a uniform grid).
+    let (corner, width) = if grid.is_graded() {
+        (
+            grid.lattice_position(cell),
+            D::Vector::from_fn(|a| grid.cell_width(a, cell[a])),
+        )
+    } else {
+        let h = grid.spacing;
+        (
+            grid.min + D::Vector::from_fn(|a| cell[a] as f64) * h,
+            D::Vector::splat(h),
+        )
+    };
+    let xi = ((x - corner) / width).clamp(D::Vector::ZERO, D::Vector::ONE);
     for k in 0..nodes_per_particle::<D>() {
         // Bit a of k says whether the node is at the upper end of the cell along axis a.
         let upper = |a: usize| (k >> a) & 1 == 1;
@@ -60,7 +72,7 @@ pub fn fill_multilinear_row<D: Dim>(
             let across = (0..D::N)
                 .filter(|b| *b != a)
                 .fold(1.0, |n, b| n * factor(b));
-            slope * across / h
+            slope * across / width[a]
         });
     }
     true
@@ -89,7 +101,7 @@ pub fn linear_basis<D: Dim>(
     particles: Query<&Position<D>, With<Particle>>,
 ) {
     let positions = single_table(particles.contiguous_iter(), "particles").unwrap_or(&[]);
-    let grid = *grid;
+    let grid = &*grid;
     connectivity.fill_fixed_width(
         positions.len(),
         nodes_per_particle::<D>(),
@@ -97,7 +109,7 @@ pub fn linear_basis<D: Dim>(
         |p, nodes, weights, gradients| {
             // A particle outside the grid gets no support; the engine's health check stops the
             // run before such a state is stepped.
-            fill_multilinear_row(&grid, positions[p].0, nodes, weights, gradients);
+            fill_multilinear_row(grid, positions[p].0, nodes, weights, gradients);
         },
     );
 }
@@ -132,6 +144,7 @@ mod tests {
             min: DVec2::new(-1.0, 2.0),
             spacing: 0.5,
             cells: [4, 4],
+            graded: None,
         };
         for x in [
             DVec2::new(-0.8, 2.1),
@@ -145,6 +158,7 @@ mod tests {
             min: DVec3::new(-1.0, 2.0, 0.5),
             spacing: 0.5,
             cells: [4, 4, 2],
+            graded: None,
         };
         for x in [
             DVec3::new(-0.8, 2.1, 0.6),
@@ -154,6 +168,34 @@ mod tests {
             check_consistency(&grid, x);
         }
         assert!(multilinear_row(&grid, DVec3::new(0.0, 3.0, 1.6)).is_none());
+    }
+
+    #[test]
+    fn rows_on_graded_cells_keep_every_consistency_condition() {
+        // Widths 1, 0.25, 0.0625 (16:1 from end to end) along x; 0.5 and 0.125 along y.
+        let grid = Grid::<Two>::graded(vec![
+            vec![0.0, 1.0, 1.25, 1.3125, 1.375],
+            vec![0.0, 0.5, 0.625, 0.75],
+        ])
+        .unwrap();
+        for x in [
+            DVec2::new(0.3, 0.1),
+            DVec2::new(1.1, 0.55),
+            DVec2::new(1.3, 0.7),
+            DVec2::new(1.375, 0.75),
+        ] {
+            check_consistency(&grid, x);
+        }
+        let grid = Grid::<Three>::graded(vec![
+            vec![0.0, 1.0, 1.25],
+            vec![0.0, 0.1, 0.5],
+            vec![-1.0, 0.0, 0.03125],
+        ])
+        .unwrap();
+        for x in [DVec3::new(1.2, 0.05, 0.01), DVec3::new(0.5, 0.4, -0.5)] {
+            check_consistency(&grid, x);
+        }
+        assert!(multilinear_row(&grid, DVec3::new(1.3, 0.05, 0.01)).is_none());
     }
 
     #[test]

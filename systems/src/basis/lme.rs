@@ -123,6 +123,8 @@ pub struct LmeState<D: Dim> {
     pub anchors: Vec<D::Vector>,
     /// Nodes within radius + skin of the anchor, ascending.
     pub candidates: Vec<Vec<u32>>,
+    /// On a graded grid, the radius each candidate list was built with.
+    pub reach: Vec<f64>,
 }
 
 impl<D: Dim> Default for LmeState<D> {
@@ -133,6 +135,7 @@ impl<D: Dim> Default for LmeState<D> {
             solved_at: Vec::new(),
             anchors: Vec::new(),
             candidates: Vec::new(),
+            reach: Vec::new(),
         }
     }
 }
@@ -145,6 +148,7 @@ impl<D: Dim> LmeState<D> {
             self.solved_at = vec![D::Vector::ZERO; particles];
             self.anchors = vec![D::Vector::splat(f64::INFINITY); particles];
             self.candidates = vec![Vec::new(); particles];
+            self.reach = vec![0.0; particles];
         }
     }
 }
@@ -261,13 +265,132 @@ pub fn particle_row<D: Spatial>(
             }
             Ok((lambda, j_inverse))
         }
-        Err(f) => Err(format!(
-            "LME shape functions did not converge: |r| = {:e} after {} Newton iterations over {} \
-             nodes (a particle at the edge of the node cloud, or too few nodes in the support; \
-             try a smaller gamma)",
-            f.residual, f.iterations, f.nodes
-        )),
+        Err(f) => Err(non_convergence(&f)),
     }
+}
+
+/// Whether `xi` is in the support of a particle at `x` on a graded grid: within `radius` in the
+/// coordinates scaled by the local spacing `scale` (one per axis).
+fn in_scaled_support<V: VectorOps>(x: V, xi: V, scale: V, radius2: f64) -> bool {
+    ((xi - x) / scale).length_squared() <= radius2
+}
+
+/// The rows of every particle on a graded grid, with the locality scaled to the grid around
+/// each particle: in the coordinates `ξ = (x_I − x) / s(x)`, `s` the local node spacing along
+/// each axis (`Grid::local_spacing`, continuous in `x`), the particle solves the LME problem
+/// of a unit grid, `β = γ̂`; its `N_I` are the same in both coordinates and `∂N/∂x_a =
+/// (∂N/∂ξ_a) / s_a`. This is `β = γ̂ / h_local²` made anisotropic where a rectilinear cell
+/// is, and keeps every consistency condition exactly (ξ is an affine map of x). Returns the
+/// first particle whose solve failed, with the reason.
+fn graded_rows<D: Spatial>(
+    grid: &Grid<D>,
+    params: &LmeParams,
+    cloud: &NodeCloud<D>,
+    positions: &[Position<D>],
+    state: &mut LmeState<D>,
+    connectivity: &mut Connectivity<D>,
+) -> Result<(), (usize, String)> {
+    let settings = LmeSettings {
+        beta: params.gamma,
+        tolerance: params.newton_tolerance,
+        length_scale: 1.0,
+        max_iterations: params.max_iterations,
+    };
+    let radius = support_radius(settings.beta, params.support_tolerance);
+    let radius2 = radius * radius;
+    let scales: Vec<D::Vector> = positions
+        .par_iter()
+        .map(|x| grid.local_spacing(x.0))
+        .collect();
+    state.resize(positions.len());
+    let LmeState {
+        lambda,
+        lambda_slope,
+        solved_at,
+        anchors,
+        candidates,
+        reach,
+    } = state;
+    anchors
+        .par_iter_mut()
+        .zip(candidates.par_iter_mut())
+        .zip(reach.par_iter_mut())
+        .zip(positions.par_iter().zip(&scales))
+        .for_each(|(((anchor, list), reach), (x, scale))| {
+            // Every node of the support lies within `needed` of x; the list holds every node
+            // within `reach` of the anchor.
+            let needed = radius * (0..D::N).map(|a| scale[a]).fold(0.0, f64::max);
+            if needed + (x.0 - *anchor).length() > *reach {
+                *reach = 1.25 * needed;
+                *list = cloud.within(x.0, *reach);
+                *anchor = x.0;
+            }
+        });
+    let (candidates, guesses) = (&*candidates, (&*lambda, &*lambda_slope, &*solved_at));
+    let solved: Vec<Result<Solved<D>, String>> = connectivity.fill_rows(
+        positions.len(),
+        cloud.len(),
+        |p| {
+            let (x, scale) = (positions[p].0, scales[p]);
+            candidates[p]
+                .iter()
+                .filter(|&&i| in_scaled_support(x, cloud.position(i), scale, radius2))
+                .count()
+        },
+        RowScratch::<D>::default,
+        |scratch, p, nodes, weights, gradients| {
+            let (x, scale) = (positions[p].0, scales[p]);
+            scratch.support.clear();
+            scratch.positions.clear();
+            for &i in &candidates[p] {
+                let xi = cloud.position(i);
+                if in_scaled_support(x, xi, scale, radius2) {
+                    scratch.support.push(i);
+                    scratch.positions.push((xi - x) / scale);
+                }
+            }
+            let guess = guesses.0[p] + guesses.1[p] * ((x - guesses.2[p]) / scale);
+            let (lambda, j_inverse, _) = lme_solve::<D>(
+                D::Vector::ZERO,
+                &scratch.positions,
+                &settings,
+                guess,
+                &mut scratch.lme,
+            )
+            .map_err(|f| non_convergence(&f))?;
+            let support = scratch.support.iter().zip(&scratch.positions);
+            let entries = nodes.iter_mut().zip(weights.iter_mut()).zip(gradients);
+            for (((node, weight), gradient), ((&i, &xi), &n)) in
+                entries.zip(support.zip(&scratch.lme.values))
+            {
+                (*node, *weight) = (i, n);
+                *gradient = lme_gradient::<D>(D::Vector::ZERO, xi, n, j_inverse) / scale;
+            }
+            Ok((lambda, j_inverse))
+        },
+    );
+    if let Some((p, Err(message))) = solved.iter().enumerate().find(|(_, r)| r.is_err()) {
+        return Err((p, message.clone()));
+    }
+    let identity_2beta = D::Matrix::IDENTITY * (2.0 * settings.beta);
+    for (p, result) in solved.into_iter().enumerate() {
+        if let Ok((l, j_inverse)) = result {
+            lambda[p] = l;
+            lambda_slope[p] = identity_2beta - j_inverse;
+            solved_at[p] = positions[p].0;
+        }
+    }
+    Ok(())
+}
+
+/// The message of a solve that did not converge.
+fn non_convergence(f: &super::lme_kernel::LmeFailure) -> String {
+    format!(
+        "LME shape functions did not converge: |r| = {:e} after {} Newton iterations over {} \
+         nodes (a particle at the edge of the node cloud, or too few nodes in the support; \
+         try a smaller gamma)",
+        f.residual, f.iterations, f.nodes
+    )
 }
 
 type ParticleQuery<'w, 's, D> =
@@ -296,6 +419,28 @@ pub fn lme_basis<D: Spatial>(
     let Some(cloud) = cloud.as_ref() else { return };
     let (ids, positions) =
         single_table(particles.contiguous_iter(), "particles").unwrap_or((&[], &[]));
+    if grid.is_graded() {
+        let solved = graded_rows(
+            &grid,
+            &params,
+            cloud,
+            positions,
+            &mut state,
+            &mut connectivity,
+        );
+        if let Err((p, message)) = solved {
+            health.failure = Some(Blowup {
+                step: clock.step + 1,
+                stage: Stage::Basis,
+                message: format!(
+                    "particle {} at {}: {message}",
+                    ids[p].0,
+                    fmt_vector(positions[p].0, D::N)
+                ),
+            });
+        }
+        return;
+    }
     let h = grid.spacing;
     let settings = LmeSettings {
         beta: params.gamma / (h * h),
@@ -312,6 +457,7 @@ pub fn lme_basis<D: Spatial>(
         solved_at,
         anchors,
         candidates,
+        ..
     } = &mut *state;
     anchors
         .par_iter_mut()
@@ -386,7 +532,7 @@ mod tests {
         }
         run_system(&mut world, lme_basis::<D>);
         let c = world.resource::<Connectivity<D>>().clone();
-        let grid = *world.resource::<Grid<D>>();
+        let grid = world.resource::<Grid<D>>().clone();
         for (p, &x) in xs.iter().enumerate() {
             let row = c.row(p);
             let unity: f64 = row.clone().map(|e| c.weights[e]).sum();
@@ -414,6 +560,100 @@ mod tests {
             &[DVec3::new(1.03, 0.91, 0.77), DVec3::new(0.62, 1.37, 1.1)],
             28..=40,
         );
+    }
+
+    /// Node coordinates from 0 to `length`: `fine` cells of `h` then cells growing by `ratio`
+    /// each up to `h · ratio^steps`, then that size to the end.
+    fn graded_axis(h: f64, fine: usize, ratio: f64, steps: u32, coarse: usize) -> Vec<f64> {
+        let mut nodes = vec![0.0];
+        let mut width = h;
+        for k in 0..fine + steps as usize + coarse {
+            if k >= fine && k < fine + steps as usize {
+                width *= ratio;
+            }
+            nodes.push(nodes.last().unwrap() + width);
+        }
+        nodes
+    }
+
+    /// Runs `basis/lme` on `grid` with particles at `xs`; checks every row's consistency.
+    fn graded_rows_are_consistent<D: Spatial>(grid: Grid<D>, xs: &[D::Vector], gamma: f64)
+    where
+        D::Vector: SpaceVector,
+    {
+        let mut world = world_on_grid(grid.clone(), 1e-3);
+        world.insert_resource(LmeParams {
+            gamma,
+            ..LmeParams::default()
+        });
+        world.insert_resource(LmeState::<D>::default());
+        for &x in xs {
+            spawn_particle(&mut world, x, x * 0.0, 1.0, 0.01);
+        }
+        // Twice: the second solve starts from the carried λ.
+        for _ in 0..2 {
+            run_system(&mut world, lme_basis::<D>);
+            assert!(world.resource::<Health>().failure.is_none());
+            let c = world.resource::<Connectivity<D>>().clone();
+            for (p, &x) in xs.iter().enumerate() {
+                let row = c.row(p);
+                let unity: f64 = row.clone().map(|e| c.weights[e]).sum();
+                let first: D::Vector = row
+                    .clone()
+                    .map(|e| grid.node_position(c.nodes[e] as usize) * c.weights[e])
+                    .sum();
+                let gradients: D::Vector = row.clone().map(|e| c.gradients[e]).sum();
+                let jacobian = row.clone().fold(D::Matrix::ZERO, |acc, e| {
+                    acc + D::Matrix::outer(grid.node_position(c.nodes[e] as usize), c.gradients[e])
+                });
+                let h = grid.smallest_width_near(x);
+                assert!((unity - 1.0).abs() < 1e-10, "{unity}");
+                assert!((first - x).length() < 1e-10 * h);
+                assert!(gradients.length() < 1e-8 / h);
+                assert!((jacobian - D::Matrix::IDENTITY).max_abs() < 1e-8);
+                assert!(row.len() > D::N);
+            }
+        }
+    }
+
+    #[test]
+    fn graded_rows_scale_the_locality_to_the_local_cells() {
+        // 16:1 from the finest to the coarsest cell along x, growing 2x per cell; y uniform.
+        let x_nodes = graded_axis(0.05, 6, 2.0, 4, 4);
+        let y_nodes: Vec<f64> = (0..=8).map(|j| 0.1 * j as f64).collect();
+        let grid = Grid::<Two>::graded(vec![x_nodes.clone(), y_nodes]).unwrap();
+        let xs: Vec<DVec2> = [0.12, 0.31, 0.37, 0.55, 1.1, 2.0, 4.3]
+            .iter()
+            .map(|&x| DVec2::new(x, 0.43))
+            .collect();
+        for gamma in [1.8, 3.5, 10.0] {
+            graded_rows_are_consistent(grid.clone(), &xs, gamma);
+        }
+        let c_nodes = graded_axis(0.05, 3, 2.0, 3, 2);
+        let grid = Grid::<Three>::graded(vec![c_nodes.clone(), c_nodes.clone(), c_nodes]).unwrap();
+        let xs = [DVec3::new(0.07, 0.3, 0.61), DVec3::new(0.41, 0.12, 0.2)];
+        graded_rows_are_consistent(grid, &xs, 3.5);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
+        #[test]
+        fn graded_rows_never_fail_inside_a_strongly_graded_grid(
+            ratio in 1.2f64..3.0,
+            steps in 1u32..5,
+            u in 0.05f64..0.95,
+            v in 0.1f64..0.9,
+            gamma in 1.5f64..8.0,
+        ) {
+            // Up to 81:1 from the finest to the coarsest cell; particles anywhere inside, a
+            // cell from the edges.
+            let x_nodes = graded_axis(0.02, 4, ratio, steps, 3);
+            let y_nodes = graded_axis(0.02, 3, ratio, steps, 3);
+            let (lx, ly) = (*x_nodes.last().unwrap(), *y_nodes.last().unwrap());
+            let grid = Grid::<Two>::graded(vec![x_nodes, y_nodes]).unwrap();
+            let x = DVec2::new(0.02 + u * (lx - 0.04), 0.02 + v * (ly - 0.04));
+            graded_rows_are_consistent(grid, &[x], gamma);
+        }
     }
 
     #[test]

@@ -222,7 +222,10 @@ mod tests {
             let mut previous = 0.0;
             // Trial stresses rising from below f_t to past g(w_c) = M w_c / h: each opening
             // satisfies σ(w) + M w / h = trial and never closes; the law is followed exactly.
-            let (start, end) = (0.8 * law.tensile_strength, 1.1 * stiffness * law.critical_opening());
+            let (start, end) = (
+                0.8 * law.tensile_strength,
+                1.1 * stiffness * law.critical_opening(),
+            );
             for k in 0..=60 {
                 let trial = start + (end - start) * k as f64 / 60.0;
                 let w = law.cohesive_opening(trial, modulus, band, previous);

@@ -24,6 +24,16 @@ pub const REGISTRATION: Registration = Registration {
 };
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    let graded =
+        with_dim!(installer.dimension(), D => installer.world().resource::<Grid<D>>().is_graded());
+    if graded {
+        // The node links count ε in node spacings of one size.
+        return Err(params.error(
+            "",
+            "neighbour/node_linked needs a uniform grid (this scene's grid has `refine` \
+             intervals); use neighbour/kdtree on a graded grid",
+        ));
+    }
     installer.insert_resource(parse_params(params)?);
     installer.init_resource::<Neighbourhoods>();
     with_dim!(installer.dimension(), D => installer.add_systems(node_linked_neighbours::<D>));
