@@ -635,6 +635,30 @@ mod tests {
         graded_rows_are_consistent(grid, &xs, 3.5);
     }
 
+    #[test]
+    fn a_graded_particle_that_cannot_be_solved_is_named() {
+        let x_nodes = graded_axis(0.05, 4, 2.0, 3, 2);
+        let y_nodes: Vec<f64> = (0..=4).map(|j| 0.1 * j as f64).collect();
+        let grid = Grid::<Two>::graded(vec![x_nodes, y_nodes]).unwrap();
+        let mut world = world_on_grid(grid, 1e-3);
+        world.insert_resource(LmeParams::default());
+        world.insert_resource(LmeState::<Two>::default());
+        spawn_particle(&mut world, DVec2::new(0.3, 0.2), DVec2::ZERO, 1.0, 0.01);
+        spawn_particle(&mut world, DVec2::new(-0.02, 0.2), DVec2::ZERO, 1.0, 0.01);
+        run_system(&mut world, lme_basis::<Two>);
+        let failure = world
+            .resource::<Health>()
+            .failure
+            .clone()
+            .expect("a failure");
+        assert_eq!(failure.stage, Stage::Basis);
+        assert!(
+            failure.message.starts_with("particle 1 at (-2e-2, 2e-1): "),
+            "{}",
+            failure.message
+        );
+    }
+
     proptest::proptest! {
         #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
         #[test]

@@ -8,6 +8,8 @@
 //!   (§2.5). Every step the candidates are filtered to the exact radius, so the lists do not
 //!   depend on when the tree was rebuilt.
 //! - Lists are sorted, without duplicates, and include the particle itself.
+//! - On a graded grid `h` is the smallest cell width (the fine zone, where cracks are meant to
+//!   run).
 
 use super::{NeighbourParams, PARAM_DOCS, filter_row, parse_params};
 use crate::spatial::Spatial;
