@@ -634,7 +634,13 @@ fn grid_line<D: Dim>(built: &mut Built) -> String {
                 .iter()
                 .flat_map(|c| c.windows(2).map(|w| w[1] - w[0]))
                 .fold(0.0, f64::max);
-            format!("graded, h = {} to {largest} m", grid.spacing)
+            // Widths are differences of node coordinates: print them to 12 significant digits.
+            let short = |x: f64| format!("{}", format!("{x:.11e}").parse::<f64>().unwrap_or(x));
+            format!(
+                "graded, h = {} to {} m",
+                short(grid.spacing),
+                short(largest)
+            )
         }
     };
     format!(

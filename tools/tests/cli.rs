@@ -46,6 +46,18 @@ fn check_summarises_a_valid_scene() {
 }
 
 #[test]
+fn check_gives_a_graded_grid_its_range_of_cell_widths() {
+    let out = fractum(&["check", "scenes/bar_vibration_graded.ron"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let summary = text(&out.stdout);
+    // 48 cells of 0.25 and 15 of 1 along x, one of 1 across.
+    assert!(
+        summary.contains("63 x 1 cells, graded, h = 0.25 to 1 m, 128 nodes"),
+        "{summary}"
+    );
+}
+
+#[test]
 fn check_summarises_a_3d_scene_with_its_dimension() {
     let out = fractum(&["check", "scenes/two_spheres.ron"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
