@@ -222,6 +222,46 @@ fn in_support<V: VectorOps>(x: V, xi: V, radius2: f64) -> bool {
 /// The row slices of one particle in the connectivity tables: nodes, `N`, `∇N`.
 pub type RowSlices<'a, D> = (&'a mut [u32], &'a mut [f64], &'a mut [<D as Dim>::Vector]);
 
+/// Writes the solved support of `scratch` into `row`: each node, its `N` and the gradient
+/// `gradient(x_I, N_I)` (in the coordinates the nodes were given in).
+fn write_row<D: Dim>(
+    scratch: &RowScratch<D>,
+    row: RowSlices<'_, D>,
+    gradient: impl Fn(D::Vector, f64) -> D::Vector,
+) {
+    let (nodes, weights, gradients) = row;
+    let support = scratch.support.iter().zip(&scratch.positions);
+    let entries = nodes.iter_mut().zip(weights.iter_mut()).zip(gradients);
+    for (((node, weight), g), ((&i, &xi), &n)) in entries.zip(support.zip(&scratch.lme.values)) {
+        (*node, *weight) = (i, n);
+        *g = gradient(xi, n);
+    }
+}
+
+/// Keeps every particle's λ, `dλ/dx = 2βI − J⁻¹` and position for the next step's warm start,
+/// or the first particle whose solve failed, with the reason.
+fn keep_solutions<D: Dim>(
+    solved: Vec<Result<Solved<D>, String>>,
+    beta: f64,
+    positions: &[Position<D>],
+    lambda: &mut [D::Vector],
+    lambda_slope: &mut [D::Matrix],
+    solved_at: &mut [D::Vector],
+) -> Result<(), (usize, String)> {
+    if let Some((p, Err(message))) = solved.iter().enumerate().find(|(_, r)| r.is_err()) {
+        return Err((p, message.clone()));
+    }
+    let identity_2beta = D::Matrix::IDENTITY * (2.0 * beta);
+    for (p, result) in solved.into_iter().enumerate() {
+        if let Ok((l, j_inverse)) = result {
+            lambda[p] = l;
+            lambda_slope[p] = identity_2beta - j_inverse;
+            solved_at[p] = positions[p].0;
+        }
+    }
+    Ok(())
+}
+
 /// One particle's connectivity row (written into `row`, whose length is the number of
 /// `candidates` within `radius` of `x`), λ and `J⁻¹`, or the reason it has none.
 #[allow(clippy::too_many_arguments)]
@@ -254,15 +294,7 @@ pub fn particle_row<D: Spatial>(
         &mut scratch.lme,
     ) {
         Ok((lambda, j_inverse, _)) => {
-            let (nodes, weights, gradients) = row;
-            let support = scratch.support.iter().zip(&scratch.positions);
-            let entries = nodes.iter_mut().zip(weights.iter_mut()).zip(gradients);
-            for (((node, weight), gradient), ((&i, &xi), &n)) in
-                entries.zip(support.zip(&scratch.lme.values))
-            {
-                (*node, *weight) = (i, n);
-                *gradient = lme_gradient::<D>(x, xi, n, j_inverse);
-            }
+            write_row::<D>(scratch, row, |xi, n| lme_gradient::<D>(x, xi, n, j_inverse));
             Ok((lambda, j_inverse))
         }
         Err(f) => Err(non_convergence(&f)),
@@ -358,29 +390,20 @@ fn graded_rows<D: Spatial>(
                 &mut scratch.lme,
             )
             .map_err(|f| non_convergence(&f))?;
-            let support = scratch.support.iter().zip(&scratch.positions);
-            let entries = nodes.iter_mut().zip(weights.iter_mut()).zip(gradients);
-            for (((node, weight), gradient), ((&i, &xi), &n)) in
-                entries.zip(support.zip(&scratch.lme.values))
-            {
-                (*node, *weight) = (i, n);
-                *gradient = lme_gradient::<D>(D::Vector::ZERO, xi, n, j_inverse) / scale;
-            }
+            write_row::<D>(scratch, (nodes, weights, gradients), |xi, n| {
+                lme_gradient::<D>(D::Vector::ZERO, xi, n, j_inverse) / scale
+            });
             Ok((lambda, j_inverse))
         },
     );
-    if let Some((p, Err(message))) = solved.iter().enumerate().find(|(_, r)| r.is_err()) {
-        return Err((p, message.clone()));
-    }
-    let identity_2beta = D::Matrix::IDENTITY * (2.0 * settings.beta);
-    for (p, result) in solved.into_iter().enumerate() {
-        if let Ok((l, j_inverse)) = result {
-            lambda[p] = l;
-            lambda_slope[p] = identity_2beta - j_inverse;
-            solved_at[p] = positions[p].0;
-        }
-    }
-    Ok(())
+    keep_solutions(
+        solved,
+        settings.beta,
+        positions,
+        lambda,
+        lambda_slope,
+        solved_at,
+    )
 }
 
 /// The message of a solve that did not converge.
@@ -429,15 +452,7 @@ pub fn lme_basis<D: Spatial>(
             &mut connectivity,
         );
         if let Err((p, message)) = solved {
-            health.failure = Some(Blowup {
-                step: clock.step + 1,
-                stage: Stage::Basis,
-                message: format!(
-                    "particle {} at {}: {message}",
-                    ids[p].0,
-                    fmt_vector(positions[p].0, D::N)
-                ),
-            });
+            report_failure(&mut health, clock.step, ids[p], positions[p], &message);
         }
         return;
     }
@@ -491,27 +506,32 @@ pub fn lme_basis<D: Spatial>(
             particle_row(cloud, x, list, &settings, radius, guess, scratch, row)
         },
     );
-    if let Some((p, Err(message))) = solved.iter().enumerate().find(|(_, r)| r.is_err()) {
-        let x = positions[p].0;
-        health.failure = Some(Blowup {
-            step: clock.step + 1,
-            stage: Stage::Basis,
-            message: format!(
-                "particle {} at {}: {message}",
-                ids[p].0,
-                fmt_vector(x, D::N)
-            ),
-        });
-        return;
+    let kept = keep_solutions(
+        solved,
+        settings.beta,
+        positions,
+        lambda,
+        lambda_slope,
+        solved_at,
+    );
+    if let Err((p, message)) = kept {
+        report_failure(&mut health, clock.step, ids[p], positions[p], &message);
     }
-    let identity_2beta = D::Matrix::IDENTITY * (2.0 * settings.beta);
-    for (p, result) in solved.into_iter().enumerate() {
-        if let Ok((l, j_inverse)) = result {
-            lambda[p] = l;
-            lambda_slope[p] = identity_2beta - j_inverse;
-            solved_at[p] = positions[p].0;
-        }
-    }
+}
+
+/// Stops the run at the basis stage, naming the particle whose shape functions failed.
+fn report_failure<D: Dim>(
+    health: &mut Health,
+    step: u64,
+    id: ParticleId,
+    x: Position<D>,
+    message: &str,
+) {
+    health.failure = Some(Blowup {
+        step: step + 1,
+        stage: Stage::Basis,
+        message: format!("particle {} at {}: {message}", id.0, fmt_vector(x.0, D::N)),
+    });
 }
 
 #[cfg(test)]

@@ -450,9 +450,14 @@ mod tests {
         assert_eq!(soften_cohesive((chi, w), 2.5, &l, h, m).0, 1.0);
     }
 
-    #[test]
-    fn cohesive_system_scales_a_cracked_particle_to_the_law() {
-        let mut world = tiny_world::<Two>(4, 0.25, 1e-3);
+    /// A tiny world with `damage/eigensoftening`'s resources: [`law`], band 0.1, the given
+    /// traction and normal modulus, and the neighbour lists `rows`. Returns the column slots.
+    fn softening_world<D: Dim>(
+        traction: Traction,
+        normal_modulus: f64,
+        rows: &[Vec<u32>],
+    ) -> (World, [usize; 3]) {
+        let mut world = tiny_world::<D>(4, 0.25, 1e-3);
         let mut columns = SeriesColumns::default();
         let slots = [
             columns.declare("damaged_particles"),
@@ -465,12 +470,18 @@ mod tests {
             band_width: 0.1,
             columns: slots,
             materials: MaterialFilter::all(),
-            traction: Traction::Cohesive,
-            normal_modulus: vec![10.0],
+            traction,
+            normal_modulus: vec![normal_modulus],
         });
         let mut neighbourhoods = Neighbourhoods::default();
-        neighbourhoods.set_rows(&[vec![0]], 0.5);
+        neighbourhoods.set_rows(rows, 0.5);
         world.insert_resource(neighbourhoods);
+        (world, slots)
+    }
+
+    #[test]
+    fn cohesive_system_scales_a_cracked_particle_to_the_law() {
+        let (mut world, slots) = softening_world::<Two>(Traction::Cohesive, 10.0, &[vec![0]]);
         // A particle that cracked earlier (onset strain 0.1) now at σ_I = 1.2.
         let p = spawn_particle(&mut world, DVec2::splat(0.5), DVec2::ZERO, 1.0, 0.01);
         world.entity_mut(p).insert(CrackOpening(0.0));
@@ -507,25 +518,8 @@ mod tests {
     where
         D::Vector: SpaceVector,
     {
-        let mut world = tiny_world::<D>(4, 0.25, 1e-3);
-        let mut columns = SeriesColumns::default();
-        let slots = [
-            columns.declare("damaged_particles"),
-            columns.declare("failed_particles"),
-            columns.declare("dissipated_energy"),
-        ];
-        world.insert_resource(columns);
-        world.insert_resource(EigensofteningParams {
-            law: law(),
-            band_width: 0.1,
-            columns: slots,
-            materials: MaterialFilter::all(),
-            traction: Traction::Published,
-            normal_modulus: vec![1.0],
-        });
-        let mut neighbourhoods = Neighbourhoods::default();
-        neighbourhoods.set_rows(&[vec![0, 1], vec![0, 1], vec![2]], 0.5);
-        world.insert_resource(neighbourhoods);
+        let (mut world, _) =
+            softening_world::<D>(Traction::Published, 1.0, &[vec![0, 1], vec![0, 1], vec![2]]);
         for (k, s) in [(0, 1.5), (1, 1.0), (2, 0.5)] {
             let x = D::Vector::from_fn(|a| if a == 0 { 0.1 + 0.2 * k as f64 } else { 0.5 });
             let p = spawn_particle(&mut world, x, D::Vector::ZERO, 1.0, 0.01);
