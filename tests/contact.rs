@@ -721,3 +721,96 @@ fn grid_frames_show_both_fields_where_the_disks_meet() {
         assert!(normal(0).dot(diagonal) > 0.0 && normal(1).dot(diagonal) < 0.0);
     }
 }
+
+/// Two concrete bars of equal length meet end to end at 1 m/s in uniaxial strain (rollers on
+/// the top and bottom node rows), in two contact groups with Newmark. The contact stress is
+/// the plane wave's `ρ c v/2` for the `2L/c` the wave takes to run down a bar and back, with
+/// `c = √(M/ρ)` the constrained-modulus wave speed; then the bars part, the moving one at rest
+/// and the struck one at 1 m/s. The contact force is measured every step from the struck
+/// bar's momentum, so a force that alternates between steps (as when the contact impulse was
+/// integrated as a force) fails it.
+#[test]
+fn bars_meeting_end_to_end_carry_the_plane_wave_contact_stress() {
+    use fractum_engine::scene::{Body, Boundary, Condition, InitialVelocity, Shape};
+    use fractum_engine::simulation::End;
+    let (rho, e, nu, v, length, height): (f64, f64, f64, f64, f64, f64) =
+        (2368.0, 31.0e9, 0.2, 1.0, 0.1, 0.02);
+    let constrained = e * (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu));
+    let c = (constrained / rho).sqrt();
+    let expected = rho * c * v / 2.0 * height;
+    let transit = 2.0 * length / c;
+    let h = 0.005;
+    let bar = |name: &str, x0: f64| {
+        Body::new(
+            Shape::Rectangle {
+                min: DVec2::new(x0, 0.0),
+                max: DVec2::new(x0 + length, height),
+            },
+            "concrete",
+        )
+        .named(name)
+    };
+    let spec = Spec::<Two>::new(Grid {
+        min: DVec2::new(-0.02, 0.0),
+        spacing: h,
+        cells: [52, 4],
+        graded: None,
+    })
+    .time(TimeStep::Cfl(0.5), End::Time(2.0 * transit))
+    .material(Material::new("concrete", rho, e, nu))
+    .body(bar("striker", 0.0).velocity(InitialVelocity::Uniform(DVec2::new(v, 0.0))))
+    .body(bar("struck", length).group(1))
+    .boundary(Boundary::new(
+        "bottom",
+        DVec2::new(-0.02, 0.0),
+        DVec2::new(0.24, 0.0),
+        Condition::Roller { normal: 1 },
+    ))
+    .boundary(Boundary::new(
+        "top",
+        DVec2::new(-0.02, height),
+        DVec2::new(0.24, height),
+        Condition::Roller { normal: 1 },
+    ))
+    .with_pipeline(pipeline(NEWMARK_CONTACT));
+    let registry = fractum_systems::stock_registry();
+    let mut sim = spec
+        .build(&registry)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .simulation;
+    let (mut previous, mut forces) = (0.0, Vec::new());
+    let initial = body_states::<Two>(&mut sim.world, 2);
+    while !sim.finished() {
+        sim.step().unwrap_or_else(|e| panic!("{e}"));
+        let struck = body_states::<Two>(&mut sim.world, 2)[1].momentum.x;
+        forces.push((sim.clock().time, (struck - previous) / sim.clock().dt));
+        previous = struck;
+    }
+    let plateau: Vec<f64> = forces
+        .iter()
+        .filter(|(t, _)| *t > 0.15 * transit && *t < 0.8 * transit)
+        .map(|(_, f)| *f / expected - 1.0)
+        .collect();
+    let (low, high) = plateau
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(l, h), e| (l.min(*e), h.max(*e)));
+    let end = body_states::<Two>(&mut sim.world, 2);
+    let p0 = initial[0].momentum.x;
+    let kinetic_back = (end[0].kinetic + end[1].kinetic) / initial[0].kinetic;
+    println!(
+        "bars meeting at {v} m/s: contact force from {:+.1}% to {:+.1}% of ρcvA/2 = {:.1} kN \
+         over {} steps of the plateau; momentum at the end {:.3} (striker) and {:.3} (struck) of \
+         the striker's; kinetic energy back {:.1}%",
+        100.0 * low,
+        100.0 * high,
+        expected / 1e3,
+        plateau.len(),
+        end[0].momentum.x / p0,
+        end[1].momentum.x / p0,
+        100.0 * kinetic_back
+    );
+    assert!(plateau.len() > 50);
+    assert!(low > -0.08 && high < 0.08, "{low} {high}");
+    assert!(end[1].momentum.x / p0 > 0.85);
+    assert!(kinetic_back > 0.85);
+}

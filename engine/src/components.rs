@@ -272,6 +272,17 @@ impl<D: Dim> Default for NodeContactForce<D> {
     }
 }
 
+/// Contact impulse on each velocity field this step that acts as a kick on the velocity, not as
+/// a force (Newmark's collision part; zero without contact or with update-stress-last).
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct NodeContactImpulse<D: Dim>(pub [D::Vector; MAX_FIELDS]);
+
+impl<D: Dim> Default for NodeContactImpulse<D> {
+    fn default() -> Self {
+        Self([D::Vector::default(); MAX_FIELDS])
+    }
+}
+
 /// Unit normal of each velocity field, the normalised mass gradient `Σ ∇N_Ip m_p` (eq. 11) with
 /// the shape-function gradient at the particle, so it points out of the field's material;
 /// written by contact.
@@ -380,6 +391,8 @@ pub struct NodeBundle<D: Dim> {
     pub normal: NodeNormal<D>,
     /// Field contact forces.
     pub contact_force: NodeContactForce<D>,
+    /// Field contact impulses (kicks).
+    pub contact_impulse: NodeContactImpulse<D>,
     /// Field keys.
     pub fields: NodeFields,
     /// Field damage statistics.
@@ -400,6 +413,7 @@ impl<D: Dim> NodeBundle<D> {
             force: NodeForce::default(),
             normal: NodeNormal::default(),
             contact_force: NodeContactForce::default(),
+            contact_impulse: NodeContactImpulse::default(),
             fields: NodeFields::default(),
             field_damage: NodeFieldDamage::default(),
         }

@@ -2,8 +2,8 @@
 
 use crate::boundary::{BoundaryConditions, Reactions};
 use crate::components::{
-    Acceleration, BodyId, Damage, DamageGradient, Mass, MaterialId, Node, NodeFields, Particle,
-    ParticleId, Position, StrainEnergyDensity, Stress, SurfaceFlag, Velocity, Volume,
+    BodyId, Damage, DamageGradient, Mass, MaterialId, Node, NodeFields, Particle, ParticleId,
+    Position, StrainEnergyDensity, Stress, SurfaceFlag, Velocity, Volume,
 };
 use crate::diagnostics::{Totals, totals};
 use crate::dim::{Dim, Dimension, SymOps, VectorOps};
@@ -205,7 +205,12 @@ pub fn series_row(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
 }
 
 /// The value of one probe, one entry per axis.
-fn probe_value<D: Dim>(world: &mut World, probe: &ProbeKind, totals: &Totals) -> D::Vector {
+fn probe_value<D: Dim>(
+    world: &mut World,
+    slot: usize,
+    probe: &ProbeKind,
+    totals: &Totals,
+) -> D::Vector {
     let time = world.resource::<SimClock>().time;
     match probe {
         ProbeKind::Reaction { index, .. } => world
@@ -220,11 +225,19 @@ fn probe_value<D: Dim>(world: &mut World, probe: &ProbeKind, totals: &Totals) ->
         }
         ProbeKind::Force { index, .. } => {
             let mut query =
-                world.query_filtered::<(&BodyId, &Mass, &Acceleration<D>), With<Particle>>();
-            query
+                world.query_filtered::<(&BodyId, &Mass, &Velocity<D>), With<Particle>>();
+            let momentum = query
                 .iter(world)
                 .filter(|(b, _, _)| b.0 == *index)
-                .fold(D::Vector::ZERO, |f, (_, m, a)| f + a.0 * m.0)
+                .fold(D::Vector::ZERO, |p, (_, m, v)| p + v.0 * m.0);
+            let mut memory = world.get_resource_or_init::<ForceProbeMemory>();
+            memory
+                .mean_force(
+                    slot,
+                    time,
+                    std::array::from_fn(|a| if a < D::N { momentum[a] } else { 0.0 }),
+                )
+                .map_or(D::Vector::ZERO, |f| D::Vector::from_fn(|a| f[a]))
         }
         ProbeKind::Track {
             particle,
@@ -256,13 +269,36 @@ fn probe_value<D: Dim>(world: &mut World, probe: &ProbeKind, totals: &Totals) ->
     }
 }
 
+/// What the `Force` probes remember between series rows: per probe slot, the time, the body's
+/// momentum and the force reported then.
+#[derive(Resource, Default, Debug)]
+pub struct ForceProbeMemory(Vec<Option<(f64, [f64; 3], Option<[f64; 3]>)>>);
+
+impl ForceProbeMemory {
+    /// The mean net force `(P − P₀)/(t − t₀)` on a body over the interval since the previous
+    /// row, from its momentum `P` now; `None` at the first row (no interval yet, reported as
+    /// zero). A second row at the same time repeats the first row's value.
+    pub fn mean_force(&mut self, slot: usize, time: f64, momentum: [f64; 3]) -> Option<[f64; 3]> {
+        if self.0.len() <= slot {
+            self.0.resize(slot + 1, None);
+        }
+        let force = match self.0[slot] {
+            Some((t0, _, previous)) if t0 == time => return previous,
+            Some((t0, p0, _)) => Some(std::array::from_fn(|a| (momentum[a] - p0[a]) / (time - t0))),
+            None => None,
+        };
+        self.0[slot] = Some((time, momentum, force));
+        force
+    }
+}
+
 fn series_row_of<D: Dim>(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
     let t = totals(world);
     let time = world.resource::<SimClock>().time;
     let mut row = vec![time, t.kinetic_energy, t.strain_energy, t.total_energy()];
     row.extend_from_slice(&t.momentum[..D::N]);
-    for probe in &plan.probes {
-        let value = probe_value::<D>(world, probe, &t);
+    for (slot, probe) in plan.probes.iter().enumerate() {
+        let value = probe_value::<D>(world, slot, probe, &t);
         row.extend((0..D::N).map(|a| value[a]));
     }
     let mut dissipated = 0.0;
@@ -402,4 +438,25 @@ pub fn run(
             .get_resource::<EnergyWatch>()
             .and_then(|w| w.worst),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The force probe reports the mean force over each interval between rows, nothing at the
+    /// first row, and repeats itself when asked twice at one time.
+    #[test]
+    fn force_probes_report_the_momentum_rate_between_rows() {
+        let mut memory = ForceProbeMemory::default();
+        assert_eq!(memory.mean_force(1, 0.0, [1.0, 2.0, 0.0]), None);
+        let force = memory.mean_force(1, 0.5, [2.0, 1.0, 0.0]).unwrap();
+        assert_eq!(force, [2.0, -2.0, 0.0]);
+        assert_eq!(memory.mean_force(1, 0.5, [9.0, 9.0, 9.0]), Some(force));
+        assert_eq!(
+            memory.mean_force(1, 1.5, [3.0, 1.0, 0.0]),
+            Some([1.0, 0.0, 0.0])
+        );
+        assert_eq!(memory.mean_force(0, 1.5, [3.0, 1.0, 0.0]), None);
+    }
 }

@@ -79,6 +79,18 @@ pub fn advect_particles<D: Dim>(
     particles: &mut AdvectedQuery<D>,
     update: impl Fn(&mut D::Vector, &mut D::Vector, D::Vector, D::Vector) + Sync,
 ) {
+    advect_rows(connectivity, nodes, particles, |_, x, v, a, v_grid| {
+        update(x, v, a, v_grid)
+    });
+}
+
+/// The loop of [`advect_particles`], with the particle row handed to `update`.
+fn advect_rows<D: Dim>(
+    connectivity: &Connectivity<D>,
+    nodes: &NodeMotionQuery<D>,
+    particles: &mut AdvectedQuery<D>,
+    update: impl Fn(usize, &mut D::Vector, &mut D::Vector, D::Vector, D::Vector) + Sync,
+) {
     let (node_acceleration, node_velocity) =
         single_table(nodes.contiguous_iter(), "nodes").unwrap_or((&[], &[]));
     let Some((mut position, mut velocity, mut acceleration)) =
@@ -94,8 +106,34 @@ pub fn advect_particles<D: Dim>(
         .for_each(|(p, ((x, v), a))| {
             let (a_grid, v_grid) = interpolate(connectivity, node_acceleration, node_velocity, p);
             a.0 = a_grid;
-            update(&mut x.0, &mut v.0, a_grid, v_grid);
+            update(p, &mut x.0, &mut v.0, a_grid, v_grid);
         });
+}
+
+/// [`advect_particles`] with a per-node-field velocity kick (a contact impulse over the mass,
+/// `Δp/m`) interpolated alongside: `update(x, v, Σ N a_I, Σ N v_I, Σ N kick_I)`. An empty
+/// `kicks` slice means no kicks.
+pub fn advect_particles_with_kicks<D: Dim>(
+    connectivity: &Connectivity<D>,
+    nodes: &NodeMotionQuery<D>,
+    kicks: &[[D::Vector; MAX_FIELDS]],
+    particles: &mut AdvectedQuery<D>,
+    update: impl Fn(&mut D::Vector, &mut D::Vector, D::Vector, D::Vector, D::Vector) + Sync,
+) {
+    let kick_of = |p: usize| {
+        connectivity.row(p).fold(D::Vector::ZERO, |sum, e| {
+            sum + kicks[connectivity.nodes[e] as usize][connectivity.field(e)]
+                * connectivity.weights[e]
+        })
+    };
+    advect_rows(connectivity, nodes, particles, |p, x, v, a, v_grid| {
+        let kick = if kicks.is_empty() {
+            D::Vector::ZERO
+        } else {
+            kick_of(p)
+        };
+        update(x, v, a, v_grid, kick);
+    });
 }
 
 /// Per-node, per-field sums of the particle-to-grid transfer.

@@ -4,14 +4,15 @@
 //! - Stage: corrector. Registration name: `corrector/newmark`. Pairs with `predictor/newmark`.
 //! - Implements eigensoftening-lme-mpm.md Appendix A (Algorithm 1), steps 7–8, eq. (2):
 //!   `f_I = Σ N_Ip m_p b − Σ (1 − D_p) V_p σ_p · ∇N_Ip` with the stress just updated, and
-//!   `v_I = ṽ_I + γ Δt f_I / m_I`, on every velocity field; a contact stage before it leaves its
-//!   force in `NodeContactForce`, which joins `f_I` (so the contact force is integrated like any
-//!   other). Held velocity components stay at their prescribed value and
-//!   the force that holds them is the region's reaction. As in the authors' implementation the
+//!   `v_I = ṽ_I + γ Δt f_I / m_I`, on every velocity field. Held velocity components stay at
+//!   their prescribed value and the force that holds them is the region's reaction. As in the authors' implementation the
 //!   force, and so the acceleration handed to the particle update, is zero in held components:
 //!   the particle update applies a full `Δt a_I`, so passing the holding acceleration
 //!   `(v_I − ṽ_I)/(γ Δt)` would over-correct particles next to a moving boundary by `1/γ` and
 //!   feed energy into the body.
+//! - Contact. A contact stage before it has already given `ṽ_I` its impulse (the collision
+//!   part) and leaves its force in `NodeContactForce`, which joins `f_I` and is integrated like
+//!   any other force (see `contact/frictional`).
 
 use crate::predictor::newmark::NewmarkParams;
 use crate::transfer::{ForceSources, ParticleSlices, field_forces};
