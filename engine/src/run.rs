@@ -269,10 +269,17 @@ fn probe_value<D: Dim>(
     }
 }
 
-/// What the `Force` probes remember between series rows: per probe slot, the time, the body's
-/// momentum and the force reported then.
+/// What the `Force` probes remember between series rows, per probe slot.
 #[derive(Resource, Default, Debug)]
-pub struct ForceProbeMemory(Vec<Option<(f64, [f64; 3], Option<[f64; 3]>)>>);
+pub struct ForceProbeMemory(Vec<Option<ForceProbeRow>>);
+
+/// One `Force` probe's last row.
+#[derive(Clone, Copy, Debug)]
+struct ForceProbeRow {
+    time: f64,
+    momentum: [f64; 3],
+    reported: Option<[f64; 3]>,
+}
 
 impl ForceProbeMemory {
     /// The mean net force `(P − P₀)/(t − t₀)` on a body over the interval since the previous
@@ -283,11 +290,17 @@ impl ForceProbeMemory {
             self.0.resize(slot + 1, None);
         }
         let force = match self.0[slot] {
-            Some((t0, _, previous)) if t0 == time => return previous,
-            Some((t0, p0, _)) => Some(std::array::from_fn(|a| (momentum[a] - p0[a]) / (time - t0))),
+            Some(row) if row.time == time => return row.reported,
+            Some(row) => Some(std::array::from_fn(|a| {
+                (momentum[a] - row.momentum[a]) / (time - row.time)
+            })),
             None => None,
         };
-        self.0[slot] = Some((time, momentum, force));
+        self.0[slot] = Some(ForceProbeRow {
+            time,
+            momentum,
+            reported: force,
+        });
         force
     }
 }
