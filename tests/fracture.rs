@@ -329,7 +329,7 @@ fn a_time_to_failure_crack_runs_within_ten_percent_of_c_f_at_the_shipped_resolut
         );
         let speed = slope(&steady);
         eprintln!(
-            "MEASURE c_f {crack_speed}: {speed} m/s, {}",
+            "time-to-failure crack at c_f = {crack_speed} m/s: front speed {speed:.1} m/s ({:.3} of c_f)",
             speed / crack_speed
         );
         assert!(
