@@ -1014,14 +1014,15 @@ mod tests {
         assert!(separable(a, FieldKey::new(1, 0), &damage, (0, 1), 0.25));
     }
 
-    /// The system alone on a tiny world: two groups approaching across one cell (USL: the node
-    /// velocities are the end-of-step velocities). Momentum is unchanged and the shared nodes'
-    /// fields no longer approach.
-    #[test]
-    fn the_system_stops_approach_and_keeps_momentum() {
+    /// Two particles of groups 0 and 1 approaching each other across one cell of a tiny world,
+    /// with `predictor` run after the basis and the field assignment.
+    fn two_groups_meeting<M>(
+        predictor: impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, M>,
+    ) -> World {
         let mut world = tiny_world::<Two>(2, 0.5, 1e-3);
         world.insert_resource(FrictionalParams::default());
         world.insert_resource(crate::predictor::usl::UslPredictorParams::default());
+        world.insert_resource(NewmarkParams::default());
         let a = spawn_particle(&mut world, DVec2::new(0.4, 0.3), DVec2::X, 1.0, 0.01);
         let b = spawn_particle(&mut world, DVec2::new(0.6, 0.3), -DVec2::X, 1.0, 0.01);
         world.entity_mut(a).insert(ContactGroup(0));
@@ -1031,35 +1032,53 @@ mod tests {
             &mut world,
             fractum_engine::fields::assign_fields_system::<Two>,
         );
-        run_system(&mut world, crate::predictor::usl::usl_predictor::<Two>);
-        let momentum = |world: &mut World| -> DVec2 {
-            let m = node_values::<NodeMass>(world);
-            let v = node_values::<NodeVelocity<Two>>(world);
-            m.iter()
-                .zip(&v)
-                .map(|(m, v)| (0..MAX_FIELDS).map(|k| v.0[k] * m.0[k]).sum::<DVec2>())
-                .sum()
-        };
-        let before = momentum(&mut world);
-        run_system(&mut world, frictional_contact_usl::<Two>);
-        let after = momentum(&mut world);
-        assert!((after - before).length() < 1e-15);
-        let fields = node_values::<NodeFields>(&mut world);
-        let masses = node_values::<NodeMass>(&mut world);
-        let velocities = node_values::<NodeVelocity<Two>>(&mut world);
-        let normals = node_values::<NodeNormal<Two>>(&mut world);
-        let shared = fields.iter().filter(|f| f.count == 2).count();
-        assert_eq!(shared, 2);
-        for (i, f) in fields.iter().enumerate() {
-            if f.count == 2 {
-                let field = |k: usize| state(masses[i].0[k], velocities[i].0[k], normals[i].0[k]);
-                let n = ContactNormals::default()
-                    .pair_normal(&field(0), &field(1))
-                    .unwrap();
-                let closing = (velocities[i].0[0] - velocities[i].0[1]).dot(n);
-                assert!(closing.abs() < 1e-14, "node {i}: {closing}");
-            }
+        run_system(&mut world, predictor);
+        world
+    }
+
+    /// Total momentum of the node fields.
+    fn node_momentum(world: &mut World) -> DVec2 {
+        let m = node_values::<NodeMass>(world);
+        let v = node_values::<NodeVelocity<Two>>(world);
+        m.iter()
+            .zip(&v)
+            .map(|(m, v)| (0..MAX_FIELDS).map(|k| v.0[k] * m.0[k]).sum::<DVec2>())
+            .sum()
+    }
+
+    /// The shared nodes (asserted to be two): their fields no longer approach along the pair
+    /// normal. Returns the shared nodes' indices.
+    fn assert_no_approach_left(world: &mut World) -> Vec<usize> {
+        let fields = node_values::<NodeFields>(world);
+        let masses = node_values::<NodeMass>(world);
+        let velocities = node_values::<NodeVelocity<Two>>(world);
+        let normals = node_values::<NodeNormal<Two>>(world);
+        let shared: Vec<usize> = (0..fields.len())
+            .filter(|&i| fields[i].count == 2)
+            .collect();
+        assert_eq!(shared.len(), 2);
+        for &i in &shared {
+            let field = |k: usize| state(masses[i].0[k], velocities[i].0[k], normals[i].0[k]);
+            let n = ContactNormals::default()
+                .pair_normal(&field(0), &field(1))
+                .unwrap();
+            let closing = (velocities[i].0[0] - velocities[i].0[1]).dot(n);
+            assert!(closing.abs() < 1e-14, "node {i}: {closing}");
         }
+        shared
+    }
+
+    /// The system alone on a tiny world: two groups approaching across one cell (USL: the node
+    /// velocities are the end-of-step velocities). Momentum is unchanged and the shared nodes'
+    /// fields no longer approach.
+    #[test]
+    fn the_system_stops_approach_and_keeps_momentum() {
+        let mut world = two_groups_meeting(crate::predictor::usl::usl_predictor::<Two>);
+        let before = node_momentum(&mut world);
+        run_system(&mut world, frictional_contact_usl::<Two>);
+        let after = node_momentum(&mut world);
+        assert!((after - before).length() < 1e-15);
+        assert_no_approach_left(&mut world);
         assert!(
             node_values::<NodeContactForce<Two>>(&mut world)
                 .iter()
@@ -1100,57 +1119,22 @@ mod tests {
     /// no approach left), the kick is in `NodeContactImpulse` and no contact force is left.
     #[test]
     fn the_newmark_system_turns_a_collision_into_a_kick() {
-        let mut world = tiny_world::<Two>(2, 0.5, 1e-3);
-        world.insert_resource(FrictionalParams::default());
-        world.insert_resource(NewmarkParams::default());
-        let a = spawn_particle(&mut world, DVec2::new(0.4, 0.3), DVec2::X, 1.0, 0.01);
-        let b = spawn_particle(&mut world, DVec2::new(0.6, 0.3), -DVec2::X, 1.0, 0.01);
-        world.entity_mut(a).insert(ContactGroup(0));
-        world.entity_mut(b).insert(ContactGroup(1));
-        run_system(&mut world, crate::basis::linear::linear_basis::<Two>);
-        run_system(
-            &mut world,
-            fractum_engine::fields::assign_fields_system::<Two>,
-        );
-        run_system(
-            &mut world,
-            crate::predictor::newmark::newmark_predictor::<Two>,
-        );
-        let momentum = |world: &mut World| -> DVec2 {
-            let m = node_values::<NodeMass>(world);
-            let v = node_values::<NodeVelocity<Two>>(world);
-            m.iter()
-                .zip(&v)
-                .map(|(m, v)| (0..MAX_FIELDS).map(|k| v.0[k] * m.0[k]).sum::<DVec2>())
-                .sum()
-        };
-        let before = momentum(&mut world);
+        let mut world = two_groups_meeting(crate::predictor::newmark::newmark_predictor::<Two>);
+        let before = node_momentum(&mut world);
         run_system(&mut world, frictional_contact::<Two>);
-        assert!((momentum(&mut world) - before).length() < 1e-15);
-        let fields = node_values::<NodeFields>(&mut world);
-        let masses = node_values::<NodeMass>(&mut world);
-        let velocities = node_values::<NodeVelocity<Two>>(&mut world);
-        let normals = node_values::<NodeNormal<Two>>(&mut world);
+        assert!((node_momentum(&mut world) - before).length() < 1e-15);
+        let shared = assert_no_approach_left(&mut world);
         let kicks = node_values::<NodeContactImpulse<Two>>(&mut world);
-        let forces = node_values::<NodeContactForce<Two>>(&mut world);
-        assert_eq!(fields.iter().filter(|f| f.count == 2).count(), 2);
-        for (i, f) in fields.iter().enumerate() {
-            if f.count == 2 {
-                let field = |k: usize| state(masses[i].0[k], velocities[i].0[k], normals[i].0[k]);
-                let n = ContactNormals::default()
-                    .pair_normal(&field(0), &field(1))
-                    .unwrap();
-                let closing = (velocities[i].0[0] - velocities[i].0[1]).dot(n);
-                assert!(closing.abs() < 1e-14, "node {i}: {closing}");
-                assert!(kicks[i].0[0].x < 0.0, "node {i}: {:?}", kicks[i].0);
-                assert!((kicks[i].0[0] + kicks[i].0[1]).length() < 1e-15);
-            }
+        for &i in &shared {
+            assert!(kicks[i].0[0].x < 0.0, "node {i}: {:?}", kicks[i].0);
+            assert!((kicks[i].0[0] + kicks[i].0[1]).length() < 1e-15);
+        }
+        for (i, force) in node_values::<NodeContactForce<Two>>(&mut world)
+            .iter()
+            .enumerate()
+        {
             for k in 0..MAX_FIELDS {
-                assert!(
-                    forces[i].0[k].length() < 1e-9,
-                    "node {i}: {:?}",
-                    forces[i].0
-                );
+                assert!(force.0[k].length() < 1e-9, "node {i}: {:?}", force.0);
             }
         }
     }
