@@ -13,6 +13,7 @@
 //! pipeline uses slot 0 everywhere. Why a small fixed number of slots per node instead of
 //! `groups × 2` fields everywhere: see ARCHITECTURE.md (velocity fields).
 
+use serde::{Deserialize, Serialize};
 use crate::dim::{Dim, MatrixOps, SymOps};
 use bevy_ecs::prelude::Component;
 
@@ -32,7 +33,7 @@ pub fn slots<T: Copy + Default>(values: &[T]) -> [T; MAX_FIELDS] {
 
 /// Key of a velocity field: `2 × contact group + side`, where the side (0 or 1) is the
 /// particle's side of the damage-field gradient at the node (always 0 without partitioning).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 pub struct FieldKey(pub u16);
 
 impl FieldKey {
@@ -54,7 +55,7 @@ impl FieldKey {
 
 /// Which field each slot of a node holds: `keys[..count]`, in the order their first particle
 /// appears. Without partitioning every node holds one field, key 0.
-#[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct NodeFields {
     /// Number of slots in use.
     pub count: u8,
@@ -80,7 +81,7 @@ impl NodeFields {
 
 /// Damage state of each field at a node, for the separability condition
 /// (dfg-partitioning-mpm.md §2.3, eq. 21): mass-weighted mean and maximum particle damage.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct NodeFieldDamage {
     /// `Σ N m D / Σ N m` of each slot.
     pub mean: [f64; MAX_FIELDS],
@@ -90,52 +91,52 @@ pub struct NodeFieldDamage {
 
 /// Gradient of the normalised kernel damage field at the particle, `∇D̄(x_p)`
 /// (dfg-partitioning-mpm.md eqs. 17–19); written by a partition system.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct DamageGradient<D: Dim>(pub D::Vector);
 
 /// Surface flag `s_p` (dfg-partitioning-mpm.md §2.4): 1 for particles detected on a surface at
 /// the start of the run, 0 inside. Partitioning uses `max(s_p, D_p)` in place of `D_p`.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct SurfaceFlag(pub f64);
 
 /// External force on the particle from scene loads (N), refreshed every step.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ExternalForce<D: Dim>(pub D::Vector);
 
 /// Marker of a material point.
-#[derive(Component, Clone, Copy, Debug, Default)]
+#[derive(Component, Clone, Copy, Debug, Default, Serialize, Deserialize)]
 pub struct Particle;
 
 /// Stable particle number, assigned at creation in seeding order; used in messages and output.
-#[derive(Component, Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 pub struct ParticleId(pub u32);
 
 /// Current position.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Position<D: Dim>(pub D::Vector);
 
 /// Current velocity.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Velocity<D: Dim>(pub D::Vector);
 
 /// Current acceleration (used by integrators that carry it between steps).
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Acceleration<D: Dim>(pub D::Vector);
 
 /// Mass (constant).
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Mass(pub f64);
 
 /// Current volume (area × unit thickness in 2D).
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Volume(pub f64);
 
 /// Volume at creation.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct InitialVolume(pub f64);
 
 /// Deformation gradient F.
-#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DeformationGradient<D: Dim>(pub D::Matrix);
 
 impl<D: Dim> Default for DeformationGradient<D> {
@@ -145,7 +146,7 @@ impl<D: Dim> Default for DeformationGradient<D> {
 }
 
 /// Cauchy stress (in plane strain with `zz` kept).
-#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Stress<D: Dim>(pub D::Sym);
 
 impl<D: Dim> Default for Stress<D> {
@@ -155,7 +156,7 @@ impl<D: Dim> Default for Stress<D> {
 }
 
 /// Small-strain measure accumulated from the strain increments.
-#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Strain<D: Dim>(pub D::Sym);
 
 impl<D: Dim> Default for Strain<D> {
@@ -165,65 +166,65 @@ impl<D: Dim> Default for Strain<D> {
 }
 
 /// Stored elastic energy per unit reference volume, written by the stress system.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct StrainEnergyDensity(pub f64);
 
 /// Current dilatational wave speed of the particle's material state (m/s), for the stable time
 /// step. Set from the material at creation; stress systems whose stiffness changes with
 /// deformation keep it current.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct WaveSpeed(pub f64);
 
 /// Damage in `[0, 1]`: 0 intact, 1 fully failed. Internal force is scaled by `1 − damage`.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Damage(pub f64);
 
 /// Tensile strength `σ_f` of one particle (Pa), for damage laws whose strength varies from
 /// particle to particle (Weibull, dfg-partitioning-mpm.md eq. 25). Written to the frames as
 /// `strength` when the pipeline has it.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Strength(pub f64);
 
 /// Largest crack opening `w` (m) a cracking particle has reached, for damage laws with a
 /// cohesive crack band (eigensoftening). Written to the frames as `crack_opening` when the
 /// pipeline has it.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct CrackOpening(pub f64);
 
 /// History variable of the damage law, e.g. the strain at crack onset; 0 until the law sets it.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct DamageHistory(pub f64);
 
 /// Index into the scene's material table ([`crate::resources::Materials`]).
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct MaterialId(pub u16);
 
 /// Index of the body (in scene order) the particle was seeded from.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct BodyId(pub u16);
 
 /// Contact group declared by the body; used by contact algorithms.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ContactGroup(pub u8);
 
 /// Marker of a background grid node.
-#[derive(Component, Clone, Copy, Debug, Default)]
+#[derive(Component, Clone, Copy, Debug, Default, Serialize, Deserialize)]
 pub struct Node;
 
 /// Linear node number (`i + nx (j + ny k)`); equals the node's row in its storage table.
-#[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct NodeIndex(pub u32);
 
 /// Node position (fixed for a background grid).
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct NodePosition<D: Dim>(pub D::Vector);
 
 /// Lumped mass of each velocity field.
-#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct NodeMass(pub [f64; MAX_FIELDS]);
 
 /// Momentum of each velocity field.
-#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct NodeMomentum<D: Dim>(pub [D::Vector; MAX_FIELDS]);
 
 impl<D: Dim> Default for NodeMomentum<D> {
@@ -233,7 +234,7 @@ impl<D: Dim> Default for NodeMomentum<D> {
 }
 
 /// Velocity of each velocity field.
-#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct NodeVelocity<D: Dim>(pub [D::Vector; MAX_FIELDS]);
 
 impl<D: Dim> Default for NodeVelocity<D> {
@@ -243,7 +244,7 @@ impl<D: Dim> Default for NodeVelocity<D> {
 }
 
 /// Acceleration of each velocity field over the current step.
-#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct NodeAcceleration<D: Dim>(pub [D::Vector; MAX_FIELDS]);
 
 impl<D: Dim> Default for NodeAcceleration<D> {
@@ -253,7 +254,7 @@ impl<D: Dim> Default for NodeAcceleration<D> {
 }
 
 /// Total (internal + external) force on each velocity field.
-#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct NodeForce<D: Dim>(pub [D::Vector; MAX_FIELDS]);
 
 impl<D: Dim> Default for NodeForce<D> {
@@ -263,7 +264,7 @@ impl<D: Dim> Default for NodeForce<D> {
 }
 
 /// Contact force on each velocity field over the current step (zero without contact).
-#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct NodeContactForce<D: Dim>(pub [D::Vector; MAX_FIELDS]);
 
 impl<D: Dim> Default for NodeContactForce<D> {
@@ -274,7 +275,7 @@ impl<D: Dim> Default for NodeContactForce<D> {
 
 /// Contact impulse on each velocity field this step that acts as a kick on the velocity, not as
 /// a force (Newmark's collision part; zero without contact or with update-stress-last).
-#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct NodeContactImpulse<D: Dim>(pub [D::Vector; MAX_FIELDS]);
 
 impl<D: Dim> Default for NodeContactImpulse<D> {
@@ -286,7 +287,7 @@ impl<D: Dim> Default for NodeContactImpulse<D> {
 /// Unit normal of each velocity field, the normalised mass gradient `Σ ∇N_Ip m_p` (eq. 11) with
 /// the shape-function gradient at the particle, so it points out of the field's material;
 /// written by contact.
-#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct NodeNormal<D: Dim>(pub [D::Vector; MAX_FIELDS]);
 
 impl<D: Dim> Default for NodeNormal<D> {

@@ -36,7 +36,7 @@ use bevy_ecs::prelude::*;
 pub struct AccountWork;
 
 /// The work done on the system since the start, and the state it was measured from.
-#[derive(Resource, Clone, Debug, Default, PartialEq)]
+#[derive(Resource, Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EnergyAccount {
     /// Work of the loads since the start (J; per scene thickness in 2D).
     pub external_work: f64,
@@ -136,7 +136,7 @@ pub fn account_work<D: Dim>(
 pub const CREATION_WARNING: f64 = 0.05;
 
 /// Energy the scheme had created at one series row.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EnergyCreation {
     /// Step of the row.
     pub step: u64,
@@ -150,7 +150,7 @@ pub struct EnergyCreation {
 
 /// Follows the energy balance of the series rows for energy the scheme creates (a resource the
 /// run loop updates at every row, and a front end may read to warn while the run goes on).
-#[derive(Resource, Clone, Debug, Default, PartialEq)]
+#[derive(Resource, Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EnergyWatch {
     /// The energy in play: the largest initial energy, total energy or work done seen so far.
     pub scale: f64,

@@ -457,10 +457,13 @@ pub fn stage_check<D: Dim>(
 }
 
 /// Particles removed because they left the grid (policy [`LeaveGrid::Remove`]).
-#[derive(Resource, Clone, Debug, Default, PartialEq)]
+#[derive(Resource, Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EscapedParticles {
     /// How many so far.
     pub count: u64,
+    /// Their ids, in the order they were removed (a checkpoint removes them again in this
+    /// order, which keeps the particles' storage order).
+    pub removed: Vec<u32>,
     /// Id and position (x, y, z; z = 0 in 2D) of the first one removed.
     pub first: Option<(u32, [f64; 3])>,
 }
@@ -477,6 +480,7 @@ pub fn remove_escaped_particles<D: Dim>(
     for (entity, id, x) in &particles {
         if !grid.contains(x.0) && x.0.is_finite() {
             escaped.count += 1;
+            escaped.removed.push(id.0);
             escaped.first.get_or_insert((id.0, x.0.to_3d()));
             commands.entity(entity).despawn();
         }

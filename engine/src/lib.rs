@@ -11,6 +11,7 @@
 //! 2D plane strain and 3D, and a scene's grid decides which is instantiated.
 
 pub mod boundary;
+pub mod checkpoint;
 pub mod components;
 pub mod connectivity;
 pub mod diagnostics;

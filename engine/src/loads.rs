@@ -12,7 +12,7 @@ use bevy_ecs::prelude::*;
 use rayon::prelude::*;
 
 /// Which load a particle carries and its share of the total (its volume over the load's).
-#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[derive(Component, Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LoadShare {
     /// Index into [`ParticleLoads`], or [`LoadShare::NONE`].
     pub load: u16,

@@ -16,7 +16,7 @@ use rayon::prelude::*;
 const ROWS_PER_BLOCK: usize = 512;
 
 /// ε-neighbourhood of every particle row.
-#[derive(Resource, Clone, Debug, Default)]
+#[derive(Resource, Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Neighbourhoods {
     /// Radius ε the lists were filtered with.
     pub radius: f64,

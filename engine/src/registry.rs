@@ -18,6 +18,18 @@ use bevy_ecs::system::ScheduleSystem;
 use serde::de::DeserializeOwned;
 use std::collections::BTreeMap;
 
+/// A particle component a system adds: mutable, and serde both ways so that checkpoints can
+/// carry it (derive `serde::Serialize` and `serde::Deserialize`).
+pub trait ParticleState:
+    Component<Mutability = bevy_ecs::component::Mutable> + crate::checkpoint::State
+{
+}
+
+impl<C: Component<Mutability = bevy_ecs::component::Mutable> + crate::checkpoint::State>
+    ParticleState for C
+{
+}
+
 /// Documentation of one parameter, shown by `fractum systems`.
 #[derive(Clone, Copy, Debug)]
 pub struct ParamDoc {
@@ -125,7 +137,7 @@ impl Registry {
 /// index. Stress and damage systems keep the filter their installer hands them and leave the
 /// particles of other materials alone; the engine checks that the entries of one stage never
 /// share a material and that every material has a stress system.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct MaterialFilter(Option<Vec<bool>>);
 
 impl MaterialFilter {
@@ -243,8 +255,9 @@ impl<'a> Installer<'a> {
 
     /// Gives every particle a component of the system's own (a damage gradient, a surface flag,
     /// a strength), starting at `value`. All particles get it at once, before the first step, so
-    /// they stay in one storage table.
-    pub fn add_particle_component<C: Component + Clone>(&mut self, value: C) {
+    /// they stay in one storage table. Checkpoints carry it ([`crate::checkpoint`]).
+    pub fn add_particle_component<C: ParticleState + Clone>(&mut self, value: C) {
+        crate::checkpoint::carry_component::<C>(self.world);
         let particles: Vec<Entity> = self
             .world
             .query_filtered::<Entity, With<Particle>>()
@@ -260,11 +273,12 @@ impl<'a> Installer<'a> {
     /// particle's value, or `None` for a particle this entry does not own (another material),
     /// which gets `default` unless it already has the component (from another entry). All
     /// particles end with the component, so they stay in one storage table.
-    pub fn add_particle_component_with<C: Component + Clone>(
+    pub fn add_particle_component_with<C: ParticleState + Clone>(
         &mut self,
         default: C,
         mut value: impl FnMut(bevy_ecs::world::EntityRef<'_>) -> Option<C>,
     ) {
+        crate::checkpoint::carry_component::<C>(self.world);
         let particles: Vec<Entity> = self
             .world
             .query_filtered::<Entity, With<Particle>>()
@@ -288,6 +302,40 @@ impl<'a> Installer<'a> {
                 None => {}
             }
         }
+    }
+
+    /// Declares storage this system will allocate per particle during the run (`bytes` per
+    /// particle, described by `what`, e.g. "basis/lme: support of about 40 nodes"), so that
+    /// building the scene refuses, with the estimate, a scene that cannot fit in memory
+    /// instead of aborting in the first step ([`crate::scene::budget`]).
+    pub fn declare_particle_memory(&mut self, what: impl Into<String>, bytes: f64) {
+        let field = self
+            .entry
+            .map_or("pipeline".to_string(), |k| format!("pipeline[{k}]"));
+        self.world
+            .get_resource_or_init::<crate::scene::budget::ParticleMemory>()
+            .0
+            .push((field, what.into(), bytes));
+    }
+
+    /// The mean number of particles per cell of the smallest width, as built (for a
+    /// neighbour list's [`Installer::declare_particle_memory`]).
+    pub fn particles_per_cell(&mut self) -> f64 {
+        crate::with_dim!(self.dimension(), D => crate::scene::budget::particles_per_cell::<D>(self.world))
+    }
+
+    /// Inserts a resource that carries values from one step to the next (a running total, a
+    /// warm start, a cached list): checkpoints save and restore it ([`crate::checkpoint`]).
+    /// Parameters and scratch buffers that every step refills are plain resources.
+    pub fn insert_state<R: Resource + crate::checkpoint::State>(&mut self, resource: R) {
+        self.world.insert_resource(resource);
+        crate::checkpoint::carry_resource::<R>(self.world);
+    }
+
+    /// [`Installer::insert_state`] with the resource built from the world unless one exists.
+    pub fn init_state<R: Resource + FromWorld + crate::checkpoint::State>(&mut self) {
+        self.world.init_resource::<R>();
+        crate::checkpoint::carry_resource::<R>(self.world);
     }
 
     /// Inserts a resource (typically the system's parsed parameters).

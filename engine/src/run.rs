@@ -17,7 +17,11 @@ use crate::resources::{SimClock, Thickness};
 use crate::simulation::Simulation;
 use crate::with_dim;
 use bevy_ecs::prelude::*;
+use crate::checkpoint::{
+    CheckpointEvery, CheckpointOutputs, DEFAULT_KEEP, SceneRecord, write_checkpoint,
+};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// Why a run did not finish.
@@ -27,6 +31,9 @@ pub enum RunError {
     /// state at the start of the failing step too when the plan keeps it.
     #[error("the run stopped at {0}")]
     Blowup(Blowup, Option<PathBuf>),
+    /// A checkpoint could not be made.
+    #[error("cannot write a checkpoint: {0}")]
+    Checkpoint(String),
     /// An output file could not be written.
     #[error("cannot write {path}: {source}")]
     Io {
@@ -59,6 +66,10 @@ pub struct RunSummary {
     /// The most energy the scheme created, when it passed the watch's warning level
     /// ([`EnergyWatch`]).
     pub energy_created: Option<crate::energy::EnergyCreation>,
+    /// Whether the run stopped early on [`RunOptions::interrupt`].
+    pub interrupted: bool,
+    /// The last checkpoint written, if any.
+    pub checkpoint: Option<PathBuf>,
 }
 
 impl RunSummary {
@@ -269,12 +280,36 @@ fn probe_value<D: Dim>(
     }
 }
 
+/// The particle with the largest kinetic energy (or the first whose energy is not finite), for
+/// a message about energy that overflowed.
+fn largest_energy_particle(world: &mut World) -> String {
+    let dimension = *world.resource::<Dimension>();
+    with_dim!(dimension, D => {
+        let mut query =
+            world.query_filtered::<(&ParticleId, &Mass, &Velocity<D>), With<Particle>>();
+        let worst = query
+            .iter(world)
+            .map(|(id, m, v)| (id.0, 0.5 * m.0 * v.0.dot(v.0), v.0.to_3d()))
+            .max_by(|a, b| {
+                let key = |e: f64| if e.is_finite() { e } else { f64::INFINITY };
+                key(a.1).total_cmp(&key(b.1))
+            });
+        match worst {
+            Some((id, energy, v)) => format!(
+                "particle {id} has velocity {:?} m/s and kinetic energy {energy:e} J",
+                &v[..D::N]
+            ),
+            None => "no particle is left".to_string(),
+        }
+    })
+}
+
 /// What the `Force` probes remember between series rows, per probe slot.
-#[derive(Resource, Default, Debug)]
+#[derive(Resource, Default, Debug, serde::Serialize, serde::Deserialize)]
 pub struct ForceProbeMemory(Vec<Option<ForceProbeRow>>);
 
 /// One `Force` probe's last row.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 struct ForceProbeRow {
     time: f64,
     momentum: [f64; 3],
@@ -357,19 +392,36 @@ struct Outputs<'a> {
     series: SeriesWriter,
     frames: Vec<(f64, String)>,
     grid_frames: Vec<(f64, String)>,
+    /// The step of the last row, particle frame and grid frame written.
+    written: [Option<u64>; 3],
 }
 
 impl Outputs<'_> {
+    /// Writes the outputs due at this step, or every output not yet written at this step when
+    /// `force` (the end of a run). The series is flushed with every frame, so frames and series
+    /// never disagree by more than one output interval.
     fn record(&mut self, sim: &mut Simulation, force: bool) -> Result<(), RunError> {
+        let result = self.record_unflushed(sim, force);
+        if result.is_err() {
+            // Keep the rows taken so far: a failed frame write must not lose them too.
+            let _ = self.series.flush();
+        }
+        result
+    }
+
+    fn record_unflushed(&mut self, sim: &mut Simulation, force: bool) -> Result<(), RunError> {
         let step = sim.clock().step;
         let due = |every: u64| every > 0 && step.is_multiple_of(every);
-        if force || due(self.plan.csv_every) || (self.plan.csv_every == 0 && step == 0) {
-            let row = series_row(&mut sim.world, self.plan);
-            watch_energy(sim, &row);
-            let path = self.dir.join("series.csv");
-            self.series.push(step, &row).map_err(io_error(&path))?;
+        let fresh = |slot: Option<u64>| slot != Some(step);
+        let row_due = due(self.plan.csv_every) || (self.plan.csv_every == 0 && step == 0);
+        if (force || row_due) && fresh(self.written[0]) {
+            self.written[0] = Some(step);
+            self.row(sim, step)?;
         }
-        if self.plan.vtu_every > 0 && (force || due(self.plan.vtu_every)) {
+        let mut framed = false;
+        if self.plan.vtu_every > 0 && (force || due(self.plan.vtu_every)) && fresh(self.written[1])
+        {
+            self.written[1] = Some(step);
             let name = format!("frames/particles_{step:08}.vtu");
             let path = self.dir.join(&name);
             write_particle_frame(&path, &particle_frame(&mut sim.world))
@@ -377,17 +429,92 @@ impl Outputs<'_> {
             self.frames.push((sim.clock().time, name));
             let pvd = self.dir.join("particles.pvd");
             write_pvd(&pvd, &self.frames).map_err(io_error(&pvd))?;
+            framed = true;
         }
-        if self.plan.grid_every > 0 && (force || due(self.plan.grid_every)) {
+        if self.plan.grid_every > 0 && (force || due(self.plan.grid_every)) && fresh(self.written[2])
+        {
+            self.written[2] = Some(step);
             let name = format!("frames/grid_{step:08}.vtu");
             let path = self.dir.join(&name);
             write_grid_frame(&path, &grid_frame(&mut sim.world)).map_err(io_error(&path))?;
             self.grid_frames.push((sim.clock().time, name));
             let pvd = self.dir.join("grid.pvd");
             write_pvd(&pvd, &self.grid_frames).map_err(io_error(&pvd))?;
+            framed = true;
+        }
+        if framed {
+            self.flush()?;
         }
         Ok(())
     }
+
+    fn row(&mut self, sim: &mut Simulation, step: u64) -> Result<(), RunError> {
+        let row = series_row(&mut sim.world, self.plan);
+        // Energies and momentum of finite states can still overflow (speeds near 1e200):
+        // a row of them is no result.
+        let base = 4 + self.plan.dimension.count();
+        if let Some(column) = row[1..base].iter().position(|v| !v.is_finite()) {
+            self.flush()?;
+            let name = &self.plan.columns()[column + 2];
+            return Err(RunError::Blowup(
+                Blowup {
+                    step,
+                    stage: crate::stage::Stage::PostStep,
+                    message: format!(
+                        "{name} is {} after the step: {}",
+                        row[column + 1],
+                        largest_energy_particle(&mut sim.world)
+                    ),
+                },
+                None,
+            ));
+        }
+        watch_energy(sim, &row);
+        let path = self.dir.join("series.csv");
+        self.series.push(step, &row).map_err(io_error(&path))
+    }
+
+    fn flush(&mut self) -> Result<(), RunError> {
+        let path = self.dir.join("series.csv");
+        self.series.flush().map_err(io_error(&path))
+    }
+}
+
+/// What a run does besides stepping: checkpoints, interruption, and continuing the outputs
+/// of an earlier run.
+#[derive(Default)]
+pub struct RunOptions<'a> {
+    /// Write checkpoints on this schedule (and at the end and on interruption).
+    pub checkpoints: Option<CheckpointPlan>,
+    /// The scene the run was built from, recorded in checkpoints so `resume` can rebuild it.
+    pub scene: Option<SceneRecord>,
+    /// Set (by a signal handler) to stop after the current step: the run writes its outputs
+    /// and a checkpoint, and returns with [`RunSummary::interrupted`] set.
+    pub interrupt: Option<&'a AtomicBool>,
+    /// Continue the outputs of the run a checkpoint was taken from.
+    pub resume: Option<ResumedOutputs>,
+}
+
+/// When checkpoints are written and how many are kept.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CheckpointPlan {
+    /// Every so many steps or so much simulated time.
+    pub every: CheckpointEvery,
+    /// The newest this many are kept; older ones are deleted.
+    pub keep: usize,
+}
+
+/// The outputs of an earlier run, as its checkpoint recorded them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResumedOutputs {
+    /// The series text at the checkpoint (header included).
+    pub series: String,
+    /// The particle frames written by then: (time, file).
+    pub frames: Vec<(f64, String)>,
+    /// The grid frames written by then.
+    pub grid_frames: Vec<(f64, String)>,
+    /// The simulated time of the next checkpoint on a time schedule.
+    pub next_checkpoint_time: Option<f64>,
 }
 
 /// Steps `sim` to its end, writing `out_dir/series.csv`, `out_dir/frames/*.vtu` and
@@ -396,26 +523,54 @@ pub fn run(
     sim: &mut Simulation,
     plan: &OutputPlan,
     out_dir: &Path,
+    on_step: impl FnMut(&Simulation),
+) -> Result<RunSummary, RunError> {
+    run_with(sim, plan, out_dir, RunOptions::default(), on_step)
+}
+
+/// [`run`] with checkpoints, interruption and resumption ([`RunOptions`]).
+pub fn run_with(
+    sim: &mut Simulation,
+    plan: &OutputPlan,
+    out_dir: &Path,
+    options: RunOptions,
     mut on_step: impl FnMut(&Simulation),
 ) -> Result<RunSummary, RunError> {
     let frames_dir = out_dir.join("frames");
     std::fs::create_dir_all(&frames_dir).map_err(io_error(&frames_dir))?;
+    remove_stale_temporaries(out_dir);
+    let resumed = options.resume.is_some();
     let mut outputs = Outputs {
         plan,
         dir: out_dir,
         series: SeriesWriter::new(out_dir.join("series.csv"), &plan.columns()),
         frames: Vec::new(),
         grid_frames: Vec::new(),
+        written: [None; 3],
     };
+    let mut schedule = CheckpointSchedule::new(options.checkpoints, sim.clock().time);
+    if let Some(earlier) = options.resume {
+        outputs.series = SeriesWriter::continuing(out_dir.join("series.csv"), earlier.series);
+        outputs.frames = earlier.frames;
+        outputs.grid_frames = earlier.grid_frames;
+        outputs.written = [Some(sim.clock().step); 3];
+        if let Some(t) = earlier.next_checkpoint_time {
+            schedule.next_time = Some(t);
+        }
+        outputs.flush()?;
+    }
     let particles = sim.particle_count();
     let started = Instant::now();
     let first_step = sim.clock().step;
-    outputs.record(sim, true)?;
+    if !resumed {
+        outputs.record(sim, true)?;
+    }
+    let mut interrupted = false;
+    let mut checkpoint = None;
     while !sim.finished() {
         let last_good = plan.last_good_frame.then(|| particle_frame(&mut sim.world));
         if let Err(blowup) = sim.step() {
-            let path = out_dir.join("series.csv");
-            outputs.series.flush().map_err(io_error(&path))?;
+            outputs.flush()?;
             let written = match last_good {
                 Some(frame) => {
                     let step = sim.clock().step;
@@ -427,12 +582,35 @@ pub fn run(
             };
             return Err(RunError::Blowup(blowup, written));
         }
-        let last = sim.finished();
-        outputs.record(sim, last)?;
+        outputs.record(sim, false)?;
+        interrupted = options
+            .interrupt
+            .is_some_and(|flag| flag.load(Ordering::SeqCst));
+        let last = sim.finished() || interrupted;
+        let wanted = options.checkpoints.is_some() || interrupted;
+        if wanted && (schedule.due(sim.clock()) || last) {
+            let scene = options.scene.as_ref().ok_or_else(|| RunError::Checkpoint(
+                "a checkpoint needs the scene's text (RunOptions::scene)".into(),
+            ))?;
+            outputs.flush()?;
+            let saved = CheckpointOutputs {
+                series_bytes: outputs.series.text().len() as u64,
+                frames: outputs.frames.clone(),
+                grid_frames: outputs.grid_frames.clone(),
+                next_checkpoint_time: schedule.next_time,
+            };
+            let keep = options.checkpoints.map_or(DEFAULT_KEEP, |c| c.keep);
+            checkpoint = Some(write_checkpoint(sim, out_dir, scene, saved, keep)?);
+        }
+        if last {
+            outputs.record(sim, true)?;
+        }
         on_step(sim);
+        if interrupted {
+            break;
+        }
     }
-    let path = out_dir.join("series.csv");
-    outputs.series.flush().map_err(io_error(&path))?;
+    outputs.flush()?;
     let clock = sim.clock();
     Ok(RunSummary {
         steps: clock.step - first_step,
@@ -450,7 +628,67 @@ pub fn run(
             .world
             .get_resource::<EnergyWatch>()
             .and_then(|w| w.worst),
+        interrupted,
+        checkpoint,
     })
+}
+
+/// When the next checkpoint is due.
+struct CheckpointSchedule {
+    every: Option<CheckpointEvery>,
+    next_time: Option<f64>,
+}
+
+impl CheckpointSchedule {
+    fn new(plan: Option<CheckpointPlan>, now: f64) -> Self {
+        let every = plan.map(|p| p.every);
+        let next_time = match every {
+            Some(CheckpointEvery::Time(t)) => Some(now + t),
+            _ => None,
+        };
+        Self { every, next_time }
+    }
+
+    /// Whether a checkpoint is due after the step that brought the clock to `clock`; a time
+    /// schedule moves on to its next multiple past the clock.
+    fn due(&mut self, clock: SimClock) -> bool {
+        match self.every {
+            Some(CheckpointEvery::Steps(n)) => n > 0 && clock.step.is_multiple_of(n),
+            Some(CheckpointEvery::Time(t)) => match self.next_time {
+                Some(next) if clock.time >= next => {
+                    let mut following = next + t;
+                    while following <= clock.time {
+                        following += t;
+                    }
+                    self.next_time = Some(following);
+                    true
+                }
+                _ => false,
+            },
+            None => false,
+        }
+    }
+}
+
+/// Removes the temporary files an atomic write leaves when the process is killed in the
+/// middle of it (`.series.csv.<pid>.tmp`): hidden, and never matched by `*.csv` or `*.vtu`.
+pub fn remove_stale_temporaries(out_dir: &Path) {
+    for dir in [
+        out_dir.to_path_buf(),
+        out_dir.join("frames"),
+        out_dir.join("checkpoints"),
+    ] {
+        let Ok(entries) = std::fs::read_dir(&dir) else {
+            continue;
+        };
+        for entry in entries.flatten() {
+            let name = entry.file_name();
+            let name = name.to_string_lossy();
+            if name.starts_with('.') && name.ends_with(".tmp") {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+    }
 }
 
 #[cfg(test)]

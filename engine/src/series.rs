@@ -8,7 +8,7 @@
 use bevy_ecs::prelude::Resource;
 
 /// Names and current values of the system-published columns.
-#[derive(Resource, Clone, Debug, Default, PartialEq)]
+#[derive(Resource, Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SeriesColumns {
     /// Column names, in the order they were declared.
     pub names: Vec<String>,

@@ -19,7 +19,7 @@ pub enum TimeStep {
 }
 
 /// When a run ends.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum End {
     /// Simulated time in seconds.
     Time(f64),
@@ -247,6 +247,16 @@ impl Simulation {
         self.end
     }
 
+    /// The compensation of the clock's running sum of step sizes (for checkpoints).
+    pub fn time_compensation(&self) -> f64 {
+        self.time_compensation
+    }
+
+    /// Restores the clock's compensation from a checkpoint.
+    pub fn set_time_compensation(&mut self, compensation: f64) {
+        self.time_compensation = compensation;
+    }
+
     /// Replaces the end of the run (e.g. `--steps N`).
     pub fn set_end(&mut self, end: End) {
         self.end = end;
@@ -304,6 +314,7 @@ impl Simulation {
     /// Takes one step. On failure the state is left as the failing stage produced it.
     pub fn step(&mut self) -> Result<(), Blowup> {
         let dt = self.next_time_step();
+        self.check_time_step(dt)?;
         self.world.resource_mut::<SimClock>().dt = dt;
         let serially = self.runs_serially();
         let (world, schedule) = (&mut self.world, &mut self.schedule);
@@ -323,7 +334,49 @@ impl Simulation {
         self.time_compensation = (time - clock.time) - increment;
         clock.time = time;
         clock.step += 1;
+        if self.particle_count() == 0 {
+            let escaped = self
+                .world
+                .get_resource::<crate::health::EscapedParticles>()
+                .cloned()
+                .unwrap_or_default();
+            let first = escaped.first.map_or(String::new(), |(id, x)| {
+                format!(" (the first, particle {id}, at {x:?})")
+            });
+            return Err(Blowup {
+                step: clock_step(&self.world),
+                stage: Stage::Advection,
+                message: format!(
+                    "every particle has left the grid: {} removed{first}; nothing is left to \
+                     simulate",
+                    escaped.count
+                ),
+            });
+        }
         Ok(())
+    }
+
+    /// Stops a step whose size cannot advance the clock: not a positive normal number (a
+    /// signal speed so large the stable step underflows), or below the clock's resolution at
+    /// this time. Without this, such a run would never reach its end time.
+    fn check_time_step(&mut self, dt: f64) -> Result<(), Blowup> {
+        let clock = self.clock();
+        if dt.is_normal() && dt > 0.0 && clock.time + dt > clock.time {
+            return Ok(());
+        }
+        let stability = self.stability();
+        let culprit = stability
+            .particle
+            .map_or(String::new(), |(id, _)| format!(" set by particle {id}"));
+        Err(Blowup {
+            step: clock.step + 1,
+            stage: Stage::PreStep,
+            message: format!(
+                "the time step {dt:e} s cannot advance the clock from t = {:e} s (stable limit \
+                 {:e} s{culprit}, signal speed c + |v| = {:e} m/s)",
+                clock.time, stability.dt, stability.speed
+            ),
+        })
     }
 
     /// Runs `f` on this simulation's thread pool (e.g. output that uses rayon).
@@ -334,6 +387,11 @@ impl Simulation {
             None => f(),
         }
     }
+}
+
+/// The step being reported: completed steps (the clock has counted the one just taken).
+fn clock_step(world: &World) -> u64 {
+    world.resource::<SimClock>().step
 }
 
 /// The stable step and what limits it.

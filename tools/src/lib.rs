@@ -13,23 +13,22 @@ pub mod bench;
 pub mod crack;
 pub mod fragments;
 pub mod plot;
+pub mod running;
 
 use bench::{BenchCase, BenchPipeline, default_steps, measure, table};
 use clap::{Parser, Subcommand, ValueEnum};
 use fractum_engine::dim::{Dim, Dimension};
-use fractum_engine::energy::{EnergyCreation, EnergyWatch};
+use fractum_engine::energy::EnergyCreation;
 use fractum_engine::output::{read_particle_frame, read_pvd, write_atomically};
 use fractum_engine::registry::Registry;
 use fractum_engine::resources::{Grid, Materials, Thickness};
-use fractum_engine::run::{RunError, RunSummary, run};
+use fractum_engine::run::RunSummary;
 use fractum_engine::scene::{Built, SceneError, SceneFile, build_simulation};
 use fractum_engine::simulation::{End, TimeStep};
 use fractum_engine::with_dim;
-use indicatif::{ProgressBar, ProgressStyle};
 use std::ffi::OsString;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
 
 /// Exit code: the scene is invalid.
 pub const EXIT_BAD_SCENE: i32 = 1;
@@ -37,8 +36,16 @@ pub const EXIT_BAD_SCENE: i32 = 1;
 pub const EXIT_USAGE: i32 = 2;
 /// Exit code: the run stopped on a non-finite value or a particle leaving the grid.
 pub const EXIT_BLOWUP: i32 = 3;
-/// Exit code: an output file could not be written, or the thread pool could not start.
+/// Exit code: an output file could not be written or read.
 pub const EXIT_IO: i32 = 4;
+/// Exit code: the machine could not give what the run asked for (the thread pool).
+pub const EXIT_RESOURCES: i32 = 5;
+/// Exit code: a signal (SIGINT, SIGTERM) stopped the run after a step; its outputs and a
+/// checkpoint are written, and `fractum resume` continues it.
+pub const EXIT_INTERRUPTED: i32 = 130;
+/// Exit code: a second signal stopped the run at once; the outputs and checkpoint of before
+/// are intact, the current step's are not written.
+pub const EXIT_ABANDONED: i32 = 131;
 
 /// Material Point Method simulations of dynamic fracture and frictional contact.
 #[derive(Debug, Parser)]
@@ -56,18 +63,27 @@ pub enum Command {
     Run {
         /// Scene file (.ron).
         scene: PathBuf,
-        /// Output folder [default: out/<scene name>].
+        /// Output folder [default: out/<scene name>]. A folder holding a previous run is
+        /// refused unless --force.
         #[arg(long)]
         out: Option<PathBuf>,
-        /// Threads for the parallel kernels [default: all cores].
+        /// Replace the previous run in the output folder (its series, frames and
+        /// checkpoints; other files are left).
         #[arg(long)]
-        threads: Option<usize>,
-        /// Stop after this many steps instead of the scene's end.
-        #[arg(long)]
-        steps: Option<u64>,
-        /// No progress bar.
-        #[arg(long)]
-        quiet: bool,
+        force: bool,
+        /// Threads, steps, progress and checkpoints.
+        #[command(flatten)]
+        settings: RunArgs,
+    },
+    /// Continue a run from the newest checkpoint in its output folder, appending to its
+    /// outputs. The scene is the one the run began with; a changed scene file or another
+    /// build of fractum is refused.
+    Resume {
+        /// The run's output folder.
+        out: PathBuf,
+        /// Threads, steps, progress and checkpoints.
+        #[command(flatten)]
+        settings: RunArgs,
     },
     /// Validate a scene and print a summary of what it would run.
     Check {
@@ -158,6 +174,40 @@ pub enum Command {
         #[arg(long)]
         steps: Option<u64>,
     },
+}
+
+/// The options `run` and `resume` share.
+#[derive(Debug, clap::Args)]
+pub struct RunArgs {
+    /// Threads for the parallel kernels [default: all cores].
+    #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=running::MAX_THREADS as u64))]
+    pub threads: Option<usize>,
+    /// Stop when the clock reaches this step (counted from the start of the run, also when
+    /// resumed) instead of the scene's end.
+    #[arg(long)]
+    pub steps: Option<u64>,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Write a checkpoint every N steps (`1000`) or every T of simulated time (`2.5e-5s`),
+    /// and one at the end; a run always writes one when interrupted.
+    #[arg(long)]
+    pub checkpoint_every: Option<fractum_engine::checkpoint::CheckpointEvery>,
+    /// Checkpoints to keep (the newest).
+    #[arg(long, default_value_t = running::DEFAULT_KEEP_CHECKPOINTS, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=1000))]
+    pub keep_checkpoints: usize,
+}
+
+impl RunArgs {
+    fn settings(&self) -> running::RunSettings {
+        running::RunSettings {
+            threads: self.threads,
+            steps: self.steps,
+            quiet: self.quiet,
+            checkpoint_every: self.checkpoint_every,
+            keep_checkpoints: self.keep_checkpoints,
+        }
+    }
 }
 
 /// The arguments of `fractum crack`.
@@ -282,10 +332,12 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
         Command::Run {
             scene,
             out,
-            threads,
-            steps,
-            quiet,
-        } => run_command(&scene, out, threads, steps, quiet, registry),
+            force,
+            settings,
+        } => running::run_command(&scene, out, force, &settings.settings(), registry),
+        Command::Resume { out, settings } => {
+            running::resume_command(&out, &settings.settings(), registry)
+        }
     }
 }
 
@@ -572,7 +624,7 @@ fn bench_command(grid: &BenchGrid, registry: &Registry) -> i32 {
     0
 }
 
-fn report_scene_error(e: &SceneError) -> i32 {
+pub(crate) fn report_scene_error(e: &SceneError) -> i32 {
     eprintln!("error: {e}");
     EXIT_BAD_SCENE
 }
@@ -724,98 +776,6 @@ pub fn check_report(built: &mut Built) -> String {
     );
     out.push_str("ok\n");
     out
-}
-
-fn default_out_dir(scene: &Path) -> PathBuf {
-    let stem = scene.file_stem().map(|s| s.to_string_lossy().into_owned());
-    Path::new("out").join(stem.unwrap_or_else(|| "run".into()))
-}
-
-fn progress_bar(quiet: bool) -> ProgressBar {
-    if quiet {
-        return ProgressBar::hidden();
-    }
-    let bar = ProgressBar::new(1_000_000);
-    let style = ProgressStyle::with_template("[{elapsed_precise}] {bar:32} {msg} ETA {eta}")
-        .unwrap_or_else(|_| ProgressStyle::default_bar());
-    bar.set_style(style);
-    bar
-}
-
-fn run_command(
-    scene: &Path,
-    out: Option<PathBuf>,
-    threads: Option<usize>,
-    steps: Option<u64>,
-    quiet: bool,
-    registry: &Registry,
-) -> i32 {
-    let (_, mut built) = match load(scene, registry) {
-        Ok(loaded) => loaded,
-        Err(e) => return report_scene_error(&e),
-    };
-    let sim = &mut built.simulation;
-    if let Some(n) = threads
-        && let Err(e) = sim.set_threads(n.max(1))
-    {
-        eprintln!("error: cannot start {n} threads: {e}");
-        return EXIT_IO;
-    }
-    if let Some(n) = steps {
-        sim.set_end(End::Steps(n));
-    }
-    let out_dir = out.unwrap_or_else(|| default_out_dir(scene));
-    let bar = progress_bar(quiet);
-    let started = Instant::now();
-    let mut last_draw = Instant::now();
-    let mut warned = false;
-    let result = run(sim, &built.output, &out_dir, |sim| {
-        if !warned
-            && let Some(first) = sim
-                .world
-                .get_resource::<EnergyWatch>()
-                .and_then(|w| w.first)
-        {
-            warned = true;
-            bar.suspend(|| eprintln!("warning: {}", energy_warning(&first)));
-        }
-        if last_draw.elapsed() > Duration::from_millis(100) || sim.finished() {
-            last_draw = Instant::now();
-            let clock = sim.clock();
-            let rate = clock.step as f64 / started.elapsed().as_secs_f64().max(1e-9);
-            bar.set_position((sim.progress() * 1e6) as u64);
-            bar.set_message(format!(
-                "step {} t = {:.4e} s {rate:.0} steps/s",
-                clock.step, clock.time
-            ));
-        }
-    });
-    bar.finish_and_clear();
-    match result {
-        Ok(summary) => {
-            print!("{}", summary_report(&summary, &out_dir));
-            0
-        }
-        Err(RunError::Blowup(b, last_good)) => {
-            eprintln!("error: the run stopped at {b}");
-            eprintln!(
-                "outputs up to the last output step are in {}",
-                out_dir.display()
-            );
-            if let Some(path) = last_good {
-                eprintln!(
-                    "the state at the start of step {} is in {}",
-                    b.step,
-                    path.display()
-                );
-            }
-            EXIT_BLOWUP
-        }
-        Err(e) => {
-            eprintln!("error: {e}");
-            EXIT_IO
-        }
-    }
 }
 
 /// The warning printed when a run first creates more energy than the watch allows.

@@ -158,6 +158,8 @@ pub trait VectorOps:
     + PartialEq
     + Send
     + Sync
+    + serde::Serialize
+    + serde::de::DeserializeOwned
     + 'static
     + Add<Output = Self>
     + Sub<Output = Self>
@@ -215,6 +217,8 @@ pub trait MatrixOps<V>:
     + PartialEq
     + Send
     + Sync
+    + serde::Serialize
+    + serde::de::DeserializeOwned
     + 'static
     + Add<Output = Self>
     + Sub<Output = Self>
@@ -255,7 +259,18 @@ pub trait MatrixOps<V>:
 ///
 /// Indices `(i, j)` always refer to the full 3×3 tensor, so that plane-strain `zz` is `(2, 2)`
 /// in both dimensions; in 2D the `xz` and `yz` components are zero.
-pub trait SymOps<V, M>: Copy + Clone + Debug + Default + PartialEq + Send + Sync + 'static {
+pub trait SymOps<V, M>:
+    Copy
+    + Clone
+    + Debug
+    + Default
+    + PartialEq
+    + Send
+    + Sync
+    + 'static
+    + serde::Serialize
+    + serde::de::DeserializeOwned
+{
     /// The zero tensor.
     const ZERO: Self;
     /// The identity (in plane strain, including `zz = 1`).

@@ -43,7 +43,7 @@ impl Dim for Three {
 }
 
 /// A symmetric second-order tensor in three dimensions: six independent components.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SymTensor3 {
     /// xx component.
     pub xx: f64,

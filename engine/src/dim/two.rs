@@ -40,7 +40,7 @@ impl Dim for Two {
 ///
 /// Stress and strain both use it. In plane strain the out-of-plane strain is zero but the
 /// out-of-plane stress is not, and it enters the energy and the mean stress, so it is kept.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SymTensor2 {
     /// xx component.
     pub xx: f64,

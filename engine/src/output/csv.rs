@@ -27,6 +27,17 @@ impl SeriesWriter {
         }
     }
 
+    /// A writer that continues `text`, the series of an earlier run up to its checkpoint.
+    pub fn continuing(path: PathBuf, text: String) -> Self {
+        let columns = text.lines().next().map_or(0, |h| h.split(',').count());
+        Self {
+            path,
+            columns,
+            text,
+            last_flush: None,
+        }
+    }
+
     /// Appends a row (step, then the other values) and flushes if a second has passed.
     pub fn push(&mut self, step: u64, values: &[f64]) -> std::io::Result<()> {
         debug_assert_eq!(values.len() + 1, self.columns);

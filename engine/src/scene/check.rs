@@ -68,6 +68,16 @@ impl<D: Dim> Spec<D> {
                     .source
                     .error(&field("youngs_modulus"), "expected a positive modulus (Pa)"));
             }
+            if !(m.wave_speed().is_finite() && m.wave_speed() > 0.0) {
+                return Err(self.source.error(
+                    &field("density"),
+                    format!(
+                        "the wave speed √(E/ρ) of this density and modulus is {:e} m/s; expected a \
+                         finite, positive speed",
+                        m.wave_speed()
+                    ),
+                ));
+            }
             if !(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5) {
                 return Err(self
                     .source
@@ -161,6 +171,19 @@ impl<D: Dim> Spec<D> {
         }
         for (b, body) in self.bodies.iter().enumerate() {
             let field = |f: &str| format!("bodies[{b}].{f}");
+            if let Some(name) = &body.name
+                && let Some(first) = self.bodies[..b]
+                    .iter()
+                    .position(|other| other.name.as_ref() == Some(name))
+            {
+                return Err(self.source.error(
+                    &field("name"),
+                    format!(
+                        "the name \"{name}\" is already that of bodies[{first}]; probes and \
+                         contact groups name bodies, so each needs its own name"
+                    ),
+                ));
+            }
             self.material_index(&body.material, &field("material"))?;
             if body.particles_per_cell == 0 || body.particles_per_cell > 16 {
                 return Err(self
@@ -360,6 +383,10 @@ impl<D: Dim> Spec<D> {
             TimeStep::Fixed(dt) if !(dt.is_finite() && dt > 0.0) => Err(self
                 .source
                 .error("time.step", "expected a positive time step")),
+            TimeStep::Fixed(dt) if !dt.is_normal() => Err(self.source.error(
+                "time.step",
+                format!("the time step {dt:e} s is below the smallest normal number {:e}", f64::MIN_POSITIVE),
+            )),
             TimeStep::Cfl(f) if !(f > 0.0 && f <= 1.0) => Err(self
                 .source
                 .error("time.step", "expected a CFL factor in (0, 1]")),

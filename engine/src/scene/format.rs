@@ -65,7 +65,8 @@ pub struct Scene {
     /// the outputs are for this thickness.
     #[serde(default)]
     pub thickness: Option<f64>,
-    /// Materials by name.
+    /// Materials by name (a name given twice is an error, not "the last wins").
+    #[serde(deserialize_with = "unique_keys")]
     pub materials: BTreeMap<String, MaterialSpec>,
     /// Bodies seeded with particles.
     pub bodies: Vec<BodySpec>,
@@ -513,4 +514,34 @@ pub struct PipelineEntrySpec {
     /// `materials`); all materials when absent.
     #[serde(default)]
     pub materials: Option<Vec<String>>,
+}
+
+/// A map whose keys must differ: RON maps read into a `BTreeMap` keep the last of two equal
+/// keys, which would silently drop a material the user wrote.
+fn unique_keys<'de, De, V>(deserializer: De) -> Result<BTreeMap<String, V>, De::Error>
+where
+    De: serde::Deserializer<'de>,
+    V: Deserialize<'de>,
+{
+    struct UniqueKeys<V>(std::marker::PhantomData<V>);
+    impl<'de, V: Deserialize<'de>> serde::de::Visitor<'de> for UniqueKeys<V> {
+        type Value = BTreeMap<String, V>;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a map of names to values")
+        }
+        fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+            let mut out = BTreeMap::new();
+            while let Some(key) = map.next_key::<String>()? {
+                if out.contains_key(&key) {
+                    return Err(serde::de::Error::custom(format!(
+                        "the name \"{key}\" is given twice; each needs its own name"
+                    )));
+                }
+                let value = map.next_value()?;
+                out.insert(key, value);
+            }
+            Ok(out)
+        }
+    }
+    deserializer.deserialize_map(UniqueKeys(std::marker::PhantomData))
 }

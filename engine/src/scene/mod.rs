@@ -11,6 +11,7 @@
 //! Every error, wherever it is found, names the field path (`bodies[1].shape`); a spec read
 //! from a file turns that path into a place in the text.
 
+pub mod budget;
 mod check;
 mod error;
 mod format;
@@ -60,6 +61,11 @@ impl SceneFile {
 
     /// Parses scene text; `name` is used in messages.
     pub fn parse(name: &str, text: String) -> Result<Self, SceneError> {
+        // Some editors start UTF-8 files with a byte-order mark; it is not part of the scene.
+        let text = match text.strip_prefix('\u{feff}') {
+            Some(rest) => rest.to_string(),
+            None => text,
+        };
         let scene = parse_fragment(name, &text, Location { line: 1, col: 1 }, "")?;
         Ok(Self {
             name: name.to_string(),

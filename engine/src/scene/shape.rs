@@ -101,6 +101,49 @@ fn in_polygon(vertices: &[DVec2], x: DVec2) -> bool {
     inside
 }
 
+/// Whether the closed polygon through `vertices` is simple: no two edges that are not
+/// neighbours meet, and no two neighbours fold back onto each other. The even-odd rule of
+/// [`in_polygon`] would fill a figure eight or a bow tie in a way no one drew.
+fn is_simple(vertices: &[DVec2]) -> bool {
+    let n = vertices.len();
+    let edge = |i: usize| (vertices[i], vertices[(i + 1) % n]);
+    let orient = |a: DVec2, b: DVec2, c: DVec2| (b - a).perp_dot(c - a);
+    let on_segment = |a: DVec2, b: DVec2, c: DVec2| {
+        c.x >= a.x.min(b.x) && c.x <= a.x.max(b.x) && c.y >= a.y.min(b.y) && c.y <= a.y.max(b.y)
+    };
+    let meet = |(a, b): (DVec2, DVec2), (c, d): (DVec2, DVec2)| {
+        let (o1, o2, o3, o4) = (orient(a, b, c), orient(a, b, d), orient(c, d, a), orient(c, d, b));
+        if o1 * o2 < 0.0 && o3 * o4 < 0.0 {
+            return true;
+        }
+        (o1 == 0.0 && on_segment(a, b, c))
+            || (o2 == 0.0 && on_segment(a, b, d))
+            || (o3 == 0.0 && on_segment(c, d, a))
+            || (o4 == 0.0 && on_segment(c, d, b))
+    };
+    for i in 0..n {
+        let (a, b) = edge(i);
+        if a == b {
+            return false;
+        }
+        // The next edge shares vertex b: it may only meet this one there, so it must not turn
+        // straight back along it.
+        let (_, c) = edge((i + 1) % n);
+        if orient(a, b, c) == 0.0 && (c - b).dot(a - b) > 0.0 {
+            return false;
+        }
+        for j in i + 2..n {
+            if i == 0 && j == n - 1 {
+                continue;
+            }
+            if meet(edge(i), edge(j)) {
+                return false;
+            }
+        }
+    }
+    true
+}
+
 fn polygon_bounds(vertices: &[DVec2]) -> (DVec2, DVec2) {
     vertices.iter().fold(
         (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
@@ -147,7 +190,7 @@ impl Shape {
                 length,
             } => center.is_finite() && *axis < 3 && positive(*radius) && positive(*length),
             Shape::Polygon { vertices } => {
-                vertices.len() >= 3 && vertices.iter().all(|v| v.is_finite())
+                vertices.len() >= 3 && vertices.iter().all(|v| v.is_finite()) && is_simple(vertices)
             }
             Shape::Prism {
                 vertices,
@@ -157,6 +200,7 @@ impl Shape {
             } => {
                 vertices.len() >= 3
                     && vertices.iter().all(|v| v.is_finite())
+                    && is_simple(vertices)
                     && *axis < 3
                     && min.is_finite()
                     && max.is_finite()
@@ -169,8 +213,13 @@ impl Shape {
             Shape::Disk { .. } => "a disk with a positive radius",
             Shape::Sphere { .. } => "a sphere with a positive radius",
             Shape::Cylinder { .. } => "a cylinder with a positive radius and length",
-            Shape::Polygon { .. } => "a polygon with at least 3 finite vertices",
-            Shape::Prism { .. } => "a prism with at least 3 finite vertices and `max` above `min`",
+            Shape::Polygon { .. } => {
+                "a polygon with at least 3 finite vertices whose edges do not cross or touch"
+            }
+            Shape::Prism { .. } => {
+                "a prism with at least 3 finite vertices, edges that do not cross, and `max` \
+                 above `min`"
+            }
         })
     }
 
@@ -263,6 +312,18 @@ mod tests {
         assert!(!disk.contains(DVec3::new(0.3, 0.3, 0.0)));
         assert_eq!(disk.bounds().1, DVec3::new(0.75, 0.75, 0.0));
         assert_eq!(disk.dimension(), Dimension::Two);
+    }
+
+    #[test]
+    fn crossing_and_folded_polygons_are_not_simple() {
+        let v = |p: &[(f64, f64)]| p.iter().map(|&(x, y)| DVec2::new(x, y)).collect::<Vec<_>>();
+        assert!(is_simple(&v(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)])));
+        assert!(is_simple(&v(&[(0.0, 0.0), (2.0, 0.0), (1.0, 0.5), (2.0, 1.0), (0.0, 1.0)])));
+        // A bow tie, a vertex touching a far edge, a spike back along its edge, a repeated vertex.
+        assert!(!is_simple(&v(&[(0.0, 0.0), (1.0, 1.0), (1.0, 0.0), (0.0, 1.0)])));
+        assert!(!is_simple(&v(&[(0.0, 0.0), (2.0, 0.0), (1.0, 0.0), (1.0, 1.0)])));
+        assert!(!is_simple(&v(&[(0.0, 0.0), (2.0, 0.0), (1.0, 0.0), (0.0, 1.0)])));
+        assert!(!is_simple(&v(&[(0.0, 0.0), (0.0, 0.0), (1.0, 0.0), (0.0, 1.0)])));
     }
 
     #[test]

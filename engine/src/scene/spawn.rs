@@ -7,6 +7,7 @@ use super::seed::particles_in_shape;
 use super::spec::{
     Body, Boundary, Built, Condition, PipelineEntry, PipelineSummary, SceneSummary, Spec,
 };
+use super::budget::{self, MemoryEstimate, ParticleMemory};
 use super::{SceneError, Source};
 use crate::boundary::{BoundaryConditions, BoundaryRegion, PiecewiseLinear, Reactions};
 use crate::components::{
@@ -21,7 +22,9 @@ use crate::output::{OutputPlan, ProbeKind};
 use crate::registry::{Installer, MaterialFilter, PipelineEntrySet, Registration, Registry};
 use crate::resources::{BodyForce, Grid, Materials, SimClock, Thickness, TimeStepLimit};
 use crate::series::SeriesColumns;
-use crate::simulation::{Simulation, TimeStep, add_stage_checks, stable_time_step, step_schedule};
+use crate::simulation::{
+    End, Simulation, TimeStep, add_stage_checks, stable_time_step, step_schedule,
+};
 use crate::stage::{Stage, StageCheck};
 use bevy_ecs::prelude::World;
 use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule};
@@ -31,6 +34,8 @@ impl<D: Dim> Spec<D> {
     /// and checks what only the built world can tell.
     pub fn build(self, registry: &Registry) -> Result<Built, SceneError> {
         self.check()?;
+        let available = super::budget::available_memory();
+        self.check_memory_before_spawning(available)?;
         let mut world = World::new();
         world.insert_resource(self.grid.clone());
         world.insert_resource(D::DIMENSION);
@@ -49,6 +54,7 @@ impl<D: Dim> Spec<D> {
         world.insert_resource(SimClock::default());
         world.insert_resource(self.on_leave_grid);
         world.init_resource::<Connectivity<D>>();
+        crate::checkpoint::carry_engine_state::<D>(&mut world);
         let mut schedule = step_schedule();
         let pipeline = self.install_pipeline(registry, &mut schedule, &mut world)?;
         output.system_columns = world
@@ -56,6 +62,7 @@ impl<D: Dim> Spec<D> {
             .map(|c| c.names.clone())
             .unwrap_or_default();
         self.check_stable_step(&mut world)?;
+        self.check_memory_after_install(&mut world, available)?;
         add_stage_checks::<D>(
             &mut schedule,
             pipeline.by_stage.iter().map(|(stage, _)| *stage),
@@ -101,6 +108,91 @@ impl<D: Dim> Spec<D> {
             body_particles,
             summary,
         })
+    }
+
+    /// Refuses a grid or bodies that cannot fit in `available` bytes before any is made: the
+    /// nodes, and each body's particles bounded by its bounding box's cells (at the smallest
+    /// cell width) times the particles per cell.
+    fn check_memory_before_spawning(&self, available: f64) -> Result<(), SceneError> {
+        let nodes = (0..D::N)
+            .map(|a| (self.grid.cells[a] + 1) as f64)
+            .product::<f64>();
+        let mut estimate = MemoryEstimate::default();
+        estimate.add(
+            format!("{} grid nodes", budget::describe_count(nodes)),
+            nodes * budget::node_bytes::<D>(),
+        );
+        let (lo, hi) = (self.grid.min.to_3d(), self.grid.max().to_3d());
+        let mut largest_body = (0, 0.0);
+        for (b, body) in self.bodies.iter().enumerate() {
+            let (min, max) = body.shape.bounds();
+            let cells: f64 = (0..D::N)
+                .map(|a| {
+                    let extent = (max[a].min(hi[a]) - min[a].max(lo[a])).max(0.0);
+                    (extent / self.grid.spacing).ceil() + 1.0
+                })
+                .product();
+            let particles = cells * f64::from(body.particles_per_cell).powi(D::N as i32);
+            if particles > largest_body.1 {
+                largest_body = (b, particles);
+            }
+            estimate.add(
+                format!(
+                    "up to {} particles of bodies[{b}]",
+                    budget::describe_count(particles)
+                ),
+                particles * budget::particle_bytes::<D>(),
+            );
+        }
+        match estimate.refusal(available) {
+            None => Ok(()),
+            Some(message) => {
+                let node_bytes = estimate.parts[0].1;
+                let field = if node_bytes >= largest_body.1 * budget::particle_bytes::<D>() {
+                    "grid.spacing".to_string()
+                } else {
+                    format!("bodies[{}].particles_per_cell", largest_body.0)
+                };
+                Err(self.source.error(&field, message))
+            }
+        }
+    }
+
+    /// Refuses a scene whose particles, with the storage each installed system declared per
+    /// particle (a basis's support, a neighbour search's lists), cannot fit in `available`
+    /// bytes; checked before the first step allocates that storage.
+    fn check_memory_after_install(
+        &self,
+        world: &mut World,
+        available: f64,
+    ) -> Result<(), SceneError> {
+        let particles = world
+            .query_filtered::<(), bevy_ecs::query::With<crate::components::Particle>>()
+            .iter(world)
+            .count() as f64;
+        let nodes = self.grid.node_count() as f64;
+        let mut estimate = MemoryEstimate::default();
+        estimate.add(
+            format!("{} grid nodes", budget::describe_count(nodes)),
+            nodes * budget::node_bytes::<D>(),
+        );
+        estimate.add(
+            format!("{} particles", budget::describe_count(particles)),
+            particles * budget::particle_bytes::<D>(),
+        );
+        let mut largest = ("pipeline".to_string(), 0.0);
+        if let Some(declared) = world.get_resource::<ParticleMemory>() {
+            for (field, what, bytes) in &declared.0 {
+                estimate.add(what.clone(), particles * bytes);
+                if particles * bytes > largest.1 {
+                    largest = (field.clone(), particles * bytes);
+                }
+            }
+        }
+        match estimate.refusal(available) {
+            None => Ok(()),
+            Some(message) => Err(self.source.error(&largest.0, message)),
+        }
     }
 
     fn summary(&self, body_particles: &[usize]) -> SceneSummary {
@@ -220,6 +312,22 @@ impl<D: Dim> Spec<D> {
         }
         let m = &self.materials[material];
         let (density, wave_speed) = (m.density, m.wave_speed());
+        if let Some(&(x, volume)) = seeded.iter().find(|&&(x, volume)| {
+            let v = body.velocity.at(x);
+            !(v.is_finite() && (0.5 * density * volume * v.dot(v)).is_finite())
+        }) {
+            let v = body.velocity.at(x);
+            return Err(self.source.error(
+                &format!("bodies[{b}].velocity"),
+                format!(
+                    "the velocity at the particle at {:?} is {:?} m/s, whose kinetic energy ½mv² \
+                     = {:e} J is not a finite number; expected finite velocities of finite energy",
+                    x.to_3d(),
+                    v.to_3d(),
+                    0.5 * density * volume * v.dot(v)
+                ),
+            ));
+        }
         Ok(seeded
             .iter()
             .map(|&(x, volume)| {
@@ -570,10 +678,34 @@ impl<D: Dim> Spec<D> {
     /// A fixed step must not exceed the stable limit of the particles as spawned (the one
     /// rule, [`stable_time_step`], that CFL steps follow too).
     fn check_stable_step(&self, world: &mut World) -> Result<(), SceneError> {
-        let TimeStep::Fixed(dt) = self.time_step else {
-            return Ok(());
-        };
         let stable = stable_time_step::<D>(world);
+        let dt = match self.time_step {
+            TimeStep::Fixed(dt) => dt,
+            TimeStep::Cfl(factor) => factor * stable.dt,
+        };
+        if !dt.is_normal() && dt <= stable.dt {
+            return Err(self.source.error(
+                "time.step",
+                format!(
+                    "the step would be {dt:e} s (stable limit {:e} s, from a signal speed \
+                     c + |v| = {:e} m/s), too small to advance the clock",
+                    stable.dt, stable.speed
+                ),
+            ));
+        }
+        if let End::Time(end) = self.end
+            && end / dt > MAX_STEPS
+        {
+            return Err(self.source.error(
+                "time.step",
+                format!(
+                    "the run would take {:.3e} steps of {dt:e} s to reach t = {end} s, more than \
+                     the 10^10 a scene may ask for; check the end time, the speeds and the \
+                     materials' wave speeds",
+                    end / dt
+                ),
+            ));
+        }
         if dt <= stable.dt {
             return Ok(());
         }
@@ -605,6 +737,10 @@ impl<D: Dim> Spec<D> {
         ))
     }
 }
+
+/// The most steps a scene may ask for: at the fastest measured rates a longer run would take
+/// years, so more means a mistaken end time, speed or material.
+pub const MAX_STEPS: f64 = 1e10;
 
 fn spawn_nodes<D: Dim>(world: &mut World, grid: &Grid<D>) {
     let nodes: Vec<NodeBundle<D>> = (0..grid.node_count())

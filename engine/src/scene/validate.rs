@@ -193,10 +193,15 @@ impl<D: Dim> Reader<D> {
                     ),
                 ));
             }
-            if count.round() > 1e8 {
-                return Err(self.error("grid.spacing", "the grid would have more than 10^8 cells"));
+            if count.round() > MAX_CELLS {
+                return Err(self.error("grid.spacing", too_many_cells(count.round())));
             }
             cells[a] = count.round() as usize;
+        }
+        // The cap is on the whole grid: 10^5 cells along each of two axes is 10^10 cells.
+        let total: f64 = (0..D::N).map(|a| cells[a] as f64).product();
+        if total > MAX_CELLS {
+            return Err(self.error("grid.spacing", too_many_cells(total)));
         }
         if g.refine.is_empty() {
             return Ok(Grid {
@@ -218,8 +223,9 @@ impl<D: Dim> Reader<D> {
         let total = coordinates
             .iter()
             .try_fold(1usize, |n, c| n.checked_mul(c.len() - 1));
-        if total.is_none_or(|n| n > 100_000_000) {
-            return Err(self.error("grid.refine", "the grid would have more than 10^8 cells"));
+        if total.is_none_or(|n| n as f64 > MAX_CELLS) {
+            let cells: f64 = coordinates.iter().map(|c| (c.len() - 1) as f64).product();
+            return Err(self.error("grid.refine", too_many_cells(cells)));
         }
         Grid::graded(coordinates)
             .ok_or_else(|| self.error("grid.refine", "the node coordinates must increase"))
@@ -276,8 +282,8 @@ impl<D: Dim> Reader<D> {
                 ));
             }
             let count = count.round() as usize;
-            if count > 100_000_000 {
-                return Err(self.error(field, "the grid would have more than 10^8 cells"));
+            if count as f64 > MAX_CELLS {
+                return Err(self.error(field, too_many_cells(count as f64)));
             }
             for i in 1..count {
                 nodes.push(start + i as f64 * step);
@@ -526,3 +532,11 @@ impl<D: Dim> Reader<D> {
         })
     }
 }
+
+/// The most cells a grid may have (all axes together).
+pub const MAX_CELLS: f64 = 1e8;
+
+fn too_many_cells(cells: f64) -> String {
+    format!("the grid would have {cells:.3e} cells, more than the 10^8 a scene may have; use a larger spacing or a smaller box")
+}
+

@@ -22,6 +22,7 @@
 //!   the result, does not depend on when the lists were rebuilt.
 //! - Writes the [`Connectivity`] tables; keeps λ and the candidate lists in [`LmeState`].
 
+use fractum_engine::scene::budget::cells_in_ball;
 use super::lme_kernel::{LmeScratch, LmeSettings, lme_gradient, lme_solve, support_radius};
 use crate::spatial::Spatial;
 use fractum_engine::health::{Blowup, Health, fmt_vector};
@@ -102,16 +103,24 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     if parsed.max_iterations == 0 {
         return Err(params.error("max_iterations", "expected at least 1"));
     }
+    // The support radius in cells of the smallest width, r/h = √(−ln tol / γ̂); its nodes are
+    // the connectivity, and the candidate lists hold those within the radius plus the skin.
+    let d = installer.dimension().count();
+    let reach = support_radius(parsed.gamma, parsed.support_tolerance);
+    let nodes = cells_in_ball(d, reach);
+    let candidates = cells_in_ball(d, 1.25 * reach);
+    let state = (8 * (3 * d + d * d)) as f64;
+    super::declare_support(installer, "basis/lme", nodes, 4.0 * candidates + state);
     installer.insert_resource(parsed);
     with_dim!(installer.dimension(), D => {
-        installer.init_resource::<LmeState<D>>();
+        installer.init_state::<LmeState<D>>();
         installer.add_systems(lme_basis::<D>);
     });
     Ok(())
 }
 
 /// Per-particle state kept between steps.
-#[derive(Resource, Clone, Debug)]
+#[derive(Resource, Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct LmeState<D: Dim> {
     /// λ of every particle row from the last step (the Newton warm start).
     pub lambda: Vec<D::Vector>,

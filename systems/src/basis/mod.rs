@@ -3,3 +3,19 @@ pub mod gimp;
 pub mod linear;
 pub mod lme;
 pub mod lme_kernel;
+
+use fractum_engine::prelude::*;
+use fractum_engine::scene::budget::{connectivity_entry_bytes, describe_count};
+
+/// Declares a basis's connectivity storage, `nodes` support nodes per particle, for the
+/// scene's memory estimate.
+pub fn declare_support(installer: &mut Installer, name: &str, nodes: f64, extra_bytes: f64) {
+    let entry = with_dim!(installer.dimension(), D => connectivity_entry_bytes::<D>());
+    installer.declare_particle_memory(
+        format!(
+            "{name}: a support of about {} nodes per particle",
+            describe_count(nodes)
+        ),
+        nodes * entry + extra_bytes,
+    );
+}

@@ -91,7 +91,7 @@ pub fn griffith_factor(nu: f64, dimensions: usize) -> f64 {
 }
 
 /// Installed parameters and running totals of `damage/eigenerosion`.
-#[derive(Resource, Clone, Debug, PartialEq)]
+#[derive(Resource, Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EigenerosionState {
     /// G_F.
     pub fracture_energy: f64,
@@ -131,7 +131,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         installer.add_series_column("failed_particles"),
         installer.add_series_column("dissipated_energy"),
     ];
-    installer.insert_resource(EigenerosionState {
+    installer.insert_state(EigenerosionState {
         fracture_energy: raw.fracture_energy,
         released: 0.0,
         columns,

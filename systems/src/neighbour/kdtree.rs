@@ -26,17 +26,24 @@ pub const REGISTRATION: Registration = Registration {
 };
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
-    installer.insert_resource(parse_params(params)?);
+    let parsed = parse_params(params)?;
+    super::declare_lists(
+        installer,
+        "neighbour/kdtree",
+        parsed.c_epsilon * (1.0 + parsed.skin),
+        2.0,
+    );
+    installer.insert_resource(parsed);
     installer.init_resource::<Neighbourhoods>();
     with_dim!(installer.dimension(), D => {
-        installer.init_resource::<KdTreeCandidates<D>>();
+        installer.init_state::<KdTreeCandidates<D>>();
         installer.add_systems(kdtree_neighbours::<D>);
     });
     Ok(())
 }
 
 /// Candidate lists within ε(1 + skin) of where each particle was at the last build.
-#[derive(Resource, Clone, Debug)]
+#[derive(Resource, Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct KdTreeCandidates<D: Dim> {
     /// Positions at the last build.
     pub anchors: Vec<D::Vector>,

@@ -62,6 +62,21 @@ pub fn parse_params(params: &Params) -> Result<NeighbourParams, SceneError> {
     Ok(parsed)
 }
 
+/// Declares a neighbour search's lists for the scene's memory estimate: the particles within
+/// `reach` cells of each (at the scene's mean particles per cell), `lists` of them kept.
+pub fn declare_lists(installer: &mut Installer, name: &str, reach: f64, lists: f64) {
+    let d = installer.dimension().count();
+    let neighbours = fractum_engine::scene::budget::cells_in_ball(d, reach)
+        * installer.particles_per_cell();
+    installer.declare_particle_memory(
+        format!(
+            "{name}: about {} neighbours per particle",
+            fractum_engine::scene::budget::describe_count(neighbours)
+        ),
+        4.0 * lists * neighbours + (8 * d) as f64,
+    );
+}
+
 /// Appends to `out` the candidates of `p` within `radius` (and in `p`'s body when asked), in
 /// the order given: ascending when the candidates are (each builder hands its lists over
 /// sorted, without duplicates).

@@ -34,7 +34,9 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
              intervals); use neighbour/kdtree on a graded grid",
         ));
     }
-    installer.insert_resource(parse_params(params)?);
+    let parsed = parse_params(params)?;
+    super::declare_lists(installer, "neighbour/node_linked", parsed.c_epsilon, 1.0);
+    installer.insert_resource(parsed);
     installer.init_resource::<Neighbourhoods>();
     with_dim!(installer.dimension(), D => installer.add_systems(node_linked_neighbours::<D>));
     Ok(())

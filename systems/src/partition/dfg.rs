@@ -73,7 +73,7 @@ pub struct DfgParams {
 }
 
 /// Kernel-neighbour candidates of `partition/dfg`, with a skin (see the module header).
-#[derive(Resource, Clone, Debug)]
+#[derive(Resource, Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct DfgNeighbours<D: Dim> {
     /// Positions at the last build.
     pub anchors: Vec<D::Vector>,
@@ -124,7 +124,7 @@ impl<D: Spatial> DfgNeighbours<D> {
 }
 
 /// Whether surface detection has run.
-#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct SurfaceDetected(pub bool);
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
@@ -147,12 +147,24 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
              `surface: 0.8` for self-contact, or use partition/bodies",
         ));
     }
+    let (spacing, dimensions) = with_dim!(installer.dimension(), D => {
+        (installer.world().resource::<Grid<D>>().spacing, D::N)
+    });
+    let radius_cells = parsed
+        .radius
+        .map_or((dimensions as f64).sqrt(), |r| r / spacing);
+    crate::neighbour::declare_lists(
+        installer,
+        "partition/dfg",
+        radius_cells * (1.0 + SKIN),
+        1.0,
+    );
     installer.insert_resource(parsed);
     installer.insert_resource(FieldRule { by_gradient: true });
-    installer.init_resource::<SurfaceDetected>();
+    installer.init_state::<SurfaceDetected>();
     installer.add_particle_component(SurfaceFlag::default());
     with_dim!(installer.dimension(), D => {
-        installer.init_resource::<DfgNeighbours<D>>();
+        installer.init_state::<DfgNeighbours<D>>();
         installer.add_particle_component(DamageGradient::<D>::default());
         installer.add_systems(dfg_partition::<D>);
     });

@@ -1,0 +1,191 @@
+//! The memory a scene needs, estimated before anything large is allocated, against what the
+//! machine has. A scene that cannot fit is refused as a scene error naming the estimate, its
+//! largest part and the memory available, instead of aborting in an allocation later.
+//!
+//! Two checks: before the nodes and particles are made (grid cells, and an upper bound on
+//! each body's particles from its bounding box), and after the pipeline is installed, when the
+//! particle count is known and each system has declared its per-particle storage (a basis its
+//! support, a neighbour search its lists) with
+//! [`crate::registry::Installer::declare_particle_memory`].
+
+use crate::components::{NodeBundle, ParticleBundle};
+use crate::dim::Dim;
+use bevy_ecs::prelude::Resource;
+
+/// Bytes the ECS keeps per entity besides its components (entity id, location, table row).
+const ENTITY_OVERHEAD: f64 = 32.0;
+
+/// The environment variable that overrides the memory available (bytes), e.g. to run a scene
+/// meant for a larger machine through `fractum check` on a small one, or to test the refusal.
+pub const MEMORY_LIMIT_VARIABLE: &str = "FRACTUM_MEMORY_LIMIT";
+
+/// Per-particle storage declared by installed systems: the declaring entry's field path
+/// (`pipeline[2]`), what, and bytes per particle.
+#[derive(Resource, Clone, Debug, Default, PartialEq)]
+pub struct ParticleMemory(pub Vec<(String, String, f64)>);
+
+/// A count as a person reads it: whole below a million, else `1.2e9`.
+pub fn describe_count(count: f64) -> String {
+    if count < 1e6 {
+        format!("{count:.0}")
+    } else {
+        format!("{count:.1e}")
+    }
+}
+
+/// The parts of an estimate: what, and bytes.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MemoryEstimate {
+    /// Each part with its bytes.
+    pub parts: Vec<(String, f64)>,
+}
+
+impl MemoryEstimate {
+    /// Adds a part.
+    pub fn add(&mut self, what: impl Into<String>, bytes: f64) {
+        self.parts.push((what.into(), bytes));
+    }
+
+    /// Total bytes.
+    pub fn total(&self) -> f64 {
+        self.parts.iter().map(|(_, b)| b).sum()
+    }
+
+    /// `None` when the estimate fits in `available` bytes, else the message refusing it.
+    pub fn refusal(&self, available: f64) -> Option<String> {
+        let total = self.total();
+        if total.is_finite() && total <= available {
+            return None;
+        }
+        let largest = self
+            .parts
+            .iter()
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map_or(String::new(), |(what, bytes)| {
+                format!("; the largest part is {what}: {}", describe_bytes(*bytes))
+            });
+        Some(format!(
+            "the scene needs about {} of memory{largest}, and {} is available; use fewer \
+             particles or cells, or a smaller support",
+            describe_bytes(total),
+            describe_bytes(available)
+        ))
+    }
+}
+
+/// The bytes each node takes (its components and the ECS's own record).
+pub fn node_bytes<D: Dim>() -> f64 {
+    std::mem::size_of::<NodeBundle<D>>() as f64 + ENTITY_OVERHEAD
+}
+
+/// The bytes each particle takes before systems add their own components.
+pub fn particle_bytes<D: Dim>() -> f64 {
+    std::mem::size_of::<ParticleBundle<D>>() as f64 + ENTITY_OVERHEAD
+}
+
+/// The bytes of one particle–node entry of [`crate::connectivity::Connectivity`]: node index,
+/// weight, gradient, field slot and its transposed record.
+pub fn connectivity_entry_bytes<D: Dim>() -> f64 {
+    (4 + 8 + 8 * D::N + 1 + 8) as f64
+}
+
+/// How many cells of a uniform lattice a ball of `radius` cells reaches, generously: the
+/// volume of the ball one cell wider (for a support or neighbourhood estimate).
+pub fn cells_in_ball(dimensions: usize, radius: f64) -> f64 {
+    let r = radius + 1.0;
+    match dimensions {
+        2 => std::f64::consts::PI * r * r,
+        _ => 4.0 / 3.0 * std::f64::consts::PI * r * r * r,
+    }
+}
+
+/// The mean number of particles per cell of the smallest width in `world` as built (total
+/// particle volume against the count), for estimating neighbour lists.
+pub fn particles_per_cell<D: Dim>(world: &mut bevy_ecs::world::World) -> f64 {
+    use crate::components::{Particle, Volume};
+    use bevy_ecs::query::With;
+    let spacing = world.resource::<crate::resources::Grid<D>>().spacing;
+    let thickness = if D::N == 2 {
+        world
+            .get_resource::<crate::resources::Thickness>()
+            .map_or(1.0, |t| t.0)
+    } else {
+        1.0
+    };
+    let mut query = world.query_filtered::<&Volume, With<Particle>>();
+    let (count, volume) = query
+        .iter(world)
+        .fold((0.0, 0.0), |(n, v), vol| (n + 1.0, v + vol.0));
+    if count == 0.0 || volume <= 0.0 {
+        return 0.0;
+    }
+    spacing.powi(D::N as i32) * thickness / (volume / count)
+}
+
+/// Memory the run may use (bytes): [`MEMORY_LIMIT_VARIABLE`] when set, else the memory the
+/// kernel reports available (`MemAvailable` of `/proc/meminfo`); infinite where neither can
+/// be read, so nothing is refused on a guess.
+pub fn available_memory() -> f64 {
+    if let Some(limit) = std::env::var(MEMORY_LIMIT_VARIABLE)
+        .ok()
+        .and_then(|v| v.trim().parse::<f64>().ok())
+    {
+        return limit;
+    }
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|text| mem_available(&text))
+        .unwrap_or(f64::INFINITY)
+}
+
+/// `MemAvailable` of a `/proc/meminfo` text, in bytes.
+fn mem_available(meminfo: &str) -> Option<f64> {
+    let line = meminfo.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024.0)
+}
+
+/// Bytes as a person reads them: `3.2 GiB`.
+pub fn describe_bytes(bytes: f64) -> String {
+    const UNITS: [&str; 6] = ["B", "KiB", "MiB", "GiB", "TiB", "PiB"];
+    if !bytes.is_finite() {
+        return format!("{bytes} B");
+    }
+    let mut value = bytes;
+    let mut unit = 0;
+    while value >= 1024.0 && unit + 1 < UNITS.len() {
+        value /= 1024.0;
+        unit += 1;
+    }
+    if unit + 1 == UNITS.len() && value >= 1024.0 {
+        return format!("{bytes:.3e} B");
+    }
+    format!("{value:.1} {}", UNITS[unit])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn meminfo_is_read_in_bytes() {
+        let text = "MemTotal:       24000000 kB\nMemFree:  100 kB\nMemAvailable:   2048 kB\n";
+        assert_eq!(mem_available(text), Some(2048.0 * 1024.0));
+        assert_eq!(mem_available("MemTotal: 1 kB\n"), None);
+    }
+
+    #[test]
+    fn an_estimate_above_the_available_memory_is_refused_naming_its_largest_part() {
+        let mut estimate = MemoryEstimate::default();
+        estimate.add("grid nodes", 3.0 * 1024.0 * 1024.0 * 1024.0);
+        estimate.add("particles", 1024.0);
+        assert_eq!(estimate.refusal(4.0 * 1024.0 * 1024.0 * 1024.0), None);
+        let message = estimate.refusal(1024.0 * 1024.0 * 1024.0).unwrap();
+        assert!(message.contains("about 3.0 GiB"), "{message}");
+        assert!(message.contains("grid nodes: 3.0 GiB"), "{message}");
+        assert!(message.contains("1.0 GiB is available"), "{message}");
+        estimate.add("overflow", f64::INFINITY);
+        assert!(estimate.refusal(f64::INFINITY).is_some());
+        assert_eq!(describe_bytes(1e30), "1.000e30 B");
+    }
+}

@@ -1,0 +1,167 @@
+//! Checkpoint and restart: a run of 2N steps, and a run of N steps continued from its
+//! checkpoint for N more, end bitwise in the same state with the same `series.csv` and frames.
+//! One scene per kind of state a checkpoint must carry: LME warm starts and kd-tree candidate
+//! lists with eigensoftening's openings mid-softening; two bodies in contact under Newmark
+//! (force-probe memory, energy account); DFG partitioning with surface detection (its
+//! neighbour lists and the once-only detection flag); particles removed on leaving the grid.
+
+use fractum_engine::checkpoint::{
+    SceneRecord, WorldState, capture, list_checkpoints, read_checkpoint, resume_from,
+};
+use fractum_engine::run::{CheckpointPlan, RunOptions, run_with};
+use fractum_engine::scene::{Built, SceneFile, build_simulation};
+use fractum_engine::simulation::End;
+use fractum_suite::{repo_root, temp_dir};
+use std::path::Path;
+
+fn build(text: &str) -> Built {
+    let file = SceneFile::parse("checkpoint-test.ron", text.to_string()).expect("scene parses");
+    build_simulation(&file, &fractum_systems::stock_registry()).expect("scene builds")
+}
+
+fn record(text: &str) -> SceneRecord {
+    SceneRecord {
+        path: "checkpoint-test.ron".into(),
+        text: text.to_string(),
+    }
+}
+
+/// Runs `text` to step `end` into `dir`, with checkpoints every `every` steps when asked.
+fn run_to(text: &str, dir: &Path, end: u64, every: Option<u64>) -> WorldState {
+    let mut built = build(text);
+    built.simulation.set_end(End::Steps(end));
+    let options = RunOptions {
+        checkpoints: every.map(|n| CheckpointPlan {
+            every: fractum_engine::checkpoint::CheckpointEvery::Steps(n),
+            keep: 2,
+        }),
+        scene: Some(record(text)),
+        ..RunOptions::default()
+    };
+    run_with(&mut built.simulation, &built.output, dir, options, |_| {}).expect("run");
+    capture(&mut built.simulation.world).expect("capture")
+}
+
+/// Continues the run in `dir` from its newest checkpoint to step `end`.
+fn resume_to(dir: &Path, end: u64) -> WorldState {
+    let (_, newest) = list_checkpoints(dir).pop().expect("a checkpoint");
+    let checkpoint = read_checkpoint(&newest).expect("readable checkpoint");
+    let mut built = build(&checkpoint.scene.text);
+    let outputs = resume_from(&mut built.simulation, dir, &checkpoint).expect("resume");
+    built.simulation.set_end(End::Steps(end));
+    let options = RunOptions {
+        scene: Some(checkpoint.scene.clone()),
+        resume: Some(outputs),
+        ..RunOptions::default()
+    };
+    run_with(&mut built.simulation, &built.output, dir, options, |_| {}).expect("resumed run");
+    capture(&mut built.simulation.world).expect("capture")
+}
+
+/// The outputs of `a` and `b` are the same files with the same bytes.
+fn assert_same_outputs(a: &Path, b: &Path) {
+    let read = |p: &Path| std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    assert!(
+        read(&a.join("series.csv")) == read(&b.join("series.csv")),
+        "series.csv differs between {} and {}",
+        a.display(),
+        b.display()
+    );
+    let frames = |d: &Path| {
+        let mut names: Vec<String> = std::fs::read_dir(d.join("frames"))
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    };
+    assert_eq!(frames(a), frames(b));
+    for name in frames(a) {
+        let path = Path::new("frames").join(&name);
+        assert!(
+            read(&a.join(&path)) == read(&b.join(&path)),
+            "{name} differs"
+        );
+    }
+    assert_eq!(read(&a.join("particles.pvd")), read(&b.join("particles.pvd")));
+}
+
+/// Runs `text` for 2N steps straight, and N + N through a checkpoint, and compares.
+fn assert_resume_is_bitwise(name: &str, text: &str, n: u64) -> WorldState {
+    let straight = temp_dir(&format!("{name}-straight"));
+    let split = temp_dir(&format!("{name}-split"));
+    let whole = run_to(text, &straight, 2 * n, None);
+    let halfway = run_to(text, &split, n, Some(n / 2));
+    assert_ne!(halfway, whole, "{name}: the two halves should differ");
+    let resumed = resume_to(&split, 2 * n);
+    assert!(
+        resumed == whole,
+        "{name}: the resumed run's state differs from the straight run's"
+    );
+    assert_same_outputs(&straight, &split);
+    let _ = std::fs::remove_dir_all(&straight);
+    let _ = std::fs::remove_dir_all(&split);
+    whole
+}
+
+fn scene(name: &str) -> String {
+    std::fs::read_to_string(repo_root().join("scenes").join(name)).unwrap()
+}
+
+fn component<'a>(state: &'a WorldState, suffix: &str) -> &'a [u8] {
+    &state
+        .components
+        .iter()
+        .find(|(n, _)| n.ends_with(suffix))
+        .unwrap_or_else(|| panic!("no component {suffix}"))
+        .1
+}
+
+/// LME + Newmark + eigensoftening, checkpointed at step 120: softening began at step 101.
+#[test]
+fn lme_newmark_eigensoftening_resumes_bitwise() {
+    let text = scene("tension_softening.ron")
+        .replace(
+            "(system: \"basis/linear\")",
+            "(system: \"basis/lme\", params: (gamma: 1.8))",
+        )
+        .replace("predictor/usl", "predictor/newmark")
+        .replace(
+            "(system: \"advection/usl\")",
+            "(system: \"corrector/newmark\"), (system: \"advection/newmark\")",
+        );
+    let state = assert_resume_is_bitwise("softening", &text, 120);
+    // The run got into softening: some crack opening is carried.
+    let openings = component(&state, "CrackOpening");
+    assert!(openings.iter().any(|&b| b != 0), "no crack opened");
+}
+
+/// Two disks meeting under frictional contact (Newmark), resumed in the middle of the impact,
+/// with the force probe of one disk in the series.
+#[test]
+fn contact_resumes_bitwise_through_an_impact() {
+    let text = scene("two_disks_contact.ron")
+        .replace("probes: [", "probes: [Force(\"lower-left\"), ");
+    assert!(text.contains("Force(\"lower-left\")"));
+    assert_resume_is_bitwise("contact", &text, 1700);
+}
+
+/// DFG partitioning with surface detection (self-contact): its neighbour lists and the
+/// detection done once at the start are carried.
+#[test]
+fn dfg_self_contact_resumes_bitwise() {
+    assert_resume_is_bitwise("dfg", &scene("billet_self_contact.ron"), 40);
+}
+
+/// Particles removed on leaving the grid are removed again in their order, so the storage
+/// order (and every sum over it) is the straight run's.
+#[test]
+fn removed_particles_resume_bitwise() {
+    let text = scene("two_disks.ron")
+        .replace("Uniform((0.1, 0.1))", "Uniform((-1.0, -0.5))")
+        .replace("output: (", "safety: (on_leave_grid: Remove),\n    output: (");
+    let state = assert_resume_is_bitwise("removal", &text, 200);
+    assert!(state.removed.len() > 10, "too few particles left the grid");
+    assert!(state.particles.len() > 100);
+}

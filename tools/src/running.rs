@@ -1,0 +1,321 @@
+//! `fractum run` and `fractum resume`: the output folder's policy, checkpoints, and stopping
+//! cleanly on SIGINT or SIGTERM.
+//!
+//! A first signal lets the current step finish; the run then writes its outputs and a
+//! checkpoint and exits with [`crate::EXIT_INTERRUPTED`]. A second signal exits at once with
+//! [`crate::EXIT_ABANDONED`] (the last checkpoint and the outputs written so far are intact:
+//! every file is replaced atomically).
+
+use crate::{EXIT_ABANDONED, EXIT_BAD_SCENE, EXIT_BLOWUP, EXIT_INTERRUPTED, EXIT_IO};
+use crate::{EXIT_RESOURCES, energy_warning, load, report_scene_error, summary_report};
+use fractum_engine::checkpoint::{
+    CHECKPOINT_DIR, CheckpointEvery, DEFAULT_KEEP, SceneRecord, list_checkpoints, read_checkpoint,
+    resume_from,
+};
+use fractum_engine::energy::EnergyWatch;
+use fractum_engine::registry::Registry;
+use fractum_engine::run::{CheckpointPlan, RunError, RunOptions, run_with};
+use fractum_engine::scene::{SceneFile, build_simulation};
+use fractum_engine::simulation::End;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::time::{Duration, Instant};
+
+/// The most threads `--threads` accepts: more than any machine this runs on has cores, and
+/// few enough that the pool's stacks cannot exhaust memory.
+pub const MAX_THREADS: usize = 1024;
+
+/// What `run` and `resume` share on the command line.
+#[derive(Debug, Clone, Default)]
+pub struct RunSettings {
+    /// Threads for the parallel kernels.
+    pub threads: Option<usize>,
+    /// Stop when the clock reaches this step.
+    pub steps: Option<u64>,
+    /// No progress bar.
+    pub quiet: bool,
+    /// Checkpoint schedule.
+    pub checkpoint_every: Option<CheckpointEvery>,
+    /// Checkpoints kept.
+    pub keep_checkpoints: usize,
+}
+
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+static SIGNALS: AtomicU32 = AtomicU32::new(0);
+
+/// Installs the SIGINT/SIGTERM handler once per process (later calls keep the first).
+fn handle_signals() {
+    static INSTALLED: std::sync::Once = std::sync::Once::new();
+    INSTALLED.call_once(|| {
+        let _ = ctrlc::set_handler(|| {
+            if SIGNALS.fetch_add(1, Ordering::SeqCst) >= 1 {
+                eprintln!("\nsecond interrupt: exiting now");
+                std::process::exit(EXIT_ABANDONED);
+            }
+            INTERRUPTED.store(true, Ordering::SeqCst);
+            eprintln!(
+                "\ninterrupt: finishing this step, then writing the outputs and a checkpoint \
+                 (interrupt again to exit at once)"
+            );
+        });
+    });
+    INTERRUPTED.store(false, Ordering::SeqCst);
+    SIGNALS.store(0, Ordering::SeqCst);
+}
+
+/// The files and folders a run writes into its output folder.
+const RUN_OUTPUTS: [&str; 5] = [
+    "series.csv",
+    "particles.pvd",
+    "grid.pvd",
+    "frames",
+    CHECKPOINT_DIR,
+];
+
+/// Whether `dir` holds the outputs of a run.
+fn holds_a_run(dir: &Path) -> bool {
+    RUN_OUTPUTS.iter().any(|name| dir.join(name).exists())
+}
+
+/// Makes `dir` ready for a new run: refuses a folder that holds a previous run unless
+/// `force`, which removes that run's outputs (and nothing else).
+fn prepare_out_dir(dir: &Path, force: bool) -> Result<(), String> {
+    if !holds_a_run(dir) {
+        return Ok(());
+    }
+    if !force {
+        return Err(format!(
+            "{} holds a previous run (series.csv, frames, checkpoints); pass --force to \
+             replace it, `fractum resume {}` to continue it, or --out for another folder",
+            dir.display(),
+            dir.display()
+        ));
+    }
+    for name in RUN_OUTPUTS {
+        let path = dir.join(name);
+        let removed = if path.is_dir() {
+            std::fs::remove_dir_all(&path)
+        } else if path.exists() {
+            std::fs::remove_file(&path)
+        } else {
+            Ok(())
+        };
+        removed.map_err(|e| format!("cannot remove {}: {e}", path.display()))?;
+    }
+    Ok(())
+}
+
+fn default_out_dir(scene: &Path) -> PathBuf {
+    let stem = scene.file_stem().map(|s| s.to_string_lossy().into_owned());
+    Path::new("out").join(stem.unwrap_or_else(|| "run".into()))
+}
+
+fn progress_bar(quiet: bool) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(1_000_000);
+    let style = ProgressStyle::with_template("[{elapsed_precise}] {bar:32} {msg} ETA {eta}")
+        .unwrap_or_else(|_| ProgressStyle::default_bar());
+    bar.set_style(style);
+    bar
+}
+
+/// `fractum run`.
+pub fn run_command(
+    scene: &Path,
+    out: Option<PathBuf>,
+    force: bool,
+    settings: &RunSettings,
+    registry: &Registry,
+) -> i32 {
+    let (file, built) = match load(scene, registry) {
+        Ok(loaded) => loaded,
+        Err(e) => return report_scene_error(&e),
+    };
+    let out_dir = out.unwrap_or_else(|| default_out_dir(scene));
+    if let Err(e) = prepare_out_dir(&out_dir, force) {
+        eprintln!("error: {e}");
+        return EXIT_IO;
+    }
+    let record = SceneRecord {
+        path: std::path::absolute(scene)
+            .unwrap_or_else(|_| scene.to_path_buf())
+            .display()
+            .to_string(),
+        text: file.text,
+    };
+    execute(built, &out_dir, record, None, settings)
+}
+
+/// `fractum resume`.
+pub fn resume_command(out_dir: &Path, settings: &RunSettings, registry: &Registry) -> i32 {
+    let Some((_, path)) = list_checkpoints(out_dir).pop() else {
+        eprintln!(
+            "error: {} has no checkpoint to resume from (checkpoints are written by `fractum \
+             run --checkpoint-every N`, at its end, and when it is interrupted)",
+            out_dir.join(CHECKPOINT_DIR).display()
+        );
+        return EXIT_IO;
+    };
+    let checkpoint = match read_checkpoint(&path) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return EXIT_IO;
+        }
+    };
+    let scene_path = Path::new(&checkpoint.scene.path);
+    match std::fs::read_to_string(scene_path) {
+        Ok(text) if text != checkpoint.scene.text => {
+            eprintln!(
+                "error: {} changed since the checkpoint {} was written; resuming would mix two \
+                 scenes. Restore the scene to continue the run, or start a new run of the \
+                 edited scene",
+                scene_path.display(),
+                path.display()
+            );
+            return EXIT_BAD_SCENE;
+        }
+        Ok(_) => {}
+        Err(_) => eprintln!(
+            "note: {} is gone; resuming from the copy of it in the checkpoint",
+            scene_path.display()
+        ),
+    }
+    let file = match SceneFile::parse(&checkpoint.scene.path, checkpoint.scene.text.clone()) {
+        Ok(f) => f,
+        Err(e) => return report_scene_error(&e),
+    };
+    let mut built = match build_simulation(&file, registry) {
+        Ok(b) => b,
+        Err(e) => return report_scene_error(&e),
+    };
+    let outputs = match resume_from(&mut built.simulation, out_dir, &checkpoint) {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("error: {}: {e}", path.display());
+            return EXIT_IO;
+        }
+    };
+    let clock = built.simulation.clock();
+    eprintln!(
+        "resuming {} at step {}, t = {:e} s, from {}",
+        out_dir.display(),
+        clock.step,
+        clock.time,
+        path.display()
+    );
+    execute(
+        built,
+        out_dir,
+        checkpoint.scene.clone(),
+        Some(outputs),
+        settings,
+    )
+}
+
+fn execute(
+    mut built: fractum_engine::scene::Built,
+    out_dir: &Path,
+    scene: SceneRecord,
+    resume: Option<fractum_engine::run::ResumedOutputs>,
+    settings: &RunSettings,
+) -> i32 {
+    let sim = &mut built.simulation;
+    if let Some(n) = settings.threads
+        && let Err(e) = sim.set_threads(n.max(1))
+    {
+        eprintln!("error: cannot start {n} threads: {e}");
+        return EXIT_RESOURCES;
+    }
+    if let Some(n) = settings.steps {
+        sim.set_end(End::Steps(n));
+    }
+    if sim.finished() {
+        eprintln!(
+            "error: the run is already at its end (step {}); pass --steps with a larger step \
+             to go on",
+            sim.clock().step
+        );
+        return EXIT_BAD_SCENE;
+    }
+    handle_signals();
+    let options = RunOptions {
+        checkpoints: settings.checkpoint_every.map(|every| CheckpointPlan {
+            every,
+            keep: settings.keep_checkpoints.max(1),
+        }),
+        scene: Some(scene),
+        interrupt: Some(&INTERRUPTED),
+        resume,
+    };
+    let bar = progress_bar(settings.quiet);
+    let started = Instant::now();
+    let first_step = sim.clock().step;
+    let mut last_draw = Instant::now();
+    let mut warned = false;
+    let result = run_with(sim, &built.output, out_dir, options, |sim| {
+        if !warned
+            && let Some(first) = sim
+                .world
+                .get_resource::<EnergyWatch>()
+                .and_then(|w| w.first)
+        {
+            warned = true;
+            bar.suspend(|| eprintln!("warning: {}", energy_warning(&first)));
+        }
+        if last_draw.elapsed() > Duration::from_millis(100) || sim.finished() {
+            last_draw = Instant::now();
+            let clock = sim.clock();
+            let rate =
+                (clock.step - first_step) as f64 / started.elapsed().as_secs_f64().max(1e-9);
+            bar.set_position((sim.progress() * 1e6) as u64);
+            bar.set_message(format!(
+                "step {} t = {:.4e} s {rate:.0} steps/s",
+                clock.step, clock.time
+            ));
+        }
+    });
+    bar.finish_and_clear();
+    match result {
+        Ok(summary) => {
+            print!("{}", summary_report(&summary, out_dir));
+            if let Some(path) = &summary.checkpoint {
+                println!("checkpoint {}", path.display());
+            }
+            if summary.interrupted {
+                eprintln!(
+                    "interrupted at step {}; continue with `fractum resume {}`",
+                    sim.clock().step,
+                    out_dir.display()
+                );
+                return EXIT_INTERRUPTED;
+            }
+            0
+        }
+        Err(RunError::Blowup(b, last_good)) => {
+            eprintln!("error: the run stopped at {b}");
+            eprintln!(
+                "outputs up to the last output step are in {}",
+                out_dir.display()
+            );
+            if let Some(path) = last_good {
+                eprintln!(
+                    "the state at the start of step {} is in {}",
+                    b.step,
+                    path.display()
+                );
+            }
+            EXIT_BLOWUP
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            EXIT_IO
+        }
+    }
+}
+
+/// The default of `--keep-checkpoints`.
+pub const DEFAULT_KEEP_CHECKPOINTS: usize = DEFAULT_KEEP;
