@@ -187,3 +187,73 @@ fn each_check_looks_at_what_its_stage_can_write() {
     assert_eq!(plan.of(Stage::Advection), Columns::ALL);
     assert_eq!(plan.of(Stage::Stress), Columns::STRESS | Columns::VOLUME);
 }
+
+/// A step too small to move the clock (here: a clock so far along that 1 ms is below its
+/// resolution) stops the run instead of looping for ever.
+#[test]
+fn a_step_that_cannot_advance_the_clock_stops_the_run() {
+    let file = scene("(0.0, 0.0)", "");
+    let mut sim = build_simulation(&file, &fractum_systems::stock_registry())
+        .unwrap()
+        .simulation;
+    sim.world.resource_mut::<SimClock>().time = 1.0e20;
+    let failure = sim.step().unwrap_err();
+    assert_eq!(failure.stage, Stage::PreStep);
+    assert!(
+        failure
+            .message
+            .contains("cannot advance the clock from t = 1e20 s"),
+        "{failure}"
+    );
+}
+
+/// Finite velocities whose energy overflows stop the run at the series row, naming the most
+/// energetic particle, instead of writing `inf` into the series.
+#[test]
+fn energies_that_overflow_stop_the_run_naming_the_particle() {
+    let file = scene("(0.0, 0.0)", "");
+    let mut built = build_simulation(&file, &fractum_systems::stock_registry()).unwrap();
+    let world = &mut built.simulation.world;
+    let mut query = world.query_filtered::<&mut Velocity<Two>, With<Particle>>();
+    if let Some(mut v) = query.iter_mut(world).next() {
+        v.0 = DVec2::new(0.0, 1.0e200);
+    }
+    let out = temp_dir("overflow");
+    let error = run(&mut built.simulation, &built.output, &out, |_| {}).unwrap_err();
+    let RunError::Blowup(blowup, _) = error else {
+        panic!("expected a blow-up, got {error}");
+    };
+    assert_eq!(blowup.stage, Stage::PostStep);
+    assert!(
+        blowup.message.contains("kinetic_energy is inf")
+            && blowup.message.contains("has velocity [0.0, 1e200]"),
+        "{blowup}"
+    );
+    let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
+    assert!(!series.contains("inf"), "{series}");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// A frame that cannot be written stops the run with an error, and the rows taken before it
+/// are on disk, not lost in the writer's buffer.
+#[test]
+fn a_failed_frame_write_keeps_the_rows_before_it() {
+    let file = scene("(0.0, 0.0)", "");
+    let mut built = build_simulation(&file, &fractum_systems::stock_registry()).unwrap();
+    built.output.vtu_every = 40;
+    built.output.csv_every = 1;
+    let out = temp_dir("failed-write");
+    // A folder where the frame of step 40 should go makes that write fail.
+    std::fs::create_dir_all(out.join("frames/particles_00000040.vtu")).unwrap();
+    let error = run(&mut built.simulation, &built.output, &out, |_| {}).unwrap_err();
+    assert!(matches!(error, RunError::Io { .. }), "{error}");
+    let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
+    let last: u64 = series
+        .lines()
+        .last()
+        .and_then(|l| l.split(',').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap();
+    assert_eq!(last, 40, "{series}");
+    let _ = std::fs::remove_dir_all(&out);
+}

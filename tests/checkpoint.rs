@@ -84,7 +84,10 @@ fn assert_same_outputs(a: &Path, b: &Path) {
             "{name} differs"
         );
     }
-    assert_eq!(read(&a.join("particles.pvd")), read(&b.join("particles.pvd")));
+    assert_eq!(
+        read(&a.join("particles.pvd")),
+        read(&b.join("particles.pvd"))
+    );
 }
 
 /// Runs `text` for 2N steps straight, and N + N through a checkpoint, and compares.
@@ -141,8 +144,8 @@ fn lme_newmark_eigensoftening_resumes_bitwise() {
 /// with the force probe of one disk in the series.
 #[test]
 fn contact_resumes_bitwise_through_an_impact() {
-    let text = scene("two_disks_contact.ron")
-        .replace("probes: [", "probes: [Force(\"lower-left\"), ");
+    let text =
+        scene("two_disks_contact.ron").replace("probes: [", "probes: [Force(\"lower-left\"), ");
     assert!(text.contains("Force(\"lower-left\")"));
     assert_resume_is_bitwise("contact", &text, 1700);
 }
@@ -160,7 +163,10 @@ fn dfg_self_contact_resumes_bitwise() {
 fn removed_particles_resume_bitwise() {
     let text = scene("two_disks.ron")
         .replace("Uniform((0.1, 0.1))", "Uniform((-1.0, -0.5))")
-        .replace("output: (", "safety: (on_leave_grid: Remove),\n    output: (");
+        .replace(
+            "output: (",
+            "safety: (on_leave_grid: Remove),\n    output: (",
+        );
     let state = assert_resume_is_bitwise("removal", &text, 200);
     assert!(state.removed.len() > 10, "too few particles left the grid");
     assert!(state.particles.len() > 100);

@@ -81,9 +81,7 @@ impl std::fmt::Debug for CheckpointState {
 
 impl CheckpointState {
     /// Carries particle component `C` (once, however often it is asked).
-    pub fn component<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
-        &mut self,
-    ) {
+    pub fn component<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(&mut self) {
         let name = std::any::type_name::<C>();
         if self.components.iter().all(|e| e.name != name) {
             self.components.push(ComponentEntry {
@@ -128,7 +126,9 @@ pub fn carry_component<C: Component<Mutability = bevy_ecs::component::Mutable> +
 
 /// Registers resource `R` with the world's [`CheckpointState`].
 pub fn carry_resource<R: Resource + State>(world: &mut World) {
-    world.get_resource_or_init::<CheckpointState>().resource::<R>();
+    world
+        .get_resource_or_init::<CheckpointState>()
+        .resource::<R>();
 }
 
 fn codec(what: &str) -> impl FnOnce(postcard::Error) -> CheckpointError + '_ {
@@ -182,7 +182,10 @@ fn save_resource<R: Resource + State>(world: &World) -> Result<Option<Vec<u8>>, 
         .transpose()
 }
 
-fn load_resource<R: Resource + State>(world: &mut World, bytes: &[u8]) -> Result<(), CheckpointError> {
+fn load_resource<R: Resource + State>(
+    world: &mut World,
+    bytes: &[u8],
+) -> Result<(), CheckpointError> {
     let value: R = postcard::from_bytes(bytes).map_err(codec(std::any::type_name::<R>()))?;
     world.insert_resource(value);
     Ok(())
@@ -539,9 +542,8 @@ pub fn resume_from(
     out_dir: &std::path::Path,
     file: &CheckpointFile,
 ) -> Result<crate::run::ResumedOutputs, String> {
-    restore(&mut sim.world, &file.world).map_err(|e| {
-        format!("the checkpoint does not fit the world built from its scene: {e}")
-    })?;
+    restore(&mut sim.world, &file.world)
+        .map_err(|e| format!("the checkpoint does not fit the world built from its scene: {e}"))?;
     sim.set_time_compensation(file.time_compensation);
     sim.set_end(file.end);
     let step = sim.clock().step;
@@ -602,6 +604,56 @@ mod tests {
         assert!("0".parse::<CheckpointEvery>().is_err());
         assert!("-1s".parse::<CheckpointEvery>().is_err());
         assert!("often".parse::<CheckpointEvery>().is_err());
+    }
+
+    fn checkpoint_of(binary: u64, version: &str) -> CheckpointFile {
+        CheckpointFile {
+            format: CHECKPOINT_FORMAT,
+            version: version.to_string(),
+            binary,
+            scene: SceneRecord {
+                path: "scene.ron".into(),
+                text: "()".into(),
+            },
+            end: crate::simulation::End::Steps(10),
+            time_compensation: 0.0,
+            world: WorldState::default(),
+            outputs: CheckpointOutputs {
+                series_bytes: 0,
+                frames: Vec::new(),
+                grid_frames: Vec::new(),
+                next_checkpoint_time: None,
+            },
+        }
+    }
+
+    /// A checkpoint reads back as written from this binary, and is refused with the reason
+    /// when another build or version wrote it, or when it is cut short.
+    #[test]
+    fn checkpoints_of_another_build_or_damaged_are_refused() {
+        let dir = std::env::temp_dir().join(format!("fractum-ckpt-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(checkpoint_name(10));
+        let write = |file: &CheckpointFile| {
+            std::fs::write(&path, postcard::to_allocvec(file).unwrap()).unwrap();
+        };
+        let ours = checkpoint_of(binary_identity(), env!("CARGO_PKG_VERSION"));
+        write(&ours);
+        assert_eq!(read_checkpoint(&path).unwrap(), ours);
+        write(&checkpoint_of(
+            binary_identity() ^ 1,
+            env!("CARGO_PKG_VERSION"),
+        ));
+        let refused = read_checkpoint(&path).unwrap_err();
+        assert!(refused.contains("another build"), "{refused}");
+        write(&checkpoint_of(binary_identity(), "0.0.1"));
+        let refused = read_checkpoint(&path).unwrap_err();
+        assert!(refused.contains("written by Fractum 0.0.1"), "{refused}");
+        let bytes = postcard::to_allocvec(&ours).unwrap();
+        std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
+        let refused = read_checkpoint(&path).unwrap_err();
+        assert!(refused.contains("is not a checkpoint"), "{refused}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -13,9 +13,9 @@
 //! pipeline uses slot 0 everywhere. Why a small fixed number of slots per node instead of
 //! `groups × 2` fields everywhere: see ARCHITECTURE.md (velocity fields).
 
-use serde::{Deserialize, Serialize};
 use crate::dim::{Dim, MatrixOps, SymOps};
 use bevy_ecs::prelude::Component;
+use serde::{Deserialize, Serialize};
 
 /// Velocity fields one node can hold at once.
 ///
@@ -33,7 +33,9 @@ pub fn slots<T: Copy + Default>(values: &[T]) -> [T; MAX_FIELDS] {
 
 /// Key of a velocity field: `2 × contact group + side`, where the side (0 or 1) is the
 /// particle's side of the damage-field gradient at the node (always 0 without partitioning).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
 pub struct FieldKey(pub u16);
 
 impl FieldKey {

@@ -5,7 +5,9 @@ use bevy_ecs::prelude::Resource;
 use std::sync::Arc;
 
 /// Simulation clock. `step` counts completed steps; `dt` is the size of the step being taken.
-#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Resource, Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize,
+)]
 pub struct SimClock {
     /// Completed steps.
     pub step: u64,

@@ -1,6 +1,9 @@
 //! The run loop: step to the end, writing frames and time-series rows on schedule.
 
 use crate::boundary::{BoundaryConditions, Reactions};
+use crate::checkpoint::{
+    CheckpointEvery, CheckpointOutputs, DEFAULT_KEEP, SceneRecord, write_checkpoint,
+};
 use crate::components::{
     BodyId, Damage, DamageGradient, Mass, MaterialId, Node, NodeFields, Particle, ParticleId,
     Position, StrainEnergyDensity, Stress, SurfaceFlag, Velocity, Volume,
@@ -17,9 +20,6 @@ use crate::resources::{SimClock, Thickness};
 use crate::simulation::Simulation;
 use crate::with_dim;
 use bevy_ecs::prelude::*;
-use crate::checkpoint::{
-    CheckpointEvery, CheckpointOutputs, DEFAULT_KEEP, SceneRecord, write_checkpoint,
-};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -431,7 +431,9 @@ impl Outputs<'_> {
             write_pvd(&pvd, &self.frames).map_err(io_error(&pvd))?;
             framed = true;
         }
-        if self.plan.grid_every > 0 && (force || due(self.plan.grid_every)) && fresh(self.written[2])
+        if self.plan.grid_every > 0
+            && (force || due(self.plan.grid_every))
+            && fresh(self.written[2])
         {
             self.written[2] = Some(step);
             let name = format!("frames/grid_{step:08}.vtu");
@@ -589,9 +591,11 @@ pub fn run_with(
         let last = sim.finished() || interrupted;
         let wanted = options.checkpoints.is_some() || interrupted;
         if wanted && (schedule.due(sim.clock()) || last) {
-            let scene = options.scene.as_ref().ok_or_else(|| RunError::Checkpoint(
-                "a checkpoint needs the scene's text (RunOptions::scene)".into(),
-            ))?;
+            let scene = options.scene.as_ref().ok_or_else(|| {
+                RunError::Checkpoint(
+                    "a checkpoint needs the scene's text (RunOptions::scene)".into(),
+                )
+            })?;
             outputs.flush()?;
             let saved = CheckpointOutputs {
                 series_bytes: outputs.series.text().len() as u64,

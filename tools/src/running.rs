@@ -269,8 +269,7 @@ fn execute(
         if last_draw.elapsed() > Duration::from_millis(100) || sim.finished() {
             last_draw = Instant::now();
             let clock = sim.clock();
-            let rate =
-                (clock.step - first_step) as f64 / started.elapsed().as_secs_f64().max(1e-9);
+            let rate = (clock.step - first_step) as f64 / started.elapsed().as_secs_f64().max(1e-9);
             bar.set_position((sim.progress() * 1e6) as u64);
             bar.set_message(format!(
                 "step {} t = {:.4e} s {rate:.0} steps/s",

@@ -68,6 +68,11 @@ impl<D: Dim> Spec<D> {
                     .source
                     .error(&field("youngs_modulus"), "expected a positive modulus (Pa)"));
             }
+            if !(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5) {
+                return Err(self
+                    .source
+                    .error(&field("poisson_ratio"), "expected a value in (-1, 0.5)"));
+            }
             if !(m.wave_speed().is_finite() && m.wave_speed() > 0.0) {
                 return Err(self.source.error(
                     &field("density"),
@@ -77,11 +82,6 @@ impl<D: Dim> Spec<D> {
                         m.wave_speed()
                     ),
                 ));
-            }
-            if !(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5) {
-                return Err(self
-                    .source
-                    .error(&field("poisson_ratio"), "expected a value in (-1, 0.5)"));
             }
             if self
                 .materials
@@ -385,7 +385,10 @@ impl<D: Dim> Spec<D> {
                 .error("time.step", "expected a positive time step")),
             TimeStep::Fixed(dt) if !dt.is_normal() => Err(self.source.error(
                 "time.step",
-                format!("the time step {dt:e} s is below the smallest normal number {:e}", f64::MIN_POSITIVE),
+                format!(
+                    "the time step {dt:e} s is below the smallest normal number {:e}",
+                    f64::MIN_POSITIVE
+                ),
             )),
             TimeStep::Cfl(f) if !(f > 0.0 && f <= 1.0) => Err(self
                 .source

@@ -112,7 +112,12 @@ fn is_simple(vertices: &[DVec2]) -> bool {
         c.x >= a.x.min(b.x) && c.x <= a.x.max(b.x) && c.y >= a.y.min(b.y) && c.y <= a.y.max(b.y)
     };
     let meet = |(a, b): (DVec2, DVec2), (c, d): (DVec2, DVec2)| {
-        let (o1, o2, o3, o4) = (orient(a, b, c), orient(a, b, d), orient(c, d, a), orient(c, d, b));
+        let (o1, o2, o3, o4) = (
+            orient(a, b, c),
+            orient(a, b, d),
+            orient(c, d, a),
+            orient(c, d, b),
+        );
         if o1 * o2 < 0.0 && o3 * o4 < 0.0 {
             return true;
         }
@@ -317,13 +322,44 @@ mod tests {
     #[test]
     fn crossing_and_folded_polygons_are_not_simple() {
         let v = |p: &[(f64, f64)]| p.iter().map(|&(x, y)| DVec2::new(x, y)).collect::<Vec<_>>();
-        assert!(is_simple(&v(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)])));
-        assert!(is_simple(&v(&[(0.0, 0.0), (2.0, 0.0), (1.0, 0.5), (2.0, 1.0), (0.0, 1.0)])));
+        assert!(is_simple(&v(&[
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (1.0, 1.0),
+            (0.0, 1.0)
+        ])));
+        assert!(is_simple(&v(&[
+            (0.0, 0.0),
+            (2.0, 0.0),
+            (1.0, 0.5),
+            (2.0, 1.0),
+            (0.0, 1.0)
+        ])));
         // A bow tie, a vertex touching a far edge, a spike back along its edge, a repeated vertex.
-        assert!(!is_simple(&v(&[(0.0, 0.0), (1.0, 1.0), (1.0, 0.0), (0.0, 1.0)])));
-        assert!(!is_simple(&v(&[(0.0, 0.0), (2.0, 0.0), (1.0, 0.0), (1.0, 1.0)])));
-        assert!(!is_simple(&v(&[(0.0, 0.0), (2.0, 0.0), (1.0, 0.0), (0.0, 1.0)])));
-        assert!(!is_simple(&v(&[(0.0, 0.0), (0.0, 0.0), (1.0, 0.0), (0.0, 1.0)])));
+        assert!(!is_simple(&v(&[
+            (0.0, 0.0),
+            (1.0, 1.0),
+            (1.0, 0.0),
+            (0.0, 1.0)
+        ])));
+        assert!(!is_simple(&v(&[
+            (0.0, 0.0),
+            (2.0, 0.0),
+            (1.0, 0.0),
+            (1.0, 1.0)
+        ])));
+        assert!(!is_simple(&v(&[
+            (0.0, 0.0),
+            (2.0, 0.0),
+            (1.0, 0.0),
+            (0.0, 1.0)
+        ])));
+        assert!(!is_simple(&v(&[
+            (0.0, 0.0),
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (0.0, 1.0)
+        ])));
     }
 
     #[test]

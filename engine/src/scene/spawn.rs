@@ -2,12 +2,12 @@
 //! regions and probes, installing the pipeline, and the last checks that need the world (a
 //! shape that seeds no particle, a region with no node, a fixed step above the stable limit).
 
+use super::budget::{self, MemoryEstimate, ParticleMemory};
 use super::format::Probe;
 use super::seed::particles_in_shape;
 use super::spec::{
     Body, Boundary, Built, Condition, PipelineEntry, PipelineSummary, SceneSummary, Spec,
 };
-use super::budget::{self, MemoryEstimate, ParticleMemory};
 use super::{SceneError, Source};
 use crate::boundary::{BoundaryConditions, BoundaryRegion, PiecewiseLinear, Reactions};
 use crate::components::{

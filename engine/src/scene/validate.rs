@@ -537,6 +537,7 @@ impl<D: Dim> Reader<D> {
 pub const MAX_CELLS: f64 = 1e8;
 
 fn too_many_cells(cells: f64) -> String {
-    format!("the grid would have {cells:.3e} cells, more than the 10^8 a scene may have; use a larger spacing or a smaller box")
+    format!(
+        "the grid would have {cells:.3e} cells, more than the 10^8 a scene may have; use a larger spacing or a smaller box"
+    )
 }
-

@@ -22,11 +22,11 @@
 //!   the result, does not depend on when the lists were rebuilt.
 //! - Writes the [`Connectivity`] tables; keeps λ and the candidate lists in [`LmeState`].
 
-use fractum_engine::scene::budget::cells_in_ball;
 use super::lme_kernel::{LmeScratch, LmeSettings, lme_gradient, lme_solve, support_radius};
 use crate::spatial::Spatial;
 use fractum_engine::health::{Blowup, Health, fmt_vector};
 use fractum_engine::prelude::*;
+use fractum_engine::scene::budget::cells_in_ball;
 use rayon::prelude::*;
 use serde::Deserialize;
 

@@ -66,8 +66,8 @@ pub fn parse_params(params: &Params) -> Result<NeighbourParams, SceneError> {
 /// `reach` cells of each (at the scene's mean particles per cell), `lists` of them kept.
 pub fn declare_lists(installer: &mut Installer, name: &str, reach: f64, lists: f64) {
     let d = installer.dimension().count();
-    let neighbours = fractum_engine::scene::budget::cells_in_ball(d, reach)
-        * installer.particles_per_cell();
+    let neighbours =
+        fractum_engine::scene::budget::cells_in_ball(d, reach) * installer.particles_per_cell();
     installer.declare_particle_memory(
         format!(
             "{name}: about {} neighbours per particle",

@@ -124,7 +124,9 @@ impl<D: Spatial> DfgNeighbours<D> {
 }
 
 /// Whether surface detection has run.
-#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Resource, Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize,
+)]
 pub struct SurfaceDetected(pub bool);
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
@@ -153,12 +155,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     let radius_cells = parsed
         .radius
         .map_or((dimensions as f64).sqrt(), |r| r / spacing);
-    crate::neighbour::declare_lists(
-        installer,
-        "partition/dfg",
-        radius_cells * (1.0 + SKIN),
-        1.0,
-    );
+    crate::neighbour::declare_lists(installer, "partition/dfg", radius_cells * (1.0 + SKIN), 1.0);
     installer.insert_resource(parsed);
     installer.insert_resource(FieldRule { by_gradient: true });
     installer.init_state::<SurfaceDetected>();

@@ -1,0 +1,325 @@
+//! A fuzz target that stays: shipped scenes mutated as a user's typos and extremes would
+//! (numbers swapped for extremes, characters and lines dropped or doubled, names swapped,
+//! files cut short), each checked and, when accepted, run for five steps by the real binary.
+//!
+//! - `fractum check` never panics or aborts: it exits 0, or 1 with `file:line:col`;
+//! - a run of an accepted scene exits 0 with only finite numbers in `series.csv`, or 3 with a
+//!   message naming the step, the stage and a particle or node.
+//!
+//! `PROPTEST_CASES` sets the number of mutated scenes (256 by default here).
+
+use proptest::prelude::*;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// Small shipped scenes of every kind of pipeline (2D and 3D, USL and Newmark, LME, damage,
+/// contact, partitioning).
+const SEEDS: [&str; 10] = [
+    "two_disks.ron",
+    "two_disks_contact.ron",
+    "tension_softening.ron",
+    "tension_rankine.ron",
+    "time_to_failure_strip.ron",
+    "sliding_block.ron",
+    "bar_vibration.ron",
+    "bar_vibration_graded.ron",
+    "bar_vibration_3d.ron",
+    "block_compression.ron",
+];
+
+/// Values a number is swapped for: zero, signs, the edges of f64, huge counts.
+const EXTREMES: [&str; 14] = [
+    "0.0",
+    "-1.0",
+    "1e-320",
+    "1e300",
+    "-1e300",
+    "NaN",
+    "inf",
+    "1e-300",
+    "16",
+    "4294967296",
+    "0.5",
+    "1e8",
+    "2",
+    "-0.0",
+];
+
+/// Characters a typo inserts.
+const TYPOS: [char; 12] = [',', '(', ')', '"', ':', '[', ']', 'x', '.', '-', '{', '0'];
+
+/// Memory a mutated scene may ask for in this test (so no case can take the machine's).
+const MEMORY_LIMIT: &str = "2e9";
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// Byte ranges of the numeric literals in `text`.
+fn numbers(text: &str) -> Vec<(usize, usize)> {
+    let bytes = text.as_bytes();
+    let mut found = Vec::new();
+    let mut i = 0;
+    while i < bytes.len() {
+        let starts = bytes[i].is_ascii_digit()
+            && (i == 0 || !(bytes[i - 1].is_ascii_alphanumeric() || bytes[i - 1] == b'_'));
+        if starts {
+            let start = if i > 0 && bytes[i - 1] == b'-' {
+                i - 1
+            } else {
+                i
+            };
+            let mut end = i;
+            while end < bytes.len()
+                && (bytes[end].is_ascii_digit()
+                    || matches!(bytes[end], b'.' | b'e' | b'E')
+                    || (matches!(bytes[end], b'-' | b'+') && matches!(bytes[end - 1], b'e' | b'E')))
+            {
+                end += 1;
+            }
+            found.push((start, end));
+            i = end;
+        } else {
+            i += 1;
+        }
+    }
+    found
+}
+
+/// Byte ranges of the words (names, identifiers) in `text`.
+fn words(text: &str) -> Vec<(usize, usize)> {
+    let bytes = text.as_bytes();
+    let mut found = Vec::new();
+    let mut i = 0;
+    while i < bytes.len() {
+        let inside_number = i > 0 && (bytes[i - 1].is_ascii_digit() || bytes[i - 1] == b'.');
+        if bytes[i].is_ascii_alphabetic() && !inside_number {
+            let start = i;
+            while i < bytes.len() && (bytes[i].is_ascii_alphanumeric() || bytes[i] == b'_') {
+                i += 1;
+            }
+            found.push((start, i));
+        } else {
+            i += 1;
+        }
+    }
+    found
+}
+
+fn floor_boundary(text: &str, mut at: usize) -> usize {
+    at = at.min(text.len());
+    while !text.is_char_boundary(at) {
+        at -= 1;
+    }
+    at
+}
+
+/// One mutation of `text`: `kind` picks what, `at` where, `pick` with what.
+fn mutate(text: &str, kind: u8, at: usize, pick: usize) -> String {
+    let mut out = text.to_string();
+    match kind % 7 {
+        0 => {
+            let spans = numbers(text);
+            if let Some(&(a, b)) = spans.get(at % spans.len().max(1)) {
+                out.replace_range(a..b, EXTREMES[pick % EXTREMES.len()]);
+            }
+        }
+        1 => {
+            let a = floor_boundary(text, at % text.len().max(1));
+            let b = floor_boundary(text, a + 1 + pick % 3);
+            out.replace_range(a..b.max(a), "");
+        }
+        2 => {
+            let a = floor_boundary(text, at % text.len().max(1));
+            out.insert(a, TYPOS[pick % TYPOS.len()]);
+        }
+        3 | 4 => {
+            let lines: Vec<&str> = text.lines().collect();
+            let k = at % lines.len().max(1);
+            let mut edited: Vec<&str> = lines.clone();
+            if kind % 7 == 3 {
+                edited.insert(k, lines[k]);
+            } else {
+                edited.remove(k);
+            }
+            out = edited.join("\n");
+        }
+        5 => {
+            let spans = words(text);
+            if !spans.is_empty() {
+                let (a, b) = spans[at % spans.len()];
+                let (c, d) = spans[pick % spans.len()];
+                out.replace_range(a..b, &text[c..d]);
+            }
+        }
+        _ => out.truncate(floor_boundary(text, at % text.len().max(1))),
+    }
+    out
+}
+
+/// Runs the binary with a deadline; a run that outlives it is a hang.
+fn fractum(args: &[&str], dir: &Path) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fractum"))
+        .args(args)
+        .current_dir(dir)
+        .env("FRACTUM_MEMORY_LIMIT", MEMORY_LIMIT)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the fractum binary runs");
+    let started = Instant::now();
+    while child.try_wait().expect("wait").is_none() {
+        if started.elapsed() > Duration::from_secs(300) {
+            let _ = child.kill();
+            panic!("fractum {args:?} hung");
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.wait_with_output().expect("output")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// Whether `message` points at `file:line:col`.
+fn placed(message: &str, file: &str) -> bool {
+    let Some(rest) = message.strip_prefix(&format!("error: {file}:")) else {
+        return false;
+    };
+    let mut parts = rest.splitn(3, ':');
+    let line = parts.next().is_some_and(|l| l.parse::<u32>().is_ok());
+    let col = parts.next().is_some_and(|c| c.parse::<u32>().is_ok());
+    line && col
+}
+
+/// How a mutated scene fared, when it fared well.
+#[derive(Debug)]
+enum Outcome {
+    /// `check` refused it with a place.
+    Refused,
+    /// It ran five steps with finite results.
+    Ran,
+    /// The run stopped with a named particle or node.
+    Stopped,
+}
+
+/// Appends the outcome to the file `FRACTUM_FUZZ_LOG` names, if any (for counting them).
+fn log(seed: &str, outcome: &Result<Outcome, String>) {
+    if let Ok(path) = std::env::var("FRACTUM_FUZZ_LOG") {
+        use std::io::Write;
+        if let Ok(mut file) = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(path)
+        {
+            let _ = writeln!(file, "{seed} {outcome:?}");
+        }
+    }
+}
+
+/// Checks and (when accepted) runs one mutated scene; returns what went wrong, if anything.
+fn try_scene(dir: &Path, scene: &str) -> Result<Outcome, String> {
+    std::fs::write(dir.join("fuzz.ron"), scene).unwrap();
+    let check = fractum(&["check", "fuzz.ron"], dir);
+    match check.status.code() {
+        Some(0) => {}
+        Some(1) => {
+            let message = text(&check.stderr);
+            return if placed(&message, "fuzz.ron") {
+                Ok(Outcome::Refused)
+            } else {
+                Err(format!("check's error has no file:line:col: {message}"))
+            };
+        }
+        code => return Err(format!("check exited {code:?}: {}", text(&check.stderr))),
+    }
+    let run = fractum(
+        &[
+            "run",
+            "fuzz.ron",
+            "--steps",
+            "5",
+            "--out",
+            "out",
+            "--force",
+            "--quiet",
+            "--threads",
+            "1",
+        ],
+        dir,
+    );
+    match run.status.code() {
+        Some(0) => {
+            let series = std::fs::read_to_string(dir.join("out/series.csv"))
+                .map_err(|e| format!("no series.csv: {e}"))?;
+            for line in series.lines().skip(1) {
+                if line.split(',').any(|v| {
+                    v.parse::<f64>().is_ok_and(|x| !x.is_finite()) || v.parse::<f64>().is_err()
+                }) {
+                    return Err(format!("a non-finite value in series.csv: {line}"));
+                }
+            }
+            Ok(Outcome::Ran)
+        }
+        Some(3) => {
+            let message = text(&run.stderr);
+            let named = message.contains("step ")
+                && message.contains("stage ")
+                && (message.contains("particle") || message.contains("node"));
+            if named {
+                Ok(Outcome::Stopped)
+            } else {
+                Err(format!(
+                    "exit 3 without step, stage and particle: {message}"
+                ))
+            }
+        }
+        code => Err(format!("run exited {code:?}: {}", text(&run.stderr))),
+    }
+}
+
+fn seeds() -> Vec<String> {
+    SEEDS
+        .iter()
+        .map(|s| std::fs::read_to_string(root().join("scenes").join(s)).unwrap())
+        .collect()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: std::env::var("PROPTEST_CASES").ok().and_then(|c| c.parse().ok()).unwrap_or(256),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn mutated_scenes_are_refused_with_a_place_or_run_cleanly(
+        seed in 0..SEEDS.len(),
+        mutations in prop::collection::vec((any::<u8>(), any::<usize>(), any::<usize>()), 1..3),
+    ) {
+        let seeds = seeds();
+        let mut scene = seeds[seed].clone();
+        for (kind, at, pick) in mutations {
+            scene = mutate(&scene, kind, at, pick);
+        }
+        let dir = std::env::temp_dir().join(format!("fractum-fuzz-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let outcome = try_scene(&dir, &scene);
+        log(SEEDS[seed], &outcome);
+        prop_assert!(outcome.is_ok(), "{}\n--- scene from {} ---\n{scene}", outcome.unwrap_err(), SEEDS[seed]);
+    }
+}
+
+/// The mutations themselves: each kind changes the text as described.
+#[test]
+fn mutations_find_numbers_and_words() {
+    let text = "(a: 1.5e-3, b: -2, c_d: x3)";
+    let spans: Vec<&str> = numbers(text).iter().map(|&(a, b)| &text[a..b]).collect();
+    assert_eq!(spans, ["1.5e-3", "-2"]);
+    let names: Vec<&str> = words(text).iter().map(|&(a, b)| &text[a..b]).collect();
+    assert_eq!(names, ["a", "b", "c_d", "x3"]);
+    assert_eq!(mutate(text, 0, 1, 3), "(a: 1.5e-3, b: 1e300, c_d: x3)");
+    assert_eq!(mutate(text, 6, 3, 0), "(a:");
+}

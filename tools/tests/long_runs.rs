@@ -1,0 +1,445 @@
+//! Long runs that survive, as a user drives them from the command line: the output folder's
+//! policy, checkpoints and `resume`, interruption by signals, the exit codes, and the inputs
+//! that used to get through `check` and abort or hang a run.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn command(args: &[&str]) -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_fractum"));
+    command.args(args).current_dir(root());
+    command
+}
+
+fn fractum(args: &[&str]) -> Output {
+    command(args).output().expect("the fractum binary runs")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// A fresh temporary folder for one test.
+fn temp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("fractum-long-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A shipped scene with edits, written into `dir`.
+fn edited_scene(dir: &Path, scene: &str, edits: &[(&str, &str)]) -> PathBuf {
+    let mut text = std::fs::read_to_string(root().join("scenes").join(scene)).unwrap();
+    for (from, to) in edits {
+        assert!(text.contains(from), "{scene} has no `{from}`");
+        text = text.replacen(from, to, 1);
+    }
+    let path = dir.join(scene);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn series_steps(dir: &Path) -> Vec<u64> {
+    std::fs::read_to_string(dir.join("series.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap().parse().unwrap())
+        .collect()
+}
+
+fn temporaries(dir: &Path) -> Vec<String> {
+    ["", "frames", "checkpoints"]
+        .iter()
+        .filter_map(|sub| std::fs::read_dir(dir.join(sub)).ok())
+        .flatten()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect()
+}
+
+#[test]
+fn an_output_folder_holding_a_run_is_refused_unless_forced() {
+    let dir = temp("force");
+    let out = dir.join("run");
+    let out_arg = out.to_str().unwrap();
+    let first = fractum(&[
+        "run",
+        "scenes/two_disks.ron",
+        "--out",
+        out_arg,
+        "--steps",
+        "20",
+        "--quiet",
+    ]);
+    assert!(first.status.success(), "{}", text(&first.stderr));
+    let again = fractum(&[
+        "run",
+        "scenes/two_disks.ron",
+        "--out",
+        out_arg,
+        "--steps",
+        "20",
+        "--quiet",
+    ]);
+    assert_eq!(again.status.code(), Some(4));
+    assert!(
+        text(&again.stderr).contains("holds a previous run"),
+        "{}",
+        text(&again.stderr)
+    );
+    // --force clears the previous run's outputs, and only those.
+    std::fs::write(out.join("frames/particles_99999999.vtu"), "stale").unwrap();
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
+    let forced = fractum(&[
+        "run",
+        "scenes/two_disks.ron",
+        "--out",
+        out_arg,
+        "--steps",
+        "20",
+        "--quiet",
+        "--force",
+    ]);
+    assert!(forced.status.success(), "{}", text(&forced.stderr));
+    assert!(!out.join("frames/particles_99999999.vtu").exists());
+    assert!(out.join("notes.txt").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_resumed_run_appends_to_its_outputs_as_if_it_had_never_stopped() {
+    let dir = temp("resume");
+    let (straight, split) = (dir.join("straight"), dir.join("split"));
+    let scene = "scenes/two_disks_contact.ron";
+    let run = |out: &Path, extra: &[&str]| {
+        let mut args = vec!["run", scene, "--out", out.to_str().unwrap(), "--quiet"];
+        args.extend_from_slice(extra);
+        fractum(&args)
+    };
+    let whole = run(&straight, &["--steps", "1800"]);
+    assert!(whole.status.success(), "{}", text(&whole.stderr));
+    let first = run(
+        &split,
+        &[
+            "--steps",
+            "1650",
+            "--checkpoint-every",
+            "500",
+            "--keep-checkpoints",
+            "2",
+        ],
+    );
+    assert!(first.status.success(), "{}", text(&first.stderr));
+    let kept: Vec<String> = std::fs::read_dir(split.join("checkpoints"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(kept.len(), 2, "{kept:?}");
+    assert!(kept.iter().all(|n| n.ends_with(".bin")));
+    let resumed = fractum(&[
+        "resume",
+        split.to_str().unwrap(),
+        "--steps",
+        "1800",
+        "--quiet",
+    ]);
+    assert!(resumed.status.success(), "{}", text(&resumed.stderr));
+    assert!(
+        text(&resumed.stderr).contains("resuming"),
+        "{}",
+        text(&resumed.stderr)
+    );
+    for file in [
+        "series.csv",
+        "particles.pvd",
+        "frames/particles_00001800.vtu",
+    ] {
+        assert!(
+            std::fs::read(straight.join(file)).unwrap() == std::fs::read(split.join(file)).unwrap(),
+            "{file} differs"
+        );
+    }
+    // The first run's forced frame at its end is not part of the continued run.
+    assert!(!split.join("frames/particles_00001650.vtu").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn resume_refuses_a_changed_scene_and_a_damaged_checkpoint() {
+    let dir = temp("mismatch");
+    let scene = edited_scene(&dir, "two_disks.ron", &[]);
+    let out = dir.join("run");
+    let (scene_arg, out_arg) = (scene.to_str().unwrap(), out.to_str().unwrap());
+    let first = fractum(&[
+        "run",
+        scene_arg,
+        "--out",
+        out_arg,
+        "--steps",
+        "30",
+        "--checkpoint-every",
+        "10",
+        "--quiet",
+    ]);
+    assert!(first.status.success(), "{}", text(&first.stderr));
+    let original = std::fs::read_to_string(&scene).unwrap();
+    std::fs::write(
+        &scene,
+        original.replace("poisson_ratio: 0.3", "poisson_ratio: 0.25"),
+    )
+    .unwrap();
+    let changed = fractum(&["resume", out_arg, "--steps", "60", "--quiet"]);
+    assert_eq!(changed.status.code(), Some(1));
+    assert!(
+        text(&changed.stderr).contains("changed since the checkpoint"),
+        "{}",
+        text(&changed.stderr)
+    );
+    std::fs::write(&scene, &original).unwrap();
+    let newest = out.join("checkpoints/checkpoint_000000000030.bin");
+    let mut bytes = std::fs::read(&newest).unwrap();
+    bytes.truncate(bytes.len() / 2);
+    std::fs::write(&newest, bytes).unwrap();
+    let damaged = fractum(&["resume", out_arg, "--steps", "60", "--quiet"]);
+    assert_eq!(damaged.status.code(), Some(4));
+    assert!(
+        text(&damaged.stderr).contains("is not a checkpoint"),
+        "{}",
+        text(&damaged.stderr)
+    );
+    let nothing = fractum(&["resume", dir.to_str().unwrap()]);
+    assert_eq!(nothing.status.code(), Some(4));
+    assert!(
+        text(&nothing.stderr).contains("no checkpoint"),
+        "{}",
+        text(&nothing.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Waits until the run writing into `out` has written at least one row after step 0.
+fn wait_for_steps(child: &mut Child, out: &Path) {
+    let started = Instant::now();
+    loop {
+        let rows = std::fs::read_to_string(out.join("series.csv")).map_or(0, |t| t.lines().count());
+        if rows >= 3 {
+            return;
+        }
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before the signal"
+        );
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "the run wrote no rows"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn signal(child: &Child, name: &str) {
+    let status = Command::new("kill")
+        .args([&format!("-{name}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+}
+
+#[test]
+fn an_interrupted_run_finishes_its_step_writes_a_checkpoint_and_resumes() {
+    let dir = temp("sigint");
+    let out = dir.join("run");
+    let out_arg = out.to_str().unwrap();
+    let mut child = command(&[
+        "run",
+        "scenes/edge_cracked_panel_lme.ron",
+        "--out",
+        out_arg,
+        "--quiet",
+        "--threads",
+        "1",
+    ])
+    .stdout(Stdio::piped())
+    .stderr(Stdio::piped())
+    .spawn()
+    .unwrap();
+    wait_for_steps(&mut child, &out);
+    signal(&child, "INT");
+    let output = child.wait_with_output().unwrap();
+    assert_eq!(output.status.code(), Some(130), "{}", text(&output.stderr));
+    assert!(
+        text(&output.stderr).contains("fractum resume"),
+        "{}",
+        text(&output.stderr)
+    );
+    let checkpoints: Vec<String> = std::fs::read_dir(out.join("checkpoints"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(checkpoints.len(), 1, "{checkpoints:?}");
+    let stopped: u64 = checkpoints[0]
+        .trim_start_matches("checkpoint_")
+        .trim_end_matches(".bin")
+        .parse()
+        .unwrap();
+    // The final row and frame are of the step the run stopped after.
+    assert_eq!(series_steps(&out).last(), Some(&stopped));
+    let pvd = std::fs::read_to_string(out.join("particles.pvd")).unwrap();
+    assert!(
+        pvd.contains(&format!("particles_{stopped:08}.vtu")),
+        "{pvd}"
+    );
+    assert!(temporaries(&out).is_empty(), "{:?}", temporaries(&out));
+    let target = (stopped + 25).to_string();
+    let resumed = fractum(&["resume", out_arg, "--steps", &target, "--quiet"]);
+    assert!(resumed.status.success(), "{}", text(&resumed.stderr));
+    let steps = series_steps(&out);
+    assert_eq!(steps.last(), Some(&(stopped + 25)));
+    assert!(
+        steps.windows(2).all(|w| w[0] < w[1]),
+        "rows out of order: {steps:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_second_interrupt_exits_at_once() {
+    let dir = temp("sigint2");
+    let out = dir.join("run");
+    // Steps of about a tenth of a second, so both signals land inside one step.
+    let child = command(&[
+        "run",
+        "scenes/drop_weight_881_graded.ron",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+        "--threads",
+        "1",
+    ])
+    .stdout(Stdio::null())
+    .stderr(Stdio::piped())
+    .spawn()
+    .unwrap();
+    let started = Instant::now();
+    while !out.join("series.csv").exists() {
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "the run never started"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    signal(&child, "INT");
+    std::thread::sleep(Duration::from_millis(30));
+    signal(&child, "TERM");
+    let output = child.wait_with_output().unwrap();
+    assert_eq!(output.status.code(), Some(131), "{}", text(&output.stderr));
+    assert!(text(&output.stderr).contains("second interrupt"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn thread_counts_beyond_the_bound_are_a_usage_error() {
+    let out = fractum(&["run", "scenes/two_disks.ron", "--threads", "100000000"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr).contains("--threads"),
+        "{}",
+        text(&out.stderr)
+    );
+}
+
+#[test]
+fn a_run_whose_particles_all_leave_the_grid_stops_with_exit_3() {
+    let dir = temp("escape");
+    let scene = edited_scene(
+        &dir,
+        "two_disks.ron",
+        &[
+            ("Fixed(1.0e-3)", "Cfl(0.5)"),
+            ("Uniform((0.1, 0.1))", "Uniform((-5.0, -5.0))"),
+            ("Uniform((-0.1, -0.1))", "Uniform((5.0, 5.0))"),
+            (
+                "output: (",
+                "safety: (on_leave_grid: Remove),\n    output: (",
+            ),
+        ],
+    );
+    let out = dir.join("run");
+    let run = fractum(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(run.status.code(), Some(3), "{}", text(&run.stderr));
+    let error = text(&run.stderr);
+    assert!(
+        error.contains("every particle has left the grid: 416 removed"),
+        "{error}"
+    );
+    let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
+    assert!(
+        !series.contains("inf") && !series.contains("NaN"),
+        "{series}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn scenes_that_cannot_fit_in_memory_are_refused_before_anything_is_allocated() {
+    let dir = temp("memory");
+    let grid = edited_scene(
+        &dir,
+        "two_disks.ron",
+        &[(
+            "max: (1.0, 1.0), spacing: 0.05",
+            "max: (450.0, 450.0), spacing: 0.05",
+        )],
+    );
+    let out = command(&["check", grid.to_str().unwrap()])
+        .env("FRACTUM_MEMORY_LIMIT", "1e9")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let error = text(&out.stderr);
+    assert!(
+        error.contains("grid nodes") && error.contains("953.7 MiB is available"),
+        "{error}"
+    );
+    assert!(error.contains("`grid.spacing`"), "{error}");
+    let particles = edited_scene(
+        &dir,
+        "block_compression.ron",
+        &[("particles_per_cell: 2", "particles_per_cell: 16")],
+    );
+    let out = command(&["check", particles.to_str().unwrap()])
+        .env("FRACTUM_MEMORY_LIMIT", "1e6")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let error = text(&out.stderr);
+    assert!(error.contains("particles_per_cell"), "{error}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_scene_saved_with_a_byte_order_mark_reads_as_without() {
+    let dir = temp("bom");
+    let path = dir.join("bom.ron");
+    let mut bytes = vec![0xef, 0xbb, 0xbf];
+    bytes.extend(std::fs::read(root().join("scenes/two_disks.ron")).unwrap());
+    std::fs::write(&path, bytes).unwrap();
+    let out = fractum(&["check", path.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let _ = std::fs::remove_dir_all(&dir);
+}
