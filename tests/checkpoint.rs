@@ -8,6 +8,7 @@
 use fractum_engine::checkpoint::{
     SceneRecord, WorldState, capture, list_checkpoints, read_checkpoint, resume_from,
 };
+use fractum_engine::components::{CrackOpening, Damage};
 use fractum_engine::run::{CheckpointPlan, RunOptions, run_with};
 use fractum_engine::scene::{Built, SceneFile, build_simulation};
 use fractum_engine::simulation::End;
@@ -112,13 +113,16 @@ fn scene(name: &str) -> String {
     std::fs::read_to_string(repo_root().join("scenes").join(name)).unwrap()
 }
 
-fn component<'a>(state: &'a WorldState, suffix: &str) -> &'a [u8] {
-    &state
+/// The values of the carried component whose type name ends with `suffix`.
+fn component<C: serde::de::DeserializeOwned>(state: &WorldState, suffix: &str) -> Vec<C> {
+    let bytes = &state
         .components
         .iter()
         .find(|(n, _)| n.ends_with(suffix))
         .unwrap_or_else(|| panic!("no component {suffix}"))
-        .1
+        .1;
+    let values: Vec<Option<C>> = postcard::from_bytes(bytes).unwrap();
+    values.into_iter().flatten().collect()
 }
 
 /// LME + Newmark + eigensoftening, checkpointed at step 120: softening began at step 101.
@@ -136,8 +140,8 @@ fn lme_newmark_eigensoftening_resumes_bitwise() {
         );
     let state = assert_resume_is_bitwise("softening", &text, 120);
     // The run got into softening: some crack opening is carried.
-    let openings = component(&state, "CrackOpening");
-    assert!(openings.iter().any(|&b| b != 0), "no crack opened");
+    let openings: Vec<CrackOpening> = component(&state, "::CrackOpening");
+    assert!(openings.iter().any(|w| w.0 > 0.0), "no crack opened");
 }
 
 /// Two disks meeting under frictional contact (Newmark), resumed in the middle of the impact,
@@ -170,4 +174,28 @@ fn removed_particles_resume_bitwise() {
     let state = assert_resume_is_bitwise("removal", &text, 200);
     assert!(state.removed.len() > 10, "too few particles left the grid");
     assert!(state.particles.len() > 100);
+}
+
+/// Every shipped scene resumes bitwise over a few steps: a system whose state a checkpoint
+/// forgets shows here even before a test of its own exists.
+#[test]
+fn every_shipped_scene_resumes_bitwise_over_a_few_steps() {
+    for path in fractum_suite::ron_files("scenes") {
+        let name = path.file_stem().unwrap().to_string_lossy().into_owned();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_resume_is_bitwise(&name, &text, 4);
+    }
+}
+
+/// Rankine softening and time-to-failure damage (with Weibull strengths) carry their history.
+#[test]
+fn the_damage_laws_of_the_dfg_paper_resume_bitwise() {
+    for (name, file) in [
+        ("rankine", "tension_rankine.ron"),
+        ("ttf", "time_to_failure_strip.ron"),
+    ] {
+        let state = assert_resume_is_bitwise(name, &scene(file), 150);
+        let damage: Vec<Damage> = component(&state, "::Damage");
+        assert!(damage.iter().any(|d| d.0 > 0.0), "{file}: nothing damaged");
+    }
 }

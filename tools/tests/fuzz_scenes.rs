@@ -197,8 +197,8 @@ fn placed(message: &str, file: &str) -> bool {
 /// How a mutated scene fared, when it fared well.
 #[derive(Debug)]
 enum Outcome {
-    /// `check` refused it with a place.
-    Refused,
+    /// `check` refused it with a place; the message.
+    Refused(String),
     /// It ran five steps with finite results.
     Ran,
     /// The run stopped with a named particle or node.
@@ -228,7 +228,7 @@ fn try_scene(dir: &Path, scene: &str) -> Result<Outcome, String> {
         Some(1) => {
             let message = text(&check.stderr);
             return if placed(&message, "fuzz.ron") {
-                Ok(Outcome::Refused)
+                Ok(Outcome::Refused(message.trim().to_string()))
             } else {
                 Err(format!("check's error has no file:line:col: {message}"))
             };
