@@ -205,6 +205,17 @@ enum Outcome {
     Stopped,
 }
 
+impl Outcome {
+    /// One line for the log: the outcome, and for a refusal the message.
+    fn describe(&self) -> String {
+        match self {
+            Outcome::Refused(message) => format!("Refused {}", message.replace('\n', " ")),
+            Outcome::Ran => "Ran".into(),
+            Outcome::Stopped => "Stopped".into(),
+        }
+    }
+}
+
 /// Appends the outcome to the file `FRACTUM_FUZZ_LOG` names, if any (for counting them).
 fn log(seed: &str, outcome: &Result<Outcome, String>) {
     if let Ok(path) = std::env::var("FRACTUM_FUZZ_LOG") {
@@ -214,7 +225,11 @@ fn log(seed: &str, outcome: &Result<Outcome, String>) {
             .append(true)
             .open(path)
         {
-            let _ = writeln!(file, "{seed} {outcome:?}");
+            let line = match outcome {
+                Ok(o) => o.describe(),
+                Err(e) => format!("Failed {}", e.replace('\n', " ")),
+            };
+            let _ = writeln!(file, "{seed} {line}");
         }
     }
 }
