@@ -740,6 +740,22 @@ pub fn check_report(built: &mut Built) -> String {
         sim.particle_count(),
         counts.join(", ")
     );
+    if let Some(memory) = sim
+        .world
+        .get_resource::<fractum_engine::scene::budget::MemoryUse>()
+    {
+        use fractum_engine::scene::budget::describe_bytes;
+        let available = if memory.available.is_finite() {
+            format!("{} available", describe_bytes(memory.available))
+        } else {
+            "available memory unknown".to_string()
+        };
+        let _ = writeln!(
+            out,
+            "memory     about {} estimated, {available}",
+            describe_bytes(memory.needed)
+        );
+    }
     for m in &sim.world.resource::<Materials>().0 {
         let _ = writeln!(
             out,

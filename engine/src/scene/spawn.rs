@@ -189,8 +189,15 @@ impl<D: Dim> Spec<D> {
                 }
             }
         }
+        estimate.working = budget::WORKING_BUFFERS;
         match estimate.refusal(available) {
-            None => Ok(()),
+            None => {
+                world.insert_resource(budget::MemoryUse {
+                    needed: estimate.total(),
+                    available,
+                });
+                Ok(())
+            }
             Some(message) => Err(self.source.error(&largest.0, message)),
         }
     }
