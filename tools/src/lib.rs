@@ -9,6 +9,23 @@
 //! std::process::exit(fractum_cli::main_with(std::env::args_os(), &registry));
 //! ```
 
+/// `print!` that ignores a closed stdout (`fractum systems | head -1`): a reader that stops
+/// reading is no error of ours, and `print!` would panic on it.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout().lock(), $($arg)*);
+    }};
+}
+
+/// `println!` that ignores a closed stdout (see `out!`).
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout().lock(), $($arg)*);
+    }};
+}
+
 pub mod bench;
 pub mod crack;
 pub mod fragments;
@@ -273,7 +290,7 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
     };
     match cli.command {
         Command::Systems => {
-            print!("{}", systems_report(registry));
+            out!("{}", systems_report(registry));
             0
         }
         Command::Plot {
@@ -324,7 +341,7 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
         }
         Command::Check { scene } => match load(&scene, registry) {
             Ok((_, mut built)) => {
-                print!("{}", check_report(&mut built));
+                out!("{}", check_report(&mut built));
                 0
             }
             Err(e) => report_scene_error(&e),
@@ -366,7 +383,7 @@ fn plot_command(
     })();
     match result {
         Ok(path) => {
-            println!("wrote {}", path.display());
+            outln!("wrote {}", path.display());
             0
         }
         Err(e) => {
@@ -485,7 +502,7 @@ fn crack_command(request: &CrackArgs, registry: &Registry) -> i32 {
     })();
     match result {
         Ok(report) => {
-            println!("{report}");
+            outln!("{report}");
             0
         }
         Err(e) => {
@@ -507,7 +524,7 @@ fn fragments_command(
             let run = fragments::run_fragments(dir, time, options)?;
             fragments::write_fragment_tables(&run)?;
             let largest = run.fragments.first().map_or(0.0, |f| f.diameter);
-            println!(
+            outln!(
                 "{}: t = {:e} s, {} fragments (largest {largest:e} m across), mass-weighted mean \
                  speed {:e} m/s, link {:e} m; wrote fragments.csv and fragment_sizes.csv",
                 dir.display(),
@@ -523,7 +540,7 @@ fn fragments_command(
     })();
     match result {
         Ok(path) => {
-            println!("wrote {}", path.display());
+            outln!("wrote {}", path.display());
             0
         }
         Err(e) => {
@@ -542,7 +559,7 @@ fn curve_command(csv: &Path, x: &str, y: &str, from: f64) -> i32 {
     })();
     match result {
         Ok(s) => {
-            println!(
+            outln!(
                 "peak {y} = {:.6e} at {x} = {:.6e}\npre-peak slope {:.6e}, RMS deviation from the line {:.6e} ({:.2}% of the peak)",
                 s.peak,
                 s.x_at_peak,
@@ -620,7 +637,7 @@ fn bench_command(grid: &BenchGrid, registry: &Registry) -> i32 {
             }
         }
     }
-    print!("{}", table(&results));
+    out!("{}", table(&results));
     0
 }
 

@@ -280,9 +280,9 @@ fn execute(
     bar.finish_and_clear();
     match result {
         Ok(summary) => {
-            print!("{}", summary_report(&summary, out_dir));
+            out!("{}", summary_report(&summary, out_dir));
             if let Some(path) = &summary.checkpoint {
-                println!("checkpoint {}", path.display());
+                outln!("checkpoint {}", path.display());
             }
             if summary.interrupted {
                 eprintln!(

@@ -282,3 +282,18 @@ fn crack_follows_the_tip_from_the_notch_and_compares_its_speed_with_rayleigh() {
     assert!(text(&bad.stderr).contains("--notch takes 2 or 3"));
     let _ = std::fs::remove_dir_all(&out_dir);
 }
+
+/// A reader that stops reading (`fractum systems | head -1`) is not a crash.
+#[test]
+fn a_closed_stdout_is_not_a_panic() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_fractum"))
+        .arg("systems")
+        .current_dir(root())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("the fractum binary runs");
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+}
