@@ -211,7 +211,7 @@ pub struct RunArgs {
     #[arg(long)]
     pub checkpoint_every: Option<fractum_engine::checkpoint::CheckpointEvery>,
     /// Checkpoints to keep (the newest).
-    #[arg(long, default_value_t = running::DEFAULT_KEEP_CHECKPOINTS, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=1000))]
+    #[arg(long, default_value_t = fractum_engine::checkpoint::DEFAULT_KEEP, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=1000))]
     pub keep_checkpoints: usize,
 }
 

@@ -9,8 +9,7 @@
 use crate::{EXIT_ABANDONED, EXIT_BAD_SCENE, EXIT_BLOWUP, EXIT_INTERRUPTED, EXIT_IO};
 use crate::{EXIT_RESOURCES, energy_warning, load, report_scene_error, summary_report};
 use fractum_engine::checkpoint::{
-    CHECKPOINT_DIR, CheckpointEvery, DEFAULT_KEEP, SceneRecord, list_checkpoints, read_checkpoint,
-    resume_from,
+    CHECKPOINT_DIR, CheckpointEvery, SceneRecord, list_checkpoints, read_checkpoint, resume_from,
 };
 use fractum_engine::energy::EnergyWatch;
 use fractum_engine::registry::Registry;
@@ -315,6 +314,3 @@ fn execute(
         }
     }
 }
-
-/// The default of `--keep-checkpoints`.
-pub const DEFAULT_KEEP_CHECKPOINTS: usize = DEFAULT_KEEP;
