@@ -1,23 +1,8 @@
 //! The `fractum` binary as a user runs it: exit codes, messages, and files written.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod support;
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn fractum(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_fractum"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("the fractum binary runs")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
+use support::{command, fractum, root, text};
 
 #[test]
 fn systems_lists_every_stock_system_with_its_stage() {
@@ -286,9 +271,7 @@ fn crack_follows_the_tip_from_the_notch_and_compares_its_speed_with_rayleigh() {
 /// A reader that stops reading (`fractum systems | head -1`) is not a crash.
 #[test]
 fn a_closed_stdout_is_not_a_panic() {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fractum"))
-        .arg("systems")
-        .current_dir(root())
+    let mut child = command(&["systems"])
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()

@@ -8,10 +8,13 @@
 //!
 //! `PROPTEST_CASES` sets the number of mutated scenes (256 by default here).
 
+mod support;
+
 use proptest::prelude::*;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
+use support::{root, text};
 
 /// Small shipped scenes of every kind of pipeline (2D and 3D, USL and Newmark, LME, damage,
 /// contact, partitioning).
@@ -51,10 +54,6 @@ const TYPOS: [char; 12] = [',', '(', ')', '"', ':', '[', ']', 'x', '.', '-', '{'
 
 /// Memory a mutated scene may ask for in this test (so no case can take the machine's).
 const MEMORY_LIMIT: &str = "2e9";
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
 
 /// Byte ranges of the numeric literals in `text`.
 fn numbers(text: &str) -> Vec<(usize, usize)> {
@@ -177,10 +176,6 @@ fn fractum(args: &[&str], dir: &Path) -> Output {
         std::thread::sleep(Duration::from_millis(5));
     }
     child.wait_with_output().expect("output")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
 }
 
 /// Whether `message` points at `file:line:col`.

@@ -2,26 +2,29 @@
 //! policy, checkpoints and `resume`, interruption by signals, the exit codes, and the inputs
 //! that used to get through `check` and abort or hang a run.
 
+mod support;
+
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
+use support::{command, fractum, root, text};
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn command(args: &[&str]) -> Command {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_fractum"));
-    command.args(args).current_dir(root());
-    command
-}
-
-fn fractum(args: &[&str]) -> Output {
-    command(args).output().expect("the fractum binary runs")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
+/// Starts `fractum run SCENE --out OUT --quiet --threads 1` in the background, its stderr
+/// captured.
+fn start_run(scene: &str, out: &Path, stdout: Stdio) -> Child {
+    command(&[
+        "run",
+        scene,
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+        "--threads",
+        "1",
+    ])
+    .stdout(stdout)
+    .stderr(Stdio::piped())
+    .spawn()
+    .unwrap()
 }
 
 /// A fresh temporary folder for one test.
@@ -258,19 +261,7 @@ fn an_interrupted_run_finishes_its_step_writes_a_checkpoint_and_resumes() {
     let dir = temp("sigint");
     let out = dir.join("run");
     let out_arg = out.to_str().unwrap();
-    let mut child = command(&[
-        "run",
-        "scenes/edge_cracked_panel_lme.ron",
-        "--out",
-        out_arg,
-        "--quiet",
-        "--threads",
-        "1",
-    ])
-    .stdout(Stdio::piped())
-    .stderr(Stdio::piped())
-    .spawn()
-    .unwrap();
+    let mut child = start_run("scenes/edge_cracked_panel_lme.ron", &out, Stdio::piped());
     wait_for_steps(&mut child, &out);
     signal(&child, "INT");
     let output = child.wait_with_output().unwrap();
@@ -316,19 +307,7 @@ fn a_second_interrupt_exits_at_once() {
     let dir = temp("sigint2");
     let out = dir.join("run");
     // Steps of about a tenth of a second, so both signals land inside one step.
-    let child = command(&[
-        "run",
-        "scenes/drop_weight_881_graded.ron",
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-        "--threads",
-        "1",
-    ])
-    .stdout(Stdio::null())
-    .stderr(Stdio::piped())
-    .spawn()
-    .unwrap();
+    let child = start_run("scenes/drop_weight_881_graded.ron", &out, Stdio::null());
     let started = Instant::now();
     while !out.join("series.csv").exists() {
         assert!(
