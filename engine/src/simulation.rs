@@ -315,6 +315,7 @@ impl Simulation {
     pub fn step(&mut self) -> Result<(), Blowup> {
         let dt = self.next_time_step();
         self.check_time_step(dt)?;
+        let removed_before = self.removed_so_far();
         self.world.resource_mut::<SimClock>().dt = dt;
         let serially = self.runs_serially();
         let (world, schedule) = (&mut self.world, &mut self.schedule);
@@ -334,7 +335,9 @@ impl Simulation {
         self.time_compensation = (time - clock.time) - increment;
         clock.time = time;
         clock.step += 1;
-        if self.particle_count() == 0 {
+        // Only removals empty a scene: count the particles when this step removed some.
+        let removed = self.removed_so_far();
+        if removed != removed_before && self.particle_count() == 0 {
             let escaped = self
                 .world
                 .get_resource::<crate::health::EscapedParticles>()
@@ -354,6 +357,13 @@ impl Simulation {
             });
         }
         Ok(())
+    }
+
+    /// Particles removed on leaving the grid so far.
+    fn removed_so_far(&self) -> u64 {
+        self.world
+            .get_resource::<crate::health::EscapedParticles>()
+            .map_or(0, |e| e.count)
     }
 
     /// Stops a step whose size cannot advance the clock: not a positive normal number (a
