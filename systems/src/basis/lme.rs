@@ -338,10 +338,18 @@ fn graded_rows<D: Spatial>(
         max_iterations: params.max_iterations,
     };
     let radius = support_radius(settings.beta, params.support_tolerance);
-    let radius2 = radius * radius;
     let scales: Vec<D::Vector> = positions
         .par_iter()
         .map(|x| grid.local_spacing(x.0))
+        .collect();
+    // Each particle's support reaches at least the corners of its cell: where a cell is much
+    // wider than the local spacing (a coarse cell beside a fine one) and γ̂ is large, the
+    // radius alone can leave the particle outside the hull of its support, where no LME
+    // solution exists. Elsewhere the radius covers the cell and nothing changes.
+    let radii: Vec<f64> = positions
+        .par_iter()
+        .zip(&scales)
+        .map(|(x, scale)| radius.max(cell_reach(grid, x.0, *scale)))
         .collect();
     state.resize(positions.len());
     let LmeState {
@@ -356,8 +364,8 @@ fn graded_rows<D: Spatial>(
         .par_iter_mut()
         .zip(candidates.par_iter_mut())
         .zip(reach.par_iter_mut())
-        .zip(positions.par_iter().zip(&scales))
-        .for_each(|(((anchor, list), reach), (x, scale))| {
+        .zip(positions.par_iter().zip(&scales).zip(&radii))
+        .for_each(|(((anchor, list), reach), ((x, scale), radius))| {
             // Every node of the support lies within `needed` of x; the list holds every node
             // within `reach` of the anchor.
             let needed = radius * (0..D::N).map(|a| scale[a]).fold(0.0, f64::max);
@@ -372,7 +380,7 @@ fn graded_rows<D: Spatial>(
         positions.len(),
         cloud.len(),
         |p| {
-            let (x, scale) = (positions[p].0, scales[p]);
+            let (x, scale, radius2) = (positions[p].0, scales[p], radii[p] * radii[p]);
             candidates[p]
                 .iter()
                 .filter(|&&i| in_scaled_support(x, cloud.position(i), scale, radius2))
@@ -380,7 +388,7 @@ fn graded_rows<D: Spatial>(
         },
         RowScratch::<D>::default,
         |scratch, p, nodes, weights, gradients| {
-            let (x, scale) = (positions[p].0, scales[p]);
+            let (x, scale, radius2) = (positions[p].0, scales[p], radii[p] * radii[p]);
             scratch.support.clear();
             scratch.positions.clear();
             for &i in &candidates[p] {
@@ -413,6 +421,20 @@ fn graded_rows<D: Spatial>(
         lambda_slope,
         solved_at,
     )
+}
+
+/// The scaled distance from `x` to the farthest corner of its cell (0 outside the grid), a
+/// hair beyond it so the corners pass the support test.
+fn cell_reach<D: Dim>(grid: &Grid<D>, x: D::Vector, scale: D::Vector) -> f64 {
+    let far2: Option<f64> = (0..D::N)
+        .map(|a| {
+            let i = grid.axis_cell(a, x[a])?;
+            let (lo, hi) = (grid.coordinate(a, i), grid.coordinate(a, i + 1));
+            let far = (x[a] - lo).abs().max((hi - x[a]).abs()) / scale[a];
+            Some(far * far)
+        })
+        .sum();
+    far2.map_or(0.0, |d2| d2.sqrt() * (1.0 + 1e-9))
 }
 
 /// The message of a solve that did not converge.
@@ -643,6 +665,22 @@ mod tests {
                 assert!(row.len() > D::N);
             }
         }
+    }
+
+    /// A case the property test below found: a particle just inside a cell 2.8 times wider than
+    /// its neighbour, with γ̂ 7.3, had no node of its support beyond it along x.
+    #[test]
+    fn a_particle_in_a_coarse_cell_beside_a_fine_one_is_solved() {
+        let ratio = 2.7757603030609515;
+        let x_nodes = graded_axis(0.02, 4, ratio, 3, 3);
+        let y_nodes = graded_axis(0.02, 3, ratio, 3, 3);
+        let (lx, ly) = (*x_nodes.last().unwrap(), *y_nodes.last().unwrap());
+        let grid = Grid::<Two>::graded(vec![x_nodes, y_nodes]).unwrap();
+        let x = DVec2::new(
+            0.02 + 0.13952656465783153 * (lx - 0.04),
+            0.02 + 0.1 * (ly - 0.04),
+        );
+        graded_rows_are_consistent(grid, &[x], 7.288436989817957);
     }
 
     #[test]
