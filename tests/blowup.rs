@@ -234,6 +234,55 @@ fn energies_that_overflow_stop_the_run_naming_the_particle() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
+/// Publishes `broken_column`, which turns NaN in step 4 (the clock still reads 3; as a damage law's energy account does
+/// when it divides by a vanishing softening modulus).
+fn broken_column(mut columns: ResMut<SeriesColumns>, clock: Res<SimClock>) {
+    let slot = columns.declare("broken_column");
+    columns.values[slot] = if clock.step >= 3 { f64::NAN } else { 1.0 };
+}
+
+fn broken_column_install(installer: &mut Installer, _: &Params) -> Result<(), SceneError> {
+    installer.add_series_column("broken_column");
+    installer.add_systems(broken_column);
+    Ok(())
+}
+
+/// A system's series column that turns NaN stops the run (its particles all finite) instead
+/// of writing NaN into `series.csv`; the rows before it are kept.
+#[test]
+fn a_non_finite_series_column_stops_the_run_naming_the_column() {
+    let mut registry = fractum_systems::stock_registry();
+    registry
+        .register(Registration {
+            name: "damage/broken_column",
+            summary: "publishes a column that is NaN from step 4",
+            params: &[],
+            requires: &[],
+            install: broken_column_install,
+        })
+        .unwrap();
+    let file = scene("(0.0, 0.0)", r#", (system: "damage/broken_column")"#);
+    let mut built = build_simulation(&file, &registry).unwrap();
+    built.output.csv_every = 1;
+    let out = temp_dir("nan-column");
+    let error = run(&mut built.simulation, &built.output, &out, |_| {}).unwrap_err();
+    let RunError::Blowup(blowup, _) = error else {
+        panic!("expected a blow-up, got {error}");
+    };
+    assert_eq!((blowup.step, blowup.stage), (4, Stage::PostStep));
+    assert!(
+        blowup
+            .message
+            .starts_with("the series column broken_column is NaN after the step: particle "),
+        "{blowup}"
+    );
+    let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
+    assert!(!series.contains("NaN"), "{series}");
+    // The header and the rows of steps 0 to 3.
+    assert_eq!(series.lines().count(), 5, "{series}");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
 /// A frame that cannot be written stops the run with an error, and the rows taken before it
 /// are on disk, not lost in the writer's buffer.
 #[test]

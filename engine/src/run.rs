@@ -452,19 +452,20 @@ impl Outputs<'_> {
 
     fn row(&mut self, sim: &mut Simulation, step: u64) -> Result<(), RunError> {
         let row = series_row(&mut sim.world, self.plan);
-        // Energies and momentum of finite states can still overflow (speeds near 1e200):
-        // a row of them is no result.
-        let base = 4 + self.plan.dimension.count();
-        if let Some(column) = row[1..base].iter().position(|v| !v.is_finite()) {
+        // Energies and momentum of finite states can still overflow (speeds near 1e200), and a
+        // probe or a system's column can still divide by a vanishing quantity: a row holding
+        // either is no result. The stage checks have passed, so every particle is finite; the
+        // most energetic one is named to place the overflow.
+        if let Some(column) = row.iter().position(|v| !v.is_finite()) {
             self.flush()?;
-            let name = &self.plan.columns()[column + 2];
+            let name = &self.plan.columns()[column + 1];
             return Err(RunError::Blowup(
                 Blowup {
                     step,
                     stage: crate::stage::Stage::PostStep,
                     message: format!(
-                        "{name} is {} after the step: {}",
-                        row[column + 1],
+                        "the series column {name} is {} after the step: {}",
+                        row[column],
                         largest_energy_particle(&mut sim.world)
                     ),
                 },

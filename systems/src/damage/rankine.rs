@@ -101,8 +101,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         .map(|m| m.youngs_modulus)
         .collect();
     let strengths = install_strength(installer, params, raw.tensile_strength, raw.weibull)?;
-    // The strongest particle of each material has the largest H̄_s l_ch.
-    let worst = strengths
+    let scaled: Vec<(f64, f64)> = strengths
         .iter()
         .map(|&(m, s)| {
             (
@@ -110,8 +109,23 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
                 s,
             )
         })
-        .max_by(|a, b| a.0.total_cmp(&b.0));
-    if let Some((scaled, strength)) = worst
+        .collect();
+    // The weakest particle has the smallest H̄_s l_ch, the strongest the largest.
+    let weakest = scaled.iter().min_by(|a, b| a.0.total_cmp(&b.0));
+    let worst = scaled.iter().max_by(|a, b| a.0.total_cmp(&b.0));
+    if let Some(&(scaled, strength)) = weakest
+        && !scaled.is_normal()
+    {
+        return Err(params.error(
+            "tensile_strength",
+            format!(
+                "H̄_s l_ch = σ_f² l_ch / (2 E G_f) = {scaled:e} (σ_f = {strength:e} Pa, l_ch = \
+                 {length:e} m) is too small for f64: the softening law cannot be evaluated; a \
+                 strength this small is no strength"
+            ),
+        ));
+    }
+    if let Some(&(scaled, strength)) = worst
         && scaled >= 1.0
     {
         let field = if raw.characteristic_length.is_some() {
@@ -211,8 +225,11 @@ pub fn rankine_damage(previous: f64, trial: f64, strength: f64, h: f64) -> f64 {
 
 /// Energy per unit volume dissipated in uniaxial tension up to damage `d`:
 /// `σ_f² (1 + H) d / (2 E (1 + H − d))`.
+///
+/// The denominator is summed as `(1 − d) + H`: at `d = 1` that is `H` exactly, where
+/// `1 + H − d` rounds to 0 once `H` is below the f64 epsilon.
 pub fn dissipated_density(d: f64, strength: f64, youngs_modulus: f64, h: f64) -> f64 {
-    strength * strength * (1.0 + h) * d / (2.0 * youngs_modulus * (1.0 + h - d))
+    strength * strength * (1.0 + h) * d / (2.0 * youngs_modulus * ((1.0 - d) + h))
 }
 
 type ParticleQuery<'w, 's, D> = Query<
@@ -299,6 +316,17 @@ mod tests {
         assert_eq!(rankine_damage(d, 2.5, sigma_f, h), d);
         // Full failure dissipates G_f / l_ch per unit volume.
         assert!((dissipated_density(1.0, sigma_f, e, h) * l - gf).abs() < 1e-15);
+    }
+
+    /// A softening modulus below the f64 epsilon: `1 + H − 1` would round to 0 and the full
+    /// failure's dissipation to infinity; it stays `G_f / l_ch`.
+    #[test]
+    fn full_failure_dissipation_stays_finite_for_a_vanishing_softening_modulus() {
+        let (sigma_f, e, gf, l) = (1e-9, 1000.0, 0.01, 0.05);
+        let h = softening_modulus(sigma_f, e, gf, l);
+        assert!(h > 0.0 && h < f64::EPSILON, "H = {h:e}");
+        let g = dissipated_density(1.0, sigma_f, e, h);
+        assert!((g * l - gf).abs() < 1e-12 * gf, "g l = {:e}", g * l);
     }
 
     fn insert_params(world: &mut World) -> [usize; 3] {
