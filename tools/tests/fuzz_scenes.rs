@@ -1,6 +1,8 @@
 //! A fuzz target that stays: shipped scenes mutated as a user's typos and extremes would
-//! (numbers swapped for extremes, characters and lines dropped or doubled, names swapped,
-//! files cut short), each checked and, when accepted, run for five steps by the real binary.
+//! (numbers swapped for extremes or scaled by a wrong factor, characters and lines dropped or
+//! doubled, names swapped, files cut short), each checked and, when accepted, run for five
+//! steps by the real binary. Half the mutations change only a number, so most of those scenes
+//! still read and the run itself is tried.
 //!
 //! - `fractum check` never panics or aborts: it exits 0, or 1 with `file:line:col`;
 //! - a run of an accepted scene exits 0 with only finite numbers in `series.csv`, or 3 with a
@@ -114,37 +116,62 @@ fn floor_boundary(text: &str, mut at: usize) -> usize {
     at
 }
 
-/// One mutation of `text`: `kind` picks what, `at` where, `pick` with what.
+/// Factors a number is scaled by: a digit too many or too few, a wrong prefix, a sign.
+const SCALES: [f64; 8] = [10.0, 0.1, 1e3, 1e-3, 1e6, 1e-6, -1.0, 1e12];
+
+/// `value` scaled by `factor`, written as RON reads it (an integer stays one while it fits).
+fn scaled(value: &str, factor: f64) -> String {
+    let Ok(x) = value.parse::<f64>() else {
+        return value.to_string();
+    };
+    let y = x * factor;
+    let integer = !value.contains(['.', 'e', 'E']);
+    if integer && y.fract() == 0.0 && y.abs() < 1e15 {
+        format!("{}", y as i64)
+    } else {
+        format!("{y:?}")
+    }
+}
+
+/// One mutation of `text`: `kind` picks what, `at` where, `pick` with what. Half the kinds
+/// change a number (an extreme, or the number scaled) and leave the scene readable, so that
+/// the run, not only the reader, is tried; the rest are typos and cuts.
 fn mutate(text: &str, kind: u8, at: usize, pick: usize) -> String {
     let mut out = text.to_string();
-    match kind % 7 {
-        0 => {
-            let spans = numbers(text);
-            if let Some(&(a, b)) = spans.get(at % spans.len().max(1)) {
+    let spans = numbers(text);
+    let number = || spans.get(at % spans.len().max(1)).copied();
+    match kind % 12 {
+        0..=2 => {
+            if let Some((a, b)) = number() {
                 out.replace_range(a..b, EXTREMES[pick % EXTREMES.len()]);
             }
         }
-        1 => {
+        3..=5 => {
+            if let Some((a, b)) = number() {
+                out.replace_range(a..b, &scaled(&text[a..b], SCALES[pick % SCALES.len()]));
+            }
+        }
+        6 => {
             let a = floor_boundary(text, at % text.len().max(1));
             let b = floor_boundary(text, a + 1 + pick % 3);
             out.replace_range(a..b.max(a), "");
         }
-        2 => {
+        7 => {
             let a = floor_boundary(text, at % text.len().max(1));
             out.insert(a, TYPOS[pick % TYPOS.len()]);
         }
-        3 | 4 => {
+        8 | 9 => {
             let lines: Vec<&str> = text.lines().collect();
             let k = at % lines.len().max(1);
             let mut edited: Vec<&str> = lines.clone();
-            if kind % 7 == 3 {
+            if kind % 12 == 8 {
                 edited.insert(k, lines[k]);
             } else {
                 edited.remove(k);
             }
             out = edited.join("\n");
         }
-        5 => {
+        10 => {
             let spans = words(text);
             if !spans.is_empty() {
                 let (a, b) = spans[at % spans.len()];
@@ -331,5 +358,7 @@ fn mutations_find_numbers_and_words() {
     let names: Vec<&str> = words(text).iter().map(|&(a, b)| &text[a..b]).collect();
     assert_eq!(names, ["a", "b", "c_d", "x3"]);
     assert_eq!(mutate(text, 0, 1, 3), "(a: 1.5e-3, b: 1e300, c_d: x3)");
-    assert_eq!(mutate(text, 6, 3, 0), "(a:");
+    assert_eq!(mutate(text, 3, 1, 2), "(a: 1.5e-3, b: -2000, c_d: x3)");
+    assert_eq!(mutate(text, 4, 0, 6), "(a: -0.0015, b: -2, c_d: x3)");
+    assert_eq!(mutate(text, 11, 3, 0), "(a:");
 }
