@@ -236,13 +236,21 @@ fn energies_that_overflow_stop_the_run_naming_the_particle() {
 
 /// Publishes `broken_column`, which turns NaN in step 4 (the clock still reads 3; as a damage law's energy account does
 /// when it divides by a vanishing softening modulus).
-fn broken_column(mut columns: ResMut<SeriesColumns>, clock: Res<SimClock>) {
-    let slot = columns.declare("broken_column");
-    columns.values[slot] = if clock.step >= 3 { f64::NAN } else { 1.0 };
+fn broken_column(
+    slot: Res<BrokenColumnSlot>,
+    mut columns: ResMut<SeriesColumns>,
+    clock: Res<SimClock>,
+) {
+    columns.values[slot.0] = if clock.step >= 3 { f64::NAN } else { 1.0 };
 }
 
+/// The slot `damage/broken_column` publishes into.
+#[derive(Resource)]
+struct BrokenColumnSlot(usize);
+
 fn broken_column_install(installer: &mut Installer, _: &Params) -> Result<(), SceneError> {
-    installer.add_series_column("broken_column");
+    let slot = installer.add_series_column("broken_column");
+    installer.insert_resource(BrokenColumnSlot(slot));
     installer.add_systems(broken_column);
     Ok(())
 }
@@ -280,6 +288,39 @@ fn a_non_finite_series_column_stops_the_run_naming_the_column() {
     assert!(!series.contains("NaN"), "{series}");
     // The header and the rows of steps 0 to 3.
     assert_eq!(series.lines().count(), 5, "{series}");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// A `Track` probe whose particle has left the grid under `Remove` reads NaN, by design: that
+/// is the one non-finite value a series may hold, and the run goes on.
+#[test]
+fn a_track_probe_of_a_removed_particle_reads_nan_and_the_run_goes_on() {
+    let text = r#"(
+    time: (step: Fixed(1.0e-3), end: Steps(10)),
+    safety: (on_leave_grid: Remove),
+    grid: (min: (0.0, 0.0), max: (1.0, 1.0), spacing: 0.1),
+    materials: { "m": (density: 1.0, youngs_modulus: 1.0, poisson_ratio: 0.0) },
+    bodies: [
+        (name: "still", shape: Rectangle(min: (0.1, 0.4), max: (0.3, 0.6)), material: "m"),
+        (name: "leaving", shape: Rectangle(min: (0.8, 0.4), max: (1.0, 0.6)), material: "m",
+         velocity: Uniform((10.0, 0.0))),
+    ],
+    output: (csv_every: 1, probes: [Track(name: "edge", body: "leaving", at: (0.975, 0.425))]),
+    pipeline: [(system: "basis/linear"), (system: "predictor/usl"),
+               (system: "stress/linear_elastic"), (system: "advection/usl")],
+)"#;
+    let file = SceneFile::parse("inline.ron", text.to_string()).unwrap_or_else(|e| panic!("{e}"));
+    let mut built = build_simulation(&file, &fractum_systems::stock_registry()).unwrap();
+    let out = temp_dir("track-nan");
+    run(&mut built.simulation, &built.output, &out, |_| {}).unwrap_or_else(|e| panic!("{e}"));
+    let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
+    let header: Vec<&str> = series.lines().next().unwrap().split(',').collect();
+    let last: Vec<&str> = series.lines().last().unwrap().split(',').collect();
+    assert_eq!(last[0], "10", "{series}");
+    for (name, value) in header.iter().zip(&last) {
+        let finite = value.parse::<f64>().unwrap().is_finite();
+        assert_eq!(finite, !name.starts_with("track_edge"), "{name} = {value}");
+    }
     let _ = std::fs::remove_dir_all(&out);
 }
 

@@ -389,14 +389,63 @@ fn rankine_leaves_the_damage_a_scene_seeds_out_of_its_dissipated_energy() {
     let sim = &mut built.simulation;
     sim.step().unwrap_or_else(|e| panic!("{e}"));
     let columns = sim.world.resource::<SeriesColumns>();
-    let value = |name: &str| {
-        let i = columns.names.iter().position(|n| n == name).unwrap();
-        columns.values[i]
-    };
+    let value = |name: &str| columns.value(name).unwrap();
     assert_eq!(value("failed_particles"), 8.0);
     assert!(
         value("dissipated_energy").abs() < 1e-18,
         "{}",
         value("dissipated_energy")
     );
+}
+
+/// The tension bar with `damage/rankine` on its band and `damage/time_to_failure` on the rest:
+/// both publish `damaged_particles` and `failed_particles`, and the published columns count
+/// the whole bar (they were the last entry's alone).
+#[test]
+fn damage_columns_of_entries_split_by_material_add_up() {
+    let time_to_failure = "        (system: \"damage/time_to_failure\", params: (tensile_strength: \
+                           100.5, crack_speed: 200.0), materials: [\"bar\"]),\n        \
+                           (system: \"advection/usl\"),";
+    let mut built = scene_with(
+        "tension_rankine.ron",
+        &[("        (system: \"advection/usl\"),", time_to_failure)],
+    );
+    assert_eq!(
+        built.output.system_columns,
+        ["damaged_particles", "failed_particles", "dissipated_energy"]
+    );
+    let sim = &mut built.simulation;
+    let bar = MaterialId(0);
+    let mut counted = (0, 0);
+    for _ in 0..200 {
+        sim.step().unwrap_or_else(|e| panic!("{e}"));
+        let mut query = sim.world.query::<(&MaterialId, &Damage)>();
+        let (mut damaged, mut failed) = (0.0, 0.0);
+        counted = (0, 0);
+        for (m, d) in query.iter(&sim.world) {
+            damaged += f64::from(u8::from(d.0 > 0.0));
+            failed += f64::from(u8::from(d.0 >= 1.0));
+            if d.0 > 0.0 {
+                if *m == bar {
+                    counted.0 += 1
+                } else {
+                    counted.1 += 1
+                }
+            }
+        }
+        let columns = sim.world.resource::<SeriesColumns>();
+        let step = sim.clock().step;
+        assert_eq!(
+            columns.value("damaged_particles"),
+            Some(damaged),
+            "step {step}"
+        );
+        assert_eq!(
+            columns.value("failed_particles"),
+            Some(failed),
+            "step {step}"
+        );
+    }
+    // Both entries have damaged particles, so the columns hold a sum.
+    assert!(counted.0 > 0 && counted.1 > 0, "{counted:?}");
 }

@@ -361,11 +361,13 @@ impl<'a> Installer<'a> {
     }
 
     /// Declares a `series.csv` column this system will fill, returning its slot in
-    /// [`SeriesColumns::values`].
+    /// [`SeriesColumns::values`]. The slot is this entry's own: another entry publishing the
+    /// same column (for other materials) adds to it.
     pub fn add_series_column(&mut self, name: &str) -> usize {
+        let entry = self.entry;
         self.world
             .get_resource_or_init::<SeriesColumns>()
-            .declare(name)
+            .declare_for(entry, name)
     }
 
     /// Read access to the world as built from the scene (grid, materials, particles).

@@ -304,6 +304,19 @@ fn largest_energy_particle(world: &mut World) -> String {
     })
 }
 
+/// Whether entry `i` of a series row (time first) must be finite: all but a `Track` probe's,
+/// which is NaN by design once its particle has left the grid.
+fn must_be_finite(plan: &OutputPlan, i: usize) -> bool {
+    let axes = plan.dimension.count();
+    let probes_start = 4 + axes;
+    match i.checked_sub(probes_start).map(|k| k / axes) {
+        Some(probe) if probe < plan.probes.len() => {
+            !matches!(plan.probes[probe], ProbeKind::Track { .. })
+        }
+        _ => true,
+    }
+}
+
 /// What the `Force` probes remember between series rows, per probe slot.
 #[derive(Resource, Default, Debug, serde::Serialize, serde::Deserialize)]
 pub struct ForceProbeMemory(Vec<Option<ForceProbeRow>>);
@@ -351,13 +364,12 @@ fn series_row_of<D: Dim>(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
     }
     let mut dissipated = 0.0;
     if let Some(extra) = world.get_resource::<crate::series::SeriesColumns>() {
-        row.extend(plan.system_columns.iter().map(|name| {
-            let slot = extra.names.iter().position(|n| n == name);
-            slot.map_or(f64::NAN, |i| extra.values[i])
-        }));
-        if let Some(i) = extra.names.iter().position(|n| n == "dissipated_energy") {
-            dissipated = extra.values[i];
-        }
+        row.extend(
+            plan.system_columns
+                .iter()
+                .map(|name| extra.value(name).unwrap_or(f64::NAN)),
+        );
+        dissipated = extra.value("dissipated_energy").unwrap_or(0.0);
     }
     let (work, initial) = world
         .get_resource::<crate::energy::EnergyAccount>()
@@ -456,7 +468,8 @@ impl Outputs<'_> {
         // probe or a system's column can still divide by a vanishing quantity: a row holding
         // either is no result. The stage checks have passed, so every particle is finite; the
         // most energetic one is named to place the overflow.
-        if let Some(column) = row.iter().position(|v| !v.is_finite()) {
+        let broken = (0..row.len()).find(|&i| !row[i].is_finite() && must_be_finite(self.plan, i));
+        if let Some(column) = broken {
             self.flush()?;
             let name = &self.plan.columns()[column + 1];
             return Err(RunError::Blowup(

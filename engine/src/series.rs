@@ -4,26 +4,98 @@
 //! [`crate::registry::Installer::add_series_column`], which returns the column's slot, and
 //! writes the current value into that slot whenever it runs. The run loop appends the columns
 //! after the scene's probes.
+//!
+//! Each pipeline entry gets its own slots, so two entries of one stage, each limited to its
+//! own materials (say `damage/rankine` on the concrete and `damage/time_to_failure` on the
+//! mortar), can both publish `dissipated_energy`: the published column is the sum of their
+//! slots, the scene's total, not whichever entry ran last.
 
 use bevy_ecs::prelude::Resource;
 
-/// Names and current values of the system-published columns.
+/// Names and current values of the system-published columns, one slot per declaring entry.
 #[derive(Resource, Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SeriesColumns {
-    /// Column names, in the order they were declared.
+    /// Column name of each slot, in the order the slots were declared.
     pub names: Vec<String>,
-    /// Current values, one per name.
+    /// Current value of each slot.
     pub values: Vec<f64>,
+    /// The pipeline entry that declared each slot (`None` outside a scene, in tests).
+    pub owners: Vec<Option<usize>>,
 }
 
 impl SeriesColumns {
-    /// Declares a column (or finds it, if declared already) and returns its slot.
+    /// Declares a column with no owning entry (or finds it) and returns its slot.
     pub fn declare(&mut self, name: &str) -> usize {
-        if let Some(i) = self.names.iter().position(|n| n == name) {
+        self.declare_for(None, name)
+    }
+
+    /// Declares column `name` for pipeline entry `owner` (or finds the slot that entry
+    /// declared already) and returns its slot.
+    pub fn declare_for(&mut self, owner: Option<usize>, name: &str) -> usize {
+        if let Some(i) =
+            (0..self.names.len()).find(|&i| self.names[i] == name && self.owners[i] == owner)
+        {
             return i;
         }
         self.names.push(name.to_string());
         self.values.push(0.0);
+        self.owners.push(owner);
         self.names.len() - 1
+    }
+
+    /// The published column names: each once, in the order first declared.
+    pub fn published(&self) -> Vec<String> {
+        let mut names: Vec<String> = Vec::new();
+        for name in &self.names {
+            if !names.contains(name) {
+                names.push(name.clone());
+            }
+        }
+        names
+    }
+
+    /// The published value of column `name`, the sum of its slots (in declaration order);
+    /// `None` when no slot has that name.
+    pub fn value(&self, name: &str) -> Option<f64> {
+        let mut slots = (0..self.names.len()).filter(|&i| self.names[i] == name);
+        let first = slots.next()?;
+        Some(slots.fold(self.values[first], |sum, i| sum + self.values[i]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn entries_publishing_one_column_are_summed_and_listed_once() {
+        let mut columns = SeriesColumns::default();
+        let failed_a = columns.declare_for(Some(3), "failed_particles");
+        let energy_a = columns.declare_for(Some(3), "dissipated_energy");
+        let failed_b = columns.declare_for(Some(4), "failed_particles");
+        assert_ne!(failed_a, failed_b);
+        assert_eq!(columns.declare_for(Some(3), "failed_particles"), failed_a);
+        columns.values[failed_a] = 2.0;
+        columns.values[failed_b] = 5.0;
+        columns.values[energy_a] = 0.25;
+        assert_eq!(
+            columns.published(),
+            ["failed_particles", "dissipated_energy"]
+        );
+        assert_eq!(columns.value("failed_particles"), Some(7.0));
+        assert_eq!(columns.value("dissipated_energy"), Some(0.25));
+        assert_eq!(columns.value("damaged_particles"), None);
+    }
+
+    #[test]
+    fn a_column_declared_without_an_entry_is_one_slot() {
+        let mut columns = SeriesColumns::default();
+        assert_eq!(columns.declare("failed_particles"), 0);
+        assert_eq!(columns.declare("failed_particles"), 0);
+        columns.values[0] = -0.0;
+        assert_eq!(
+            columns.value("failed_particles").unwrap().to_bits(),
+            (-0.0f64).to_bits()
+        );
     }
 }

@@ -59,7 +59,7 @@ impl<D: Dim> Spec<D> {
         let pipeline = self.install_pipeline(registry, &mut schedule, &mut world)?;
         output.system_columns = world
             .get_resource::<SeriesColumns>()
-            .map(|c| c.names.clone())
+            .map(SeriesColumns::published)
             .unwrap_or_default();
         self.check_stable_step(&mut world)?;
         self.check_memory_after_install(&mut world, available)?;
