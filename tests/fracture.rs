@@ -398,6 +398,34 @@ fn rankine_leaves_the_damage_a_scene_seeds_out_of_its_dissipated_energy() {
     );
 }
 
+#[test]
+fn eigensoftening_leaves_the_damage_a_scene_seeds_out_of_its_dissipated_energy() {
+    // tension_softening.ron with a notch seeded as failed across the bar's lower half at mid
+    // length: after a step far below the strength, nothing has been dissipated, though the
+    // notch's particles are failed (each would count G_F V₀ / h_ε otherwise).
+    for traction in ["Published", "Cohesive"] {
+        let mut built = scene_with(
+            "tension_softening.ron",
+            &[
+                (
+                    "            material: \"brittle\",\n",
+                    "            material: \"brittle\",\n            cracks: [Rectangle(min: (0.5, 0.0), max: (0.55, 0.1))],\n",
+                ),
+                (
+                    "            softening: Linear,\n",
+                    &format!("            softening: Linear,\n            traction: {traction},\n"),
+                ),
+            ],
+        );
+        let sim = &mut built.simulation;
+        sim.step().unwrap_or_else(|e| panic!("{e}"));
+        let columns = sim.world.resource::<SeriesColumns>();
+        assert_eq!(columns.value("failed_particles"), Some(8.0), "{traction}");
+        let dissipated = columns.value("dissipated_energy").unwrap();
+        assert!(dissipated.abs() < 1e-18, "{traction}: {dissipated:e}");
+    }
+}
+
 /// The tension bar with `damage/rankine` on its band and `damage/time_to_failure` on the rest:
 /// both publish `damaged_particles` and `failed_particles`, and the published columns count
 /// the whole bar (they were the last entry's alone).

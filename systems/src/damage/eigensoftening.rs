@@ -19,7 +19,8 @@
 //!   "has cracked" flag of Algorithm 2 (`ε_f > 0`).
 //! - Publishes `series.csv` columns `damaged_particles` (χ > 0), `failed_particles` (χ = 1)
 //!   and `dissipated_energy`: the crack-band estimate `Σ_p V₀,p / h_ε · ∫₀^{w_p} σ dw`. Each
-//!   particle's largest opening `w_p` is its `CrackOpening` (frames: `crack_opening`).
+//!   particle's largest opening `w_p` is its `CrackOpening` (frames: `crack_opening`). The
+//!   damage a scene seeds (a notch's `cracks`) is left out: it did not dissipate in the run.
 //!
 //! # Traction
 //!
@@ -135,6 +136,9 @@ pub struct EigensofteningParams {
     pub traction: Traction,
     /// Normal modulus `λ + 2μ` of each material, for `Traction::Cohesive`.
     pub normal_modulus: Vec<f64>,
+    /// What the damage a scene seeds (a notch's `cracks`) counts in the crack-band estimate
+    /// before the first step: it did not dissipate and the published column leaves it out.
+    pub initial_dissipation: f64,
 }
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
@@ -189,6 +193,13 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         check_snap_back(installer, params, &law, raw.band_width, &normal_modulus)?;
     }
     installer.add_particle_component(CrackOpening(0.0));
+    let initial_dissipation = seeded_dissipation(
+        installer.world(),
+        &materials,
+        &law,
+        raw.band_width,
+        raw.traction,
+    );
     let columns = [
         installer.add_series_column("damaged_particles"),
         installer.add_series_column("failed_particles"),
@@ -201,9 +212,40 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         materials,
         traction: raw.traction,
         normal_modulus,
+        initial_dissipation,
     });
     with_dim!(installer.dimension(), D => installer.add_systems(eigensoftening::<D>));
     Ok(())
+}
+
+/// The crack-band estimate `Σ V₀ / h_ε ∫₀^w σ dw` over the particles of `materials` as the scene
+/// seeds them, with the opening the system itself would credit them (`Published`: the law's
+/// opening at their χ; `Cohesive`: their `CrackOpening`, 0 before the first step).
+fn seeded_dissipation(
+    world: &World,
+    materials: &MaterialFilter,
+    law: &SofteningLaw,
+    band_width: f64,
+    traction: Traction,
+) -> f64 {
+    let mut total = 0.0;
+    for entity in world.iter_entities() {
+        let (Some(m), Some(v0), Some(d)) = (
+            entity.get::<MaterialId>(),
+            entity.get::<InitialVolume>(),
+            entity.get::<Damage>(),
+        ) else {
+            continue;
+        };
+        if d.0 > 0.0 && materials.applies(*m) {
+            let w = match traction {
+                Traction::Published => law.opening(d.0.min(1.0)),
+                Traction::Cohesive => entity.get::<CrackOpening>().map_or(0.0, |o| o.0),
+            };
+            total += v0.0 / band_width * law.dissipated(w);
+        }
+    }
+    total
 }
 
 /// `traction: Cohesive` needs a band narrower than the snap-back limit of every material the
@@ -405,7 +447,7 @@ pub fn eigensoftening<D: Dim>(
     let [d, f, e] = params.columns;
     columns.values[d] = damaged as f64;
     columns.values[f] = failed as f64;
-    columns.values[e] = dissipated;
+    columns.values[e] = dissipated - params.initial_dissipation;
 }
 
 #[cfg(test)]
@@ -472,6 +514,7 @@ mod tests {
             materials: MaterialFilter::all(),
             traction,
             normal_modulus: vec![normal_modulus],
+            initial_dissipation: 0.0,
         });
         let mut neighbourhoods = Neighbourhoods::default();
         neighbourhoods.set_rows(rows, 0.5);
