@@ -323,8 +323,10 @@ pub fn restore(world: &mut World, saved: &WorldState) -> Result<(), CheckpointEr
     Ok(())
 }
 
-/// The format of checkpoint files; a file of another format is refused.
-pub const CHECKPOINT_FORMAT: u32 = 1;
+/// The format of checkpoint files; a file of another format is refused. Format 2: the
+/// postcard-encoded [`CheckpointFile`], then the FNV-1a digest of those bytes (8 bytes, little
+/// endian), so that a damaged file is refused, not resumed with altered numbers.
+pub const CHECKPOINT_FORMAT: u32 = 2;
 
 /// Checkpoints kept by default.
 pub const DEFAULT_KEEP: usize = 3;
@@ -483,8 +485,10 @@ pub fn write_checkpoint(
             .map_err(|e| crate::run::RunError::Checkpoint(e.to_string()))?,
         outputs,
     };
-    let bytes = postcard::to_allocvec(&file)
-        .map_err(|e| crate::run::RunError::Checkpoint(e.to_string()))?;
+    let bytes = sealed(
+        postcard::to_allocvec(&file)
+            .map_err(|e| crate::run::RunError::Checkpoint(e.to_string()))?,
+    );
     let dir = out_dir.join(CHECKPOINT_DIR);
     let io = |path: &std::path::Path| {
         let path = path.to_path_buf();
@@ -500,10 +504,31 @@ pub fn write_checkpoint(
     Ok(path)
 }
 
-/// Reads a checkpoint file and checks that this binary wrote it.
+/// `payload` followed by its digest.
+fn sealed(mut payload: Vec<u8>) -> Vec<u8> {
+    let digest = fnv1a(&payload);
+    payload.extend_from_slice(&digest.to_le_bytes());
+    payload
+}
+
+/// The payload of sealed `bytes`, or `None` when the digest does not match (the file was cut
+/// short, or any byte of it changed).
+fn unsealed(bytes: &[u8]) -> Option<&[u8]> {
+    let (payload, digest) = bytes.split_at_checked(bytes.len().checked_sub(8)?)?;
+    (fnv1a(payload).to_le_bytes() == digest).then_some(payload)
+}
+
+/// Reads a checkpoint file and checks that it is whole and that this binary wrote it.
 pub fn read_checkpoint(path: &std::path::Path) -> Result<CheckpointFile, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let file: CheckpointFile = postcard::from_bytes(&bytes).map_err(|e| {
+    let Some(payload) = unsealed(&bytes) else {
+        return Err(format!(
+            "{} is damaged or not a checkpoint this version of Fractum can read: its digest \
+             does not match its contents (cut short, or changed since it was written)",
+            path.display()
+        ));
+    };
+    let file: CheckpointFile = postcard::from_bytes(payload).map_err(|e| {
         format!(
             "{} is not a checkpoint this version of Fractum can read ({e})",
             path.display()
@@ -635,7 +660,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join(checkpoint_name(10));
         let write = |file: &CheckpointFile| {
-            std::fs::write(&path, postcard::to_allocvec(file).unwrap()).unwrap();
+            std::fs::write(&path, sealed(postcard::to_allocvec(file).unwrap())).unwrap();
         };
         let ours = checkpoint_of(binary_identity(), env!("CARGO_PKG_VERSION"));
         write(&ours);
@@ -649,10 +674,25 @@ mod tests {
         write(&checkpoint_of(binary_identity(), "0.0.1"));
         let refused = read_checkpoint(&path).unwrap_err();
         assert!(refused.contains("written by Fractum 0.0.1"), "{refused}");
-        let bytes = postcard::to_allocvec(&ours).unwrap();
+        let bytes = sealed(postcard::to_allocvec(&ours).unwrap());
         std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
         let refused = read_checkpoint(&path).unwrap_err();
-        assert!(refused.contains("is not a checkpoint"), "{refused}");
+        assert!(refused.contains("is damaged"), "{refused}");
+        // One bit flipped anywhere, in a number the decoder would have taken as it is.
+        for at in [0, 1, bytes.len() / 3, bytes.len() - 9, bytes.len() - 1] {
+            let mut flipped = bytes.clone();
+            flipped[at] ^= 0x10;
+            std::fs::write(&path, &flipped).unwrap();
+            let refused = read_checkpoint(&path).unwrap_err();
+            assert!(
+                refused.contains("digest does not match"),
+                "byte {at}: {refused}"
+            );
+        }
+        std::fs::write(&path, &bytes[..5]).unwrap();
+        assert!(read_checkpoint(&path).is_err());
+        std::fs::write(&path, b"").unwrap();
+        assert!(read_checkpoint(&path).is_err());
         let _ = std::fs::remove_dir_all(&dir);
     }
 
