@@ -86,7 +86,9 @@ impl MemoryEstimate {
             });
         Some(format!(
             "the scene needs about {} of memory{largest}, and {} is available; use fewer \
-             particles or cells, or a smaller support",
+             particles or cells, or a smaller support (the estimate can be off by a factor of \
+             two or more either way: {MEMORY_LIMIT_VARIABLE}=<bytes> sets the memory to check \
+             against)",
             describe_bytes(total),
             describe_bytes(available)
         ))
