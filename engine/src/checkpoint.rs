@@ -567,11 +567,31 @@ pub fn resume_from(
     out_dir: &std::path::Path,
     file: &CheckpointFile,
 ) -> Result<crate::run::ResumedOutputs, String> {
+    restore_checkpoint(sim, file)?;
+    rewind_outputs(out_dir, file, sim.clock().step)
+}
+
+/// Puts a checkpoint into `sim`, freshly built from the checkpoint's scene: the world, the
+/// clock's compensation and the run's end. The outputs are not touched.
+pub fn restore_checkpoint(
+    sim: &mut crate::Simulation,
+    file: &CheckpointFile,
+) -> Result<(), String> {
     restore(&mut sim.world, &file.world)
         .map_err(|e| format!("the checkpoint does not fit the world built from its scene: {e}"))?;
     sim.set_time_compensation(file.time_compensation);
     sim.set_end(file.end);
-    let step = sim.clock().step;
+    Ok(())
+}
+
+/// Winds the outputs in `out_dir` back to checkpoint `file`, taken after `step`: the rows of
+/// `series.csv` then (returned, for the run to rewrite), and no frame written after it. Call it
+/// only once the run is sure to go on: it deletes those frames.
+pub fn rewind_outputs(
+    out_dir: &std::path::Path,
+    file: &CheckpointFile,
+    step: u64,
+) -> Result<crate::run::ResumedOutputs, String> {
     let series_path = out_dir.join("series.csv");
     let mut series = std::fs::read_to_string(&series_path)
         .map_err(|e| format!("cannot read {}: {e}", series_path.display()))?;

@@ -7,9 +7,10 @@
 //! every file is replaced atomically).
 
 use crate::{EXIT_ABANDONED, EXIT_BAD_SCENE, EXIT_BLOWUP, EXIT_INTERRUPTED, EXIT_IO};
-use crate::{EXIT_RESOURCES, energy_warning, load, report_scene_error, summary_report};
+use crate::{EXIT_RESOURCES, EXIT_USAGE, energy_warning, load, report_scene_error, summary_report};
 use fractum_engine::checkpoint::{
-    CHECKPOINT_DIR, CheckpointEvery, SceneRecord, list_checkpoints, read_checkpoint, resume_from,
+    CHECKPOINT_DIR, CheckpointEvery, SceneRecord, list_checkpoints, read_checkpoint,
+    restore_checkpoint, rewind_outputs,
 };
 use fractum_engine::energy::EnergyWatch;
 use fractum_engine::registry::Registry;
@@ -148,6 +149,14 @@ pub fn run_command(
     execute(built, &out_dir, record, None, settings)
 }
 
+/// Says that a run is at its end already, at `step`.
+fn report_at_end(step: u64) {
+    eprintln!(
+        "error: the run is already at its end (step {step}); pass --steps with a larger step to \
+         go on"
+    );
+}
+
 /// `fractum resume`.
 pub fn resume_command(out_dir: &Path, settings: &RunSettings, registry: &Registry) -> i32 {
     let Some((_, path)) = list_checkpoints(out_dir).pop() else {
@@ -191,7 +200,21 @@ pub fn resume_command(out_dir: &Path, settings: &RunSettings, registry: &Registr
         Ok(b) => b,
         Err(e) => return report_scene_error(&e),
     };
-    let outputs = match resume_from(&mut built.simulation, out_dir, &checkpoint) {
+    if let Err(e) = restore_checkpoint(&mut built.simulation, &checkpoint) {
+        eprintln!("error: {}: {e}", path.display());
+        return EXIT_IO;
+    }
+    // A resume that would not take a step is refused before the outputs are wound back, so
+    // it leaves them as they were.
+    if let Some(n) = settings.steps {
+        built.simulation.set_end(End::Steps(n));
+    }
+    if built.simulation.finished() {
+        report_at_end(built.simulation.clock().step);
+        return EXIT_USAGE;
+    }
+    let step = built.simulation.clock().step;
+    let outputs = match rewind_outputs(out_dir, &checkpoint, step) {
         Ok(o) => o,
         Err(e) => {
             eprintln!("error: {}: {e}", path.display());
@@ -233,12 +256,14 @@ fn execute(
         sim.set_end(End::Steps(n));
     }
     if sim.finished() {
-        eprintln!(
-            "error: the run is already at its end (step {}); pass --steps with a larger step \
-             to go on",
-            sim.clock().step
-        );
-        return EXIT_BAD_SCENE;
+        report_at_end(sim.clock().step);
+        // Asking to run to a step the run is at already is a command-line mistake; a scene
+        // that ends before it starts is the scene's.
+        return if settings.steps.is_some() {
+            EXIT_USAGE
+        } else {
+            EXIT_BAD_SCENE
+        };
     }
     handle_signals();
     let options = RunOptions {

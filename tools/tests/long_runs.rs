@@ -35,6 +35,24 @@ fn temp(name: &str) -> PathBuf {
     dir
 }
 
+/// Every file under `dir` with its bytes, sorted by path.
+fn folder_bytes(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut files = Vec::new();
+    let mut pending = vec![dir.to_path_buf()];
+    while let Some(folder) = pending.pop() {
+        for entry in std::fs::read_dir(&folder).unwrap().flatten() {
+            let path = entry.path();
+            if path.is_dir() {
+                pending.push(path);
+            } else {
+                files.push((path.clone(), std::fs::read(&path).unwrap()));
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
 /// A shipped scene with edits, written into `dir`.
 fn edited_scene(dir: &Path, scene: &str, edits: &[(&str, &str)]) -> PathBuf {
     let mut text = std::fs::read_to_string(root().join("scenes").join(scene)).unwrap();
@@ -193,6 +211,23 @@ fn resume_refuses_a_changed_scene_and_a_damaged_checkpoint() {
         "--quiet",
     ]);
     assert!(first.status.success(), "{}", text(&first.stderr));
+    // A resume to the step the run is at already is a usage error, and leaves every output
+    // as it was (the final frame of step 30 was written after the checkpoint: a rewind would
+    // delete it).
+    let before = folder_bytes(&out);
+    for steps in [&["--steps", "30"][..], &["--steps", "10"], &[]] {
+        let at_end = fractum(&[&["resume", out_arg, "--quiet"][..], steps].concat());
+        assert_eq!(at_end.status.code(), Some(2), "{steps:?}");
+        assert!(
+            text(&at_end.stderr).contains("already at its end (step 30)"),
+            "{}",
+            text(&at_end.stderr)
+        );
+        assert!(
+            folder_bytes(&out) == before,
+            "{steps:?} changed the outputs"
+        );
+    }
     let original = std::fs::read_to_string(&scene).unwrap();
     std::fs::write(
         &scene,
