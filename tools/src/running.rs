@@ -130,10 +130,13 @@ pub fn run_command(
     settings: &RunSettings,
     registry: &Registry,
 ) -> i32 {
-    let (file, built) = match load(scene, registry) {
+    let (file, mut built) = match load(scene, registry) {
         Ok(loaded) => loaded,
         Err(e) => return report_scene_error(&e),
     };
+    if let Err(code) = make_ready(&mut built.simulation, settings, false) {
+        return code;
+    }
     let out_dir = out.unwrap_or_else(|| default_out_dir(scene));
     if let Err(e) = prepare_out_dir(&out_dir, force) {
         eprintln!("error: {e}");
@@ -149,12 +152,38 @@ pub fn run_command(
     execute(built, &out_dir, record, None, settings)
 }
 
-/// Says that a run is at its end already, at `step`.
-fn report_at_end(step: u64) {
-    eprintln!(
-        "error: the run is already at its end (step {step}); pass --steps with a larger step to \
-         go on"
-    );
+/// Gives `sim` its threads and `--steps`, and checks that the run will take a step: all before
+/// any output is touched, so a run or resume refused here leaves the output folder as it was.
+/// `resuming`: `sim` holds a checkpoint. The exit code when refused.
+fn make_ready(
+    sim: &mut fractum_engine::Simulation,
+    settings: &RunSettings,
+    resuming: bool,
+) -> Result<(), i32> {
+    if let Some(n) = settings.threads
+        && let Err(e) = sim.set_threads(n.max(1))
+    {
+        eprintln!("error: cannot start {n} threads: {e}");
+        return Err(EXIT_RESOURCES);
+    }
+    if let Some(n) = settings.steps {
+        sim.set_end(End::Steps(n));
+    }
+    if sim.finished() {
+        eprintln!(
+            "error: the run is already at its end (step {}); pass --steps with a larger step \
+             to go on",
+            sim.clock().step
+        );
+        // Asking to run or resume to a step the run is at already is a command-line mistake;
+        // a scene that ends before it starts is the scene's.
+        return Err(if resuming || settings.steps.is_some() {
+            EXIT_USAGE
+        } else {
+            EXIT_BAD_SCENE
+        });
+    }
+    Ok(())
 }
 
 /// `fractum resume`.
@@ -204,14 +233,8 @@ pub fn resume_command(out_dir: &Path, settings: &RunSettings, registry: &Registr
         eprintln!("error: {}: {e}", path.display());
         return EXIT_IO;
     }
-    // A resume that would not take a step is refused before the outputs are wound back, so
-    // it leaves them as they were.
-    if let Some(n) = settings.steps {
-        built.simulation.set_end(End::Steps(n));
-    }
-    if built.simulation.finished() {
-        report_at_end(built.simulation.clock().step);
-        return EXIT_USAGE;
+    if let Err(code) = make_ready(&mut built.simulation, settings, true) {
+        return code;
     }
     let step = built.simulation.clock().step;
     let outputs = match rewind_outputs(out_dir, &checkpoint, step) {
@@ -246,25 +269,6 @@ fn execute(
     settings: &RunSettings,
 ) -> i32 {
     let sim = &mut built.simulation;
-    if let Some(n) = settings.threads
-        && let Err(e) = sim.set_threads(n.max(1))
-    {
-        eprintln!("error: cannot start {n} threads: {e}");
-        return EXIT_RESOURCES;
-    }
-    if let Some(n) = settings.steps {
-        sim.set_end(End::Steps(n));
-    }
-    if sim.finished() {
-        report_at_end(sim.clock().step);
-        // Asking to run to a step the run is at already is a command-line mistake; a scene
-        // that ends before it starts is the scene's.
-        return if settings.steps.is_some() {
-            EXIT_USAGE
-        } else {
-            EXIT_BAD_SCENE
-        };
-    }
     handle_signals();
     let options = RunOptions {
         checkpoints: settings.checkpoint_every.map(|every| CheckpointPlan {

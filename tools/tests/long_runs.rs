@@ -228,6 +228,15 @@ fn resume_refuses_a_changed_scene_and_a_damaged_checkpoint() {
             "{steps:?} changed the outputs"
         );
     }
+    // So is a forced run that would take no step: the run it was to replace stays.
+    let no_step = fractum(&[
+        "run", scene_arg, "--out", out_arg, "--force", "--steps", "0", "--quiet",
+    ]);
+    assert_eq!(no_step.status.code(), Some(2), "{}", text(&no_step.stderr));
+    assert!(
+        folder_bytes(&out) == before,
+        "run --force --steps 0 changed the outputs"
+    );
     let original = std::fs::read_to_string(&scene).unwrap();
     std::fs::write(
         &scene,
