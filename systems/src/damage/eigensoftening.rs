@@ -228,24 +228,13 @@ fn seeded_dissipation(
     band_width: f64,
     traction: Traction,
 ) -> f64 {
-    let mut total = 0.0;
-    for entity in world.iter_entities() {
-        let (Some(m), Some(v0), Some(d)) = (
-            entity.get::<MaterialId>(),
-            entity.get::<InitialVolume>(),
-            entity.get::<Damage>(),
-        ) else {
-            continue;
+    super::seeded_sum(world, materials, |entity, _, d| {
+        let w = match traction {
+            Traction::Published => law.opening(d),
+            Traction::Cohesive => entity.get::<CrackOpening>().map_or(0.0, |o| o.0),
         };
-        if d.0 > 0.0 && materials.applies(*m) {
-            let w = match traction {
-                Traction::Published => law.opening(d.0.min(1.0)),
-                Traction::Cohesive => entity.get::<CrackOpening>().map_or(0.0, |o| o.0),
-            };
-            total += v0.0 / band_width * law.dissipated(w);
-        }
-    }
-    total
+        law.dissipated(w) / band_width
+    })
 }
 
 /// `traction: Cohesive` needs a band narrower than the snap-back limit of every material the

@@ -7,3 +7,30 @@ pub mod stress_reach;
 pub mod tensile_degradation;
 pub mod time_to_failure;
 pub mod weibull;
+
+use bevy_ecs::world::{EntityRef, World};
+use fractum_engine::prelude::{Damage, InitialVolume, MaterialFilter, MaterialId};
+
+/// `Σ V₀ g(particle, D)` over the particles of `materials` that the scene seeds as damaged
+/// (`D > 0` before the first step): what a damage law's energy account would credit them,
+/// so that the published `dissipated_energy` can leave it out.
+pub fn seeded_sum(
+    world: &World,
+    materials: &MaterialFilter,
+    per_volume: impl Fn(EntityRef, MaterialId, f64) -> f64,
+) -> f64 {
+    let mut total = 0.0;
+    for entity in world.iter_entities() {
+        let (Some(m), Some(v0), Some(d)) = (
+            entity.get::<MaterialId>(),
+            entity.get::<InitialVolume>(),
+            entity.get::<Damage>(),
+        ) else {
+            continue;
+        };
+        if d.0 > 0.0 && materials.applies(*m) {
+            total += v0.0 * per_volume(entity, *m, d.0.min(1.0));
+        }
+    }
+    total
+}

@@ -176,24 +176,14 @@ fn seeded_dissipation(
     fracture_energy: f64,
     length: f64,
 ) -> f64 {
-    let world = installer.world();
-    let mut total = 0.0;
-    for entity in world.iter_entities() {
-        let (Some(m), Some(v0), Some(d), Some(s)) = (
-            entity.get::<MaterialId>(),
-            entity.get::<InitialVolume>(),
-            entity.get::<Damage>(),
-            entity.get::<Strength>(),
-        ) else {
-            continue;
+    super::seeded_sum(installer.world(), materials, |entity, m, d| {
+        let Some(&Strength(strength)) = entity.get::<Strength>() else {
+            return 0.0;
         };
-        if d.0 > 0.0 && materials.applies(*m) {
-            let e = youngs_modulus[m.0 as usize];
-            let h = softening_modulus(s.0, e, fracture_energy, length);
-            total += v0.0 * dissipated_density(d.0.min(1.0), s.0, e, h);
-        }
-    }
-    total
+        let e = youngs_modulus[m.0 as usize];
+        let h = softening_modulus(strength, e, fracture_energy, length);
+        dissipated_density(d, strength, e, h)
+    })
 }
 
 /// `H̄_s = σ_f² / (2 E G_f)` (1/m).
