@@ -127,3 +127,136 @@ fn a_user_system_written_once_runs_in_2d_and_3d() {
     assert!((20..=21).contains(&two), "2D: step {two}");
     assert_eq!(two, three);
 }
+
+/// Parameters of `stress/simo_pister`: none, like `stress/neo_hookean`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct NoParams {}
+
+/// What a hyperelastic stress update reads and writes per particle.
+type HyperelasticParticles<'w, 's, D> = Query<
+    'w,
+    's,
+    (
+        &'static MaterialId,
+        &'static InitialVolume,
+        &'static mut DeformationGradient<D>,
+        &'static mut Stress<D>,
+        &'static mut Volume,
+        &'static mut StrainEnergyDensity,
+    ),
+    With<Particle>,
+>;
+
+/// A compressible neo-Hookean solid with the volumetric energy `κ/4 (J² − 1 − 2 ln J)`:
+/// `W = μ/2 (tr C − 3) − μ ln J + κ/4 (J² − 1 − 2 ln J)`, so
+/// `σ = μ/J (b − I) + κ/2 (J − 1/J) I`, with `F ← (I + Δt L) F` every step. Not a stock model:
+/// a user's hyperelastic stress, written once for 2D and 3D.
+fn simo_pister<D: Dim>(
+    clock: Res<SimClock>,
+    materials: Res<Materials>,
+    connectivity: Res<Connectivity<D>>,
+    nodes: Query<&NodeVelocity<D>, With<Node>>,
+    mut particles: HyperelasticParticles<D>,
+) {
+    let node_velocity: Vec<NodeVelocity<D>> = nodes.iter().copied().collect();
+    for (p, (material, v0, mut f, mut stress, mut volume, mut energy)) in
+        particles.iter_mut().enumerate()
+    {
+        let (lambda, mu) = materials.0[material.0 as usize].lame();
+        let kappa = lambda + 2.0 * mu / 3.0;
+        let l = fractum_systems::transfer::velocity_gradient(&connectivity, &node_velocity, p);
+        f.0 = (D::Matrix::IDENTITY + l * clock.dt) * f.0;
+        let j = f.0.determinant();
+        let pressure = 0.5 * kappa * (j - 1.0 / j) - mu / j;
+        stress.0 = D::Sym::isotropic(pressure).add_scaled(&D::left_cauchy_green(f.0), mu / j);
+        volume.0 = j * v0.0;
+        let ln_j = j.ln();
+        energy.0 = 0.5 * mu * (D::cauchy_green_trace(f.0) - 3.0) - mu * ln_j
+            + 0.25 * kappa * (j * j - 1.0 - 2.0 * ln_j);
+    }
+}
+
+fn install_simo_pister(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    params.parse::<NoParams>()?;
+    // The promise damage/rankine relies on: a stress from a potential, recomputed every step.
+    installer.provide::<HyperelasticStress>();
+    with_dim!(installer.dimension(), D => installer.add_systems(simo_pister::<D>));
+    Ok(())
+}
+
+/// The same system, installed without declaring the capability.
+fn install_undeclared(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    params.parse::<NoParams>()?;
+    with_dim!(installer.dimension(), D => installer.add_systems(simo_pister::<D>));
+    Ok(())
+}
+
+const SIMO_PISTER: Registration = Registration {
+    name: "stress/simo_pister",
+    summary: "compressible neo-Hookean with the volumetric energy κ/4 (J² − 1 − 2 ln J)",
+    params: &[],
+    requires: &[],
+    install: install_simo_pister,
+};
+
+const UNDECLARED: Registration = Registration {
+    name: "stress/undeclared",
+    summary: "the same stress, without the capability declared",
+    params: &[],
+    requires: &[],
+    install: install_undeclared,
+};
+
+/// The stretched bar with `stress` and Rankine damage (σ_f = 2 Pa) in place of the overstress
+/// law.
+fn stretched_bar_with_rankine<D: Dim>(stress: &str) -> Spec<D> {
+    let mut spec = stretched_bar::<D>();
+    spec.pipeline.clear();
+    spec.system("basis/linear")
+        .system("predictor/usl")
+        .system(stress)
+        .system_with(
+            "damage/rankine",
+            "(tensile_strength: 2.0, fracture_energy: 1.0)",
+        )
+        .system("advection/usl")
+}
+
+/// A user's hyperelastic stress system qualifies for `damage/rankine` by the capability it
+/// declares, not by its name: the bar softens once σ_xx passes the strength, in 2D and 3D. The
+/// same system without the declaration, and the rate-form `stress/linear_elastic`, are refused
+/// with the capability named.
+#[test]
+fn a_user_hyperelastic_stress_satisfies_rankine_by_its_capability() {
+    let mut registry = fractum_systems::stock_registry();
+    registry.register(SIMO_PISTER).unwrap();
+    registry.register(UNDECLARED).unwrap();
+    fn damaged<D: Dim>(registry: &Registry) -> usize {
+        let mut sim = stretched_bar_with_rankine::<D>("stress/simo_pister")
+            .build(registry)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .simulation;
+        while !sim.finished() {
+            sim.step().unwrap_or_else(|e| panic!("{e}"));
+        }
+        let mut damage = sim.world.query_filtered::<&Damage, With<Particle>>();
+        damage.iter(&sim.world).filter(|d| d.0 > 0.0).count()
+    }
+    // σ_xx ≈ E ε reaches 4 Pa by step 40, twice the strength: every particle softens.
+    let (two, three) = (damaged::<Two>(&registry), damaged::<Three>(&registry));
+    assert!(two > 0 && three > 0, "2D: {two}, 3D: {three} damaged");
+    for refused in ["stress/undeclared", "stress/linear_elastic"] {
+        let message = match stretched_bar_with_rankine::<Two>(refused).build(&registry) {
+            Ok(_) => panic!("{refused} was accepted"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            message.contains(
+                "damage/rankine needs every stress system to provide a stress derived from a \
+                 hyperelastic potential"
+            ) && message.contains(&format!("; {refused} does not")),
+            "{message}"
+        );
+    }
+}

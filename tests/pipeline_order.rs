@@ -153,8 +153,9 @@ fn conflicting_systems_load_once_ordered() {
 fn grid_update_corrections_run_between_predictor_and_stress() {
     fn early_install(installer: &mut Installer, _: &Params) -> Result<(), SceneError> {
         installer.init_resource::<Log>();
-        installer.add_grid_update_correction(|mut log: ResMut<Log>| log.0.push(Stage::Contact));
-        Ok(())
+        installer.add_systems_to(StepSet::GridUpdateCorrection, |mut log: ResMut<Log>| {
+            log.0.push(Stage::Contact)
+        })
     }
     let mut registry = registry_with_loggers();
     registry

@@ -31,10 +31,6 @@ use crate::dim::{Dim, VectorOps};
 use crate::resources::{BodyForce, SimClock};
 use bevy_ecs::prelude::*;
 
-/// The engine's set of [`account_work`]: after the post-step stage and its check.
-#[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct AccountWork;
-
 /// The work done on the system since the start, and the state it was measured from.
 #[derive(Resource, Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EnergyAccount {

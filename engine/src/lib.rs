@@ -11,6 +11,7 @@
 //! 2D plane strain and 3D, and a scene's grid decides which is instantiated.
 
 pub mod boundary;
+pub mod capability;
 pub mod checkpoint;
 pub mod components;
 pub mod connectivity;
@@ -19,6 +20,7 @@ pub mod dim;
 pub mod energy;
 pub mod fields;
 pub mod health;
+pub mod integration;
 pub mod loads;
 pub mod neighbourhood;
 pub mod output;
@@ -36,6 +38,7 @@ pub use simulation::Simulation;
 /// What a system file usually needs.
 pub mod prelude {
     pub use crate::boundary::{BoundaryConditions, Reactions};
+    pub use crate::capability::{Capability, HyperelasticStress};
     pub use crate::components::*;
     pub use crate::connectivity::Connectivity;
     pub use crate::dim::{
@@ -43,6 +46,7 @@ pub mod prelude {
         Three, Two, Vector, VectorOps, lattice_range,
     };
     pub use crate::health::single_table;
+    pub use crate::integration::{GridIntegration, ImpulseWindow};
     pub use crate::neighbourhood::Neighbourhoods;
     pub use crate::registry::{
         Installer, MaterialFilter, ParamDoc, Params, Registration, Registry,
@@ -50,7 +54,7 @@ pub mod prelude {
     pub use crate::resources::{BodyForce, Grid, Material, Materials, SimClock, Thickness};
     pub use crate::scene::SceneError;
     pub use crate::series::SeriesColumns;
-    pub use crate::stage::Stage;
+    pub use crate::stage::{Stage, StepSet};
     pub use crate::with_dim;
     pub use bevy_ecs::prelude::*;
     pub use glam::{DMat2, DMat3, DVec2, DVec3};

@@ -54,10 +54,6 @@ impl<D: Dim> ParticleLoads<D> {
     }
 }
 
-/// The engine's load update, before the neighbour stage.
-#[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct ApplyLoads;
-
 /// Sets every particle's external force for the step starting at the clock's time.
 pub fn apply_loads<D: Dim>(
     clock: Res<SimClock>,

@@ -189,7 +189,7 @@ fn partition_fields<D: Dim>(world: &mut World, f: &mut ParticleFrame) {
     if surface.len() == f.id.len() {
         f.scalars.push(("surface".into(), surface));
     }
-    if !world.contains_resource::<crate::fields::FieldRule>() {
+    if !world.contains_resource::<crate::fields::FieldsAssigned>() {
         return;
     }
     let mut nodes = world.query_filtered::<&NodeFields, With<Node>>();

@@ -4,7 +4,7 @@ use crate::components::{MaterialId, Particle, ParticleId, Position, Velocity, Wa
 use crate::dim::{Dim, Dimension, VectorOps};
 use crate::health::{Blowup, Health, healthy, stage_check};
 use crate::resources::{Grid, Materials, SimClock, TimeStepLimit};
-use crate::stage::{Stage, StageCheck, configure_stages};
+use crate::stage::{Stage, StageCheck, StepSet, configure_step};
 use crate::with_dim;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::{LogLevel, ScheduleBuildSettings, ScheduleLabel, SingleThreadedExecutor};
@@ -31,8 +31,8 @@ pub enum End {
 #[derive(ScheduleLabel, Clone, Debug, PartialEq, Eq, Hash)]
 pub struct StepSchedule;
 
-/// An empty step schedule: single-threaded executor, ambiguities are errors, the stages chained
-/// in order, and every stage skipped after a failure. Add the health checks with
+/// An empty step schedule: single-threaded executor, ambiguities are errors, the step ordered
+/// as [`crate::stage`] declares it, and every stage and window skipped after a failure. Add the health checks with
 /// [`add_stage_checks`] once the pipeline is installed.
 pub fn step_schedule() -> Schedule {
     let mut schedule = Schedule::new(StepSchedule);
@@ -41,32 +41,12 @@ pub fn step_schedule() -> Schedule {
         ambiguity_detection: LogLevel::Error,
         ..Default::default()
     });
-    configure_stages(&mut schedule);
-    schedule.configure_sets(
-        crate::loads::ApplyLoads
-            .after(StageCheck(Stage::PreStep))
-            .before(Stage::Neighbour)
-            .run_if(healthy),
-    );
-    schedule.configure_sets(
-        crate::fields::AssignFields
-            .after(Stage::Basis)
-            .before(StageCheck(Stage::Basis))
-            .run_if(healthy),
-    );
-    schedule.configure_sets(
-        crate::stage::GridUpdateCorrection
-            .after(Stage::Predictor)
-            .before(StageCheck(Stage::Predictor))
-            .run_if(healthy),
-    );
-    schedule.configure_sets(
-        crate::energy::AccountWork
-            .after(StageCheck(Stage::PostStep))
-            .run_if(healthy),
-    );
+    configure_step(&mut schedule);
     for stage in Stage::ORDER {
         schedule.configure_sets(stage.run_if(healthy));
+    }
+    for window in StepSet::ALL {
+        schedule.configure_sets(window.run_if(healthy));
     }
     schedule
 }

@@ -15,9 +15,8 @@ use crate::components::{
 };
 use crate::connectivity::Connectivity;
 use crate::dim::{Dim, VectorOps};
-use crate::fields::{AssignFields, FieldRule, assign_fields_system};
 use crate::health::{LeaveGrid, remove_escaped_particles};
-use crate::loads::{ApplyLoads, LoadShare, ParticleLoads, apply_loads};
+use crate::loads::{LoadShare, ParticleLoads, apply_loads};
 use crate::output::{OutputPlan, ProbeKind};
 use crate::registry::{Installer, MaterialFilter, PipelineEntrySet, Registration, Registry};
 use crate::resources::{BodyForce, Grid, Materials, SimClock, Thickness, TimeStepLimit};
@@ -25,7 +24,7 @@ use crate::series::SeriesColumns;
 use crate::simulation::{
     End, Simulation, TimeStep, add_stage_checks, stable_time_step, step_schedule,
 };
-use crate::stage::{Stage, StageCheck};
+use crate::stage::{Stage, StageCheck, StepSet};
 use bevy_ecs::prelude::World;
 use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule};
 
@@ -68,10 +67,7 @@ impl<D: Dim> Spec<D> {
             pipeline.by_stage.iter().map(|(stage, _)| *stage),
         );
         if !world.resource::<ParticleLoads<D>>().0.is_empty() {
-            schedule.add_systems(apply_loads::<D>.in_set(ApplyLoads));
-        }
-        if world.contains_resource::<FieldRule>() {
-            schedule.add_systems(assign_fields_system::<D>.in_set(AssignFields));
+            schedule.add_systems(apply_loads::<D>.in_set(StepSet::ApplyLoads));
         }
         let start = crate::diagnostics::totals(&mut world);
         let moment = {
@@ -85,7 +81,7 @@ impl<D: Dim> Spec<D> {
             start.total_energy(),
             moment,
         ));
-        schedule.add_systems(crate::energy::account_work::<D>.in_set(crate::energy::AccountWork));
+        schedule.add_systems(crate::energy::account_work::<D>.in_set(StepSet::AccountWork));
         if self.on_leave_grid == LeaveGrid::Remove {
             schedule
                 .add_systems(remove_escaped_particles::<D>.in_set(StageCheck(Stage::Advection)));
@@ -488,7 +484,13 @@ impl<D: Dim> Spec<D> {
         }
         let names: Vec<&'static str> = chosen.iter().map(|(_, r)| r.name).collect();
         let filters = self.material_filters(&chosen)?;
-        for ((k, registration), filter) in chosen.iter().zip(&filters) {
+        // Installed in stage order (the scene's order within a stage), so an installer can read
+        // what the stages before it published: a grid law reads the predictor's integration, a
+        // damage law the stress system's capabilities.
+        let mut order: Vec<usize> = (0..chosen.len()).collect();
+        order.sort_by_key(|&c| chosen[c].1.stage());
+        for c in order {
+            let ((k, registration), filter) = (&chosen[c], &filters[c]);
             let entry = &self.pipeline[*k];
             let source = self.entry_source(entry);
             let params = source.params(entry.params.as_deref(), format!("pipeline[{k}].params"));

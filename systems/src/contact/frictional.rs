@@ -24,37 +24,31 @@
 //!   ([`node_impulses`]); summed from the velocities before contact, the pairs would stop a field
 //!   once per partner. Velocity components held by a boundary condition are left alone on both
 //!   fields.
-//! - Integrators. With `predictor/newmark` this system runs in the contact stage: the
-//!   end-of-step velocity is `ṽ + γΔt f/m` with the forces of the new stress; the system forms
-//!   it and finds the impulse `Δp` Algorithm 3 asks for there. It splits `Δp`
-//!   ([`split_newmark_impulse`]):
-//!   - the collision part `J`, the impulse the same law gives between the predicted velocities
-//!     `ṽ` (what the bodies bring into the step), is a kick: it corrects `ṽ` in place and goes
-//!     to `NodeContactImpulse`, which `advection/newmark` adds to the particle velocities as
-//!     `Σ N J/m`;
-//!   - the rest, `(Δp − J)/(γΔt)`, is a force (what this step's stresses push across the
-//!     contact), left in `NodeContactForce` for the corrector to integrate like any other.
-//!
-//!   The corrected `v_I`, which moves the particles, is then exactly the one Algorithm 3 asks
-//!   for, and in lasting contact (`J ≈ 0`) the node's fields move as its single field would.
-//!   Measured on two concrete bars meeting at 1 m/s (`tests/contact.rs`; ρ c v A/2 = 90.3 kN):
-//!   - all of `Δp/(γΔt)` as a force (the earlier choice) gives the particles `Δp/(γm)` and the
-//!     next predictor carries `(1 − γ)Δt a_p` of it into `ṽ`: the fields part, the next step
-//!     has no contact, and the force alternates between 192 kN and zero every step for as
-//!     long as the bars touch (with γ = ½ the per-step impulse follows `x ← D − x`, whose
-//!     eigenvalue is −1);
-//!   - all of `Δp` as a kick leaves the fields' own large interface forces in `a_p` without the
-//!     contact force that balances them: 73 kN, with 34% of the energy lost;
-//!   - the split: 87–90 kN every step, and the energy of the single-field run.
-//! - With `predictor/usl` the contact law must act before the stress update, as in the paper's
-//!   order (eqs. 6–7: `L` from the corrected `v_i^{n+1}`), so this registration installs it as
-//!   a correction of the predictor's grid update (`Installer::add_grid_update_correction`): it
-//!   runs after `predictor/usl` and before the predictor's health check, corrects `v̄ⁿ⁺¹` and
-//!   the nodal acceleration in place (eqs. 9–10, 13), and the stress stage takes the velocity
-//!   gradient from the corrected velocities. Every pair is separable there: the engine's field
-//!   assignment has already kept inseparable sides of a group in one field, from the damage at
-//!   the start of the step as the paper's partition does. Measured on the two disks: 84% of the
-//!   kinetic energy back (85% with Newmark); applied after the stress instead, 48%.
+//! - Integrators. The system never asks which integrator runs: it reads the integrator's
+//!   `GridIntegration` (published by the predictor's installer) and the installer places it
+//!   with `Installer::add_impulse_systems`, where that description says a grid impulse acts.
+//!   - Predictor-corrector (`predictor/newmark`): it runs in the contact stage, after the
+//!     stress. The end-of-step velocity is `ṽ + γΔt f/m` with the forces of the new stress
+//!     (`GridIntegration::end_of_step_velocity`); the system gathers those forces, finds the
+//!     impulse `Δp` Algorithm 3 asks for there, and splits it ([`split_newmark_impulse`]): the
+//!     collision part `J`, the impulse the same law gives between the predicted velocities `ṽ`
+//!     (what the bodies bring into the step), is a kick that corrects `ṽ` in place and goes to
+//!     `NodeContactImpulse`, which the advection adds to the particle velocities as `Σ N J/m`;
+//!     the rest, `(Δp − J)/(γΔt)`, is a force (what this step's stresses push across the
+//!     contact) left in `NodeContactForce` for the corrector to integrate like any other. The
+//!     corrected `v_I`, which moves the particles, is then exactly the one Algorithm 3 asks
+//!     for, and in lasting contact (`J ≈ 0`) the node's fields move as its single field would.
+//!     Taking all of `Δp/(γΔt)` as a force instead makes the fields part and the contact force
+//!     alternate between twice its value and zero from step to step; taking all of `Δp` as a
+//!     kick leaves the fields' own interface forces in `a_p` without the contact force that
+//!     balances them (`tests/contact.rs` has the two bars that show both).
+//!   - Update-stress-last (`predictor/usl`): the law must act before the stress update, as in
+//!     the paper's order (eqs. 6–7: `L` from the corrected `v_i^{n+1}`), so it runs in the
+//!     step's `grid_update_correction` window, after the predictor and before its health
+//!     check; it corrects `v̄ⁿ⁺¹` and the nodal acceleration in place (eqs. 9–10, 13), and the
+//!     stress stage takes the velocity gradient from the corrected velocities. Every pair is
+//!     separable there: the field assignment has already kept inseparable sides of a group in
+//!     one field, from the damage at the start of the step as the paper's partition does.
 //! - Slivers (`sliver_fraction`, update-stress-last only). A field that holds a tiny fraction
 //!   of a shared node's mass (one particle at `N ≈ 10⁻⁵` leaving the node) gets
 //!   `v̄ = (p + Δt f)/m` with a force that keeps the full `∇N` while the mass vanishes; with
@@ -80,8 +74,8 @@
 //!   node, with no meaningful mass gradient, is the heavier one). Weighting the normals by
 //!   mass, mass² or mass⁴, or taking the larger mass gradient, did worse on both.
 
-use crate::predictor::newmark::NewmarkParams;
 use crate::transfer::{ForceSources, ParticleSlices, force_contribution};
+use bevy_ecs::system::SystemParam;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -272,15 +266,10 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     if !(parsed.sliver_fraction >= 0.0 && parsed.sliver_fraction < 0.5) {
         return Err(params.error("sliver_fraction", "expected a fraction in [0, 0.5)"));
     }
-    // The field assignment keeps inseparable sides of a group in one field (fractum_engine::fields).
+    // The field assignment keeps inseparable sides of a group in one field with this D̄_min.
     installer.insert_resource(fractum_engine::fields::Separability(parsed.separability));
     installer.insert_resource(parsed);
-    if installer.world().contains_resource::<NewmarkParams>() {
-        with_dim!(installer.dimension(), D => installer.add_systems(frictional_contact::<D>));
-    } else {
-        with_dim!(installer.dimension(), D => installer.add_grid_update_correction(frictional_contact_usl::<D>));
-    }
-    Ok(())
+    with_dim!(installer.dimension(), D => installer.add_impulse_systems(frictional_contact::<D>))
 }
 
 /// Every pair names groups some body belongs to, once, with μ >= 0.
@@ -511,9 +500,9 @@ struct NodeContact<V> {
 pub struct ContactColumns<'a, D: Dim> {
     /// Fields per node.
     pub fields: &'a [NodeFields],
-    /// Separability statistics per node (eq. 21); `None` treats every pair of fields as
-    /// separable, which holds where the field assignment has already kept inseparable sides
-    /// of a group in one field.
+    /// Separability statistics per node (eq. 21), read when the law acts after the stress;
+    /// `None` treats every pair of fields as separable. Before the stress the field
+    /// assignment has already kept inseparable sides of a group in one field.
     pub damage: Option<&'a [NodeFieldDamage]>,
     /// Field masses.
     pub mass: &'a [NodeMass],
@@ -529,131 +518,139 @@ pub struct ContactColumns<'a, D: Dim> {
     pub impulse: &'a mut [NodeContactImpulse<D>],
 }
 
-/// How the end-of-step velocity the contact acts on is found, and where the correction goes.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Integrator {
-    /// Update-stress-last: the node velocities are the end-of-step `v̄ⁿ⁺¹` (eq. 6); they and
-    /// the accelerations are corrected in place, and the contact force is `Δp/Δt`.
-    UpdateStressLast,
-    /// Newmark predictor-corrector with `γΔt`: the end-of-step velocity is `ṽ + γΔt f/m` with
-    /// the forces of the new stress. The impulse splits ([`split_newmark_impulse`]) into a
-    /// collision part, which corrects `ṽ` in place and is written as `NodeContactImpulse`, and
-    /// a force, written as `NodeContactForce` for the corrector to integrate.
-    Newmark(f64),
+/// What the contact law needs besides the node columns: its parameters, the held velocity
+/// components, and how the integrator turns its impulses into motion.
+pub struct ContactStep<'a, V> {
+    /// The law's parameters.
+    pub params: &'a FrictionalParams,
+    /// Per node, the velocity components a boundary condition holds.
+    pub held: &'a [[bool; fractum_engine::boundary::MAX_COMPONENTS]],
+    /// The integrator's description ([`GridIntegration`]).
+    pub integration: GridIntegration,
+    /// The step size.
+    pub dt: f64,
+    /// The body force per unit mass, for the forces of the new stress (Newmark).
+    pub body_force: V,
 }
 
 /// Algorithm 3 at every node with two fields or more: normals (eq. 11), impulses, and the
-/// correction `integrator` asks for.
-#[allow(clippy::too_many_arguments)]
+/// correction the integrator's description asks for.
 pub fn apply_contact<D: Dim>(
     c: &Connectivity<D>,
     slices: &ParticleSlices<D>,
-    body_force: D::Vector,
     nodes: ContactColumns<D>,
-    params: &FrictionalParams,
-    held: &[[bool; fractum_engine::boundary::MAX_COMPONENTS]],
-    dt: f64,
-    integrator: Integrator,
+    step: &ContactStep<D::Vector>,
+) {
+    // Only nodes with two or more fields can be in contact: normals, trial velocities and
+    // impulses are gathered there alone, from the node-major connectivity.
+    let shared: Vec<usize> = (0..nodes.fields.len())
+        .into_par_iter()
+        .filter(|&i| nodes.fields[i].count >= 2)
+        .collect();
+    let results: Vec<NodeContact<D::Vector>> = shared
+        .par_iter()
+        .map(|&i| node_contact(c, slices, &nodes, step, i))
+        .collect();
+    write_contact(&shared, &results, nodes, step);
+}
+
+/// The statistics of fields failed throughout: every pair separable.
+const SEPARABLE_EVERYWHERE: NodeFieldDamage = NodeFieldDamage {
+    mean: [1.0; MAX_FIELDS],
+    max: [1.0; MAX_FIELDS],
+};
+
+/// The contact law at shared node `i`: its fields' normals and impulses.
+fn node_contact<D: Dim>(
+    c: &Connectivity<D>,
+    slices: &ParticleSlices<D>,
+    nodes: &ContactColumns<D>,
+    step: &ContactStep<D::Vector>,
+    i: usize,
+) -> NodeContact<D::Vector> {
+    let (integration, params) = (step.integration, step.params);
+    let entries = match c.node_offsets.get(i..i + 2) {
+        Some(&[from, to]) => &c.node_entries[from..to],
+        _ => &[],
+    };
+    let mut gradient = [D::Vector::ZERO; MAX_FIELDS];
+    let mut force = [D::Vector::ZERO; MAX_FIELDS];
+    for &(e, p) in entries {
+        let (e, p) = (e as usize, p as usize);
+        gradient[c.field(e)] += c.gradients[e] * slices.mass[p].0;
+        if integration.needs_stress_forces() {
+            force[c.field(e)] += force_contribution(c, slices, step.body_force, e, p);
+        }
+    }
+    let normals = gradient.map(|g| {
+        let length = g.length();
+        if length > 0.0 {
+            g / length
+        } else {
+            D::Vector::ZERO
+        }
+    });
+    // The end-of-step velocity the contact acts on.
+    let (mass, velocity) = (&nodes.mass[i].0, &nodes.velocity[i].0);
+    let states = std::array::from_fn(|k| FieldState {
+        mass: mass[k],
+        velocity: integration.end_of_step_velocity(mass[k], velocity[k], force[k], step.dt),
+        normal: normals[k],
+        key: nodes.fields[i].keys[k],
+    });
+    // Before the stress the field assignment has settled which sides of a group can
+    // separate; after it the partition stage's statistics of this step say so. Slivers
+    // (see the module header) arise only where the end-of-step velocity comes from the
+    // predictor's own forces.
+    let (stats, merge_below) = match integration.impulse_window() {
+        ImpulseWindow::BeforeStress => (&SEPARABLE_EVERYWHERE, params.sliver_fraction),
+        ImpulseWindow::AfterStress => (nodes.damage.map_or(&SEPARABLE_EVERYWHERE, |d| &d[i]), 0.0),
+    };
+    let held = &step.held[i][..D::N];
+    let impulses = node_impulses(&nodes.fields[i], &states, stats, params, held, merge_below);
+    // Newmark: the part of the impulse that a collision of the predicted velocities asks
+    // for, when the pair is in contact at all.
+    let splits = matches!(integration, GridIntegration::PredictorCorrector { .. });
+    let collision = if splits && impulses.iter().any(|dp| *dp != D::Vector::ZERO) {
+        let predicted = std::array::from_fn(|k| FieldState {
+            velocity: velocity[k],
+            ..states[k]
+        });
+        node_impulses(
+            &nodes.fields[i],
+            &predicted,
+            stats,
+            params,
+            held,
+            merge_below,
+        )
+    } else {
+        [D::Vector::ZERO; MAX_FIELDS]
+    };
+    NodeContact {
+        normals,
+        impulses,
+        collision,
+    }
+}
+
+/// Writes the normals, and applies each shared node's impulses as the integrator's
+/// description says; every other node's contact columns are cleared.
+fn write_contact<D: Dim>(
+    shared: &[usize],
+    results: &[NodeContact<D::Vector>],
+    nodes: ContactColumns<D>,
+    step: &ContactStep<D::Vector>,
 ) {
     let ContactColumns {
-        fields,
-        damage,
         mass,
         velocity,
         acceleration,
         normal,
         contact,
         impulse,
+        ..
     } = nodes;
-    // The statistics of fields failed throughout: every pair separable.
-    let separable_everywhere = NodeFieldDamage {
-        mean: [1.0; MAX_FIELDS],
-        max: [1.0; MAX_FIELDS],
-    };
-    // Only nodes with two or more fields can be in contact: normals, trial velocities and
-    // impulses are gathered there alone, from the node-major connectivity.
-    let shared: Vec<usize> = (0..fields.len())
-        .into_par_iter()
-        .filter(|&i| fields[i].count >= 2)
-        .collect();
-    let results: Vec<NodeContact<D::Vector>> = shared
-        .par_iter()
-        .map(|&i| {
-            let entries = match c.node_offsets.get(i..i + 2) {
-                Some(&[from, to]) => &c.node_entries[from..to],
-                _ => &[],
-            };
-            let mut gradient = [D::Vector::ZERO; MAX_FIELDS];
-            let mut force = [D::Vector::ZERO; MAX_FIELDS];
-            for &(e, p) in entries {
-                let (e, p) = (e as usize, p as usize);
-                gradient[c.field(e)] += c.gradients[e] * slices.mass[p].0;
-                if let Integrator::Newmark(_) = integrator {
-                    force[c.field(e)] += force_contribution(c, slices, body_force, e, p);
-                }
-            }
-            let normals = gradient.map(|g| {
-                let length = g.length();
-                if length > 0.0 {
-                    g / length
-                } else {
-                    D::Vector::ZERO
-                }
-            });
-            // The end-of-step velocity the contact acts on.
-            let states = std::array::from_fn(|k| FieldState {
-                mass: mass[i].0[k],
-                velocity: match integrator {
-                    Integrator::Newmark(gamma_dt) => crate::corrector::newmark::correct(
-                        mass[i].0[k],
-                        velocity[i].0[k],
-                        force[k],
-                        gamma_dt,
-                    ),
-                    Integrator::UpdateStressLast => velocity[i].0[k],
-                },
-                normal: normals[k],
-                key: fields[i].keys[k],
-            });
-            let stats = damage.map_or(&separable_everywhere, |d| &d[i]);
-            let merge_below = match integrator {
-                Integrator::UpdateStressLast => params.sliver_fraction,
-                Integrator::Newmark(_) => 0.0,
-            };
-            let impulses = node_impulses(
-                &fields[i],
-                &states,
-                stats,
-                params,
-                &held[i][..D::N],
-                merge_below,
-            );
-            // Newmark: the part of the impulse that a collision of the predicted velocities
-            // asks for, when the pair is in contact at all.
-            let collision = match integrator {
-                Integrator::Newmark(_) if impulses.iter().any(|dp| *dp != D::Vector::ZERO) => {
-                    let predicted = std::array::from_fn(|k| FieldState {
-                        velocity: velocity[i].0[k],
-                        ..states[k]
-                    });
-                    node_impulses(
-                        &fields[i],
-                        &predicted,
-                        stats,
-                        params,
-                        &held[i][..D::N],
-                        merge_below,
-                    )
-                }
-                _ => [D::Vector::ZERO; MAX_FIELDS],
-            };
-            NodeContact {
-                normals,
-                impulses,
-                collision,
-            }
-        })
-        .collect();
     normal
         .par_iter_mut()
         .for_each(|n| *n = NodeNormal::default());
@@ -663,28 +660,23 @@ pub fn apply_contact<D: Dim>(
     impulse
         .par_iter_mut()
         .for_each(|j| *j = NodeContactImpulse::default());
-    for (
-        &i,
-        NodeContact {
-            normals,
-            impulses: dp,
-            collision,
-        },
-    ) in shared.iter().zip(&results)
-    {
-        normal[i].0 = *normals;
-        match integrator {
-            Integrator::Newmark(gamma_dt) => {
+    let (dt, window) = (step.dt, step.integration.force_window(step.dt));
+    for (&i, result) in shared.iter().zip(results) {
+        normal[i].0 = result.normals;
+        let dp = &result.impulses;
+        match step.integration {
+            GridIntegration::PredictorCorrector { .. } => {
                 for (k, &m) in mass[i].0.iter().enumerate() {
                     if m > 0.0 {
-                        let (kick, force) = split_newmark_impulse(dp[k], collision[k], gamma_dt);
+                        let (kick, force) =
+                            split_newmark_impulse(dp[k], result.collision[k], window);
                         velocity[i].0[k] += kick / m;
                         impulse[i].0[k] = kick;
                         contact[i].0[k] = force;
                     }
                 }
             }
-            Integrator::UpdateStressLast => {
+            GridIntegration::UpdateStressLast => {
                 contact[i].0 = dp.map(|dp| dp / dt);
                 for (k, (&m, &dp)) in mass[i].0.iter().zip(dp).enumerate() {
                     if m > 0.0 {
@@ -708,22 +700,26 @@ pub fn split_newmark_impulse<V: VectorOps>(impulse: V, collision: V, gamma_dt: f
     (collision, (impulse - collision) / gamma_dt)
 }
 
-/// The plumbing both `contact/frictional` systems share: the columns, the held components and
-/// [`apply_contact`]. `use_damage` says whether the pairs' separability comes from the partition
-/// stage's statistics (Newmark) or has been settled by the field assignment (update-stress-last).
-#[allow(clippy::too_many_arguments)]
-fn run_contact<D: Dim>(
-    dt: f64,
-    params: &FrictionalParams,
-    body_force: D::Vector,
-    bcs: &BoundaryConditions,
-    connectivity: &Connectivity<D>,
-    particles: &ForceSources<D>,
-    nodes: &mut NodeQuery<D>,
-    integrator: Integrator,
-    use_damage: bool,
+/// The resources the contact system reads.
+#[derive(SystemParam)]
+pub struct ContactInputs<'w, D: Dim> {
+    clock: Res<'w, SimClock>,
+    params: Res<'w, FrictionalParams>,
+    integration: Res<'w, GridIntegration>,
+    body_force: Res<'w, BodyForce<D>>,
+    bcs: Res<'w, BoundaryConditions>,
+    connectivity: Res<'w, Connectivity<D>>,
+}
+
+/// The `contact/frictional` system, with either integrator: it runs where the integrator's
+/// [`GridIntegration`] says a grid impulse acts and applies its impulses as that description
+/// says (see the module header).
+pub fn frictional_contact<D: Dim>(
+    inputs: ContactInputs<D>,
+    particles: ForceSources<D>,
+    mut nodes: NodeQuery<D>,
 ) {
-    let Some(slices) = ParticleSlices::of(particles) else {
+    let Some(slices) = ParticleSlices::of(&particles) else {
         return;
     };
     let Some((
@@ -739,10 +735,10 @@ fn run_contact<D: Dim>(
     else {
         return;
     };
-    let held = bcs.held_mask(fields.len());
+    let held = inputs.bcs.held_mask(fields.len());
     let columns = ContactColumns {
         fields,
-        damage: use_damage.then_some(damage),
+        damage: Some(damage),
         mass,
         velocity: &mut velocity,
         acceleration: &mut acceleration,
@@ -750,69 +746,14 @@ fn run_contact<D: Dim>(
         contact: &mut contact,
         impulse: &mut impulse,
     };
-    apply_contact(
-        connectivity,
-        &slices,
-        body_force,
-        columns,
-        params,
-        &held,
-        dt,
-        integrator,
-    );
-}
-
-/// The `contact/frictional` system with the Newmark predictor-corrector, in the contact stage.
-#[allow(clippy::too_many_arguments)]
-pub fn frictional_contact<D: Dim>(
-    clock: Res<SimClock>,
-    params: Res<FrictionalParams>,
-    newmark: Res<NewmarkParams>,
-    body_force: Res<BodyForce<D>>,
-    bcs: Res<BoundaryConditions>,
-    connectivity: Res<Connectivity<D>>,
-    particles: ForceSources<D>,
-    mut nodes: NodeQuery<D>,
-) {
-    let integrator = Integrator::Newmark(newmark.gamma * clock.dt);
-    run_contact(
-        clock.dt,
-        &params,
-        body_force.0,
-        &bcs,
-        &connectivity,
-        &particles,
-        &mut nodes,
-        integrator,
-        true,
-    );
-}
-
-/// The `contact/frictional` system with update-stress-last: a correction of `predictor/usl`'s
-/// grid update, so that the stress stage takes the velocity gradient from the contact-corrected
-/// velocities (the DFG paper's order). Every pair is separable here: the field assignment has
-/// already kept inseparable sides of a group in one field, with the same damage the paper's
-/// step-start partition uses.
-pub fn frictional_contact_usl<D: Dim>(
-    clock: Res<SimClock>,
-    params: Res<FrictionalParams>,
-    body_force: Res<BodyForce<D>>,
-    bcs: Res<BoundaryConditions>,
-    connectivity: Res<Connectivity<D>>,
-    particles: ForceSources<D>,
-    mut nodes: NodeQuery<D>,
-) {
-    run_contact(
-        clock.dt,
-        &params,
-        body_force.0,
-        &bcs,
-        &connectivity,
-        &particles,
-        &mut nodes,
-        Integrator::UpdateStressLast,
-        false,
-    );
+    let step = ContactStep {
+        params: &inputs.params,
+        held: &held,
+        integration: *inputs.integration,
+        dt: inputs.clock.dt,
+        body_force: inputs.body_force.0,
+    };
+    apply_contact(&inputs.connectivity, &slices, columns, &step);
 }
 
 #[cfg(test)]
@@ -1015,14 +956,17 @@ mod tests {
     }
 
     /// Two particles of groups 0 and 1 approaching each other across one cell of a tiny world,
-    /// with `predictor` run after the basis and the field assignment.
+    /// with `predictor` run after the basis and the field assignment, and the integrator's
+    /// description `integration` published as its installer would.
     fn two_groups_meeting<M>(
         predictor: impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, M>,
+        integration: GridIntegration,
     ) -> World {
         let mut world = tiny_world::<Two>(2, 0.5, 1e-3);
         world.insert_resource(FrictionalParams::default());
         world.insert_resource(crate::predictor::usl::UslPredictorParams::default());
-        world.insert_resource(NewmarkParams::default());
+        world.insert_resource(crate::predictor::newmark::NewmarkParams::default());
+        world.insert_resource(integration);
         let a = spawn_particle(&mut world, DVec2::new(0.4, 0.3), DVec2::X, 1.0, 0.01);
         let b = spawn_particle(&mut world, DVec2::new(0.6, 0.3), -DVec2::X, 1.0, 0.01);
         world.entity_mut(a).insert(ContactGroup(0));
@@ -1030,7 +974,7 @@ mod tests {
         run_system(&mut world, crate::basis::linear::linear_basis::<Two>);
         run_system(
             &mut world,
-            fractum_engine::fields::assign_fields_system::<Two>,
+            crate::partition::field_assignment::assign_fields_system::<Two>,
         );
         run_system(&mut world, predictor);
         world
@@ -1073,9 +1017,12 @@ mod tests {
     /// fields no longer approach.
     #[test]
     fn the_system_stops_approach_and_keeps_momentum() {
-        let mut world = two_groups_meeting(crate::predictor::usl::usl_predictor::<Two>);
+        let mut world = two_groups_meeting(
+            crate::predictor::usl::usl_predictor::<Two>,
+            GridIntegration::UpdateStressLast,
+        );
         let before = node_momentum(&mut world);
-        run_system(&mut world, frictional_contact_usl::<Two>);
+        run_system(&mut world, frictional_contact::<Two>);
         let after = node_momentum(&mut world);
         assert!((after - before).length() < 1e-15);
         assert_no_approach_left(&mut world);
@@ -1119,7 +1066,10 @@ mod tests {
     /// no approach left), the kick is in `NodeContactImpulse` and no contact force is left.
     #[test]
     fn the_newmark_system_turns_a_collision_into_a_kick() {
-        let mut world = two_groups_meeting(crate::predictor::newmark::newmark_predictor::<Two>);
+        let mut world = two_groups_meeting(
+            crate::predictor::newmark::newmark_predictor::<Two>,
+            GridIntegration::PredictorCorrector { gamma: 0.5 },
+        );
         let before = node_momentum(&mut world);
         run_system(&mut world, frictional_contact::<Two>);
         assert!((node_momentum(&mut world) - before).length() < 1e-15);

@@ -4,7 +4,8 @@
 //! - Stage: corrector. Registration name: `corrector/newmark`. Pairs with `predictor/newmark`.
 //! - Implements eigensoftening-lme-mpm.md Appendix A (Algorithm 1), steps 7–8, eq. (2):
 //!   `f_I = Σ N_Ip m_p b − Σ (1 − D_p) V_p σ_p · ∇N_Ip` with the stress just updated, and
-//!   `v_I = ṽ_I + γ Δt f_I / m_I`, on every velocity field. Held velocity components stay at
+//!   `v_I = ṽ_I + γ Δt f_I / m_I`, on every velocity field, with γ from the predictor's
+//!   `GridIntegration` (whose `end_of_step_velocity` is this formula). Held velocity components stay at
 //!   their prescribed value and the force that holds them is the region's reaction. As in the authors' implementation the
 //!   force, and so the acceleration handed to the particle update, is zero in held components:
 //!   the particle update applies a full `Δt a_I`, so passing the holding acceleration
@@ -14,7 +15,6 @@
 //!   part) and leaves its force in `NodeContactForce`, which joins `f_I` and is integrated like
 //!   any other force (see `contact/frictional`).
 
-use crate::predictor::newmark::NewmarkParams;
 use crate::transfer::{ForceSources, ParticleSlices, field_forces};
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
@@ -34,16 +34,6 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     Ok(())
 }
 
-/// Corrected velocity `ṽ + γ Δt f / m` of one node (zero for an empty node), before the
-/// boundary conditions are held.
-pub fn correct<V: VectorOps>(mass: f64, predicted: V, force: V, gamma_dt: f64) -> V {
-    if mass > 0.0 {
-        predicted + force * gamma_dt / mass
-    } else {
-        V::ZERO
-    }
-}
-
 type NodeQuery<'w, 's, D> = Query<
     'w,
     's,
@@ -61,7 +51,7 @@ type NodeQuery<'w, 's, D> = Query<
 #[allow(clippy::too_many_arguments)]
 pub fn newmark_corrector<D: Dim>(
     clock: Res<SimClock>,
-    params: Res<NewmarkParams>,
+    integration: Res<GridIntegration>,
     body_force: Res<BodyForce<D>>,
     bcs: Res<BoundaryConditions>,
     mut reactions: ResMut<Reactions<D>>,
@@ -86,7 +76,8 @@ pub fn newmark_corrector<D: Dim>(
         node_mass.len(),
         forces,
     );
-    let gamma_dt = params.gamma * clock.dt;
+    let (integration, dt) = (*integration, clock.dt);
+    let gamma_dt = integration.force_window(dt);
     let velocities: &mut [NodeVelocity<D>] = &mut node_velocity;
     velocities
         .par_iter_mut()
@@ -96,7 +87,7 @@ pub fn newmark_corrector<D: Dim>(
         .for_each(|(((v, f), c), m)| {
             for (k, fk) in f.iter_mut().enumerate() {
                 *fk += c.0[k];
-                v.0[k] = correct(m.0[k], v.0[k], *fk, gamma_dt);
+                v.0[k] = integration.end_of_step_velocity(m.0[k], v.0[k], *fk, dt);
             }
         });
     bcs.enforce(
@@ -153,7 +144,7 @@ mod tests {
     #[test]
     fn corrector_adds_gamma_dt_times_acceleration_and_holds_fixed_nodes() {
         let mut world = tiny_world::<Two>(2, 0.5, 0.1);
-        world.insert_resource(NewmarkParams { gamma: 0.5 });
+        world.insert_resource(GridIntegration::PredictorCorrector { gamma: 0.5 });
         world.insert_resource(BodyForce::<Two>(DVec2::new(0.0, -10.0)));
         world.insert_resource(BoundaryConditions {
             regions: vec![BoundaryRegion::fixed("corner", vec![0])],
@@ -188,7 +179,7 @@ mod tests {
     #[test]
     fn corrector_applies_the_body_force_along_z_in_3d() {
         let mut world = tiny_world::<Three>(2, 0.5, 0.1);
-        world.insert_resource(NewmarkParams { gamma: 0.5 });
+        world.insert_resource(GridIntegration::PredictorCorrector { gamma: 0.5 });
         world.insert_resource(BodyForce::<Three>(DVec3::new(0.0, 0.0, -10.0)));
         spawn_particle(&mut world, DVec3::splat(0.25), DVec3::ZERO, 8.0, 0.1);
         let mut query = world.query::<&mut NodeMass>();

@@ -1,6 +1,7 @@
 //! Rankine damage with linear strain softening tied to the fracture energy.
 //!
-//! - Stage: damage. Registration name: `damage/rankine`. Needs `stress/neo_hookean`.
+//! - Stage: damage. Registration name: `damage/rankine`. Needs a stress system that provides
+//!   `HyperelasticStress` (the stock one: `stress/neo_hookean`).
 //! - dfg-partitioning-mpm.md §2.7, eq. (23) (Cervera et al.'s model): once the largest principal
 //!   trial stress `r` (of the three, `σ_zz` included in plane strain) exceeds the particle's
 //!   strength `σ_f`, `D = (1 + H_s)(1 − σ_f / r̂)` with `r̂` the largest `r` so far (damage never
@@ -52,7 +53,7 @@ pub const REGISTRATION: Registration = Registration {
         },
         WEIBULL_PARAM,
     ],
-    requires: &["stress/neo_hookean"],
+    requires: &[],
     install,
 };
 

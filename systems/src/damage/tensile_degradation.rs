@@ -18,10 +18,11 @@
 //! - The damage is in the stress itself, so the force transfer must not scale by `1 − D` as
 //!   well: the install inserts [`DamageInStress`]. That is why these laws cannot share a
 //!   pipeline with `damage/eigenerosion` or `damage/eigensoftening`, which rely on the scaling.
-//! - The trial stress is eq. (22)'s neo-Hookean stress, which `stress/neo_hookean` computes
-//!   afresh from `F` every step; the degraded stress written back is what the transfers read.
-//!   `stress/linear_elastic` integrates the stress in rate form from its previous value, so it
-//!   would start the next step from the degraded stress; the install refuses it.
+//! - The trial stress must come from a hyperelastic potential, computed afresh from `F` every
+//!   step (the capability `HyperelasticStress`; eq. (22)'s neo-Hookean stress with the stock
+//!   `stress/neo_hookean`); the degraded stress written back is what the transfers read. A
+//!   stress integrated in rate form (`stress/linear_elastic`) would start the next step from
+//!   the degraded stress; the install refuses every stress system without the capability.
 //! - The stored energy density (`StrainEnergyDensity`, which the stress stage writes for the
 //!   undamaged material) is scaled to what the damaged particle still stores
 //!   ([`degraded_energy`]), so `strain_energy` in `series.csv` is recoverable energy.
@@ -93,18 +94,19 @@ pub fn require_stress_degrading_pipeline(
             ),
         ));
     }
-    if installer.pipeline_has("stress/linear_elastic")
-        || !installer.pipeline_has("stress/neo_hookean")
-    {
-        return Err(params.error(
-            "",
-            format!(
-                "{name} needs stress/neo_hookean (and not stress/linear_elastic): it degrades the \
-                 trial stress of eq. 22, which neo-Hookean recomputes from F every step, while \
-                 linear elasticity would integrate on from the degraded stress"
-            ),
-        ));
-    }
+    installer
+        .require_from::<HyperelasticStress>(Stage::Stress)
+        .map_err(|message| {
+            params.error(
+                "",
+                format!(
+                    "{message} (the damage degrades the trial stress of eq. 22 after the stress \
+                     stage, so the next step must start again from the potential, as \
+                     stress/neo_hookean does; a rate-form stress such as stress/linear_elastic \
+                     would go on from the degraded one)"
+                ),
+            )
+        })?;
     installer.insert_resource(DamageInStress);
     Ok(())
 }

@@ -1,7 +1,8 @@
 //! Time-to-failure damage: a failing particle loses its tensile strength over the time a crack
 //! takes to cross it.
 //!
-//! - Stage: damage. Registration name: `damage/time_to_failure`. Needs `stress/neo_hookean`.
+//! - Stage: damage. Registration name: `damage/time_to_failure`. Needs a stress system that provides
+//!   `HyperelasticStress` (the stock one: `stress/neo_hookean`).
 //! - dfg-partitioning-mpm.md §2.7, eq. (24): `D ← min(1, D + Δt / τ)` with `τ = l_ch / c_f`, the
 //!   transit time of a crack running at the prescribed speed `c_f` across the characteristic
 //!   length `l_ch` (default: the cell diagonal, as in the paper). The paper prints `τ = c_f / ℓ`,
@@ -46,7 +47,7 @@ pub const REGISTRATION: Registration = Registration {
         },
         WEIBULL_PARAM,
     ],
-    requires: &["stress/neo_hookean"],
+    requires: &[],
     install,
 };
 

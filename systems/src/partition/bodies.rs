@@ -4,12 +4,13 @@
 //! - Implements dfg-partitioning-mpm.md §1.1.1 (after Bardenhagen et al.): the material of each
 //!   contact group (`contact_group` of its body) maps to its own velocity field at every node,
 //!   so two bodies in different groups interact only through the contact stage (eqs. 11–16).
-//! - The assignment itself is the engine's (`fractum_engine::fields`, with
-//!   `FieldRule { by_gradient: false }`): it runs right after the basis stage of every step, so
-//!   that the particle-to-grid transfer already sees the fields. The groups never change, so
-//!   there is nothing left for the partition stage to do.
+//! - The assignment is `partition::field_assignment`, installed in the step's `assign_fields`
+//!   window: it runs right after the basis stage of every step, so that the particle-to-grid
+//!   transfer already sees the fields. The particles carry no damage gradient, so every pair of
+//!   a group takes side 0. The groups never change, so there is nothing left for the partition
+//!   stage itself to do.
 
-use fractum_engine::fields::FieldRule;
+use super::field_assignment::install_field_assignment;
 use fractum_engine::prelude::*;
 
 /// Registration of `partition/bodies`.
@@ -23,16 +24,15 @@ pub const REGISTRATION: Registration = Registration {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
-    installer.insert_resource(FieldRule { by_gradient: false });
-    Ok(())
+    install_field_assignment(installer)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::basis::linear::linear_basis;
+    use crate::partition::field_assignment::assign_fields_system;
     use crate::predictor::usl::{UslPredictorParams, usl_predictor};
-    use fractum_engine::fields::assign_fields_system;
     use fractum_engine::testing::*;
 
     /// Two particles of different groups in one cell: after the assignment every node they

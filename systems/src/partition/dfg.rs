@@ -16,9 +16,10 @@
 //!     one piece is one body;
 //!   - the separability statistics of eq. 21 for each field of each node (mass-weighted mean
 //!     and maximum damage), stored in `NodeFieldDamage` for the contact stage.
-//! - Algorithms 1 and 2 (the node's reference gradient and each pair's side) are the engine's
-//!   field assignment (`fractum_engine::fields`), which this registration switches on: it runs
-//!   right after the basis stage on the new connectivity, with the gradients computed here. So
+//! - Algorithms 1 and 2 (the node's reference gradient and each pair's side) are the partition
+//!   stage's field assignment (`partition::field_assignment`), which this registration installs
+//!   in the step's `assign_fields` window: it runs right after the basis stage on the new
+//!   connectivity, with the gradients computed here. So
 //!   the fields of a step come from the damage of the previous step, as in the paper's
 //!   update-stress-last order, but from the particle positions at the start of the previous
 //!   step rather than its end (a lag of one step's motion, well inside a kernel radius).
@@ -30,8 +31,8 @@
 //!   kernel is zero beyond `r`, so the extra candidates add exact zeros and the results are
 //!   the same, bit for bit, as with a fresh search every step.
 
+use super::field_assignment::install_field_assignment;
 use crate::spatial::Spatial;
-use fractum_engine::fields::FieldRule;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -157,7 +158,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         .map_or((dimensions as f64).sqrt(), |r| r / spacing);
     crate::neighbour::declare_lists(installer, "partition/dfg", radius_cells * (1.0 + SKIN), 1.0);
     installer.insert_resource(parsed);
-    installer.insert_resource(FieldRule { by_gradient: true });
+    install_field_assignment(installer)?;
     installer.init_state::<SurfaceDetected>();
     installer.add_particle_component(SurfaceFlag::default());
     with_dim!(installer.dimension(), D => {
@@ -470,10 +471,9 @@ mod tests {
     #[test]
     fn a_failed_band_splits_the_nodes_along_it() {
         let mut world = strip_failed(None, 7..9);
-        world.insert_resource(FieldRule { by_gradient: true });
         run_system(
             &mut world,
-            fractum_engine::fields::assign_fields_system::<Two>,
+            crate::partition::field_assignment::assign_fields_system::<Two>,
         );
         run_system(&mut world, dfg_partition::<Two>);
         let fields = node_values::<NodeFields>(&mut world);

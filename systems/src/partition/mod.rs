@@ -2,3 +2,4 @@
 
 pub mod bodies;
 pub mod dfg;
+pub mod field_assignment;

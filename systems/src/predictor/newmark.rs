@@ -29,7 +29,8 @@ pub const REGISTRATION: Registration = Registration {
     install,
 };
 
-/// Parameters shared by the three Newmark systems (set by the predictor).
+/// Parameters of `predictor/newmark`; it publishes γ to the corrector and to grid laws as
+/// [`GridIntegration::PredictorCorrector`].
 #[derive(Resource, Deserialize, Clone, Copy, Debug, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct NewmarkParams {
@@ -66,6 +67,9 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         ),
     );
     installer.insert_resource(parsed);
+    installer.insert_resource(GridIntegration::PredictorCorrector {
+        gamma: parsed.gamma,
+    });
     with_dim!(installer.dimension(), D => installer.add_systems(newmark_predictor::<D>));
     Ok(())
 }

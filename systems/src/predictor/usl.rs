@@ -60,6 +60,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         return Err(params.error("min_node_mass", "expected a finite mass >= 0"));
     }
     installer.insert_resource(parsed);
+    installer.insert_resource(GridIntegration::UpdateStressLast);
     with_dim!(installer.dimension(), D => installer.add_systems(usl_predictor::<D>));
     Ok(())
 }

@@ -1,6 +1,7 @@
 //! Compressible neo-Hookean hyperelasticity, in plane strain (2D) or 3D.
 //!
-//! - Stage: stress. Registration name: `stress/neo_hookean`.
+//! - Stage: stress. Registration name: `stress/neo_hookean`. Provides `HyperelasticStress`
+//!   (the stress and its energy density from the potential below, afresh every step).
 //! - dfg-partitioning-mpm.md eq. (22): `σ = (λ ln J / J − μ / J) I + (μ / J) F Fᵀ`, with the
 //!   deformation gradient updated from the nodal velocity field, `F ← (I + Δt L) F` (eq. 8),
 //!   `L = Σ_I v_I ⊗ ∇N_I` (eq. 7). Plane strain: `F_zz = 1`, so `σ_zz = λ ln J / J`.
@@ -28,6 +29,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     crate::no_params(params)?;
     let scope = NeoHookeanScope(installer.materials().clone());
     installer.insert_resource(scope);
+    installer.provide::<HyperelasticStress>();
     with_dim!(installer.dimension(), D => installer.add_systems(neo_hookean_stress::<D>));
     Ok(())
 }
