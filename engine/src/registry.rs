@@ -478,6 +478,24 @@ impl<'a> Installer<'a> {
             .declare_for(entry, name)
     }
 
+    /// Registers a per-particle scalar column of the VTU frames, `value` of each particle's
+    /// `C` (a component this system added), e.g.
+    /// `installer.add_frame_scalar::<CrackOpening>("crack_opening", |w| w.0)`. A column name
+    /// registered before keeps its first reader. Write NaN where the law defines no value.
+    pub fn add_frame_scalar<C: Component>(&mut self, name: &str, value: fn(&C) -> f64) {
+        self.world
+            .get_resource_or_init::<crate::output::FrameColumns>()
+            .scalar(name, value);
+    }
+
+    /// Registers a per-particle vector column of the VTU frames (three components, zero beyond
+    /// the dimension), `value` of each particle's `C`.
+    pub fn add_frame_vector<C: Component>(&mut self, name: &str, value: fn(&C) -> [f64; 3]) {
+        self.world
+            .get_resource_or_init::<crate::output::FrameColumns>()
+            .vector(name, value);
+    }
+
     /// Read access to the world as built from the scene (grid, materials, particles).
     pub fn world(&self) -> &World {
         self.world

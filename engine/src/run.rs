@@ -5,8 +5,8 @@ use crate::checkpoint::{
     CheckpointEvery, CheckpointOutputs, DEFAULT_KEEP, SceneRecord, write_checkpoint,
 };
 use crate::components::{
-    BodyId, Damage, DamageGradient, Mass, MaterialId, Node, NodeFields, Particle, ParticleId,
-    Position, StrainEnergyDensity, Stress, SurfaceFlag, Velocity, Volume,
+    BodyId, Damage, Mass, MaterialId, Node, NodeFields, Particle, ParticleId, Position,
+    StrainEnergyDensity, Stress, Velocity, Volume,
 };
 use crate::diagnostics::{Totals, totals};
 use crate::dim::{Dim, Dimension, SymOps, VectorOps};
@@ -119,7 +119,7 @@ fn particle_frame_of<D: Dim>(world: &mut World) -> ParticleFrame {
         f.damage.push(d.0);
         f.strain_energy_density.push(w.0);
     }
-    partition_fields::<D>(world, &mut f);
+    system_columns::<D>(world, &mut f);
     if D::N == 2 {
         f.thickness = world.get_resource::<Thickness>().map(|t| t.0);
     }
@@ -164,30 +164,17 @@ fn grid_frame_of<D: Dim>(world: &mut World) -> GridFrame {
     f
 }
 
-/// The damage and partition stages' particle data, when the pipeline has them: the damage-field
-/// gradient, the strength, the crack opening,
-/// the surface flag, and the velocity field of the particle at its nearest node (the key
-/// `2 × group + side` of the field its largest-weight node puts it in).
-fn partition_fields<D: Dim>(world: &mut World, f: &mut ParticleFrame) {
-    let mut gradients = world.query_filtered::<&DamageGradient<D>, With<Particle>>();
-    let gradient: Vec<[f64; 3]> = gradients.iter(world).map(|g| g.0.to_3d()).collect();
-    if gradient.len() == f.id.len() {
-        f.vectors.push(("damage_gradient".into(), gradient));
-    }
-    let mut strengths = world.query_filtered::<&crate::components::Strength, With<Particle>>();
-    let strength: Vec<f64> = strengths.iter(world).map(|s| s.0).collect();
-    if strength.len() == f.id.len() {
-        f.scalars.push(("strength".into(), strength));
-    }
-    let mut openings = world.query_filtered::<&crate::components::CrackOpening, With<Particle>>();
-    let opening: Vec<f64> = openings.iter(world).map(|w| w.0).collect();
-    if opening.len() == f.id.len() {
-        f.scalars.push(("crack_opening".into(), opening));
-    }
-    let mut flags = world.query_filtered::<&SurfaceFlag, With<Particle>>();
-    let surface: Vec<f64> = flags.iter(world).map(|s| s.0).collect();
-    if surface.len() == f.id.len() {
-        f.scalars.push(("surface".into(), surface));
+/// The columns the installed systems registered ([`crate::output::FrameColumns`]), then the
+/// velocity field of each particle at its nearest node (the key `2 × group + side` of the field
+/// its largest-weight node puts it in) when some system assigns fields.
+fn system_columns<D: Dim>(world: &mut World, f: &mut ParticleFrame) {
+    if let Some(columns) = world.get_resource::<crate::output::FrameColumns>().cloned() {
+        for (name, values) in columns.read(world) {
+            match values {
+                crate::output::ColumnValues::Scalar(v) => f.scalars.push((name, v)),
+                crate::output::ColumnValues::Vector(v) => f.vectors.push((name, v)),
+            }
+        }
     }
     if !world.contains_resource::<crate::fields::FieldsAssigned>() {
         return;

@@ -80,8 +80,8 @@ pub enum Command {
     Run {
         /// Scene file (.ron).
         scene: PathBuf,
-        /// Output folder [default: out/<scene name>]. A folder holding a previous run is
-        /// refused unless --force.
+        /// Output folder [default: out/SCENE, SCENE being the scene file name without .ron]. A
+        /// folder holding a previous run is refused unless --force.
         #[arg(long)]
         out: Option<PathBuf>,
         /// Replace the previous run in the output folder (its series, frames and

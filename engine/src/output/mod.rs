@@ -3,11 +3,13 @@
 //! half-written file.
 
 mod atomic;
+mod columns;
 mod csv;
 mod pvd;
 mod vtu;
 
 pub use atomic::write_atomically;
+pub use columns::{ColumnValues, FrameColumns};
 pub use csv::SeriesWriter;
 pub use pvd::{read_pvd, write_pvd};
 pub use vtu::{

@@ -193,6 +193,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         check_snap_back(installer, params, &law, raw.band_width, &normal_modulus)?;
     }
     installer.add_particle_component(CrackOpening(0.0));
+    installer.add_frame_scalar::<CrackOpening>("crack_opening", |w| w.0);
     let initial_dissipation = seeded_dissipation(
         installer.world(),
         &materials,

@@ -141,6 +141,7 @@ pub fn install_strength(
     };
     let materials = installer.materials().clone();
     let mut given = Vec::new();
+    installer.add_frame_scalar::<Strength>("strength", |s| s.0);
     installer.add_particle_component_with(Strength(f64::INFINITY), |particle| {
         let material = *particle.get::<MaterialId>()?;
         if !materials.applies(material) {

@@ -161,9 +161,11 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     install_field_assignment(installer)?;
     installer.init_state::<SurfaceDetected>();
     installer.add_particle_component(SurfaceFlag::default());
+    installer.add_frame_scalar::<SurfaceFlag>("surface", |s| s.0);
     with_dim!(installer.dimension(), D => {
         installer.init_state::<DfgNeighbours<D>>();
         installer.add_particle_component(DamageGradient::<D>::default());
+        installer.add_frame_vector::<DamageGradient<D>>("damage_gradient", |g| g.0.to_3d());
         installer.add_systems(dfg_partition::<D>);
     });
     Ok(())
