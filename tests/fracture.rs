@@ -375,6 +375,37 @@ fn weibull_strengths_follow_eq_25_per_particle_and_reach_the_frames() {
     assert_eq!(written.1.len(), strengths.len());
 }
 
+/// A frame's `strength` holds only strengths a law defines: in `tension_rankine.ron` the band's
+/// particles carry the law's σ_f, the bar's (no strength law) NaN, never an infinity.
+#[test]
+fn frames_show_strength_only_where_a_law_governs() {
+    let mut built = scene_with("tension_rankine.ron", &[]);
+    let world = &mut built.simulation.world;
+    let frame = fractum_engine::run::particle_frame(world);
+    let (_, strength) = frame
+        .scalars
+        .iter()
+        .find(|(name, _)| name == "strength")
+        .expect("a strength array in the frame");
+    let band = world
+        .resource::<Materials>()
+        .0
+        .iter()
+        .position(|m| m.name == "band")
+        .map(|i| i as u16);
+    let mut query = world.query_filtered::<&MaterialId, With<Particle>>();
+    let materials: Vec<MaterialId> = query.iter(world).copied().collect();
+    let governed = materials.iter().filter(|m| Some(m.0) == band).count();
+    assert!(governed > 0 && governed < materials.len(), "{governed}");
+    for (m, s) in materials.iter().zip(strength) {
+        if Some(m.0) == band {
+            assert!(s.is_finite() && *s > 0.0, "{s}");
+        } else {
+            assert!(s.is_nan(), "{s}");
+        }
+    }
+}
+
 #[test]
 fn rankine_leaves_the_damage_a_scene_seeds_out_of_its_dissipated_energy() {
     // The band of tension_rankine.ron with its lower half seeded as failed: after a step far

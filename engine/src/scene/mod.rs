@@ -49,14 +49,36 @@ pub struct SceneFile {
     pub scene: Scene,
 }
 
+/// The text of a scene file's bytes; bytes that are not UTF-8 are refused with the line and
+/// column (counted in characters) of the first bad byte and its byte offset.
+pub fn scene_text(name: &str, bytes: Vec<u8>) -> Result<String, SceneError> {
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let bytes = e.as_bytes();
+        // The text before the bad byte is valid UTF-8.
+        let before = std::str::from_utf8(&bytes[..at]).unwrap_or_default();
+        let location = Location::of_offset(before, before.len());
+        SceneError::at(
+            name,
+            location,
+            "",
+            format!(
+                "the scene file is not UTF-8 text: byte {at} (0x{:02x}) cannot start or continue \
+                 a character; save the file as UTF-8",
+                bytes[at]
+            ),
+        )
+    })
+}
+
 impl SceneFile {
     /// Reads and parses a scene file.
     pub fn read(path: &Path) -> Result<Self, SceneError> {
         let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| {
+        let bytes = std::fs::read(path).map_err(|e| {
             SceneError::whole_file(&name, format!("cannot read the scene file: {e}"))
         })?;
-        Self::parse(&name, text)
+        Self::parse(&name, scene_text(&name, bytes)?)
     }
 
     /// Parses scene text; `name` is used in messages.
@@ -213,6 +235,20 @@ fn spanned_error(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bytes_that_are_not_utf8_are_refused_with_their_place() {
+        let bytes = "(\n  tïme: ".bytes().chain([0xff, b')']).collect();
+        let e = scene_text("s.ron", bytes).unwrap_err();
+        // Line 2, after the two spaces and the five characters of `tïme:` and a space.
+        assert_eq!(e.location, Some(Location { line: 2, col: 9 }));
+        assert!(
+            e.to_string()
+                .starts_with("s.ron:2:9: the scene file is not UTF-8 text: byte 11 (0xff)"),
+            "{e}"
+        );
+        assert_eq!(scene_text("s.ron", b"()".to_vec()).unwrap(), "()");
+    }
 
     #[derive(Debug, serde::Deserialize)]
     #[serde(deny_unknown_fields)]

@@ -141,7 +141,10 @@ pub fn install_strength(
     };
     let materials = installer.materials().clone();
     let mut given = Vec::new();
-    installer.add_frame_scalar::<Strength>("strength", |s| s.0);
+    // Particles no strength law governs carry an infinite strength; their frame value is NaN
+    // (undefined), which ParaView leaves out of a colour range.
+    installer
+        .add_frame_scalar::<Strength>("strength", |s| if s.0.is_finite() { s.0 } else { f64::NAN });
     installer.add_particle_component_with(Strength(f64::INFINITY), |particle| {
         let material = *particle.get::<MaterialId>()?;
         if !materials.applies(material) {
