@@ -124,6 +124,8 @@ pub struct Simulation {
     particles_at_start: usize,
     time_step: TimeStep,
     end: End,
+    /// A step the run stops at if it comes before the end (`--steps`).
+    step_cap: Option<u64>,
     /// Kahan compensation of the clock's running sum of step sizes.
     time_compensation: f64,
 }
@@ -156,6 +158,7 @@ impl Simulation {
             particles_at_start: 0,
             time_step,
             end,
+            step_cap: None,
             time_compensation: 0.0,
         })
     }
@@ -242,23 +245,45 @@ impl Simulation {
         self.end = end;
     }
 
+    /// Stops the run at step `cap` (counted from the start of the run) if the end comes later;
+    /// the end itself is never passed, and a time end keeps its last step shortened to land on
+    /// it. `None` runs to the end.
+    pub fn set_step_cap(&mut self, cap: Option<u64>) {
+        self.step_cap = cap;
+    }
+
+    /// The step cap, if any ([`Simulation::set_step_cap`]).
+    pub fn step_cap(&self) -> Option<u64> {
+        self.step_cap
+    }
+
     /// Fraction of the run done, in [0, 1].
     pub fn progress(&self) -> f64 {
         let clock = self.clock();
-        match self.end {
+        let to_end = match self.end {
             End::Steps(n) if n > 0 => clock.step as f64 / n as f64,
             End::Time(t) if t > 0.0 => (clock.time / t).min(1.0),
             _ => 1.0,
+        };
+        match self.step_cap {
+            Some(cap) if cap > 0 => to_end.max((clock.step as f64 / cap as f64).min(1.0)),
+            Some(_) => 1.0,
+            None => to_end,
         }
     }
 
     /// True once the end of the run is reached.
-    pub fn finished(&self) -> bool {
+    pub fn at_end(&self) -> bool {
         let clock = self.clock();
         match self.end {
             End::Steps(n) => clock.step >= n,
             End::Time(t) => clock.time >= t * (1.0 - 1e-12) || t - clock.time <= 1e-9 * clock.dt,
         }
+    }
+
+    /// True once the end of the run or the step cap is reached.
+    pub fn finished(&self) -> bool {
+        self.at_end() || self.step_cap.is_some_and(|cap| self.clock().step >= cap)
     }
 
     /// Number of particles.

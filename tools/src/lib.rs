@@ -199,8 +199,9 @@ pub struct RunArgs {
     /// Threads for the parallel kernels [default: all cores].
     #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=running::MAX_THREADS as u64))]
     pub threads: Option<usize>,
-    /// Stop when the clock reaches this step (counted from the start of the run, also when
-    /// resumed) instead of the scene's end.
+    /// Stop at this step (counted from the start of the run, also when resumed) if the
+    /// scene's end comes later; the scene's end is never passed. Checkpoints keep the scene's
+    /// end, so a later `resume` without --steps goes on to it.
     #[arg(long)]
     pub steps: Option<u64>,
     /// No progress bar.

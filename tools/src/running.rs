@@ -16,7 +16,6 @@ use fractum_engine::energy::EnergyWatch;
 use fractum_engine::registry::Registry;
 use fractum_engine::run::{CheckpointPlan, RunError, RunOptions, run_with};
 use fractum_engine::scene::{SceneFile, build_simulation};
-use fractum_engine::simulation::End;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
@@ -166,15 +165,21 @@ fn make_ready(
         eprintln!("error: cannot start {n} threads: {e}");
         return Err(EXIT_RESOURCES);
     }
-    if let Some(n) = settings.steps {
-        sim.set_end(End::Steps(n));
-    }
+    sim.set_step_cap(settings.steps);
     if sim.finished() {
-        eprintln!(
-            "error: the run is already at its end (step {}); pass --steps with a larger step \
-             to go on",
-            sim.clock().step
-        );
+        let step = sim.clock().step;
+        if sim.at_end() {
+            eprintln!(
+                "error: the run is already at the scene's end (step {step}, t = {:e} s); \
+                 nothing is left to run",
+                sim.clock().time
+            );
+        } else {
+            eprintln!(
+                "error: the run is already at step {step}, where --steps stops it; pass a \
+                 larger --steps, or none to go on to the scene's end"
+            );
+        }
         // Asking to run or resume to a step the run is at already is a command-line mistake;
         // a scene that ends before it starts is the scene's.
         return Err(if resuming || settings.steps.is_some() {

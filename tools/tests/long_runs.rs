@@ -215,11 +215,11 @@ fn resume_refuses_a_changed_scene_and_a_damaged_checkpoint() {
     // as it was (the final frame of step 30 was written after the checkpoint: a rewind would
     // delete it).
     let before = folder_bytes(&out);
-    for steps in [&["--steps", "30"][..], &["--steps", "10"], &[]] {
+    for steps in [&["--steps", "30"][..], &["--steps", "10"]] {
         let at_end = fractum(&[&["resume", out_arg, "--quiet"][..], steps].concat());
         assert_eq!(at_end.status.code(), Some(2), "{steps:?}");
         assert!(
-            text(&at_end.stderr).contains("already at its end (step 30)"),
+            text(&at_end.stderr).contains("already at step 30, where --steps stops it"),
             "{}",
             text(&at_end.stderr)
         );
@@ -466,5 +466,71 @@ fn a_scene_saved_with_a_byte_order_mark_reads_as_without() {
     std::fs::write(&path, bytes).unwrap();
     let out = fractum(&["check", path.to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out.stderr));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The last `(step, time)` row of a run's series.
+fn last_row(dir: &Path) -> (u64, f64) {
+    let series = std::fs::read_to_string(dir.join("series.csv")).unwrap();
+    let last = series.lines().last().unwrap().to_string();
+    let mut cells = last.split(',');
+    let step = cells.next().unwrap().parse().unwrap();
+    (step, cells.next().unwrap().parse().unwrap())
+}
+
+/// `--steps` caps a run without replacing the scene's end: a plain `resume` goes on to that
+/// end, whose last step is shortened to land on it exactly, and no `--steps` passes it.
+#[test]
+fn steps_cap_a_run_and_a_plain_resume_goes_on_to_the_scenes_end() {
+    let dir = temp("cap");
+    // 40.5 steps of 1 ms: the 41st is half a step.
+    let scene = edited_scene(
+        &dir,
+        "two_disks.ron",
+        &[("end: Time(3.0)", "end: Time(0.0405)")],
+    );
+    let out = dir.join("run");
+    let (scene_arg, out_arg) = (scene.to_str().unwrap(), out.to_str().unwrap());
+    let capped = fractum(&[
+        "run",
+        scene_arg,
+        "--out",
+        out_arg,
+        "--steps",
+        "30",
+        "--checkpoint-every",
+        "10",
+        "--quiet",
+    ]);
+    assert!(capped.status.success(), "{}", text(&capped.stderr));
+    assert_eq!(last_row(&out).0, 30);
+    let resumed = fractum(&["resume", out_arg, "--checkpoint-every", "10", "--quiet"]);
+    assert!(resumed.status.success(), "{}", text(&resumed.stderr));
+    assert_eq!(last_row(&out), (41, 0.0405));
+    // Its checkpoint at the end holds the scene's end: no cap takes the run past it.
+    let past = fractum(&["resume", out_arg, "--steps", "100000", "--quiet"]);
+    assert_eq!(past.status.code(), Some(2), "{}", text(&past.stderr));
+    assert!(
+        text(&past.stderr).contains("already at the scene's end (step 41"),
+        "{}",
+        text(&past.stderr)
+    );
+    // A fresh run with a cap beyond the end stops at the end too, on the same bytes.
+    let again = dir.join("again");
+    let uncapped = fractum(&[
+        "run",
+        scene_arg,
+        "--out",
+        again.to_str().unwrap(),
+        "--steps",
+        "100000",
+        "--quiet",
+    ]);
+    assert!(uncapped.status.success(), "{}", text(&uncapped.stderr));
+    assert!(
+        std::fs::read(out.join("series.csv")).unwrap()
+            == std::fs::read(again.join("series.csv")).unwrap(),
+        "the capped-and-resumed run differs from the straight one"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
