@@ -346,7 +346,9 @@ pub struct BoundarySpec {
 #[derive(Debug, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub enum RegionSpec {
-    /// Nodes inside the box, boundary included.
+    /// Nodes inside the box, boundary included. `Rectangle` is accepted too, as bodies name
+    /// the 2D shape.
+    #[serde(alias = "Rectangle")]
     Box {
         /// Lower corner.
         min: Coords,

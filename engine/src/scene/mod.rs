@@ -229,7 +229,63 @@ fn spanned_error(
         (false, true) => prefix.to_string(),
         (false, false) => format!("{prefix}.{path}"),
     };
-    SceneError::at(file, origin.offset_by(inner), &field, e.code.to_string())
+    let message = in_scene_terms(&e.code, &field);
+    SceneError::at(file, origin.offset_by(inner), &field, message)
+}
+
+/// The parser's message in the scene's own terms: no Rust type names, no RON syntax a scene
+/// never needs (raw identifiers).
+fn in_scene_terms(code: &ron::Error, field: &str) -> String {
+    use ron::Error;
+    match code {
+        Error::NoSuchEnumVariant {
+            expected, found, ..
+        } => format!(
+            "unknown variant `{found}`; {}",
+            one_of(expected, "variants")
+        ),
+        Error::NoSuchStructField {
+            expected, found, ..
+        } => format!("unknown field `{found}`; {}", one_of(expected, "fields")),
+        Error::MissingStructField { field: missing, .. } => {
+            format!("missing field `{missing}`")
+        }
+        Error::DuplicateStructField { field: twice, .. } => {
+            format!("field `{twice}` is given twice")
+        }
+        Error::SuggestRawIdentifier(found) | Error::InvalidIdentifier(found) => {
+            let hint = variant_hint(field).map_or(String::new(), |forms| format!(" ({forms})"));
+            format!("expected a variant with its value here{hint}, found `{found}`")
+        }
+        other => other.to_string(),
+    }
+}
+
+/// `expected `a``, or `expected one of `a`, `b``, or that there are none.
+fn one_of(expected: &[&str], none: &str) -> String {
+    let quoted: Vec<String> = expected.iter().map(|e| format!("`{e}`")).collect();
+    match quoted.len() {
+        0 => format!("there are no {none} here"),
+        1 => format!("expected {}", quoted[0]),
+        _ => format!("expected one of {}", quoted.join(", ")),
+    }
+}
+
+/// The forms an enum-valued scene field takes, for messages.
+fn variant_hint(field: &str) -> Option<&'static str> {
+    const HINTS: [(&str, &str); 4] = [
+        ("time.end", "`Time(seconds)` or `Steps(count)`"),
+        ("time.step", "`Fixed(seconds)` or `Cfl(fraction)`"),
+        (
+            ".shape",
+            "a shape such as `Rectangle(min: (x, y), max: (x, y))`",
+        ),
+        (".nodes", "`Box(min: …, max: …)`"),
+    ];
+    HINTS
+        .iter()
+        .find(|(suffix, _)| field.ends_with(suffix))
+        .map(|(_, hint)| *hint)
 }
 
 #[cfg(test)]
@@ -266,9 +322,27 @@ mod tests {
             .unwrap_err();
         assert_eq!(err.location, Some(Location { line: 5, col: 19 }));
         assert_eq!(err.field, "pipeline[1].params.c");
-        assert!(err.message.contains("Unexpected field named `c`"), "{err}");
+        // In the scene's terms: no Rust type name.
+        assert_eq!(err.message, "unknown field `c`; expected one of `a`, `b`");
         let ok: Small = parse_fragment("s.ron", "(a: 1, b: 3)", origin, "").unwrap();
         assert_eq!(ok.b, Some(3));
+    }
+
+    #[test]
+    fn regions_accept_rectangle_as_bodies_name_it() {
+        let parse = |text: &str| {
+            parse_fragment::<format::RegionSpec>("s.ron", text, Location::default(), "")
+        };
+        let rectangle = parse("Rectangle(min: (0.0, 0.0), max: (1.0, 0.5))").unwrap();
+        assert_eq!(
+            rectangle,
+            parse("Box(min: (0.0, 0.0), max: (1.0, 0.5))").unwrap()
+        );
+        let e = parse("Square(min: (0.0, 0.0), max: (1.0, 0.5))").unwrap_err();
+        assert_eq!(
+            e.message,
+            "unknown variant `Square`; expected one of `Box`, `Rectangle`"
+        );
     }
 
     #[test]
