@@ -260,3 +260,46 @@ fn a_user_hyperelastic_stress_satisfies_rankine_by_its_capability() {
         );
     }
 }
+
+/// Installs nothing from its params, as README's first example does.
+fn install_ignoring_params(_: &mut Installer, _: &Params) -> Result<(), SceneError> {
+    Ok(())
+}
+
+/// A user's system that never parses its params still has every field it does not declare
+/// refused, at the field: the engine checks params against the registration's `params`.
+#[test]
+fn undeclared_params_are_refused_for_a_users_system_too() {
+    let mut registry = fractum_systems::stock_registry();
+    registry
+        .register(Registration {
+            name: "damage/silent",
+            summary: "takes no parameters and reads none",
+            params: &[],
+            requires: &[],
+            install: install_ignoring_params,
+        })
+        .unwrap();
+    registry.register(OVERSTRESS).unwrap();
+    let spec = |system: &str, params: &str| {
+        let mut spec = stretched_bar::<Two>();
+        spec.pipeline.retain(|e| !e.system.starts_with("damage/"));
+        spec.system_with(system, params)
+    };
+    let message = match spec("damage/silent", "(strength: 2.0)").build(&registry) {
+        Ok(_) => panic!("an undeclared parameter was accepted"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        message.contains("unknown field `strength`; damage/silent takes no parameters"),
+        "{message}"
+    );
+    let message = match spec("damage/overstress", "(strenght: 2.0)").build(&registry) {
+        Ok(_) => panic!("a misspelt parameter was accepted"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        message.contains("unknown field `strenght`; expected `strength`"),
+        "{message}"
+    );
+}

@@ -572,6 +572,81 @@ impl<'a> Params<'a> {
     }
 }
 
+/// The top-level field names of a pipeline entry's `params: (...)`, whatever their values.
+struct ParamNames(Vec<String>);
+
+impl<'de> serde::Deserialize<'de> for ParamNames {
+    fn deserialize<De: serde::Deserializer<'de>>(deserializer: De) -> Result<Self, De::Error> {
+        struct Names;
+        impl<'de> serde::de::Visitor<'de> for Names {
+            type Value = ParamNames;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("parameters written as `(name: value, …)`")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                mut map: A,
+            ) -> Result<ParamNames, A::Error> {
+                let mut names = Vec::new();
+                while let Some(name) = map.next_key::<String>()? {
+                    map.next_value::<serde::de::IgnoredAny>()?;
+                    names.push(name);
+                }
+                Ok(ParamNames(names))
+            }
+            fn visit_unit<E: serde::de::Error>(self) -> Result<ParamNames, E> {
+                Ok(ParamNames(Vec::new()))
+            }
+        }
+        deserializer.deserialize_struct("params", &[], Names)
+    }
+}
+
+impl Params<'_> {
+    /// Refuses a parameter that `registration` does not declare in its
+    /// [`Registration::params`]: the declared list is a system's interface, so a misspelt or
+    /// foreign field is an error for every system, whether or not its installer parses its
+    /// params with `deny_unknown_fields`.
+    pub fn check_declared(&self, registration: &Registration) -> Result<(), SceneError> {
+        if self.raw.is_none() {
+            return Ok(());
+        }
+        let ParamNames(names) = self.parse()?;
+        let declared: Vec<&str> = registration.params.iter().map(|p| p.name).collect();
+        match names.iter().find(|n| !declared.contains(&n.as_str())) {
+            None => Ok(()),
+            Some(unknown) if declared.is_empty() => Err(self.error(
+                unknown,
+                format!(
+                    "unknown field `{unknown}`; {} takes no parameters",
+                    registration.name
+                ),
+            )),
+            Some(unknown) => {
+                let quoted: Vec<String> = declared.iter().map(|d| format!("`{d}`")).collect();
+                let expected = match quoted.as_slice() {
+                    [one] => format!("expected {one}"),
+                    _ => format!("expected one of {}", quoted.join(", ")),
+                };
+                Err(self.error_at_name(unknown, format!("unknown field `{unknown}`; {expected}")))
+            }
+        }
+    }
+
+    /// [`Params::error`] placed at the field's name rather than its value.
+    fn error_at_name(&self, field: &str, message: String) -> SceneError {
+        let mut error = self.error(field, message);
+        let name_at = self.raw.and_then(|raw| {
+            let value = crate::scene::locate::locate(raw, field)?;
+            raw[..value].rfind(field)
+        });
+        if let (Some(raw), Some(at)) = (self.raw, name_at) {
+            error.location = Some(self.origin.offset_by(Location::of_offset(raw, at)));
+        }
+        error
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

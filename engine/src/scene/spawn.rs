@@ -495,6 +495,7 @@ impl<D: Dim> Spec<D> {
             let source = self.entry_source(entry);
             let params = source.params(entry.params.as_deref(), format!("pipeline[{k}].params"));
             let stage = registration.stage().unwrap_or(Stage::PostStep);
+            params.check_declared(registration)?;
             let mut installer = Installer::new(stage, schedule, world)
                 .with_pipeline(names.clone())
                 .for_entry(*k, filter.clone());

@@ -568,6 +568,12 @@ fn report_failure<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `fractum systems` documents the fields its parameters read, and its documented defaults are theirs.
+    #[test]
+    fn parameter_docs_match_the_parameters() {
+        crate::param_docs::assert_defaults::<LmeParams>(&REGISTRATION);
+    }
     use fractum_engine::testing::*;
 
     /// Runs `basis/lme` alone on a tiny world with particles at `xs` and checks each row.

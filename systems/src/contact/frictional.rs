@@ -759,6 +759,12 @@ pub fn frictional_contact<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `fractum systems` documents the fields its parameters read, and its documented defaults are theirs.
+    #[test]
+    fn parameter_docs_match_the_parameters() {
+        crate::param_docs::assert_defaults::<FrictionalParams>(&REGISTRATION);
+    }
     use fractum_engine::testing::*;
 
     fn state<V>(mass: f64, velocity: V, normal: V) -> FieldState<V> {

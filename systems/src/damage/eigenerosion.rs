@@ -227,6 +227,12 @@ pub fn eigenerosion<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `fractum systems` documents exactly the fields its parameters read.
+    #[test]
+    fn parameter_docs_match_the_parameters() {
+        crate::param_docs::assert_documented::<RawParams>(&REGISTRATION);
+    }
     use fractum_engine::testing::*;
 
     #[test]

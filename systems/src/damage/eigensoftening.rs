@@ -443,6 +443,12 @@ pub fn eigensoftening<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `fractum systems` documents exactly the fields its parameters read.
+    #[test]
+    fn parameter_docs_match_the_parameters() {
+        crate::param_docs::assert_documented::<RawParams>(&REGISTRATION);
+    }
     use fractum_engine::testing::*;
 
     fn law() -> SofteningLaw {

@@ -283,6 +283,12 @@ pub fn rankine<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `fractum systems` documents exactly the fields its parameters read.
+    #[test]
+    fn parameter_docs_match_the_parameters() {
+        crate::param_docs::assert_documented::<RawParams>(&REGISTRATION);
+    }
     use fractum_engine::testing::*;
 
     #[test]

@@ -159,6 +159,12 @@ pub fn time_to_failure<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `fractum systems` documents exactly the fields its parameters read.
+    #[test]
+    fn parameter_docs_match_the_parameters() {
+        crate::param_docs::assert_documented::<RawParams>(&REGISTRATION);
+    }
     use fractum_engine::testing::*;
 
     #[test]

@@ -111,6 +111,12 @@ pub fn kdtree_neighbours<D: Spatial>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `fractum systems` documents the fields its parameters read, and its documented defaults are theirs.
+    #[test]
+    fn parameter_docs_match_the_parameters() {
+        crate::param_docs::assert_defaults::<NeighbourParams>(&REGISTRATION);
+    }
     use fractum_engine::testing::*;
 
     #[test]

@@ -134,6 +134,12 @@ pub fn node_linked_neighbours<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `fractum systems` documents the fields its parameters read, and its documented defaults are theirs.
+    #[test]
+    fn parameter_docs_match_the_parameters() {
+        crate::param_docs::assert_defaults::<NeighbourParams>(&REGISTRATION);
+    }
     use crate::neighbour::kdtree::{KdTreeCandidates, kdtree_neighbours};
     use crate::spatial::Spatial;
     use fractum_engine::testing::*;

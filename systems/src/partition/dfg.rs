@@ -374,6 +374,12 @@ fn detect_surface<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `fractum systems` documents the fields its parameters read, and its documented defaults are theirs.
+    #[test]
+    fn parameter_docs_match_the_parameters() {
+        crate::param_docs::assert_defaults::<DfgParams>(&REGISTRATION);
+    }
     use fractum_engine::testing::*;
 
     #[test]

@@ -173,6 +173,12 @@ pub fn newmark_predictor<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `fractum systems` documents the fields its parameters read, and its documented defaults are theirs.
+    #[test]
+    fn parameter_docs_match_the_parameters() {
+        crate::param_docs::assert_defaults::<NewmarkParams>(&REGISTRATION);
+    }
     use crate::basis::linear::linear_basis;
     use fractum_engine::testing::*;
 

@@ -191,6 +191,12 @@ pub fn usl_predictor<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `fractum systems` documents the fields its parameters read, and its documented defaults are theirs.
+    #[test]
+    fn parameter_docs_match_the_parameters() {
+        crate::param_docs::assert_defaults::<UslPredictorParams>(&REGISTRATION);
+    }
     use crate::basis::linear::linear_basis;
     use fractum_engine::boundary::BoundaryRegion;
     use fractum_engine::testing::*;
