@@ -84,11 +84,16 @@ fn prepare_out_dir(dir: &Path, force: bool) -> Result<(), String> {
         return Ok(());
     }
     if !force {
+        // Resuming is a way out only where there is a checkpoint to resume from.
+        let resume = if list_checkpoints(dir).is_empty() {
+            String::new()
+        } else {
+            format!("`fractum resume {}` to continue it, ", dir.display())
+        };
         return Err(format!(
             "{} holds a previous run (series.csv, frames, checkpoints); pass --force to \
-             replace it, `fractum resume {}` to continue it, or --out for another folder",
+             replace it, {resume}or --out for another folder",
             dir.display(),
-            dir.display()
         ));
     }
     for name in RUN_OUTPUTS {

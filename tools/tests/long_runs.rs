@@ -115,6 +115,33 @@ fn an_output_folder_holding_a_run_is_refused_unless_forced() {
         "{}",
         text(&again.stderr)
     );
+    // The first run wrote no checkpoint: resuming it is no way out, so it is not offered.
+    assert!(
+        !text(&again.stderr).contains("fractum resume"),
+        "{}",
+        text(&again.stderr)
+    );
+    let checkpointed = dir.join("checkpointed");
+    let checkpointed_arg = checkpointed.to_str().unwrap();
+    let with_checkpoint = [
+        "run",
+        "scenes/two_disks.ron",
+        "--out",
+        checkpointed_arg,
+        "--steps",
+        "20",
+        "--checkpoint-every",
+        "10",
+        "--quiet",
+    ];
+    assert!(fractum(&with_checkpoint).status.success());
+    let occupied = fractum(&with_checkpoint);
+    assert_eq!(occupied.status.code(), Some(4));
+    assert!(
+        text(&occupied.stderr).contains(&format!("`fractum resume {checkpointed_arg}`")),
+        "{}",
+        text(&occupied.stderr)
+    );
     // --force clears the previous run's outputs, and only those.
     std::fs::write(out.join("frames/particles_99999999.vtu"), "stale").unwrap();
     std::fs::write(out.join("notes.txt"), "mine").unwrap();
