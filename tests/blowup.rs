@@ -46,6 +46,7 @@ fn a_particle_leaving_the_grid_stops_the_run_naming_it() {
     assert_eq!(failure.step, 3);
     assert_eq!(failure.stage, Stage::Advection);
     assert!(failure.message.contains("left the grid"), "{failure}");
+    assert_eq!(failure.cause, fractum_engine::health::Cause::LeftGrid);
     let text = failure.to_string();
     assert!(
         text.starts_with("step 3, stage advection: particle "),
@@ -99,6 +100,7 @@ fn a_non_finite_stress_stops_the_run_in_the_stage_that_produced_it() {
     assert_eq!((failure.step, failure.stage), (5, Stage::Damage));
     assert!(failure.message.starts_with("particle 7 at "), "{failure}");
     assert!(failure.message.contains("non-finite stress"), "{failure}");
+    assert_eq!(failure.cause, fractum_engine::health::Cause::Inverted);
     // The clock stays at the last completed step.
     assert_eq!(sim.clock().step, 4);
 }

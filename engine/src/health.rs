@@ -29,6 +29,41 @@ pub struct Blowup {
     pub stage: Stage,
     /// What was found, naming the particle or node.
     pub message: String,
+    /// What kind of failure it is, for the usual cures a front end can name.
+    pub cause: Cause,
+}
+
+/// The kind of a run's failure, where the check can tell.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Cause {
+    /// A particle's volume is no longer positive or its stress no longer finite: the material
+    /// inverted (`J ≤ 0`) under a deformation too large for one step.
+    Inverted,
+    /// A particle's velocity or position is no longer finite: a runaway, typically a stressed
+    /// particle crossing into an empty cell with the linear tents, or a step too large.
+    Runaway,
+    /// A particle left the grid.
+    LeftGrid,
+    /// Anything else (a node's state, a shape function, a series value, the clock).
+    #[default]
+    Other,
+}
+
+impl Blowup {
+    /// A failure at `step` after `stage`, of no particular [`Cause`].
+    pub fn new(step: u64, stage: Stage, message: impl Into<String>) -> Self {
+        Self {
+            step,
+            stage,
+            message: message.into(),
+            cause: Cause::Other,
+        }
+    }
+
+    /// The same failure with its cause.
+    pub fn because(self, cause: Cause) -> Self {
+        Self { cause, ..self }
+    }
 }
 
 impl fmt::Display for Blowup {
@@ -50,6 +85,14 @@ pub struct Health {
     pub failure: Option<Blowup>,
     /// Whether a check has looked at every column (the first check of a run does).
     pub checked_everything: bool,
+}
+
+impl Health {
+    /// Reports a failure: the one path by which a system or check stops the run. The first
+    /// failure of a step is kept; the stages after it are skipped.
+    pub fn fail(&mut self, failure: Blowup) {
+        self.failure.get_or_insert(failure);
+    }
 }
 
 /// The columns a health check looks at, as a bit set.
@@ -328,7 +371,7 @@ fn first_bad_particle<D: Dim>(
     columns: Columns,
     grid: &Grid<D>,
     outside_allowed: bool,
-) -> Option<String> {
+) -> Option<(Cause, String)> {
     if !columns.any_particle() {
         return None;
     }
@@ -350,35 +393,50 @@ fn first_bad_particle<D: Dim>(
     })?;
     let (id, x, v) = (ids[bad].0, positions[bad].0, velocities[bad].0);
     Some(if !x.is_finite() {
-        format!(
-            "particle {id} has a non-finite position {}",
-            fmt_vec::<D>(x)
+        (
+            Cause::Runaway,
+            format!(
+                "particle {id} has a non-finite position {}",
+                fmt_vec::<D>(x)
+            ),
         )
     } else if !grid.contains(x) {
-        format!(
-            "particle {id} left the grid: position {}, velocity {}, grid box {} to {}",
-            fmt_vec::<D>(x),
-            fmt_vec::<D>(v),
-            fmt_vec::<D>(lo),
-            fmt_vec::<D>(hi)
+        (
+            Cause::LeftGrid,
+            format!(
+                "particle {id} left the grid: position {}, velocity {}, grid box {} to {}",
+                fmt_vec::<D>(x),
+                fmt_vec::<D>(v),
+                fmt_vec::<D>(lo),
+                fmt_vec::<D>(hi)
+            ),
         )
     } else if !v.is_finite() {
-        format!(
-            "particle {id} at {} has a non-finite velocity {}",
-            fmt_vec::<D>(x),
-            fmt_vec::<D>(v)
+        (
+            Cause::Runaway,
+            format!(
+                "particle {id} at {} has a non-finite velocity {}",
+                fmt_vec::<D>(x),
+                fmt_vec::<D>(v)
+            ),
         )
     } else if !stresses[bad].0.is_finite() {
-        format!(
-            "particle {id} at {} has a non-finite stress {:?}",
-            fmt_vec::<D>(x),
-            stresses[bad].0
+        (
+            Cause::Inverted,
+            format!(
+                "particle {id} at {} has a non-finite stress {:?}",
+                fmt_vec::<D>(x),
+                stresses[bad].0
+            ),
         )
     } else {
-        format!(
-            "particle {id} at {} has an invalid volume {:e}",
-            fmt_vec::<D>(x),
-            volumes[bad].0
+        (
+            Cause::Inverted,
+            format!(
+                "particle {id} at {} has an invalid volume {:e}",
+                fmt_vec::<D>(x),
+                volumes[bad].0
+            ),
         )
     })
 }
@@ -445,13 +503,9 @@ pub fn stage_check<D: Dim>(
         };
         health.checked_everything = true;
         let found = first_bad_particle(&particles, columns, &grid, outside_allowed)
-            .or_else(|| first_bad_node(&nodes, columns));
-        if let Some(message) = found {
-            health.failure = Some(Blowup {
-                step: clock.step + 1,
-                stage,
-                message,
-            });
+            .or_else(|| first_bad_node(&nodes, columns).map(|m| (Cause::Other, m)));
+        if let Some((cause, message)) = found {
+            health.fail(Blowup::new(clock.step + 1, stage, message).because(cause));
         }
     }
 }

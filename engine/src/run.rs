@@ -460,15 +460,15 @@ impl Outputs<'_> {
             self.flush()?;
             let name = &self.plan.columns()[column + 1];
             return Err(RunError::Blowup(
-                Blowup {
+                Blowup::new(
                     step,
-                    stage: crate::stage::Stage::PostStep,
-                    message: format!(
+                    crate::stage::Stage::PostStep,
+                    format!(
                         "the series column {name} is {} after the step: {}",
                         row[column],
                         largest_energy_particle(&mut sim.world)
                     ),
-                },
+                ),
                 None,
             ));
         }

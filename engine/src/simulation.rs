@@ -351,15 +351,15 @@ impl Simulation {
             let first = escaped.first.map_or(String::new(), |(id, x)| {
                 format!(" (the first, particle {id}, at {x:?})")
             });
-            return Err(Blowup {
-                step: clock_step(&self.world),
-                stage: Stage::Advection,
-                message: format!(
+            return Err(Blowup::new(
+                clock_step(&self.world),
+                Stage::Advection,
+                format!(
                     "every particle has left the grid: {} removed{first}; nothing is left to \
                      simulate",
                     escaped.count
                 ),
-            });
+            ));
         }
         Ok(())
     }
@@ -383,15 +383,15 @@ impl Simulation {
         let culprit = stability
             .particle
             .map_or(String::new(), |(id, _)| format!(" set by particle {id}"));
-        Err(Blowup {
-            step: clock.step + 1,
-            stage: Stage::PreStep,
-            message: format!(
+        Err(Blowup::new(
+            clock.step + 1,
+            Stage::PreStep,
+            format!(
                 "the time step {dt:e} s cannot advance the clock from t = {:e} s (stable limit \
                  {:e} s{culprit}, signal speed c + |v| = {:e} m/s)",
                 clock.time, stability.dt, stability.speed
             ),
-        })
+        ))
     }
 
     /// Runs `f` on this simulation's thread pool (e.g. output that uses rayon).

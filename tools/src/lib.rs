@@ -30,6 +30,7 @@ pub mod bench;
 pub mod crack;
 pub mod fragments;
 pub mod plot;
+pub mod remedy;
 pub mod running;
 
 use bench::{BenchCase, BenchPipeline, default_steps, measure, table};

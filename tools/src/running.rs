@@ -334,6 +334,15 @@ fn execute(
         }
         Err(RunError::Blowup(b, last_good)) => {
             eprintln!("error: the run stopped at {b}");
+            let pipeline: Vec<&str> = built
+                .pipeline
+                .by_stage
+                .iter()
+                .flat_map(|(_, names)| names.iter().map(String::as_str))
+                .collect();
+            if let Some(cure) = crate::remedy::remedy(b.cause, &pipeline) {
+                eprintln!("{cure}");
+            }
             eprintln!(
                 "outputs up to the last output step are in {}",
                 out_dir.display()

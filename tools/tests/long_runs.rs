@@ -447,6 +447,38 @@ fn a_run_whose_particles_all_leave_the_grid_stops_with_exit_3() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A particle that leaves the grid stops the run with the particle named and the usual cures;
+/// the linear tents' own cure is named because the scene uses them.
+#[test]
+fn a_particle_leaving_the_grid_is_reported_with_the_usual_cures() {
+    let dir = temp("cures");
+    let scene = edited_scene(
+        &dir,
+        "two_disks.ron",
+        &[
+            ("Fixed(1.0e-3)", "Cfl(0.5)"),
+            ("Uniform((0.1, 0.1))", "Uniform((-5.0, -5.0))"),
+        ],
+    );
+    let out = dir.join("run");
+    let run = fractum(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(run.status.code(), Some(3), "{}", text(&run.stderr));
+    let error = text(&run.stderr);
+    assert!(
+        error.contains("left the grid")
+            && error.contains("`safety: (on_leave_grid: Remove)`")
+            && error.contains("`basis/gimp` in place of `basis/linear`"),
+        "{error}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn scenes_that_cannot_fit_in_memory_are_refused_before_anything_is_allocated() {
     let dir = temp("memory");

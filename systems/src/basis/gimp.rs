@@ -212,16 +212,16 @@ pub fn gimp_basis<D: Dim>(
         },
     );
     if let Some((p, Err(axis))) = results.iter().enumerate().find(|(_, r)| r.is_err()) {
-        health.failure = Some(Blowup {
-            step: clock.step + 1,
-            stage: Stage::Basis,
-            message: format!(
+        health.fail(Blowup::new(
+            clock.step + 1,
+            Stage::Basis,
+            format!(
                 "particle {} at {}: its GIMP domain reaches past the grid along axis {axis}; \
                  extend the grid by a cell",
                 ids[p].0,
                 fmt_vector(positions[p].0, D::N)
             ),
-        });
+        ));
     }
 }
 

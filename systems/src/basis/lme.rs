@@ -558,11 +558,11 @@ fn report_failure<D: Dim>(
     x: Position<D>,
     message: &str,
 ) {
-    health.failure = Some(Blowup {
-        step: step + 1,
-        stage: Stage::Basis,
-        message: format!("particle {} at {}: {message}", id.0, fmt_vector(x.0, D::N)),
-    });
+    health.fail(Blowup::new(
+        step + 1,
+        Stage::Basis,
+        format!("particle {} at {}: {message}", id.0, fmt_vector(x.0, D::N)),
+    ));
 }
 
 #[cfg(test)]

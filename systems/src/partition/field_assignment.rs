@@ -119,11 +119,11 @@ pub fn assign_fields_system<D: Dim>(
         &mut fields,
     );
     if let Err(e) = result {
-        health.failure.get_or_insert(Blowup {
-            step: clock.step + 1,
-            stage: StepSet::AssignFields.reported_as(),
-            message: e.to_string(),
-        });
+        health.fail(Blowup::new(
+            clock.step + 1,
+            StepSet::AssignFields.reported_as(),
+            e.to_string(),
+        ));
     }
 }
 
