@@ -199,3 +199,85 @@ fn the_damage_laws_of_the_dfg_paper_resume_bitwise() {
         assert!(damage.iter().any(|d| d.0 > 0.0), "{file}: nothing damaged");
     }
 }
+
+/// Every key the shipped scenes' checkpoints carry, sorted. The keys are explicit
+/// (`checkpoint::State::KEY`), so this list changes only when a key is renamed or state is
+/// added: a renamed key makes older checkpoints unreadable, so it must be a decision.
+const STOCK_KEYS: &[&str] = &[
+    "dfg/neighbours",
+    "dfg/surface_detected",
+    "eigenerosion/state",
+    "engine/clock",
+    "engine/energy_account",
+    "engine/energy_watch",
+    "engine/escaped_particles",
+    "engine/force_probes",
+    "engine/series_columns",
+    "kdtree/candidates",
+    "lme/state",
+    "particle/acceleration",
+    "particle/body",
+    "particle/contact_group",
+    "particle/crack_opening",
+    "particle/damage",
+    "particle/damage_gradient",
+    "particle/damage_history",
+    "particle/deformation_gradient",
+    "particle/external_force",
+    "particle/initial_volume",
+    "particle/load_share",
+    "particle/mass",
+    "particle/material",
+    "particle/position",
+    "particle/strain",
+    "particle/strain_energy_density",
+    "particle/strength",
+    "particle/stress",
+    "particle/surface_flag",
+    "particle/velocity",
+    "particle/volume",
+    "particle/wave_speed",
+];
+
+#[test]
+fn checkpoint_keys_are_stable_and_unique() {
+    let mut keys = std::collections::BTreeSet::new();
+    for path in fractum_suite::ron_files("scenes") {
+        let mut built = fractum_suite::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let state = built
+            .simulation
+            .world
+            .resource::<fractum_engine::checkpoint::CheckpointState>();
+        assert!(state.collisions().is_empty(), "{}", path.display());
+        let names: Vec<&str> = state
+            .component_names()
+            .into_iter()
+            .chain(state.resource_names())
+            .collect();
+        let unique: std::collections::BTreeSet<&str> = names.iter().copied().collect();
+        assert_eq!(unique.len(), names.len(), "{}: {names:?}", path.display());
+        keys.extend(names);
+        let _ = capture(&mut built.simulation.world).expect("capture");
+    }
+    let keys: Vec<&str> = keys.into_iter().collect();
+    assert_eq!(keys, STOCK_KEYS);
+}
+
+/// Two types asking for one key: the second is not carried silently over the first, and a
+/// scene that would do so is refused.
+#[test]
+fn two_types_under_one_key_are_a_collision() {
+    use fractum_engine::checkpoint::CheckpointState;
+    #[derive(serde::Serialize, serde::Deserialize, bevy_ecs::prelude::Resource)]
+    struct First(u8);
+    #[derive(serde::Serialize, serde::Deserialize, bevy_ecs::prelude::Resource)]
+    struct Second(u8);
+    fractum_engine::checkpoint_keys! { First => "test/shared", Second => "test/shared" }
+    let mut state = CheckpointState::default();
+    state.resource::<First>();
+    state.resource::<First>();
+    assert!(state.collisions().is_empty());
+    state.resource::<Second>();
+    assert_eq!(state.collisions(), ["test/shared"]);
+    assert_eq!(state.resource_names(), ["test/shared"]);
+}

@@ -23,10 +23,68 @@ use bevy_ecs::prelude::*;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
-/// Data a checkpoint can carry: serde both ways, and safe to share between threads.
-pub trait State: Serialize + DeserializeOwned + Send + Sync + 'static {}
+/// Data a checkpoint can carry: serde both ways, safe to share between threads, and stored
+/// under an explicit [`State::KEY`].
+pub trait State: Serialize + DeserializeOwned + Send + Sync + 'static {
+    /// The name the value is stored under: stable across builds and compilers (never derived
+    /// from the type's Rust path), unique among everything a run carries. Stock keys are
+    /// `particle/…`, `engine/…` and `<system>/…`; a user's crate should prefix its own.
+    const KEY: &'static str;
+}
 
-impl<T: Serialize + DeserializeOwned + Send + Sync + 'static> State for T {}
+/// Implements [`State`] for types with explicit keys: `checkpoint_keys! { MyTotal => "my/total" }`.
+/// A generic type is written out by hand (`impl<D: Dim> State for MyState<D> { … }`).
+#[macro_export]
+macro_rules! checkpoint_keys {
+    ($($ty:ty => $key:literal),* $(,)?) => {
+        $(impl $crate::checkpoint::State for $ty {
+            const KEY: &'static str = $key;
+        })*
+    };
+}
+
+/// Implements [`State`] for generic-over-`D` engine types.
+macro_rules! dim_keys {
+    ($($ty:ident => $key:literal),* $(,)?) => {
+        $(impl<D: crate::dim::Dim> State for crate::components::$ty<D> {
+            const KEY: &'static str = $key;
+        })*
+    };
+}
+
+dim_keys! {
+    Position => "particle/position",
+    Velocity => "particle/velocity",
+    Acceleration => "particle/acceleration",
+    DeformationGradient => "particle/deformation_gradient",
+    Stress => "particle/stress",
+    Strain => "particle/strain",
+    ExternalForce => "particle/external_force",
+    DamageGradient => "particle/damage_gradient",
+}
+
+checkpoint_keys! {
+    crate::components::Mass => "particle/mass",
+    crate::components::Volume => "particle/volume",
+    crate::components::InitialVolume => "particle/initial_volume",
+    crate::components::StrainEnergyDensity => "particle/strain_energy_density",
+    crate::components::WaveSpeed => "particle/wave_speed",
+    crate::components::Damage => "particle/damage",
+    crate::components::DamageHistory => "particle/damage_history",
+    crate::components::MaterialId => "particle/material",
+    crate::components::BodyId => "particle/body",
+    crate::components::ContactGroup => "particle/contact_group",
+    crate::components::Strength => "particle/strength",
+    crate::components::CrackOpening => "particle/crack_opening",
+    crate::components::SurfaceFlag => "particle/surface_flag",
+    crate::loads::LoadShare => "particle/load_share",
+    crate::resources::SimClock => "engine/clock",
+    crate::energy::EnergyAccount => "engine/energy_account",
+    crate::energy::EnergyWatch => "engine/energy_watch",
+    crate::run::ForceProbeMemory => "engine/force_probes",
+    crate::health::EscapedParticles => "engine/escaped_particles",
+    crate::series::SeriesColumns => "engine/series_columns",
+}
 
 /// Why a checkpoint could not be written or restored.
 #[derive(Debug, thiserror::Error)]
@@ -52,6 +110,7 @@ type LoadResource = fn(&mut World, &[u8]) -> Result<(), CheckpointError>;
 #[derive(Clone, Copy)]
 struct ComponentEntry {
     name: &'static str,
+    type_id: std::any::TypeId,
     save: SaveComponent,
     load: LoadComponent,
 }
@@ -59,6 +118,7 @@ struct ComponentEntry {
 #[derive(Clone, Copy)]
 struct ResourceEntry {
     name: &'static str,
+    type_id: std::any::TypeId,
     save: SaveResource,
     load: LoadResource,
 }
@@ -68,6 +128,8 @@ struct ResourceEntry {
 pub struct CheckpointState {
     components: Vec<ComponentEntry>,
     resources: Vec<ResourceEntry>,
+    /// Keys asked for by two different types (a scene with any is refused).
+    collisions: Vec<&'static str>,
 }
 
 impl std::fmt::Debug for CheckpointState {
@@ -82,10 +144,11 @@ impl std::fmt::Debug for CheckpointState {
 impl CheckpointState {
     /// Carries particle component `C` (once, however often it is asked).
     pub fn component<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(&mut self) {
-        let name = std::any::type_name::<C>();
-        if self.components.iter().all(|e| e.name != name) {
+        let (name, type_id) = (C::KEY, std::any::TypeId::of::<C>());
+        if self.is_new(name, type_id) {
             self.components.push(ComponentEntry {
                 name,
+                type_id,
                 save: save_component::<C>,
                 load: load_component::<C>,
             });
@@ -94,14 +157,39 @@ impl CheckpointState {
 
     /// Carries resource `R` (once, however often it is asked).
     pub fn resource<R: Resource + State>(&mut self) {
-        let name = std::any::type_name::<R>();
-        if self.resources.iter().all(|e| e.name != name) {
+        let (name, type_id) = (R::KEY, std::any::TypeId::of::<R>());
+        if self.is_new(name, type_id) {
             self.resources.push(ResourceEntry {
                 name,
+                type_id,
                 save: save_resource::<R>,
                 load: load_resource::<R>,
             });
         }
+    }
+
+    /// Whether `name` is not carried yet; a key already taken by another type is recorded as
+    /// a collision.
+    fn is_new(&mut self, name: &'static str, type_id: std::any::TypeId) -> bool {
+        let taken = self
+            .components
+            .iter()
+            .map(|e| (e.name, e.type_id))
+            .chain(self.resources.iter().map(|e| (e.name, e.type_id)))
+            .find(|(n, _)| *n == name);
+        match taken {
+            None => true,
+            Some((_, t)) if t == type_id => false,
+            Some(_) => {
+                self.collisions.push(name);
+                false
+            }
+        }
+    }
+
+    /// Keys that two different types asked for.
+    pub fn collisions(&self) -> &[&'static str] {
+        &self.collisions
     }
 
     /// Names of the carried components.
@@ -143,7 +231,7 @@ fn save_component<C: Component + State>(
     particles: &[Entity],
 ) -> Result<Vec<u8>, CheckpointError> {
     let values: Vec<Option<&C>> = particles.iter().map(|&e| world.get::<C>(e)).collect();
-    postcard::to_allocvec(&values).map_err(codec(std::any::type_name::<C>()))
+    postcard::to_allocvec(&values).map_err(codec(C::KEY))
 }
 
 fn load_component<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
@@ -151,7 +239,7 @@ fn load_component<C: Component<Mutability = bevy_ecs::component::Mutable> + Stat
     particles: &[Entity],
     bytes: &[u8],
 ) -> Result<(), CheckpointError> {
-    let name = std::any::type_name::<C>();
+    let name = C::KEY;
     let values: Vec<Option<C>> = postcard::from_bytes(bytes).map_err(codec(name))?;
     if values.len() != particles.len() {
         return Err(CheckpointError::Mismatch(format!(
@@ -178,7 +266,7 @@ fn load_component<C: Component<Mutability = bevy_ecs::component::Mutable> + Stat
 fn save_resource<R: Resource + State>(world: &World) -> Result<Option<Vec<u8>>, CheckpointError> {
     world
         .get_resource::<R>()
-        .map(|r| postcard::to_allocvec(r).map_err(codec(std::any::type_name::<R>())))
+        .map(|r| postcard::to_allocvec(r).map_err(codec(R::KEY)))
         .transpose()
 }
 
@@ -186,7 +274,7 @@ fn load_resource<R: Resource + State>(
     world: &mut World,
     bytes: &[u8],
 ) -> Result<(), CheckpointError> {
-    let value: R = postcard::from_bytes(bytes).map_err(codec(std::any::type_name::<R>()))?;
+    let value: R = postcard::from_bytes(bytes).map_err(codec(R::KEY))?;
     world.insert_resource(value);
     Ok(())
 }

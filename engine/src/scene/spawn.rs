@@ -56,6 +56,18 @@ impl<D: Dim> Spec<D> {
         crate::checkpoint::carry_engine_state::<D>(&mut world);
         let mut schedule = step_schedule();
         let pipeline = self.install_pipeline(registry, &mut schedule, &mut world)?;
+        if let Some(key) = world
+            .get_resource::<crate::checkpoint::CheckpointState>()
+            .and_then(|state| state.collisions().first().copied())
+        {
+            return Err(self.source.error(
+                "pipeline",
+                format!(
+                    "two systems carry different state under the checkpoint key \"{key}\"; give \
+                     one of them its own key (checkpoint::State::KEY)"
+                ),
+            ));
+        }
         output.system_columns = world
             .get_resource::<SeriesColumns>()
             .map(SeriesColumns::published)

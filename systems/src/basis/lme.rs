@@ -565,6 +565,11 @@ fn report_failure<D: Dim>(
     ));
 }
 
+// The checkpoint key of this system's state (stable across builds).
+impl<D: Dim> fractum_engine::checkpoint::State for LmeState<D> {
+    const KEY: &'static str = "lme/state";
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

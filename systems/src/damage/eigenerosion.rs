@@ -224,6 +224,9 @@ pub fn eigenerosion<D: Dim>(
     columns.values[e] = state.released;
 }
 
+// The checkpoint key of this system's state (stable across builds).
+fractum_engine::checkpoint_keys! { EigenerosionState => "eigenerosion/state" }
+
 #[cfg(test)]
 mod tests {
     use super::*;

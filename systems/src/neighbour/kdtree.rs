@@ -108,6 +108,11 @@ pub fn kdtree_neighbours<D: Spatial>(
     });
 }
 
+// The checkpoint key of this system's state (stable across builds).
+impl<D: Dim> fractum_engine::checkpoint::State for KdTreeCandidates<D> {
+    const KEY: &'static str = "kdtree/candidates";
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

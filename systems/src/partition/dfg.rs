@@ -371,6 +371,13 @@ fn detect_surface<D: Dim>(
     }
 }
 
+// The checkpoint key of this system's state (stable across builds).
+fractum_engine::checkpoint_keys! { SurfaceDetected => "dfg/surface_detected" }
+
+impl<D: Dim> fractum_engine::checkpoint::State for DfgNeighbours<D> {
+    const KEY: &'static str = "dfg/neighbours";
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
