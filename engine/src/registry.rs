@@ -554,6 +554,37 @@ impl<'a> Params<'a> {
         )
     }
 
+    /// Refuses `field` with `message` (placed at its value) unless `holds`: the one shape of
+    /// every range check, e.g.
+    /// `params.require("separability", (0.0..1.0).contains(&d) && d > 0.0, "expected D̄_min in (0, 1)")?`.
+    pub fn require(&self, field: &str, holds: bool, message: &str) -> Result<(), SceneError> {
+        if holds {
+            Ok(())
+        } else {
+            Err(self.error(field, message))
+        }
+    }
+
+    /// Refuses `value` of `field` with `message` unless it is finite and positive.
+    pub fn require_positive(
+        &self,
+        field: &str,
+        value: f64,
+        message: &str,
+    ) -> Result<(), SceneError> {
+        self.require(field, value.is_finite() && value > 0.0, message)
+    }
+
+    /// Refuses `value` of `field` with `message` unless it is finite and not negative.
+    pub fn require_non_negative(
+        &self,
+        field: &str,
+        value: f64,
+        message: &str,
+    ) -> Result<(), SceneError> {
+        self.require(field, value.is_finite() && value >= 0.0, message)
+    }
+
     /// An error about these params (e.g. a value out of range), placed at the params.
     pub fn error(&self, relative: &str, message: impl Into<String>) -> SceneError {
         let field = if relative.is_empty() {

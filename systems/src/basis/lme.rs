@@ -91,15 +91,17 @@ impl Default for LmeParams {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed: LmeParams = params.parse()?;
-    if !(parsed.gamma.is_finite() && parsed.gamma > 0.0) {
-        return Err(params.error("gamma", "expected γ̂ > 0"));
-    }
-    if !(parsed.support_tolerance > 0.0 && parsed.support_tolerance < 1.0) {
-        return Err(params.error("support_tolerance", "expected a value in (0, 1)"));
-    }
-    if !(parsed.newton_tolerance > 0.0 && parsed.newton_tolerance < 1e-3) {
-        return Err(params.error("newton_tolerance", "expected a value in (0, 1e-3)"));
-    }
+    params.require_positive("gamma", parsed.gamma, "expected γ̂ > 0")?;
+    params.require(
+        "support_tolerance",
+        parsed.support_tolerance > 0.0 && parsed.support_tolerance < 1.0,
+        "expected a value in (0, 1)",
+    )?;
+    params.require(
+        "newton_tolerance",
+        parsed.newton_tolerance > 0.0 && parsed.newton_tolerance < 1e-3,
+        "expected a value in (0, 1e-3)",
+    )?;
     if parsed.max_iterations == 0 {
         return Err(params.error("max_iterations", "expected at least 1"));
     }

@@ -253,19 +253,27 @@ impl Default for FrictionalParams {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed: FrictionalParams = params.parse()?;
-    if !(parsed.friction >= 0.0 && parsed.friction.is_finite()) {
-        return Err(params.error("friction", "expected a friction coefficient μ >= 0"));
-    }
+    params.require_non_negative(
+        "friction",
+        parsed.friction,
+        "expected a friction coefficient μ >= 0",
+    )?;
     check_pairs(installer, params, &parsed.pairs)?;
-    if !(parsed.separability > 0.0 && parsed.separability < 1.0) {
-        return Err(params.error("separability", "expected D̄_min in (0, 1)"));
-    }
-    if !(parsed.min_mass_fraction >= 0.0 && parsed.min_mass_fraction < 1.0) {
-        return Err(params.error("min_mass_fraction", "expected a fraction in [0, 1)"));
-    }
-    if !(parsed.sliver_fraction >= 0.0 && parsed.sliver_fraction < 0.5) {
-        return Err(params.error("sliver_fraction", "expected a fraction in [0, 0.5)"));
-    }
+    params.require(
+        "separability",
+        parsed.separability > 0.0 && parsed.separability < 1.0,
+        "expected D̄_min in (0, 1)",
+    )?;
+    params.require(
+        "min_mass_fraction",
+        parsed.min_mass_fraction >= 0.0 && parsed.min_mass_fraction < 1.0,
+        "expected a fraction in [0, 1)",
+    )?;
+    params.require(
+        "sliver_fraction",
+        parsed.sliver_fraction >= 0.0 && parsed.sliver_fraction < 0.5,
+        "expected a fraction in [0, 0.5)",
+    )?;
     // The field assignment keeps inseparable sides of a group in one field with this D̄_min.
     installer.insert_resource(fractum_engine::fields::Separability(parsed.separability));
     installer.insert_resource(parsed);
@@ -301,12 +309,11 @@ fn check_pairs(
                 ));
             }
         }
-        if !(pair.friction >= 0.0 && pair.friction.is_finite()) {
-            return Err(params.error(
-                &format!("pairs[{k}].friction"),
-                "expected a friction coefficient μ >= 0",
-            ));
-        }
+        params.require_non_negative(
+            &format!("pairs[{k}].friction"),
+            pair.friction,
+            "expected a friction coefficient μ >= 0",
+        )?;
         let (a, b) = pair.groups;
         if pairs[..k]
             .iter()

@@ -107,9 +107,7 @@ pub struct EigenerosionState {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let raw: RawParams = params.parse()?;
-    if !(raw.fracture_energy.is_finite() && raw.fracture_energy > 0.0) {
-        return Err(params.error("fracture_energy", "expected G_F > 0"));
-    }
+    params.require_positive("fracture_energy", raw.fracture_energy, "expected G_F > 0")?;
     let dimensions = installer.dimension().count();
     let factor: Vec<f64> = installer
         .world()

@@ -143,12 +143,8 @@ pub struct EigensofteningParams {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let raw: RawParams = params.parse()?;
-    if !(raw.tensile_strength.is_finite() && raw.tensile_strength > 0.0) {
-        return Err(params.error("tensile_strength", "expected f_t > 0"));
-    }
-    if !(raw.band_width.is_finite() && raw.band_width > 0.0) {
-        return Err(params.error("band_width", "expected h_ε > 0"));
-    }
+    params.require_positive("tensile_strength", raw.tensile_strength, "expected f_t > 0")?;
+    params.require_positive("band_width", raw.band_width, "expected h_ε > 0")?;
     let ft = raw.tensile_strength;
     let fracture_energy = match (raw.fracture_energy, raw.critical_opening) {
         (Some(gf), None) => gf,
@@ -167,12 +163,11 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
             ));
         }
     };
-    if !(fracture_energy.is_finite() && fracture_energy > 0.0) {
-        return Err(params.error(
-            "",
-            "expected a positive fracture energy (or critical opening)",
-        ));
-    }
+    params.require_positive(
+        "",
+        fracture_energy,
+        "expected a positive fracture energy (or critical opening)",
+    )?;
     let materials = installer.materials().clone();
     let law = SofteningLaw {
         shape: raw.softening,

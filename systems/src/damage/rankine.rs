@@ -90,9 +90,11 @@ pub struct RankineParams {
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let raw: RawParams = params.parse()?;
     require_stress_degrading_pipeline(installer, params, "damage/rankine")?;
-    if !(raw.fracture_energy.is_finite() && raw.fracture_energy > 0.0) {
-        return Err(params.error("fracture_energy", "expected G_f > 0 (J/m²)"));
-    }
+    params.require_positive(
+        "fracture_energy",
+        raw.fracture_energy,
+        "expected G_f > 0 (J/m²)",
+    )?;
     let length = characteristic_length(installer, params, raw.characteristic_length)?;
     let youngs_modulus: Vec<f64> = installer
         .world()

@@ -120,9 +120,11 @@ pub fn install_strength(
     tensile_strength: f64,
     weibull: Option<WeibullOption>,
 ) -> Result<Vec<(MaterialId, f64)>, SceneError> {
-    if !(tensile_strength.is_finite() && tensile_strength > 0.0) {
-        return Err(params.error("tensile_strength", "expected σ_f > 0 (Pa)"));
-    }
+    params.require_positive(
+        "tensile_strength",
+        tensile_strength,
+        "expected σ_f > 0 (Pa)",
+    )?;
     let weibull = match weibull {
         Some(option) => {
             let dimension = installer.dimension().count();

@@ -77,9 +77,7 @@ pub struct TimeToFailureParams {
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let raw: RawParams = params.parse()?;
     require_stress_degrading_pipeline(installer, params, "damage/time_to_failure")?;
-    if !(raw.crack_speed.is_finite() && raw.crack_speed > 0.0) {
-        return Err(params.error("crack_speed", "expected c_f > 0 (m/s)"));
-    }
+    params.require_positive("crack_speed", raw.crack_speed, "expected c_f > 0 (m/s)")?;
     let length = characteristic_length(installer, params, raw.characteristic_length)?;
     install_strength(installer, params, raw.tensile_strength, raw.weibull)?;
     let materials = installer.materials().clone();

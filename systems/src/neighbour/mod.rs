@@ -53,12 +53,8 @@ pub const PARAM_DOCS: &[ParamDoc] = &[
 /// Parses and checks the shared parameters.
 pub fn parse_params(params: &Params) -> Result<NeighbourParams, SceneError> {
     let parsed: NeighbourParams = params.parse()?;
-    if !(parsed.c_epsilon.is_finite() && parsed.c_epsilon > 0.0) {
-        return Err(params.error("c_epsilon", "expected a positive factor"));
-    }
-    if !(parsed.skin.is_finite() && parsed.skin >= 0.0) {
-        return Err(params.error("skin", "expected a fraction >= 0"));
-    }
+    params.require_positive("c_epsilon", parsed.c_epsilon, "expected a positive factor")?;
+    params.require_non_negative("skin", parsed.skin, "expected a fraction >= 0")?;
     Ok(parsed)
 }
 

@@ -53,12 +53,11 @@ impl Default for NewmarkParams {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed: NewmarkParams = params.parse()?;
-    if !(0.5..=1.0).contains(&parsed.gamma) {
-        return Err(params.error(
-            "gamma",
-            "expected γ in [0.5, 1] (explicit Newmark is unstable below 0.5)",
-        ));
-    }
+    params.require(
+        "gamma",
+        (0.5..=1.0).contains(&parsed.gamma),
+        "expected γ in [0.5, 1] (explicit Newmark is unstable below 0.5)",
+    )?;
     installer.restrict_time_step(
         stability_factor(parsed.gamma),
         format!(

@@ -56,9 +56,11 @@ pub struct UslPredictorParams {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed: UslPredictorParams = params.parse()?;
-    if !(parsed.min_node_mass >= 0.0 && parsed.min_node_mass.is_finite()) {
-        return Err(params.error("min_node_mass", "expected a finite mass >= 0"));
-    }
+    params.require_non_negative(
+        "min_node_mass",
+        parsed.min_node_mass,
+        "expected a finite mass >= 0",
+    )?;
     installer.insert_resource(parsed);
     installer.insert_resource(GridIntegration::UpdateStressLast);
     with_dim!(installer.dimension(), D => installer.add_systems(usl_predictor::<D>));
