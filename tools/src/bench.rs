@@ -12,8 +12,8 @@ use fractum_engine::simulation::{End, TimeStep};
 use std::fmt::Write as _;
 use std::time::Instant;
 
-/// A pipeline to benchmark.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// A pipeline to benchmark; on the command line in kebab case (`linear-usl`, `dfg-contact`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum BenchPipeline {
     /// `basis/linear` + update-stress-last + linear elasticity.
     LinearUsl,
@@ -21,16 +21,16 @@ pub enum BenchPipeline {
     GimpUsl,
     /// `basis/lme` (γ̂ = 3.5) + Newmark predictor-corrector + linear elasticity.
     LmeNewmark,
-    /// `linear+usl` plus `neighbour/kdtree` and `damage/eigensoftening` (strength too high to
+    /// `linear-usl` plus `neighbour/kdtree` and `damage/eigensoftening` (strength too high to
     /// crack): the cost of the every-step neighbour lists and damage update of a body below its
     /// strength, where eigensoftening's bound skips the non-local sums.
     KdtreeSoftening,
-    /// As `KdtreeSoftening` with `neighbour/node_linked`.
+    /// As `kdtree-softening` with `neighbour/node_linked`.
     NodeLinkedSoftening,
     /// `basis/linear` + Newmark + linear elasticity, one velocity field: the baseline of
-    /// `DfgContact`.
+    /// `dfg-contact`.
     LinearNewmark,
-    /// `LinearNewmark` + `partition/dfg` (surface detection, so the block's surface layer is
+    /// `linear-newmark` + `partition/dfg` (surface detection, so the block's surface layer is
     /// partitioned) + `contact/frictional` (μ = 0.3): the cost of the kernel damage field, its
     /// neighbour list, the field assignment and the contact stage.
     DfgContact,

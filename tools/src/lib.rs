@@ -34,7 +34,7 @@ pub mod remedy;
 pub mod running;
 
 use bench::{BenchCase, BenchPipeline, default_steps, measure, table};
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{Parser, Subcommand};
 use fractum_engine::dim::{Dim, Dimension};
 use fractum_engine::energy::EnergyCreation;
 use fractum_engine::output::{read_particle_frame, read_pvd, write_atomically};
@@ -178,7 +178,7 @@ pub enum Command {
     Bench {
         /// Pipelines to measure.
         #[arg(long, value_enum, value_delimiter = ',', default_values = ["linear-usl", "lme-newmark"])]
-        pipeline: Vec<PipelineArg>,
+        pipeline: Vec<BenchPipeline>,
         /// Dimensions of the block (2 and/or 3).
         #[arg(long, value_delimiter = ',', default_values = ["2", "3"], value_parser = clap::value_parser!(u8).range(2..=3))]
         dimensions: Vec<u8>,
@@ -260,25 +260,6 @@ pub struct CrackArgs {
     /// record].
     #[arg(long)]
     pub thickness: Option<f64>,
-}
-
-/// Pipelines `fractum bench` knows.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum PipelineArg {
-    /// `basis/linear` + update-stress-last + linear elasticity.
-    LinearUsl,
-    /// `basis/gimp` + update-stress-last + linear elasticity.
-    GimpUsl,
-    /// `basis/lme` + Newmark predictor-corrector + linear elasticity.
-    LmeNewmark,
-    /// `linear-usl` + `neighbour/kdtree` + `damage/eigensoftening`.
-    KdtreeSoftening,
-    /// `linear-usl` + `neighbour/node_linked` + `damage/eigensoftening`.
-    NodeLinkedSoftening,
-    /// `basis/linear` + Newmark + linear elasticity (the single-field baseline of `dfg-contact`).
-    LinearNewmark,
-    /// `linear-newmark` + `partition/dfg` with surface detection + `contact/frictional`.
-    DfgContact,
 }
 
 /// Parses `args` and runs the command with the systems in `registry`; returns the exit code.
@@ -580,7 +561,7 @@ fn curve_command(csv: &Path, x: &str, y: &str, from: f64) -> i32 {
 
 /// Every combination `fractum bench` measures.
 struct BenchGrid<'a> {
-    pipelines: &'a [PipelineArg],
+    pipelines: &'a [BenchPipeline],
     dimensions: &'a [Dimension],
     particles: &'a [usize],
     threads: &'a [usize],
@@ -591,15 +572,6 @@ impl BenchGrid<'_> {
     fn cases(&self) -> Vec<BenchCase> {
         let mut cases = Vec::new();
         for &pipeline in self.pipelines {
-            let pipeline = match pipeline {
-                PipelineArg::LinearUsl => BenchPipeline::LinearUsl,
-                PipelineArg::GimpUsl => BenchPipeline::GimpUsl,
-                PipelineArg::LmeNewmark => BenchPipeline::LmeNewmark,
-                PipelineArg::KdtreeSoftening => BenchPipeline::KdtreeSoftening,
-                PipelineArg::NodeLinkedSoftening => BenchPipeline::NodeLinkedSoftening,
-                PipelineArg::LinearNewmark => BenchPipeline::LinearNewmark,
-                PipelineArg::DfgContact => BenchPipeline::DfgContact,
-            };
             for &dimension in self.dimensions {
                 for &particles in self.particles {
                     for &threads in self.threads {
