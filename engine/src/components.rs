@@ -340,7 +340,7 @@ pub struct ParticleBundle<D: Dim> {
     /// Force of scene loads.
     pub external_force: ExternalForce<D>,
     /// Which load the particle carries.
-    pub load: crate::loads::LoadShare,
+    pub load: LoadShare,
 }
 
 impl<D: Dim> ParticleBundle<D> {
@@ -366,7 +366,7 @@ impl<D: Dim> ParticleBundle<D> {
             body: BodyId(0),
             group: ContactGroup(0),
             external_force: ExternalForce::default(),
-            load: crate::loads::LoadShare::default(),
+            load: LoadShare::default(),
         }
     }
 }
@@ -419,6 +419,29 @@ impl<D: Dim> NodeBundle<D> {
             contact_impulse: NodeContactImpulse::default(),
             fields: NodeFields::default(),
             field_damage: NodeFieldDamage::default(),
+        }
+    }
+}
+
+/// Which load a particle carries and its share of the total (its volume over the load's).
+#[derive(Component, Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LoadShare {
+    /// Index into the scene's loads (`loads::ParticleLoads`), or [`LoadShare::NONE`].
+    pub load: u16,
+    /// Fraction of the load's total force.
+    pub share: f64,
+}
+
+impl LoadShare {
+    /// Index meaning "no load".
+    pub const NONE: u16 = u16::MAX;
+}
+
+impl Default for LoadShare {
+    fn default() -> Self {
+        Self {
+            load: Self::NONE,
+            share: 0.0,
         }
     }
 }

@@ -16,6 +16,7 @@ use crate::components::{
 use crate::dim::{Dim, SymOps, VectorOps};
 use crate::resources::{Grid, SimClock};
 use crate::stage::Stage;
+use crate::storage::single_table;
 use bevy_ecs::prelude::*;
 use rayon::prelude::*;
 use std::fmt;
@@ -228,29 +229,6 @@ pub fn plan_checks<D: Dim>(schedule: &Schedule, world: &World) -> Option<CheckPl
 /// Run condition: no failure so far.
 pub fn healthy(health: Res<Health>) -> bool {
     health.failure.is_none()
-}
-
-/// The slices of the one table that holds all particles (or all nodes), from a contiguous query.
-///
-/// The engine creates all particles (and all nodes) with one bundle and never adds or removes
-/// components, so each lives in exactly one table and slice index equals row index (for nodes,
-/// the node index). A second table means some code broke that rule, and continuing would
-/// silently skip entities, so that is a panic naming the rule. `None` means there are no such
-/// entities.
-pub fn single_table<I: IntoIterator, E: std::fmt::Debug>(
-    tables: Result<I, E>,
-    what: &str,
-) -> Option<I::Item> {
-    let mut tables = tables
-        .unwrap_or_else(|e| panic!("{what} components must use table storage: {e:?}"))
-        .into_iter();
-    let first = tables.next();
-    assert!(
-        tables.next().is_none(),
-        "{what} are stored in more than one table: a component was added to or removed from only \
-         some of them. Give every one of them the same components at creation."
-    );
-    first
 }
 
 /// What happens to a particle that leaves the grid.

@@ -31,6 +31,7 @@ pub mod scene;
 pub mod series;
 pub mod simulation;
 pub mod stage;
+pub mod storage;
 pub mod testing;
 
 pub use simulation::Simulation;
@@ -45,7 +46,7 @@ pub mod prelude {
         Dim, Dimension, Lattice, Matrix, MatrixOps, SymOps, SymTensor, SymTensor2, SymTensor3,
         Three, Two, Vector, VectorOps, lattice_range,
     };
-    pub use crate::health::single_table;
+    pub use crate::storage::single_table;
     pub use crate::integration::{GridIntegration, ImpulseWindow};
     pub use crate::neighbourhood::Neighbourhoods;
     pub use crate::registry::{

@@ -4,35 +4,13 @@
 //! at the start of every step; the particle-to-grid force transfer adds `N_Ip f_p` to the nodes.
 
 use crate::boundary::PiecewiseLinear;
+pub use crate::components::LoadShare;
 use crate::components::{ExternalForce, Particle};
 use crate::dim::{Dim, VectorOps};
-use crate::health::single_table;
+use crate::storage::single_table;
 use crate::resources::SimClock;
 use bevy_ecs::prelude::*;
 use rayon::prelude::*;
-
-/// Which load a particle carries and its share of the total (its volume over the load's).
-#[derive(Component, Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct LoadShare {
-    /// Index into [`ParticleLoads`], or [`LoadShare::NONE`].
-    pub load: u16,
-    /// Fraction of the load's total force.
-    pub share: f64,
-}
-
-impl LoadShare {
-    /// Index meaning "no load".
-    pub const NONE: u16 = u16::MAX;
-}
-
-impl Default for LoadShare {
-    fn default() -> Self {
-        Self {
-            load: Self::NONE,
-            share: 0.0,
-        }
-    }
-}
 
 /// Every load of the scene: total force at factor 1 and its time factor.
 #[derive(Resource, Clone, Debug)]
