@@ -11,6 +11,7 @@
 //! 2D plane strain and 3D, and a scene's grid decides which is instantiated.
 
 pub mod boundary;
+pub mod budget;
 pub mod capability;
 pub mod checkpoint;
 pub mod components;
@@ -33,6 +34,7 @@ pub mod simulation;
 pub mod stage;
 pub mod storage;
 pub mod testing;
+pub mod text;
 
 pub use simulation::Simulation;
 

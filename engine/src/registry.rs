@@ -11,7 +11,7 @@ use crate::components::Particle;
 use crate::dim::Dimension;
 use crate::integration::{GridIntegration, ImpulseWindow};
 use crate::resources::TimeStepLimit;
-use crate::scene::{Location, SceneError, parse_fragment};
+use crate::text::{Location, SceneError, parse_fragment};
 use crate::series::SeriesColumns;
 use crate::stage::{Stage, StepSet};
 use bevy_ecs::prelude::{Component, Entity, FromWorld, Resource, With, World};
@@ -421,7 +421,7 @@ impl<'a> Installer<'a> {
             .entry
             .map_or("pipeline".to_string(), |k| format!("pipeline[{k}]"));
         self.world
-            .get_resource_or_init::<crate::scene::budget::ParticleMemory>()
+            .get_resource_or_init::<crate::budget::ParticleMemory>()
             .0
             .push((field, what.into(), bytes));
     }
@@ -429,7 +429,7 @@ impl<'a> Installer<'a> {
     /// The mean number of particles per cell of the smallest width, as built (for a
     /// neighbour list's [`Installer::declare_particle_memory`]).
     pub fn particles_per_cell(&mut self) -> f64 {
-        crate::with_dim!(self.dimension(), D => crate::scene::budget::particles_per_cell::<D>(self.world))
+        crate::with_dim!(self.dimension(), D => crate::budget::particles_per_cell::<D>(self.world))
     }
 
     /// Inserts a resource that carries values from one step to the next (a running total, a
@@ -595,7 +595,7 @@ impl<'a> Params<'a> {
         let location = self
             .raw
             .and_then(|raw| {
-                let at = crate::scene::locate::locate(raw, relative)?;
+                let at = crate::text::locate::locate(raw, relative)?;
                 Some(self.origin.offset_by(Location::of_offset(raw, at)))
             })
             .unwrap_or(self.origin);
@@ -668,7 +668,7 @@ impl Params<'_> {
     fn error_at_name(&self, field: &str, message: String) -> SceneError {
         let mut error = self.error(field, message);
         let name_at = self.raw.and_then(|raw| {
-            let value = crate::scene::locate::locate(raw, field)?;
+            let value = crate::text::locate::locate(raw, field)?;
             raw[..value].rfind(field)
         });
         if let (Some(raw), Some(at)) = (self.raw, name_at) {
