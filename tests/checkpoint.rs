@@ -6,10 +6,10 @@
 //! neighbour lists and the once-only detection flag); particles removed on leaving the grid.
 
 use fractum_engine::checkpoint::{
-    SceneRecord, WorldState, capture, list_checkpoints, read_checkpoint, resume_from,
+    SceneRecord, WorldState, capture, list_checkpoints, read_checkpoint,
 };
 use fractum_engine::components::{CrackOpening, Damage};
-use fractum_engine::run::{CheckpointPlan, RunOptions, run_with};
+use fractum_engine::run::{CheckpointPlan, RunOptions, resume_from, run_with};
 use fractum_engine::scene::{Built, SceneFile, build_simulation};
 use fractum_engine::simulation::End;
 use fractum_suite::{repo_root, temp_dir};
@@ -113,13 +113,13 @@ fn scene(name: &str) -> String {
     std::fs::read_to_string(repo_root().join("scenes").join(name)).unwrap()
 }
 
-/// The values of the carried component whose type name ends with `suffix`.
-fn component<C: serde::de::DeserializeOwned>(state: &WorldState, suffix: &str) -> Vec<C> {
+/// The values of the carried component `C`, found by its checkpoint key.
+fn component<C: fractum_engine::checkpoint::State>(state: &WorldState) -> Vec<C> {
     let bytes = &state
         .components
         .iter()
-        .find(|(n, _)| n.ends_with(suffix))
-        .unwrap_or_else(|| panic!("no component {suffix}"))
+        .find(|(n, _)| n == C::KEY)
+        .unwrap_or_else(|| panic!("no component {}", C::KEY))
         .1;
     let values: Vec<Option<C>> = postcard::from_bytes(bytes).unwrap();
     values.into_iter().flatten().collect()
@@ -140,7 +140,7 @@ fn lme_newmark_eigensoftening_resumes_bitwise() {
         );
     let state = assert_resume_is_bitwise("softening", &text, 120);
     // The run got into softening: some crack opening is carried.
-    let openings: Vec<CrackOpening> = component(&state, "::CrackOpening");
+    let openings: Vec<CrackOpening> = component(&state);
     assert!(openings.iter().any(|w| w.0 > 0.0), "no crack opened");
 }
 
@@ -195,7 +195,7 @@ fn the_damage_laws_of_the_dfg_paper_resume_bitwise() {
         ("ttf", "time_to_failure_strip.ron"),
     ] {
         let state = assert_resume_is_bitwise(name, &scene(file), 150);
-        let damage: Vec<Damage> = component(&state, "::Damage");
+        let damage: Vec<Damage> = component(&state);
         assert!(damage.iter().any(|d| d.0 > 0.0), "{file}: nothing damaged");
     }
 }

@@ -470,7 +470,7 @@ fn pull_cracked_bar(integrator: &[(&str, Option<&str>)], partition: Option<&str>
 /// point into it from both sides, no particle is flagged (no surface detection), and every
 /// field key is group 0's (0 or 1: the side is relative to each node's reference direction).
 fn check_partition_frame(world: &mut World) {
-    let frame = fractum_engine::run::particle_frame(world);
+    let frame = fractum_engine::output::particle_frame(world);
     let scalar = |name: &str| {
         frame
             .scalars
@@ -707,7 +707,7 @@ fn grid_frames_show_both_fields_where_the_disks_meet() {
     for _ in 0..1300 {
         sim.step().unwrap_or_else(|e| panic!("{e}"));
     }
-    let frame = fractum_engine::run::grid_frame(&mut sim.world);
+    let frame = fractum_engine::output::grid_frame(&mut sim.world);
     let diagonal = DVec2::ONE.normalize();
     let shared: Vec<usize> = (0..frame.index.len())
         .filter(|&i| frame.fields[i] == 2)

@@ -8,7 +8,7 @@
 //!   R = 0.0129 at u = 0.0065. The refinement study towards it is in README (too large here).
 
 use fractum_cli::plot::{CurveSummary, curve_summary};
-use fractum_engine::run::series_row;
+use fractum_engine::output::series_row;
 use fractum_suite::repo_root;
 
 /// Plane-strain finite-element slope R/u of the cracked panel before cracking.

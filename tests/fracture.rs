@@ -366,7 +366,7 @@ fn weibull_strengths_follow_eq_25_per_particle_and_reach_the_frames() {
     strengths.sort_by(f64::total_cmp);
     let median = strengths[strengths.len() / 2];
     assert!((median / 100.0 - 1.0).abs() < 0.05, "median {median}");
-    let frame = fractum_engine::run::particle_frame(world);
+    let frame = fractum_engine::output::particle_frame(world);
     let written = frame
         .scalars
         .iter()
@@ -381,7 +381,7 @@ fn weibull_strengths_follow_eq_25_per_particle_and_reach_the_frames() {
 fn frames_show_strength_only_where_a_law_governs() {
     let mut built = scene_with("tension_rankine.ron", &[]);
     let world = &mut built.simulation.world;
-    let frame = fractum_engine::run::particle_frame(world);
+    let frame = fractum_engine::output::particle_frame(world);
     let (_, strength) = frame
         .scalars
         .iter()

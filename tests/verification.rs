@@ -1,8 +1,8 @@
 //! Verification against analytic solutions, in 2D and 3D. Tolerances are the ones the
 //! specification states, or are justified next to the assertion.
 
+use fractum_engine::output::series_row;
 use fractum_engine::prelude::*;
-use fractum_engine::run::series_row;
 use fractum_engine::scene::{PipelineEntry, SceneFile, Spec};
 use fractum_engine::simulation::TimeStep;
 use fractum_suite::repo_root;

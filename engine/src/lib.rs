@@ -48,7 +48,6 @@ pub mod prelude {
         Dim, Dimension, Lattice, Matrix, MatrixOps, SymOps, SymTensor, SymTensor2, SymTensor3,
         Three, Two, Vector, VectorOps, lattice_range,
     };
-    pub use crate::storage::single_table;
     pub use crate::integration::{GridIntegration, ImpulseWindow};
     pub use crate::neighbourhood::Neighbourhoods;
     pub use crate::registry::{
@@ -58,6 +57,7 @@ pub mod prelude {
     pub use crate::scene::SceneError;
     pub use crate::series::SeriesColumns;
     pub use crate::stage::{Stage, StepSet};
+    pub use crate::storage::single_table;
     pub use crate::with_dim;
     pub use bevy_ecs::prelude::*;
     pub use glam::{DMat2, DMat3, DVec2, DVec3};

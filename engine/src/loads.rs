@@ -7,8 +7,8 @@ use crate::boundary::PiecewiseLinear;
 pub use crate::components::LoadShare;
 use crate::components::{ExternalForce, Particle};
 use crate::dim::{Dim, VectorOps};
-use crate::storage::single_table;
 use crate::resources::SimClock;
+use crate::storage::single_table;
 use bevy_ecs::prelude::*;
 use rayon::prelude::*;
 

@@ -10,11 +10,12 @@ use crate::{EXIT_ABANDONED, EXIT_BAD_SCENE, EXIT_BLOWUP, EXIT_INTERRUPTED, EXIT_
 use crate::{EXIT_RESOURCES, EXIT_USAGE, energy_warning, load, report_scene_error, summary_report};
 use fractum_engine::checkpoint::{
     CHECKPOINT_DIR, CheckpointEvery, SceneRecord, list_checkpoints, read_checkpoint,
-    restore_checkpoint, rewind_outputs,
 };
 use fractum_engine::energy::EnergyWatch;
 use fractum_engine::registry::Registry;
-use fractum_engine::run::{CheckpointPlan, RunError, RunOptions, run_with};
+use fractum_engine::run::{
+    CheckpointPlan, RunError, RunOptions, restore_checkpoint, rewind_outputs, run_with,
+};
 use fractum_engine::scene::{SceneFile, build_simulation};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};

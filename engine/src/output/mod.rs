@@ -5,12 +5,16 @@
 mod atomic;
 mod columns;
 mod csv;
+mod frames;
+mod probes;
 mod pvd;
 mod vtu;
 
 pub use atomic::write_atomically;
 pub use columns::{ColumnValues, FrameColumns};
 pub use csv::SeriesWriter;
+pub use frames::{grid_frame, particle_frame};
+pub use probes::{ForceProbeMemory, largest_energy_particle, must_be_finite, series_row};
 pub use pvd::{read_pvd, write_pvd};
 pub use vtu::{
     GridFrame, ParticleFrame, read_particle_frame, write_grid_frame, write_particle_frame,

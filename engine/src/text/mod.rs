@@ -139,4 +139,3 @@ fn variant_hint(field: &str) -> Option<&'static str> {
         .find(|(suffix, _)| field.ends_with(suffix))
         .map(|(_, hint)| *hint)
 }
-

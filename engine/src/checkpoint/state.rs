@@ -1,0 +1,395 @@
+//! What a checkpoint carries and how a world's state is captured and restored (see the
+//! module [`crate::checkpoint`]).
+
+use crate::components::{Particle, ParticleId};
+use bevy_ecs::prelude::*;
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+
+/// Data a checkpoint can carry: serde both ways, safe to share between threads, and stored
+/// under an explicit [`State::KEY`].
+pub trait State: Serialize + DeserializeOwned + Send + Sync + 'static {
+    /// The name the value is stored under: stable across builds and compilers (never derived
+    /// from the type's Rust path), unique among everything a run carries. Stock keys are
+    /// `particle/…`, `engine/…` and `<system>/…`; a user's crate should prefix its own.
+    const KEY: &'static str;
+}
+
+/// Implements [`State`] for types with explicit keys: `checkpoint_keys! { MyTotal => "my/total" }`.
+/// A generic type is written out by hand (`impl<D: Dim> State for MyState<D> { … }`).
+#[macro_export]
+macro_rules! checkpoint_keys {
+    ($($ty:ty => $key:literal),* $(,)?) => {
+        $(impl $crate::checkpoint::State for $ty {
+            const KEY: &'static str = $key;
+        })*
+    };
+}
+
+/// Implements [`State`] for generic-over-`D` engine types.
+macro_rules! dim_keys {
+    ($($ty:ident => $key:literal),* $(,)?) => {
+        $(impl<D: crate::dim::Dim> State for crate::components::$ty<D> {
+            const KEY: &'static str = $key;
+        })*
+    };
+}
+
+dim_keys! {
+    Position => "particle/position",
+    Velocity => "particle/velocity",
+    Acceleration => "particle/acceleration",
+    DeformationGradient => "particle/deformation_gradient",
+    Stress => "particle/stress",
+    Strain => "particle/strain",
+    ExternalForce => "particle/external_force",
+    DamageGradient => "particle/damage_gradient",
+}
+
+checkpoint_keys! {
+    crate::components::Mass => "particle/mass",
+    crate::components::Volume => "particle/volume",
+    crate::components::InitialVolume => "particle/initial_volume",
+    crate::components::StrainEnergyDensity => "particle/strain_energy_density",
+    crate::components::WaveSpeed => "particle/wave_speed",
+    crate::components::Damage => "particle/damage",
+    crate::components::DamageHistory => "particle/damage_history",
+    crate::components::MaterialId => "particle/material",
+    crate::components::BodyId => "particle/body",
+    crate::components::ContactGroup => "particle/contact_group",
+    crate::components::Strength => "particle/strength",
+    crate::components::CrackOpening => "particle/crack_opening",
+    crate::components::SurfaceFlag => "particle/surface_flag",
+    crate::loads::LoadShare => "particle/load_share",
+    crate::resources::SimClock => "engine/clock",
+    crate::energy::EnergyAccount => "engine/energy_account",
+    crate::energy::EnergyWatch => "engine/energy_watch",
+    crate::output::ForceProbeMemory => "engine/force_probes",
+    crate::health::EscapedParticles => "engine/escaped_particles",
+    crate::series::SeriesColumns => "engine/series_columns",
+}
+
+/// Why a checkpoint could not be written or restored.
+#[derive(Debug, thiserror::Error)]
+pub enum CheckpointError {
+    /// A value could not be encoded or decoded.
+    #[error("cannot encode or decode {what}: {source}")]
+    Codec {
+        /// The component or resource.
+        what: String,
+        /// The cause.
+        source: postcard::Error,
+    },
+    /// The checkpoint does not fit the world rebuilt from the scene.
+    #[error("{0}")]
+    Mismatch(String),
+}
+
+type SaveComponent = fn(&mut World, &[Entity]) -> Result<Vec<u8>, CheckpointError>;
+type LoadComponent = fn(&mut World, &[Entity], &[u8]) -> Result<(), CheckpointError>;
+type SaveResource = fn(&World) -> Result<Option<Vec<u8>>, CheckpointError>;
+type LoadResource = fn(&mut World, &[u8]) -> Result<(), CheckpointError>;
+
+#[derive(Clone, Copy)]
+struct ComponentEntry {
+    name: &'static str,
+    type_id: std::any::TypeId,
+    save: SaveComponent,
+    load: LoadComponent,
+}
+
+#[derive(Clone, Copy)]
+struct ResourceEntry {
+    name: &'static str,
+    type_id: std::any::TypeId,
+    save: SaveResource,
+    load: LoadResource,
+}
+
+/// The components and resources a checkpoint carries (see the module header).
+#[derive(Resource, Clone, Default)]
+pub struct CheckpointState {
+    components: Vec<ComponentEntry>,
+    resources: Vec<ResourceEntry>,
+    /// Keys asked for by two different types (a scene with any is refused).
+    collisions: Vec<&'static str>,
+}
+
+impl std::fmt::Debug for CheckpointState {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CheckpointState")
+            .field("components", &self.component_names())
+            .field("resources", &self.resource_names())
+            .finish()
+    }
+}
+
+impl CheckpointState {
+    /// Carries particle component `C` (once, however often it is asked).
+    pub fn component<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(&mut self) {
+        let (name, type_id) = (C::KEY, std::any::TypeId::of::<C>());
+        if self.is_new(name, type_id) {
+            self.components.push(ComponentEntry {
+                name,
+                type_id,
+                save: save_component::<C>,
+                load: load_component::<C>,
+            });
+        }
+    }
+
+    /// Carries resource `R` (once, however often it is asked).
+    pub fn resource<R: Resource + State>(&mut self) {
+        let (name, type_id) = (R::KEY, std::any::TypeId::of::<R>());
+        if self.is_new(name, type_id) {
+            self.resources.push(ResourceEntry {
+                name,
+                type_id,
+                save: save_resource::<R>,
+                load: load_resource::<R>,
+            });
+        }
+    }
+
+    /// Whether `name` is not carried yet; a key already taken by another type is recorded as
+    /// a collision.
+    fn is_new(&mut self, name: &'static str, type_id: std::any::TypeId) -> bool {
+        let taken = self
+            .components
+            .iter()
+            .map(|e| (e.name, e.type_id))
+            .chain(self.resources.iter().map(|e| (e.name, e.type_id)))
+            .find(|(n, _)| *n == name);
+        match taken {
+            None => true,
+            Some((_, t)) if t == type_id => false,
+            Some(_) => {
+                self.collisions.push(name);
+                false
+            }
+        }
+    }
+
+    /// Keys that two different types asked for.
+    pub fn collisions(&self) -> &[&'static str] {
+        &self.collisions
+    }
+
+    /// Names of the carried components.
+    pub fn component_names(&self) -> Vec<&'static str> {
+        self.components.iter().map(|e| e.name).collect()
+    }
+
+    /// Names of the carried resources.
+    pub fn resource_names(&self) -> Vec<&'static str> {
+        self.resources.iter().map(|e| e.name).collect()
+    }
+}
+
+/// Registers particle component `C` with the world's [`CheckpointState`].
+pub fn carry_component<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
+    world: &mut World,
+) {
+    world
+        .get_resource_or_init::<CheckpointState>()
+        .component::<C>();
+}
+
+/// Registers resource `R` with the world's [`CheckpointState`].
+pub fn carry_resource<R: Resource + State>(world: &mut World) {
+    world
+        .get_resource_or_init::<CheckpointState>()
+        .resource::<R>();
+}
+
+fn codec(what: &str) -> impl FnOnce(postcard::Error) -> CheckpointError + '_ {
+    move |source| CheckpointError::Codec {
+        what: what.to_string(),
+        source,
+    }
+}
+
+fn save_component<C: Component + State>(
+    world: &mut World,
+    particles: &[Entity],
+) -> Result<Vec<u8>, CheckpointError> {
+    let values: Vec<Option<&C>> = particles.iter().map(|&e| world.get::<C>(e)).collect();
+    postcard::to_allocvec(&values).map_err(codec(C::KEY))
+}
+
+fn load_component<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
+    world: &mut World,
+    particles: &[Entity],
+    bytes: &[u8],
+) -> Result<(), CheckpointError> {
+    let name = C::KEY;
+    let values: Vec<Option<C>> = postcard::from_bytes(bytes).map_err(codec(name))?;
+    if values.len() != particles.len() {
+        return Err(CheckpointError::Mismatch(format!(
+            "{name}: the checkpoint has {} particles, the scene {}",
+            values.len(),
+            particles.len()
+        )));
+    }
+    for (&entity, value) in particles.iter().zip(values) {
+        match (world.get_mut::<C>(entity), value) {
+            (Some(mut slot), Some(value)) => *slot = value,
+            (None, None) => {}
+            _ => {
+                return Err(CheckpointError::Mismatch(format!(
+                    "{name}: the particles that have it differ between the checkpoint and the \
+                     scene"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn save_resource<R: Resource + State>(world: &World) -> Result<Option<Vec<u8>>, CheckpointError> {
+    world
+        .get_resource::<R>()
+        .map(|r| postcard::to_allocvec(r).map_err(codec(R::KEY)))
+        .transpose()
+}
+
+fn load_resource<R: Resource + State>(
+    world: &mut World,
+    bytes: &[u8],
+) -> Result<(), CheckpointError> {
+    let value: R = postcard::from_bytes(bytes).map_err(codec(R::KEY))?;
+    world.insert_resource(value);
+    Ok(())
+}
+
+/// Registers what the engine itself carries from step to step: every component particles are
+/// spawned with (their id is the key, not carried), the clock, and the running totals.
+pub fn carry_engine_state<D: crate::dim::Dim>(world: &mut World) {
+    use crate::components::*;
+    let mut state = world.get_resource_or_init::<CheckpointState>();
+    state.component::<Position<D>>();
+    state.component::<Velocity<D>>();
+    state.component::<Acceleration<D>>();
+    state.component::<Mass>();
+    state.component::<Volume>();
+    state.component::<InitialVolume>();
+    state.component::<DeformationGradient<D>>();
+    state.component::<Stress<D>>();
+    state.component::<Strain<D>>();
+    state.component::<StrainEnergyDensity>();
+    state.component::<WaveSpeed>();
+    state.component::<Damage>();
+    state.component::<DamageHistory>();
+    state.component::<MaterialId>();
+    state.component::<BodyId>();
+    state.component::<ContactGroup>();
+    state.component::<ExternalForce<D>>();
+    state.component::<crate::loads::LoadShare>();
+    state.resource::<crate::resources::SimClock>();
+    state.resource::<crate::energy::EnergyAccount>();
+    state.resource::<crate::energy::EnergyWatch>();
+    state.resource::<crate::output::ForceProbeMemory>();
+    state.resource::<crate::health::EscapedParticles>();
+    state.resource::<crate::series::SeriesColumns>();
+}
+
+/// The state of a world: its particles in storage order, those removed so far in the order
+/// they went, and each carried component and resource, encoded.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct WorldState {
+    /// The live particles' ids, in storage (query) order.
+    pub particles: Vec<u32>,
+    /// The removed particles' ids, in the order they were removed.
+    pub removed: Vec<u32>,
+    /// Component name and its values, one per live particle in `particles` order.
+    pub components: Vec<(String, Vec<u8>)>,
+    /// Resource name and its value (absent resources are not listed).
+    pub resources: Vec<(String, Vec<u8>)>,
+}
+
+fn particles_in_order(world: &mut World) -> (Vec<Entity>, Vec<u32>) {
+    let mut query = world.query_filtered::<(Entity, &ParticleId), With<Particle>>();
+    query.iter(world).map(|(e, id)| (e, id.0)).unzip()
+}
+
+/// Captures the state of `world` that its [`CheckpointState`] lists.
+pub fn capture(world: &mut World) -> Result<WorldState, CheckpointError> {
+    let state = world
+        .get_resource::<CheckpointState>()
+        .cloned()
+        .unwrap_or_default();
+    let (entities, particles) = particles_in_order(world);
+    let removed = world
+        .get_resource::<crate::health::EscapedParticles>()
+        .map(|e| e.removed.clone())
+        .unwrap_or_default();
+    let mut components = Vec::new();
+    for entry in &state.components {
+        components.push((entry.name.to_string(), (entry.save)(world, &entities)?));
+    }
+    let mut resources = Vec::new();
+    for entry in &state.resources {
+        if let Some(bytes) = (entry.save)(world)? {
+            resources.push((entry.name.to_string(), bytes));
+        }
+    }
+    Ok(WorldState {
+        particles,
+        removed,
+        components,
+        resources,
+    })
+}
+
+/// Puts `saved` into `world`, a world freshly built from the same scene: removes the particles
+/// removed before the checkpoint in their order, checks that the storage order is the saved
+/// one, and overwrites every carried component and resource.
+pub fn restore(world: &mut World, saved: &WorldState) -> Result<(), CheckpointError> {
+    let state = world
+        .get_resource::<CheckpointState>()
+        .cloned()
+        .unwrap_or_default();
+    let (entities, ids) = particles_in_order(world);
+    let by_id: std::collections::HashMap<u32, Entity> =
+        ids.iter().copied().zip(entities.iter().copied()).collect();
+    for id in &saved.removed {
+        let entity = by_id.get(id).copied().ok_or_else(|| {
+            CheckpointError::Mismatch(format!(
+                "the checkpoint removed particle {id}, which the scene does not have"
+            ))
+        })?;
+        world.despawn(entity);
+    }
+    let (entities, ids) = particles_in_order(world);
+    if ids != saved.particles {
+        return Err(CheckpointError::Mismatch(format!(
+            "the scene's particles ({}) are not the checkpoint's ({}) in the same order",
+            ids.len(),
+            saved.particles.len()
+        )));
+    }
+    let saved_names: Vec<&str> = saved.components.iter().map(|(n, _)| n.as_str()).collect();
+    let names = state.component_names();
+    if names != saved_names {
+        return Err(CheckpointError::Mismatch(format!(
+            "the pipeline carries the particle components {names:?}, the checkpoint \
+             {saved_names:?}"
+        )));
+    }
+    for (entry, (_, bytes)) in state.components.iter().zip(&saved.components) {
+        (entry.load)(world, &entities, bytes)?;
+    }
+    for (name, bytes) in &saved.resources {
+        let entry = state
+            .resources
+            .iter()
+            .find(|e| e.name == name)
+            .ok_or_else(|| {
+                CheckpointError::Mismatch(format!(
+                    "the checkpoint carries {name}, which this scene's pipeline does not have"
+                ))
+            })?;
+        (entry.load)(world, bytes)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,84 @@
+//! Resuming a run: a checkpoint put into a world freshly built from its scene, and the outputs
+//! wound back to it, for [`super::run_with`] to continue.
+
+use super::ResumedOutputs;
+use crate::checkpoint::{CheckpointFile, restore};
+
+/// Puts a checkpoint into `sim`, freshly built from the checkpoint's scene, and winds the
+/// outputs in `out_dir` back to it: `series.csv` is cut to its rows then, and frames written
+/// after it are deleted. Returns the outputs for [`super::run_with`] to continue.
+pub fn resume_from(
+    sim: &mut crate::Simulation,
+    out_dir: &std::path::Path,
+    file: &CheckpointFile,
+) -> Result<ResumedOutputs, String> {
+    restore_checkpoint(sim, file)?;
+    rewind_outputs(out_dir, file, sim.clock().step)
+}
+
+/// Puts a checkpoint into `sim`, freshly built from the checkpoint's scene: the world, the
+/// clock's compensation and the run's end. The outputs are not touched.
+pub fn restore_checkpoint(
+    sim: &mut crate::Simulation,
+    file: &CheckpointFile,
+) -> Result<(), String> {
+    restore(&mut sim.world, &file.world)
+        .map_err(|e| format!("the checkpoint does not fit the world built from its scene: {e}"))?;
+    sim.set_time_compensation(file.time_compensation);
+    sim.set_end(file.end);
+    Ok(())
+}
+
+/// Winds the outputs in `out_dir` back to checkpoint `file`, taken after `step`: the rows of
+/// `series.csv` then (returned, for the run to rewrite), and no frame written after it. Call it
+/// only once the run is sure to go on: it deletes those frames.
+pub fn rewind_outputs(
+    out_dir: &std::path::Path,
+    file: &CheckpointFile,
+    step: u64,
+) -> Result<ResumedOutputs, String> {
+    let series_path = out_dir.join("series.csv");
+    let mut series = std::fs::read_to_string(&series_path)
+        .map_err(|e| format!("cannot read {}: {e}", series_path.display()))?;
+    let kept = file.outputs.series_bytes as usize;
+    if series.len() < kept || !series.is_char_boundary(kept) {
+        return Err(format!(
+            "{} holds {} bytes, fewer than the {kept} it held at the checkpoint of step {step}; \
+             it was changed since",
+            series_path.display(),
+            series.len()
+        ));
+    }
+    series.truncate(kept);
+    let listed: std::collections::HashSet<&str> = file
+        .outputs
+        .frames
+        .iter()
+        .chain(&file.outputs.grid_frames)
+        .map(|(_, f)| f.as_str())
+        .collect();
+    if let Ok(entries) = std::fs::read_dir(out_dir.join("frames")) {
+        for entry in entries.flatten() {
+            let name = format!("frames/{}", entry.file_name().to_string_lossy());
+            if name.ends_with(".vtu") && !listed.contains(name.as_str()) {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+    }
+    for (collection, frames) in [
+        ("particles.pvd", &file.outputs.frames),
+        ("grid.pvd", &file.outputs.grid_frames),
+    ] {
+        if !frames.is_empty() {
+            let path = out_dir.join(collection);
+            crate::output::write_pvd(&path, frames)
+                .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        }
+    }
+    Ok(ResumedOutputs {
+        series,
+        frames: file.outputs.frames.clone(),
+        grid_frames: file.outputs.grid_frames.clone(),
+        next_checkpoint_time: file.outputs.next_checkpoint_time,
+    })
+}
