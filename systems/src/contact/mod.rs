@@ -1,3 +1,4 @@
 //! Contact stage: interactions between the velocity fields of a node.
 
 pub mod frictional;
+pub mod frictional_law;
