@@ -69,6 +69,11 @@ pub enum Stage {
     PostStep,
 }
 
+/// The schedule set of pipeline entry `k`: the engine orders the entries of one stage as the
+/// scene lists them.
+#[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct PipelineEntrySet(pub usize);
+
 /// The engine's check that runs after the systems of one stage.
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct StageCheck(pub Stage);
