@@ -13,11 +13,13 @@
 
 mod check;
 mod format;
+mod pipeline;
 mod seed;
 mod shape;
 mod spawn;
 mod spec;
 mod validate;
+mod world_checks;
 
 pub use crate::budget;
 pub use crate::text::{Location, SceneError, locate, parse_fragment, scene_text};

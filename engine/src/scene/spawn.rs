@@ -1,14 +1,12 @@
 //! From a checked [`Spec`] to a [`Simulation`]: spawning nodes and particles, resolving boundary
-//! regions and probes, installing the pipeline, and the last checks that need the world (a
-//! shape that seeds no particle, a region with no node, a fixed step above the stable limit).
+//! regions and probes, and the engine's own systems. The pipeline is installed by
+//! `scene::pipeline`; the checks that need the world (memory, the stable step) are
+//! `scene::world_checks`.
 
-use super::budget::{self, MemoryEstimate, ParticleMemory};
+use super::SceneError;
 use super::format::Probe;
 use super::seed::particles_in_shape;
-use super::spec::{
-    Body, Boundary, Built, Condition, PipelineEntry, PipelineSummary, SceneSummary, Spec,
-};
-use super::{SceneError, Source};
+use super::spec::{Body, Boundary, Built, Condition, SceneSummary, Spec};
 use crate::boundary::{BoundaryConditions, BoundaryRegion, PiecewiseLinear, Reactions};
 use crate::components::{
     BodyId, ContactGroup, Damage, NodeBundle, ParticleBundle, Velocity, WaveSpeed,
@@ -18,15 +16,13 @@ use crate::dim::{Dim, VectorOps};
 use crate::health::{LeaveGrid, remove_escaped_particles};
 use crate::loads::{LoadShare, ParticleLoads, apply_loads};
 use crate::output::{OutputPlan, ProbeKind};
-use crate::registry::{Installer, MaterialFilter, PipelineEntrySet, Registration, Registry};
-use crate::resources::{BodyForce, Grid, Materials, SimClock, Thickness, TimeStepLimit};
+use crate::registry::Registry;
+use crate::resources::{BodyForce, Grid, Materials, SimClock, Thickness};
 use crate::series::SeriesColumns;
-use crate::simulation::{
-    End, Simulation, TimeStep, add_stage_checks, stable_time_step, step_schedule,
-};
+use crate::simulation::{Simulation, add_stage_checks, step_schedule};
 use crate::stage::{Stage, StageCheck, StepSet};
 use bevy_ecs::prelude::World;
-use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule};
+use bevy_ecs::schedule::IntoScheduleConfigs;
 
 impl<D: Dim> Spec<D> {
     /// Checks the spec, builds the world and the step schedule with systems from `registry`,
@@ -35,69 +31,17 @@ impl<D: Dim> Spec<D> {
         self.check()?;
         let available = super::budget::available_memory();
         self.check_memory_before_spawning(available)?;
-        let mut world = World::new();
-        world.insert_resource(self.grid.clone());
-        world.insert_resource(D::DIMENSION);
-        world.insert_resource(Thickness(self.thickness));
-        spawn_nodes(&mut world, &self.grid);
-        let body_particles = self.spawn_bodies(&mut world)?;
-        let boundaries = self.boundary_conditions()?;
-        let mut output = self.output_plan(&mut world)?;
-        world.insert_resource(Materials(self.materials.clone()));
-        world.insert_resource(BodyForce::<D>(self.body_force));
-        world.insert_resource(Reactions::<D>(vec![
-            D::Vector::ZERO;
-            boundaries.regions.len()
-        ]));
-        world.insert_resource(boundaries);
-        world.insert_resource(SimClock::default());
-        world.insert_resource(self.on_leave_grid);
-        world.init_resource::<Connectivity<D>>();
-        crate::checkpoint::carry_engine_state::<D>(&mut world);
+        let (mut world, body_particles, mut output) = self.spawn_world()?;
         let mut schedule = step_schedule();
         let pipeline = self.install_pipeline(registry, &mut schedule, &mut world)?;
-        if let Some(key) = world
-            .get_resource::<crate::checkpoint::CheckpointState>()
-            .and_then(|state| state.collisions().first().copied())
-        {
-            return Err(self.source.error(
-                "pipeline",
-                format!(
-                    "two systems carry different state under the checkpoint key \"{key}\"; give \
-                     one of them its own key (checkpoint::State::KEY)"
-                ),
-            ));
-        }
+        self.check_checkpoint_keys(&world)?;
         output.system_columns = world
             .get_resource::<SeriesColumns>()
             .map(SeriesColumns::published)
             .unwrap_or_default();
         self.check_stable_step(&mut world)?;
         self.check_memory_after_install(&mut world, available)?;
-        add_stage_checks::<D>(
-            &mut schedule,
-            pipeline.by_stage.iter().map(|(stage, _)| *stage),
-        );
-        if !world.resource::<ParticleLoads<D>>().0.is_empty() {
-            schedule.add_systems(apply_loads::<D>.in_set(StepSet::ApplyLoads));
-        }
-        let start = crate::diagnostics::totals(&mut world);
-        let moment = {
-            let mut query = world.query_filtered::<(
-                &crate::components::Mass,
-                &crate::components::Position<D>,
-            ), bevy_ecs::query::With<crate::components::Particle>>();
-            crate::energy::first_moment::<D>(query.iter(&world).map(|(m, x)| (m.0, x.0)))
-        };
-        world.insert_resource(crate::energy::EnergyAccount::new(
-            start.total_energy(),
-            moment,
-        ));
-        schedule.add_systems(crate::energy::account_work::<D>.in_set(StepSet::AccountWork));
-        if self.on_leave_grid == LeaveGrid::Remove {
-            schedule
-                .add_systems(remove_escaped_particles::<D>.in_set(StageCheck(Stage::Advection)));
-        }
+        self.add_engine_systems(&mut schedule, &mut world, &pipeline);
         let simulation =
             Simulation::new::<D>(world, schedule, self.time_step, self.end).map_err(|e| {
                 self.source.error(
@@ -118,95 +62,77 @@ impl<D: Dim> Spec<D> {
         })
     }
 
-    /// Refuses a grid or bodies that cannot fit in `available` bytes before any is made: the
-    /// nodes, and each body's particles bounded by its bounding box's cells (at the smallest
-    /// cell width) times the particles per cell.
-    fn check_memory_before_spawning(&self, available: f64) -> Result<(), SceneError> {
-        let nodes = (0..D::N)
-            .map(|a| (self.grid.cells[a] + 1) as f64)
-            .product::<f64>();
-        let mut estimate = MemoryEstimate::default();
-        estimate.add(
-            format!("{} grid nodes", budget::describe_count(nodes)),
-            nodes * budget::node_bytes::<D>(),
-        );
-        let (lo, hi) = (self.grid.min.to_3d(), self.grid.max().to_3d());
-        let mut largest_body = (0, 0.0);
-        for (b, body) in self.bodies.iter().enumerate() {
-            let (min, max) = body.shape.bounds();
-            let cells: f64 = (0..D::N)
-                .map(|a| {
-                    let extent = (max[a].min(hi[a]) - min[a].max(lo[a])).max(0.0);
-                    (extent / self.grid.spacing).ceil() + 1.0
-                })
-                .product();
-            let particles = cells * f64::from(body.particles_per_cell).powi(D::N as i32);
-            if particles > largest_body.1 {
-                largest_body = (b, particles);
-            }
-            estimate.add(
+    /// The world before the pipeline: the engine's resources, the nodes and the bodies'
+    /// particles. Returns it with each body's particle count and the output plan.
+    fn spawn_world(&self) -> Result<(World, Vec<usize>, OutputPlan), SceneError> {
+        let mut world = World::new();
+        world.insert_resource(self.grid.clone());
+        world.insert_resource(D::DIMENSION);
+        world.insert_resource(Thickness(self.thickness));
+        spawn_nodes(&mut world, &self.grid);
+        let body_particles = self.spawn_bodies(&mut world)?;
+        let boundaries = self.boundary_conditions()?;
+        let output = self.output_plan(&mut world)?;
+        world.insert_resource(Materials(self.materials.clone()));
+        world.insert_resource(BodyForce::<D>(self.body_force));
+        world.insert_resource(Reactions::<D>(vec![
+            D::Vector::ZERO;
+            boundaries.regions.len()
+        ]));
+        world.insert_resource(boundaries);
+        world.insert_resource(SimClock::default());
+        world.insert_resource(self.on_leave_grid);
+        world.init_resource::<Connectivity<D>>();
+        crate::checkpoint::carry_engine_state::<D>(&mut world);
+        Ok((world, body_particles, output))
+    }
+
+    /// Refuses a pipeline in which two systems carry different state under one checkpoint key.
+    fn check_checkpoint_keys(&self, world: &World) -> Result<(), SceneError> {
+        match world
+            .get_resource::<crate::checkpoint::CheckpointState>()
+            .and_then(|state| state.collisions().first().copied())
+        {
+            Some(key) => Err(self.source.error(
+                "pipeline",
                 format!(
-                    "up to {} particles of bodies[{b}]",
-                    budget::describe_count(particles)
+                    "two systems carry different state under the checkpoint key \"{key}\"; give \
+                     one of them its own key (checkpoint::State::KEY)"
                 ),
-                particles * budget::particle_bytes::<D>(),
-            );
-        }
-        match estimate.refusal(available) {
+            )),
             None => Ok(()),
-            Some(message) => {
-                let node_bytes = estimate.parts[0].1;
-                let field = if node_bytes >= largest_body.1 * budget::particle_bytes::<D>() {
-                    "grid.spacing".to_string()
-                } else {
-                    format!("bodies[{}].particles_per_cell", largest_body.0)
-                };
-                Err(self.source.error(&field, message))
-            }
         }
     }
 
-    /// Refuses a scene whose particles, with the storage each installed system declared per
-    /// particle (a basis's support, a neighbour search's lists), cannot fit in `available`
-    /// bytes; checked before the first step allocates that storage.
-    fn check_memory_after_install(
+    /// The engine's own systems: a health check after every stage that has systems, the loads,
+    /// the energy account (from the state as built) and, with `on_leave_grid: Remove`, the
+    /// removal of escaped particles.
+    fn add_engine_systems(
         &self,
+        schedule: &mut bevy_ecs::schedule::Schedule,
         world: &mut World,
-        available: f64,
-    ) -> Result<(), SceneError> {
-        let particles = world
-            .query_filtered::<(), bevy_ecs::query::With<crate::components::Particle>>()
-            .iter(world)
-            .count() as f64;
-        let nodes = self.grid.node_count() as f64;
-        let mut estimate = MemoryEstimate::default();
-        estimate.add(
-            format!("{} grid nodes", budget::describe_count(nodes)),
-            nodes * budget::node_bytes::<D>(),
-        );
-        estimate.add(
-            format!("{} particles", budget::describe_count(particles)),
-            particles * budget::particle_bytes::<D>(),
-        );
-        let mut largest = ("pipeline".to_string(), 0.0);
-        if let Some(declared) = world.get_resource::<ParticleMemory>() {
-            for (field, what, bytes) in &declared.0 {
-                estimate.add(what.clone(), particles * bytes);
-                if particles * bytes > largest.1 {
-                    largest = (field.clone(), particles * bytes);
-                }
-            }
+        pipeline: &super::spec::PipelineSummary,
+    ) {
+        add_stage_checks::<D>(schedule, pipeline.by_stage.iter().map(|(stage, _)| *stage));
+        if !world.resource::<ParticleLoads<D>>().0.is_empty() {
+            schedule.add_systems(apply_loads::<D>.in_set(StepSet::ApplyLoads));
         }
-        estimate.working = budget::WORKING_BUFFERS;
-        match estimate.refusal(available) {
-            None => {
-                world.insert_resource(budget::MemoryUse {
-                    needed: estimate.total(),
-                    available,
-                });
-                Ok(())
-            }
-            Some(message) => Err(self.source.error(&largest.0, message)),
+        let start = crate::diagnostics::totals(world);
+        let moment = {
+            let mut query = world.query_filtered::<(
+                &crate::components::Mass,
+                &crate::components::Position<D>,
+            ), bevy_ecs::query::With<crate::components::Particle>>();
+            crate::energy::first_moment::<D>(query.iter(world).map(|(m, x)| (m.0, x.0)))
+        };
+        world.insert_resource(crate::energy::EnergyAccount::new(
+            start.total_energy(),
+            moment,
+        ));
+        schedule.add_systems(crate::energy::account_work::<D>.in_set(StepSet::AccountWork));
+        if self.on_leave_grid == LeaveGrid::Remove {
+            schedule
+                .add_systems(remove_escaped_particles::<D>.in_set(StageCheck(Stage::Advection)));
         }
     }
 
@@ -465,304 +391,7 @@ impl<D: Dim> Spec<D> {
             system_columns: Vec::new(),
         })
     }
-
-    /// Where errors about pipeline entry `k` point: its place in the file when it is the
-    /// entry written there, otherwise nowhere in particular.
-    fn entry_source(&self, entry: &PipelineEntry) -> Source {
-        if entry.in_source {
-            self.source.clone()
-        } else {
-            Source::code(self.source.name())
-        }
-    }
-
-    fn install_pipeline(
-        &self,
-        registry: &Registry,
-        schedule: &mut Schedule,
-        world: &mut World,
-    ) -> Result<PipelineSummary, SceneError> {
-        let chosen = self.chosen_systems(registry)?;
-        let mut summary = PipelineSummary::default();
-        for stage in Stage::ORDER {
-            let names: Vec<String> = chosen
-                .iter()
-                .filter(|(_, r)| r.stage() == Some(stage))
-                .map(|(_, r)| r.name.to_string())
-                .collect();
-            if !names.is_empty() {
-                summary.by_stage.push((stage, names));
-            }
-        }
-        let names: Vec<&'static str> = chosen.iter().map(|(_, r)| r.name).collect();
-        let filters = self.material_filters(&chosen)?;
-        // Installed in stage order (the scene's order within a stage), so an installer can read
-        // what the stages before it published: a grid law reads the predictor's integration, a
-        // damage law the stress system's capabilities.
-        let mut order: Vec<usize> = (0..chosen.len()).collect();
-        order.sort_by_key(|&c| chosen[c].1.stage());
-        for c in order {
-            let ((k, registration), filter) = (&chosen[c], &filters[c]);
-            let entry = &self.pipeline[*k];
-            let source = self.entry_source(entry);
-            let params = source.params(entry.params.as_deref(), format!("pipeline[{k}].params"));
-            let stage = registration.stage().unwrap_or(Stage::PostStep);
-            params.check_declared(registration)?;
-            let mut installer = Installer::new(stage, schedule, world)
-                .with_pipeline(names.clone())
-                .for_entry(*k, filter.clone());
-            (registration.install)(&mut installer, &params)?;
-        }
-        // Entries of one stage run in the order the scene lists them.
-        for (a, (ka, ra)) in chosen.iter().enumerate() {
-            if let Some((kb, _)) = chosen[a + 1..]
-                .iter()
-                .find(|(_, rb)| rb.stage() == ra.stage())
-            {
-                schedule.configure_sets(PipelineEntrySet(*ka).before(PipelineEntrySet(*kb)));
-            }
-        }
-        Ok(summary)
-    }
-
-    /// Each chosen entry's [`MaterialFilter`], checked: known names, only on stress and damage
-    /// systems, no material shared by two entries of a stage, and a stress system for every
-    /// material a body uses.
-    fn material_filters(
-        &self,
-        chosen: &[(usize, &Registration)],
-    ) -> Result<Vec<MaterialFilter>, SceneError> {
-        let known = || {
-            self.materials
-                .iter()
-                .map(|m| format!("\"{}\"", m.name))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
-        let mut filters = Vec::with_capacity(chosen.len());
-        for (k, registration) in chosen {
-            let entry = &self.pipeline[*k];
-            let source = self.entry_source(entry);
-            let field = format!("pipeline[{k}].materials");
-            let Some(names) = &entry.materials else {
-                filters.push(MaterialFilter::all());
-                continue;
-            };
-            if !matches!(registration.stage(), Some(Stage::Stress | Stage::Damage)) {
-                return Err(source.error(
-                    &field,
-                    format!(
-                        "`materials` limits stress and damage systems only; {} is not one",
-                        registration.name
-                    ),
-                ));
-            }
-            if names.is_empty() {
-                return Err(source.error(&field, "expected at least one material name"));
-            }
-            let mut mask = vec![false; self.materials.len()];
-            for (j, name) in names.iter().enumerate() {
-                let Some(i) = self.materials.iter().position(|m| &m.name == name) else {
-                    return Err(source.error(
-                        &format!("{field}[{j}]"),
-                        format!(
-                            "unknown material \"{name}\"; the scene defines: {}",
-                            known()
-                        ),
-                    ));
-                };
-                mask[i] = true;
-            }
-            filters.push(MaterialFilter::only(mask));
-        }
-        let used: Vec<usize> = (0..self.materials.len())
-            .filter(|&i| {
-                self.bodies
-                    .iter()
-                    .any(|b| b.material == self.materials[i].name)
-            })
-            .collect();
-        for stage in [Stage::Stress, Stage::Damage] {
-            let entries: Vec<usize> = (0..chosen.len())
-                .filter(|&c| chosen[c].1.stage() == Some(stage))
-                .collect();
-            if entries.iter().all(|&c| filters[c].is_all()) {
-                continue;
-            }
-            for &i in &used {
-                let id = crate::components::MaterialId(i as u16);
-                let covering: Vec<usize> = entries
-                    .iter()
-                    .copied()
-                    .filter(|&c| filters[c].applies(id))
-                    .collect();
-                let name = &self.materials[i].name;
-                if covering.len() > 1 {
-                    let (k, registration) = chosen[covering[1]];
-                    return Err(self.entry_source(&self.pipeline[k]).error(
-                        &format!("pipeline[{k}].materials"),
-                        format!(
-                            "{} and {} both apply to material \"{name}\"; give the {} systems \
-                             disjoint `materials` lists",
-                            chosen[covering[0]].1.name,
-                            registration.name,
-                            stage.name()
-                        ),
-                    ));
-                }
-                if covering.is_empty() && stage == Stage::Stress {
-                    let (k, _) = chosen[entries[0]];
-                    return Err(self.entry_source(&self.pipeline[k]).error(
-                        &format!("pipeline[{k}].materials"),
-                        format!(
-                            "no stress system applies to material \"{name}\"; add it to the \
-                             `materials` of a stress entry"
-                        ),
-                    ));
-                }
-            }
-        }
-        Ok(filters)
-    }
-
-    /// The registration of every entry, checked: known, listed once, required stages filled,
-    /// partners present.
-    fn chosen_systems<'r>(
-        &self,
-        registry: &'r Registry,
-    ) -> Result<Vec<(usize, &'r Registration)>, SceneError> {
-        let mut chosen: Vec<(usize, &Registration)> = Vec::new();
-        for (k, entry) in self.pipeline.iter().enumerate() {
-            let field = format!("pipeline[{k}].system");
-            let source = self.entry_source(entry);
-            let Some(registration) = registry.get(&entry.system) else {
-                return Err(source.error(
-                    &field,
-                    format!(
-                        "unknown system \"{}\"; known systems: {}",
-                        entry.system,
-                        registry.names().join(", ")
-                    ),
-                ));
-            };
-            if chosen.iter().any(|(_, r)| r.name == registration.name) {
-                return Err(source.error(
-                    &field,
-                    format!("system \"{}\" is listed twice", entry.system),
-                ));
-            }
-            chosen.push((k, registration));
-        }
-        for stage in Stage::REQUIRED {
-            if !chosen.iter().any(|(_, r)| r.stage() == Some(stage)) {
-                let options: Vec<_> = registry
-                    .iter()
-                    .filter(|r| r.stage() == Some(stage))
-                    .map(|r| r.name)
-                    .collect();
-                return Err(self.source.error(
-                    "pipeline",
-                    format!(
-                        "the pipeline has no system for the required stage `{stage}`; add one of: {}",
-                        options.join(", ")
-                    ),
-                ));
-            }
-        }
-        for (k, registration) in &chosen {
-            for needed in registration.requires {
-                // `stage/*` asks for any system of that stage.
-                let satisfied = match needed.strip_suffix("/*") {
-                    Some(stage) => chosen
-                        .iter()
-                        .any(|(_, r)| r.stage().is_some_and(|s| s.name() == stage)),
-                    None => chosen.iter().any(|(_, r)| r.name == *needed),
-                };
-                if !satisfied {
-                    let source = self.entry_source(&self.pipeline[*k]);
-                    return Err(source.error(
-                        &format!("pipeline[{k}].system"),
-                        format!(
-                            "system \"{}\" needs {} in the pipeline",
-                            registration.name,
-                            match needed.strip_suffix("/*") {
-                                Some(stage) => format!("a `{stage}` system"),
-                                None => format!("\"{needed}\""),
-                            }
-                        ),
-                    ));
-                }
-            }
-        }
-        Ok(chosen)
-    }
-
-    /// A fixed step must not exceed the stable limit of the particles as spawned (the one
-    /// rule, [`stable_time_step`], that CFL steps follow too).
-    fn check_stable_step(&self, world: &mut World) -> Result<(), SceneError> {
-        let stable = stable_time_step::<D>(world);
-        let dt = match self.time_step {
-            TimeStep::Fixed(dt) => dt,
-            TimeStep::Cfl(factor) => factor * stable.dt,
-        };
-        if !dt.is_normal() && dt <= stable.dt {
-            return Err(self.source.error(
-                "time.step",
-                format!(
-                    "the step would be {dt:e} s (stable limit {:e} s, from a signal speed \
-                     c + |v| = {:e} m/s), too small to advance the clock",
-                    stable.dt, stable.speed
-                ),
-            ));
-        }
-        if let End::Time(end) = self.end
-            && end / dt > MAX_STEPS
-        {
-            return Err(self.source.error(
-                "time.step",
-                format!(
-                    "the run would take {:.3e} steps of {dt:e} s to reach t = {end} s, more than \
-                     the 10^10 a scene may ask for; check the end time, the speeds and the \
-                     materials' wave speeds",
-                    end / dt
-                ),
-            ));
-        }
-        if dt <= stable.dt {
-            return Ok(());
-        }
-        let reason = &world.resource::<TimeStepLimit>().reason;
-        let restriction = if reason.is_empty() {
-            String::new()
-        } else {
-            format!(" × {} ({reason})", stable.factor)
-        };
-        let culprit = match stable.particle {
-            Some((id, material)) => format!(
-                " (particle {id}, material \"{}\")",
-                self.materials[material as usize].name
-            ),
-            None => String::new(),
-        };
-        Err(self.source.error(
-            "time.step",
-            format!(
-                "the time step {dt:e} s exceeds the stable limit {:e} s = h / (√{} (c + |v|)){restriction} \
-                 with h = {} m and c + |v| = {:.6e} m/s{culprit}; use `Fixed({:.3e})` or less, or \
-                 `Cfl(0.5)`",
-                stable.dt,
-                stable.dimensions,
-                stable.spacing,
-                stable.speed,
-                0.9 * stable.dt
-            ),
-        ))
-    }
 }
-
-/// The most steps a scene may ask for: at the fastest measured rates a longer run would take
-/// years, so more means a mistaken end time, speed or material.
-pub const MAX_STEPS: f64 = 1e10;
 
 fn spawn_nodes<D: Dim>(world: &mut World, grid: &Grid<D>) {
     let nodes: Vec<NodeBundle<D>> = (0..grid.node_count())

@@ -1,0 +1,170 @@
+//! The checks of a scene that need its world: memory before spawning and after install, and a
+//! fixed step against the stable limit of the particles as spawned.
+
+use super::SceneError;
+use super::budget::{self, MemoryEstimate, ParticleMemory};
+use super::spec::Spec;
+use crate::dim::{Dim, VectorOps};
+use crate::resources::TimeStepLimit;
+use crate::simulation::{End, TimeStep, stable_time_step};
+use bevy_ecs::prelude::World;
+
+/// The most steps a scene may ask for: at the fastest measured rates a longer run would take
+/// years, so more means a mistaken end time, speed or material.
+pub const MAX_STEPS: f64 = 1e10;
+
+impl<D: Dim> Spec<D> {
+    /// Refuses a grid or bodies that cannot fit in `available` bytes before any is made: the
+    /// nodes, and each body's particles bounded by its bounding box's cells (at the smallest
+    /// cell width) times the particles per cell.
+    pub(super) fn check_memory_before_spawning(&self, available: f64) -> Result<(), SceneError> {
+        let nodes = (0..D::N)
+            .map(|a| (self.grid.cells[a] + 1) as f64)
+            .product::<f64>();
+        let mut estimate = MemoryEstimate::default();
+        estimate.add(
+            format!("{} grid nodes", budget::describe_count(nodes)),
+            nodes * budget::node_bytes::<D>(),
+        );
+        let (lo, hi) = (self.grid.min.to_3d(), self.grid.max().to_3d());
+        let mut largest_body = (0, 0.0);
+        for (b, body) in self.bodies.iter().enumerate() {
+            let (min, max) = body.shape.bounds();
+            let cells: f64 = (0..D::N)
+                .map(|a| {
+                    let extent = (max[a].min(hi[a]) - min[a].max(lo[a])).max(0.0);
+                    (extent / self.grid.spacing).ceil() + 1.0
+                })
+                .product();
+            let particles = cells * f64::from(body.particles_per_cell).powi(D::N as i32);
+            if particles > largest_body.1 {
+                largest_body = (b, particles);
+            }
+            estimate.add(
+                format!(
+                    "up to {} particles of bodies[{b}]",
+                    budget::describe_count(particles)
+                ),
+                particles * budget::particle_bytes::<D>(),
+            );
+        }
+        match estimate.refusal(available) {
+            None => Ok(()),
+            Some(message) => {
+                let node_bytes = estimate.parts[0].1;
+                let field = if node_bytes >= largest_body.1 * budget::particle_bytes::<D>() {
+                    "grid.spacing".to_string()
+                } else {
+                    format!("bodies[{}].particles_per_cell", largest_body.0)
+                };
+                Err(self.source.error(&field, message))
+            }
+        }
+    }
+
+    /// Refuses a scene whose particles, with the storage each installed system declared per
+    /// particle (a basis's support, a neighbour search's lists), cannot fit in `available`
+    /// bytes; checked before the first step allocates that storage.
+    pub(super) fn check_memory_after_install(
+        &self,
+        world: &mut World,
+        available: f64,
+    ) -> Result<(), SceneError> {
+        let particles = world
+            .query_filtered::<(), bevy_ecs::query::With<crate::components::Particle>>()
+            .iter(world)
+            .count() as f64;
+        let nodes = self.grid.node_count() as f64;
+        let mut estimate = MemoryEstimate::default();
+        estimate.add(
+            format!("{} grid nodes", budget::describe_count(nodes)),
+            nodes * budget::node_bytes::<D>(),
+        );
+        estimate.add(
+            format!("{} particles", budget::describe_count(particles)),
+            particles * budget::particle_bytes::<D>(),
+        );
+        let mut largest = ("pipeline".to_string(), 0.0);
+        if let Some(declared) = world.get_resource::<ParticleMemory>() {
+            for (field, what, bytes) in &declared.0 {
+                estimate.add(what.clone(), particles * bytes);
+                if particles * bytes > largest.1 {
+                    largest = (field.clone(), particles * bytes);
+                }
+            }
+        }
+        estimate.working = budget::WORKING_BUFFERS;
+        match estimate.refusal(available) {
+            None => {
+                world.insert_resource(budget::MemoryUse {
+                    needed: estimate.total(),
+                    available,
+                });
+                Ok(())
+            }
+            Some(message) => Err(self.source.error(&largest.0, message)),
+        }
+    }
+
+    /// A fixed step must not exceed the stable limit of the particles as spawned (the one
+    /// rule, [`stable_time_step`], that CFL steps follow too).
+    pub(super) fn check_stable_step(&self, world: &mut World) -> Result<(), SceneError> {
+        let stable = stable_time_step::<D>(world);
+        let dt = match self.time_step {
+            TimeStep::Fixed(dt) => dt,
+            TimeStep::Cfl(factor) => factor * stable.dt,
+        };
+        if !dt.is_normal() && dt <= stable.dt {
+            return Err(self.source.error(
+                "time.step",
+                format!(
+                    "the step would be {dt:e} s (stable limit {:e} s, from a signal speed \
+                     c + |v| = {:e} m/s), too small to advance the clock",
+                    stable.dt, stable.speed
+                ),
+            ));
+        }
+        if let End::Time(end) = self.end
+            && end / dt > MAX_STEPS
+        {
+            return Err(self.source.error(
+                "time.step",
+                format!(
+                    "the run would take {:.3e} steps of {dt:e} s to reach t = {end} s, more than \
+                     the 10^10 a scene may ask for; check the end time, the speeds and the \
+                     materials' wave speeds",
+                    end / dt
+                ),
+            ));
+        }
+        if dt <= stable.dt {
+            return Ok(());
+        }
+        let reason = &world.resource::<TimeStepLimit>().reason;
+        let restriction = if reason.is_empty() {
+            String::new()
+        } else {
+            format!(" × {} ({reason})", stable.factor)
+        };
+        let culprit = match stable.particle {
+            Some((id, material)) => format!(
+                " (particle {id}, material \"{}\")",
+                self.materials[material as usize].name
+            ),
+            None => String::new(),
+        };
+        Err(self.source.error(
+            "time.step",
+            format!(
+                "the time step {dt:e} s exceeds the stable limit {:e} s = h / (√{} (c + |v|)){restriction} \
+                 with h = {} m and c + |v| = {:.6e} m/s{culprit}; use `Fixed({:.3e})` or less, or \
+                 `Cfl(0.5)`",
+                stable.dt,
+                stable.dimensions,
+                stable.spacing,
+                stable.speed,
+                0.9 * stable.dt
+            ),
+        ))
+    }
+}
