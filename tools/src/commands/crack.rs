@@ -1,0 +1,126 @@
+//! `fractum crack`: a crack's tip, angle and speed from a run's frames.
+
+use crate::{CrackArgs, EXIT_IO, crack, fragments, load};
+use fractum_engine::output::{read_particle_frame, read_pvd, write_atomically};
+use fractum_engine::registry::Registry;
+use fractum_engine::resources::Materials;
+use std::path::Path;
+
+/// A point of 2 or 3 coordinates as three.
+fn point3(values: &[f64], what: &str) -> Result<[f64; 3], String> {
+    match values {
+        [x, y] => Ok([*x, *y, 0.0]),
+        [x, y, z] => Ok([*x, *y, *z]),
+        _ => Err(format!("--{what} takes 2 or 3 comma-separated numbers")),
+    }
+}
+
+/// The Rayleigh speed of `material` (or the first) of the scene at `path`, with its name.
+fn scene_rayleigh_speed(
+    path: &Path,
+    material: Option<&str>,
+    registry: &Registry,
+) -> Result<(String, f64), String> {
+    let (_, built) = load(path, registry).map_err(|e| e.to_string())?;
+    let materials = &built.simulation.world.resource::<Materials>().0;
+    let m = match material {
+        Some(name) => materials.iter().find(|m| m.name == name).ok_or_else(|| {
+            let names: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+            format!(
+                "no material {name:?} in {}; it has {names:?}",
+                path.display()
+            )
+        })?,
+        None => materials
+            .first()
+            .ok_or_else(|| format!("{} has no materials", path.display()))?,
+    };
+    let speed = crack::rayleigh_speed(m.youngs_modulus, m.poisson_ratio, m.density);
+    Ok((m.name.clone(), speed))
+}
+
+pub(crate) fn crack_command(request: &CrackArgs, registry: &Registry) -> i32 {
+    let dir = request.out.as_path();
+    let result = (|| {
+        let notch_tip = point3(&request.notch, "notch")?;
+        let notch_direction = point3(&request.direction, "direction")?;
+        let link = match request.link {
+            Some(l) => l,
+            None => {
+                let frames = read_pvd(&dir.join("particles.pvd"))?;
+                let first = frames.first().ok_or_else(|| {
+                    format!("{}: the run wrote no particle frames", dir.display())
+                })?;
+                let path = dir.join(&first.1);
+                let frame = read_particle_frame(&path)?;
+                let (planar, thickness) = fragments::frame_thickness(&frame, request.thickness)
+                    .map_err(|e| format!("{}: {e}", path.display()))?;
+                1.5 * fragments::median_spacing(&frame, planar, thickness)
+            }
+        };
+        let options = crack::CrackOptions {
+            notch_tip,
+            notch_direction,
+            damage_above: request.damage_above,
+            link,
+            angle_length: request.angle_length.unwrap_or(4.0 * link),
+        };
+        let history = crack::crack_history(dir, &options)?;
+        let mut table = String::from("time,tip_x,tip_y,tip_z,length\n");
+        for t in &history {
+            let [x, y, z] = t.tip;
+            table.push_str(&format!("{:e},{x:e},{y:e},{z:e},{:e}\n", t.time, t.length));
+        }
+        let path = dir.join("crack.csv");
+        write_atomically(&path, table.as_bytes())
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        let length = history.last().map_or(0.0, |t| t.length);
+        let mut report = format!(
+            "crack length {length:e} m (link {link:e} m); wrote {}",
+            path.display()
+        );
+        match crack::initial_angle(&history, &options) {
+            Some(a) => report.push_str(&format!(
+                "\ninitial angle {a:.1}° from the notch direction (at {:e} m of crack)",
+                options.angle_length
+            )),
+            None => report.push_str(&format!(
+                "\nno initial angle: the crack never reached {:e} m",
+                options.angle_length
+            )),
+        }
+        let rayleigh = request
+            .scene
+            .as_deref()
+            .map(|s| scene_rayleigh_speed(s, request.material.as_deref(), registry))
+            .transpose()?;
+        match crack::crack_speed(&history) {
+            Some((mean, largest)) => {
+                report.push_str(&format!(
+                    "\ncrack speed {mean:e} m/s (least squares over the growth), largest \
+                     between frames {largest:e} m/s"
+                ));
+                if let Some((name, c_r)) = rayleigh {
+                    report.push_str(&format!(
+                        "\nRayleigh speed of {name}: {c_r:e} m/s (crack speed {:.2} of it, \
+                         largest {:.2})",
+                        mean / c_r,
+                        largest / c_r
+                    ));
+                }
+            }
+            None => report.push_str("\nno crack speed: the crack did not grow between frames"),
+        }
+        Ok::<String, String>(report)
+    })();
+    match result {
+        Ok(report) => {
+            outln!("{report}");
+            0
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            EXIT_IO
+        }
+    }
+}

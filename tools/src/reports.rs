@@ -1,0 +1,221 @@
+//! What `check`, `systems` and a finished run print.
+
+use fractum_engine::dim::{Dim, Dimension};
+use fractum_engine::energy::EnergyCreation;
+use fractum_engine::registry::Registry;
+use fractum_engine::resources::{Grid, Materials, Thickness};
+use fractum_engine::run::RunSummary;
+use fractum_engine::scene::Built;
+use fractum_engine::simulation::{End, TimeStep};
+use fractum_engine::with_dim;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The `fractum systems` listing.
+pub fn systems_report(registry: &Registry) -> String {
+    let mut out = String::new();
+    let mut stage = None;
+    for r in registry.iter() {
+        if r.stage() != stage {
+            stage = r.stage();
+            let name = stage.map(|s| s.name()).unwrap_or("?");
+            let _ = writeln!(out, "\n[{name}]");
+        }
+        let _ = writeln!(out, "  {:<28} {}", r.name, r.summary);
+        for p in r.params {
+            let default = p
+                .default
+                .map_or("required".to_string(), |d| format!("default {d}"));
+            let _ = writeln!(out, "      {}: {} ({default}) - {}", p.name, p.ty, p.doc);
+        }
+        if !r.requires.is_empty() {
+            let _ = writeln!(out, "      needs: {}", r.requires.join(", "));
+        }
+    }
+    out.trim_start().to_string()
+}
+
+fn describe_step(step: TimeStep, limit: f64) -> String {
+    match step {
+        TimeStep::Fixed(dt) => format!("dt = {dt:e} s fixed (stable limit {limit:.4e} s)"),
+        TimeStep::Cfl(f) => format!("CFL {f} of the stable limit (now dt = {:.4e} s)", f * limit),
+    }
+}
+
+/// `(x, y)` or `(x, y, z)` with plain number formatting.
+fn point<D: Dim>(v: D::Vector) -> String {
+    use fractum_engine::dim::VectorOps;
+    let parts: Vec<String> = v.to_3d()[..D::N].iter().map(|c| c.to_string()).collect();
+    format!("({})", parts.join(", "))
+}
+
+/// The grid line of `fractum check`.
+fn grid_line<D: Dim>(built: &mut Built) -> String {
+    let grid = built.simulation.world.resource::<Grid<D>>().clone();
+    let cells: Vec<String> = grid.cells.as_ref().iter().map(|c| c.to_string()).collect();
+    let spacing = match &grid.graded {
+        None => format!("h = {} m", grid.spacing),
+        Some(axes) => {
+            let largest = axes
+                .coordinates
+                .iter()
+                .flat_map(|c| c.windows(2).map(|w| w[1] - w[0]))
+                .fold(0.0, f64::max);
+            // Widths are differences of node coordinates: print them to 12 significant digits.
+            let short = |x: f64| format!("{}", format!("{x:.11e}").parse::<f64>().unwrap_or(x));
+            format!(
+                "graded, h = {} to {} m",
+                short(grid.spacing),
+                short(largest)
+            )
+        }
+    };
+    format!(
+        "{} cells, {spacing}, {} nodes, box {} to {}",
+        cells.join(" x "),
+        grid.node_count(),
+        point::<D>(grid.min),
+        point::<D>(grid.max())
+    )
+}
+
+/// The `fractum check` summary of a valid scene.
+pub fn check_report(built: &mut Built) -> String {
+    let summary = built.summary.clone();
+    let sim = &mut built.simulation;
+    let limit = sim.stable_time_step();
+    let dimension = sim.dimension();
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "scene      {}{}",
+        summary.source,
+        if summary.title.is_empty() {
+            String::new()
+        } else {
+            format!(" - {}", summary.title)
+        }
+    );
+    let thickness = match dimension {
+        Dimension::Two => format!(", thickness {} m", sim.world.resource::<Thickness>().0),
+        Dimension::Three => String::new(),
+    };
+    let _ = writeln!(out, "dimension  {}{thickness}", dimension.describe());
+    let grid = with_dim!(dimension, D => grid_line::<D>(built));
+    let sim = &mut built.simulation;
+    let _ = writeln!(out, "grid       {grid}");
+    let counts: Vec<String> = summary
+        .bodies
+        .iter()
+        .map(|(name, n)| format!("{name}: {n}"))
+        .collect();
+    let _ = writeln!(
+        out,
+        "particles  {} ({})",
+        sim.particle_count(),
+        counts.join(", ")
+    );
+    if let Some(memory) = sim
+        .world
+        .get_resource::<fractum_engine::scene::budget::MemoryUse>()
+    {
+        use fractum_engine::scene::budget::describe_bytes;
+        let available = if memory.available.is_finite() {
+            format!("{} available", describe_bytes(memory.available))
+        } else {
+            "available memory unknown".to_string()
+        };
+        let _ = writeln!(
+            out,
+            "memory     about {} estimated, {available}",
+            describe_bytes(memory.needed)
+        );
+    }
+    for m in &sim.world.resource::<Materials>().0 {
+        let _ = writeln!(
+            out,
+            "material   {}: density {} kg/m3, E {} Pa, nu {}, wave speed {:.4e} m/s",
+            m.name,
+            m.density,
+            m.youngs_modulus,
+            m.poisson_ratio,
+            m.wave_speed()
+        );
+    }
+    let end = match sim.end() {
+        End::Time(t) => format!("end at t = {t} s"),
+        End::Steps(n) => format!("end after {n} steps"),
+    };
+    if let Some(step) = summary.time_step {
+        let _ = writeln!(out, "time       {}; {end}", describe_step(step, limit));
+    }
+    for (name, condition) in &summary.boundaries {
+        let _ = writeln!(out, "boundary   {name}: {condition}");
+    }
+    let _ = writeln!(out, "pipeline");
+    for (stage, names) in &built.pipeline.by_stage {
+        let _ = writeln!(out, "  {:<10} {}", stage.name(), names.join(", "));
+    }
+    let frames = match built.output.vtu_every {
+        0 => "no VTU frames".to_string(),
+        n => format!("VTU frame every {n} steps"),
+    };
+    let _ = writeln!(
+        out,
+        "output     {frames}; series.csv columns: {}",
+        built.output.columns().join(",")
+    );
+    out.push_str("ok\n");
+    out
+}
+
+/// The warning printed when a run first creates more energy than the watch allows.
+pub fn energy_warning(first: &EnergyCreation) -> String {
+    format!(
+        "at step {} (t = {:.4e} s) the scheme has created {:.4e} J, {:.1}% of the energy in play \
+         (the total energy above external_work in series.csv). An explicit run that creates energy is usually heading \
+         for a blow-up: a smaller CFL factor, or a smoother basis (basis/gimp) than the linear \
+         tents where a stiff contact or a steep stress moves particles across cells, usually cures it",
+        first.step,
+        first.time,
+        first.created,
+        100.0 * first.fraction
+    )
+}
+
+/// The end-of-run summary.
+pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
+    let removed = if s.removed > 0 {
+        format!("{} particles left the grid and were removed\n", s.removed)
+    } else {
+        String::new()
+    };
+    let threads = if s.threads < s.threads_asked {
+        format!(
+            "{} ({} asked: a scene this small steps faster on one)",
+            s.threads, s.threads_asked
+        )
+    } else {
+        s.threads.to_string()
+    };
+    let energy = s.energy_created.map_or(String::new(), |worst| {
+        format!(
+            "energy: the scheme created up to {:.4e} J ({:.1}% of the energy in play) at step {}, \
+             t = {:.4e} s (the total energy above external_work in series.csv)\n",
+            worst.created,
+            100.0 * worst.fraction,
+            worst.step,
+            worst.time
+        )
+    });
+    format!(
+        "steps {}, simulated time {:.6e} s, particles {}, threads {threads}\nwall time {:.3} s, {:.4e} particle-steps/s\n{} VTU frames, output in {}\n{removed}{energy}",
+        s.steps,
+        s.time,
+        s.particles,
+        s.wall.as_secs_f64(),
+        s.particle_steps_per_second(),
+        s.frames,
+        out_dir.display()
+    )
+}
