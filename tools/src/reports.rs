@@ -79,6 +79,34 @@ fn grid_line<D: Dim>(built: &mut Built) -> String {
     )
 }
 
+/// The memory estimate and the materials, one line each, for `check`.
+fn memory_and_materials(world: &fractum_engine::prelude::World, out: &mut String) {
+    if let Some(memory) = world.get_resource::<fractum_engine::scene::budget::MemoryUse>() {
+        use fractum_engine::scene::budget::describe_bytes;
+        let available = if memory.available.is_finite() {
+            format!("{} available", describe_bytes(memory.available))
+        } else {
+            "available memory unknown".to_string()
+        };
+        let _ = writeln!(
+            out,
+            "memory     about {} estimated, {available}",
+            describe_bytes(memory.needed)
+        );
+    }
+    for m in &world.resource::<Materials>().0 {
+        let _ = writeln!(
+            out,
+            "material   {}: density {} kg/m3, E {} Pa, nu {}, wave speed {:.4e} m/s",
+            m.name,
+            m.density,
+            m.youngs_modulus,
+            m.poisson_ratio,
+            m.wave_speed()
+        );
+    }
+}
+
 /// The `fractum check` summary of a valid scene.
 pub fn check_report(built: &mut Built) -> String {
     let summary = built.summary.clone();
@@ -115,33 +143,7 @@ pub fn check_report(built: &mut Built) -> String {
         sim.particle_count(),
         counts.join(", ")
     );
-    if let Some(memory) = sim
-        .world
-        .get_resource::<fractum_engine::scene::budget::MemoryUse>()
-    {
-        use fractum_engine::scene::budget::describe_bytes;
-        let available = if memory.available.is_finite() {
-            format!("{} available", describe_bytes(memory.available))
-        } else {
-            "available memory unknown".to_string()
-        };
-        let _ = writeln!(
-            out,
-            "memory     about {} estimated, {available}",
-            describe_bytes(memory.needed)
-        );
-    }
-    for m in &sim.world.resource::<Materials>().0 {
-        let _ = writeln!(
-            out,
-            "material   {}: density {} kg/m3, E {} Pa, nu {}, wave speed {:.4e} m/s",
-            m.name,
-            m.density,
-            m.youngs_modulus,
-            m.poisson_ratio,
-            m.wave_speed()
-        );
-    }
+    memory_and_materials(&sim.world, &mut out);
     let end = match sim.end() {
         End::Time(t) => format!("end at t = {t} s"),
         End::Steps(n) => format!("end after {n} steps"),

@@ -317,6 +317,16 @@ fn execute(
         }
     });
     bar.finish_and_clear();
+    report_outcome(result, sim, &built.pipeline, out_dir)
+}
+
+/// Prints what a run did, or why it stopped, and returns the exit code.
+fn report_outcome(
+    result: Result<fractum_engine::run::RunSummary, RunError>,
+    sim: &fractum_engine::Simulation,
+    pipeline: &fractum_engine::scene::PipelineSummary,
+    out_dir: &Path,
+) -> i32 {
     match result {
         Ok(summary) => {
             out!("{}", summary_report(&summary, out_dir));
@@ -335,8 +345,7 @@ fn execute(
         }
         Err(RunError::Blowup(b, last_good)) => {
             eprintln!("error: the run stopped at {b}");
-            let pipeline: Vec<&str> = built
-                .pipeline
+            let pipeline: Vec<&str> = pipeline
                 .by_stage
                 .iter()
                 .flat_map(|(_, names)| names.iter().map(String::as_str))

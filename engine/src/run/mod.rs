@@ -265,26 +265,11 @@ pub fn run_with(
     let frames_dir = out_dir.join("frames");
     std::fs::create_dir_all(&frames_dir).map_err(io_error(&frames_dir))?;
     remove_stale_temporaries(out_dir);
+    let mut options = options;
     let resumed = options.resume.is_some();
-    let mut outputs = Outputs {
-        plan,
-        dir: out_dir,
-        series: SeriesWriter::new(out_dir.join("series.csv"), &plan.columns()),
-        frames: Vec::new(),
-        grid_frames: Vec::new(),
-        written: [None; 3],
-    };
-    let mut schedule = CheckpointSchedule::new(options.checkpoints, sim.clock().time);
-    if let Some(earlier) = options.resume {
-        outputs.series = SeriesWriter::continuing(out_dir.join("series.csv"), earlier.series);
-        outputs.frames = earlier.frames;
-        outputs.grid_frames = earlier.grid_frames;
-        outputs.written = [Some(sim.clock().step); 3];
-        if let Some(t) = earlier.next_checkpoint_time {
-            schedule.next_time = Some(t);
-        }
-        outputs.flush()?;
-    }
+    let resume = options.resume.take();
+    let (mut outputs, mut schedule) =
+        open_outputs(sim, plan, out_dir, options.checkpoints, resume)?;
     let particles = sim.particle_count();
     let started = Instant::now();
     let first_step = sim.clock().step;
@@ -297,15 +282,7 @@ pub fn run_with(
         let last_good = plan.last_good_frame.then(|| particle_frame(&mut sim.world));
         if let Err(blowup) = sim.step() {
             outputs.flush()?;
-            let written = match last_good {
-                Some(frame) => {
-                    let step = sim.clock().step;
-                    let path = frames_dir.join(format!("particles_last_good_{step:08}.vtu"));
-                    write_particle_frame(&path, &frame).map_err(io_error(&path))?;
-                    Some(path)
-                }
-                None => None,
-            };
+            let written = write_last_good(&frames_dir, sim.clock().step, last_good)?;
             return Err(RunError::Blowup(blowup, written));
         }
         outputs.record(sim, false)?;
@@ -315,20 +292,13 @@ pub fn run_with(
         let last = sim.finished() || interrupted;
         let wanted = options.checkpoints.is_some() || interrupted;
         if wanted && (schedule.due(sim.clock()) || last) {
-            let scene = options.scene.as_ref().ok_or_else(|| {
-                RunError::Checkpoint(
-                    "a checkpoint needs the scene's text (RunOptions::scene)".into(),
-                )
-            })?;
-            outputs.flush()?;
-            let saved = CheckpointOutputs {
-                series_bytes: outputs.series.text().len() as u64,
-                frames: outputs.frames.clone(),
-                grid_frames: outputs.grid_frames.clone(),
-                next_checkpoint_time: schedule.next_time,
-            };
-            let keep = options.checkpoints.map_or(DEFAULT_KEEP, |c| c.keep);
-            checkpoint = Some(write_checkpoint(sim, out_dir, scene, saved, keep)?);
+            checkpoint = Some(checkpoint_now(
+                sim,
+                out_dir,
+                &options,
+                &mut outputs,
+                &schedule,
+            )?);
         }
         if last {
             outputs.record(sim, true)?;
@@ -359,6 +329,74 @@ pub fn run_with(
         interrupted,
         checkpoint,
     })
+}
+
+/// The run's outputs and checkpoint schedule: fresh, or continuing a resumed run's (whose
+/// series is written back at once).
+fn open_outputs<'a>(
+    sim: &Simulation,
+    plan: &'a OutputPlan,
+    out_dir: &'a Path,
+    checkpoints: Option<CheckpointPlan>,
+    resume: Option<ResumedOutputs>,
+) -> Result<(Outputs<'a>, CheckpointSchedule), RunError> {
+    let mut outputs = Outputs {
+        plan,
+        dir: out_dir,
+        series: SeriesWriter::new(out_dir.join("series.csv"), &plan.columns()),
+        frames: Vec::new(),
+        grid_frames: Vec::new(),
+        written: [None; 3],
+    };
+    let mut schedule = CheckpointSchedule::new(checkpoints, sim.clock().time);
+    if let Some(earlier) = resume {
+        outputs.series = SeriesWriter::continuing(out_dir.join("series.csv"), earlier.series);
+        outputs.frames = earlier.frames;
+        outputs.grid_frames = earlier.grid_frames;
+        outputs.written = [Some(sim.clock().step); 3];
+        if let Some(t) = earlier.next_checkpoint_time {
+            schedule.next_time = Some(t);
+        }
+        outputs.flush()?;
+    }
+    Ok((outputs, schedule))
+}
+
+/// Writes the state at the start of the failing step, when the plan kept it.
+fn write_last_good(
+    frames_dir: &Path,
+    step: u64,
+    last_good: Option<crate::output::ParticleFrame>,
+) -> Result<Option<PathBuf>, RunError> {
+    let Some(frame) = last_good else {
+        return Ok(None);
+    };
+    let path = frames_dir.join(format!("particles_last_good_{step:08}.vtu"));
+    write_particle_frame(&path, &frame).map_err(io_error(&path))?;
+    Ok(Some(path))
+}
+
+/// Flushes the outputs and writes a checkpoint after the current step, recording what the
+/// outputs held then.
+fn checkpoint_now(
+    sim: &mut Simulation,
+    out_dir: &Path,
+    options: &RunOptions,
+    outputs: &mut Outputs,
+    schedule: &CheckpointSchedule,
+) -> Result<PathBuf, RunError> {
+    let scene = options.scene.as_ref().ok_or_else(|| {
+        RunError::Checkpoint("a checkpoint needs the scene's text (RunOptions::scene)".into())
+    })?;
+    outputs.flush()?;
+    let saved = CheckpointOutputs {
+        series_bytes: outputs.series.text().len() as u64,
+        frames: outputs.frames.clone(),
+        grid_frames: outputs.grid_frames.clone(),
+        next_checkpoint_time: schedule.next_time,
+    };
+    let keep = options.checkpoints.map_or(DEFAULT_KEEP, |c| c.keep);
+    Ok(write_checkpoint(sim, out_dir, scene, saved, keep)?)
 }
 
 /// When the next checkpoint is due.

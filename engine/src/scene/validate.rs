@@ -233,6 +233,33 @@ impl<D: Dim> Reader<D> {
 
     /// Node coordinates along axis `a` of a grid with refinement intervals: uniform at the
     /// grid's spacing between intervals and at each interval's own spacing inside it.
+    /// One `grid.refine` interval: a positive spacing and bounds inside the grid, in order.
+    fn check_refine_interval(
+        &self,
+        k: usize,
+        r: &RefineSpec,
+        lo: f64,
+        hi: f64,
+    ) -> Result<(), SceneError> {
+        let field = |f: &str| format!("grid.refine[{k}].{f}");
+        if !(r.spacing.is_finite() && r.spacing > 0.0) {
+            return Err(self.error(&field("spacing"), "expected a positive spacing"));
+        }
+        if !(r.min.is_finite() && r.min >= lo && r.min < hi) {
+            return Err(self.error(
+                &field("min"),
+                format!("expected a coordinate inside the grid, from {lo} to {hi}"),
+            ));
+        }
+        if !(r.max.is_finite() && r.max > r.min && r.max <= hi) {
+            return Err(self.error(
+                &field("max"),
+                format!("expected a coordinate above `min` and at most {hi}"),
+            ));
+        }
+        Ok(())
+    }
+
     fn graded_axis(
         &self,
         g: &GridSpec,
@@ -247,22 +274,7 @@ impl<D: Dim> Reader<D> {
             .filter(|(_, r)| r.axis.index() == a)
             .collect();
         for &(k, r) in &intervals {
-            let field = |f: &str| format!("grid.refine[{k}].{f}");
-            if !(r.spacing.is_finite() && r.spacing > 0.0) {
-                return Err(self.error(&field("spacing"), "expected a positive spacing"));
-            }
-            if !(r.min.is_finite() && r.min >= lo && r.min < hi) {
-                return Err(self.error(
-                    &field("min"),
-                    format!("expected a coordinate inside the grid, from {lo} to {hi}"),
-                ));
-            }
-            if !(r.max.is_finite() && r.max > r.min && r.max <= hi) {
-                return Err(self.error(
-                    &field("max"),
-                    format!("expected a coordinate above `min` and at most {hi}"),
-                ));
-            }
+            self.check_refine_interval(k, r, lo, hi)?;
         }
         intervals.sort_by(|x, y| x.1.min.total_cmp(&y.1.min));
         let mut nodes = vec![lo];

@@ -87,23 +87,15 @@ pub struct RankineParams {
     pub initial_dissipation: f64,
 }
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
-    let raw: RawParams = params.parse()?;
-    require_stress_degrading_pipeline(installer, params, "damage/rankine")?;
-    params.require_positive(
-        "fracture_energy",
-        raw.fracture_energy,
-        "expected G_f > 0 (J/m²)",
-    )?;
-    let length = characteristic_length(installer, params, raw.characteristic_length)?;
-    let youngs_modulus: Vec<f64> = installer
-        .world()
-        .resource::<Materials>()
-        .0
-        .iter()
-        .map(|m| m.youngs_modulus)
-        .collect();
-    let strengths = install_strength(installer, params, raw.tensile_strength, raw.weibull)?;
+/// Refuses strengths whose scaled brittleness `H̄_s l_ch` is not a normal f64 (too small to
+/// evaluate the law) or reaches 1 (no softening branch), naming the particle strength.
+fn check_brittleness(
+    params: &Params,
+    raw: &RawParams,
+    strengths: &[(MaterialId, f64)],
+    youngs_modulus: &[f64],
+    length: f64,
+) -> Result<(), SceneError> {
     let scaled: Vec<(f64, f64)> = strengths
         .iter()
         .map(|&(m, s)| {
@@ -146,6 +138,27 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
             ),
         ));
     }
+    Ok(())
+}
+
+fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    let raw: RawParams = params.parse()?;
+    require_stress_degrading_pipeline(installer, params, "damage/rankine")?;
+    params.require_positive(
+        "fracture_energy",
+        raw.fracture_energy,
+        "expected G_f > 0 (J/m²)",
+    )?;
+    let length = characteristic_length(installer, params, raw.characteristic_length)?;
+    let youngs_modulus: Vec<f64> = installer
+        .world()
+        .resource::<Materials>()
+        .0
+        .iter()
+        .map(|m| m.youngs_modulus)
+        .collect();
+    let strengths = install_strength(installer, params, raw.tensile_strength, raw.weibull)?;
+    check_brittleness(params, &raw, &strengths, &youngs_modulus, length)?;
     let materials = installer.materials().clone();
     let initial_dissipation = seeded_dissipation(
         installer,

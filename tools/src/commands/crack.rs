@@ -40,80 +40,7 @@ fn scene_rayleigh_speed(
 }
 
 pub(crate) fn crack_command(request: &CrackArgs, registry: &Registry) -> i32 {
-    let dir = request.out.as_path();
-    let result = (|| {
-        let notch_tip = point3(&request.notch, "notch")?;
-        let notch_direction = point3(&request.direction, "direction")?;
-        let link = match request.link {
-            Some(l) => l,
-            None => {
-                let frames = read_pvd(&dir.join("particles.pvd"))?;
-                let first = frames.first().ok_or_else(|| {
-                    format!("{}: the run wrote no particle frames", dir.display())
-                })?;
-                let path = dir.join(&first.1);
-                let frame = read_particle_frame(&path)?;
-                let (planar, thickness) = fragments::frame_thickness(&frame, request.thickness)
-                    .map_err(|e| format!("{}: {e}", path.display()))?;
-                1.5 * fragments::median_spacing(&frame, planar, thickness)
-            }
-        };
-        let options = crack::CrackOptions {
-            notch_tip,
-            notch_direction,
-            damage_above: request.damage_above,
-            link,
-            angle_length: request.angle_length.unwrap_or(4.0 * link),
-        };
-        let history = crack::crack_history(dir, &options)?;
-        let mut table = String::from("time,tip_x,tip_y,tip_z,length\n");
-        for t in &history {
-            let [x, y, z] = t.tip;
-            table.push_str(&format!("{:e},{x:e},{y:e},{z:e},{:e}\n", t.time, t.length));
-        }
-        let path = dir.join("crack.csv");
-        write_atomically(&path, table.as_bytes())
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-        let length = history.last().map_or(0.0, |t| t.length);
-        let mut report = format!(
-            "crack length {length:e} m (link {link:e} m); wrote {}",
-            path.display()
-        );
-        match crack::initial_angle(&history, &options) {
-            Some(a) => report.push_str(&format!(
-                "\ninitial angle {a:.1}° from the notch direction (at {:e} m of crack)",
-                options.angle_length
-            )),
-            None => report.push_str(&format!(
-                "\nno initial angle: the crack never reached {:e} m",
-                options.angle_length
-            )),
-        }
-        let rayleigh = request
-            .scene
-            .as_deref()
-            .map(|s| scene_rayleigh_speed(s, request.material.as_deref(), registry))
-            .transpose()?;
-        match crack::crack_speed(&history) {
-            Some((mean, largest)) => {
-                report.push_str(&format!(
-                    "\ncrack speed {mean:e} m/s (least squares over the growth), largest \
-                     between frames {largest:e} m/s"
-                ));
-                if let Some((name, c_r)) = rayleigh {
-                    report.push_str(&format!(
-                        "\nRayleigh speed of {name}: {c_r:e} m/s (crack speed {:.2} of it, \
-                         largest {:.2})",
-                        mean / c_r,
-                        largest / c_r
-                    ));
-                }
-            }
-            None => report.push_str("\nno crack speed: the crack did not grow between frames"),
-        }
-        Ok::<String, String>(report)
-    })();
-    match result {
+    match crack_report(request, registry) {
         Ok(report) => {
             outln!("{report}");
             0
@@ -122,5 +49,89 @@ pub(crate) fn crack_command(request: &CrackArgs, registry: &Registry) -> i32 {
             eprintln!("error: {e}");
             EXIT_IO
         }
+    }
+}
+
+/// The crack's history written to `crack.csv`, and the report of its length, angle and speed.
+fn crack_report(request: &CrackArgs, registry: &Registry) -> Result<String, String> {
+    let dir = request.out.as_path();
+    let notch_tip = point3(&request.notch, "notch")?;
+    let notch_direction = point3(&request.direction, "direction")?;
+    let link = match request.link {
+        Some(l) => l,
+        None => default_link(dir, request.thickness)?,
+    };
+    let options = crack::CrackOptions {
+        notch_tip,
+        notch_direction,
+        damage_above: request.damage_above,
+        link,
+        angle_length: request.angle_length.unwrap_or(4.0 * link),
+    };
+    let history = crack::crack_history(dir, &options)?;
+    let mut table = String::from("time,tip_x,tip_y,tip_z,length\n");
+    for t in &history {
+        let [x, y, z] = t.tip;
+        table.push_str(&format!("{:e},{x:e},{y:e},{z:e},{:e}\n", t.time, t.length));
+    }
+    let path = dir.join("crack.csv");
+    write_atomically(&path, table.as_bytes())
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    let length = history.last().map_or(0.0, |t| t.length);
+    let mut report = format!(
+        "crack length {length:e} m (link {link:e} m); wrote {}",
+        path.display()
+    );
+    match crack::initial_angle(&history, &options) {
+        Some(a) => report.push_str(&format!(
+            "\ninitial angle {a:.1}° from the notch direction (at {:e} m of crack)",
+            options.angle_length
+        )),
+        None => report.push_str(&format!(
+            "\nno initial angle: the crack never reached {:e} m",
+            options.angle_length
+        )),
+    }
+    let rayleigh = request
+        .scene
+        .as_deref()
+        .map(|s| scene_rayleigh_speed(s, request.material.as_deref(), registry))
+        .transpose()?;
+    report.push_str(&speed_report(&history, rayleigh));
+    Ok(report)
+}
+
+/// 1.5 particle spacings of the run's first frame.
+fn default_link(dir: &Path, thickness: Option<f64>) -> Result<f64, String> {
+    let frames = read_pvd(&dir.join("particles.pvd"))?;
+    let first = frames
+        .first()
+        .ok_or_else(|| format!("{}: the run wrote no particle frames", dir.display()))?;
+    let path = dir.join(&first.1);
+    let frame = read_particle_frame(&path)?;
+    let (planar, thickness) = fragments::frame_thickness(&frame, thickness)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(1.5 * fragments::median_spacing(&frame, planar, thickness))
+}
+
+/// The crack speed lines of the report, against the Rayleigh speed when known.
+fn speed_report(history: &[crack::TipAt], rayleigh: Option<(String, f64)>) -> String {
+    match crack::crack_speed(history) {
+        Some((mean, largest)) => {
+            let mut report = format!(
+                "\ncrack speed {mean:e} m/s (least squares over the growth), largest \
+                 between frames {largest:e} m/s"
+            );
+            if let Some((name, c_r)) = rayleigh {
+                report.push_str(&format!(
+                    "\nRayleigh speed of {name}: {c_r:e} m/s (crack speed {:.2} of it, \
+                     largest {:.2})",
+                    mean / c_r,
+                    largest / c_r
+                ));
+            }
+            report
+        }
+        None => "\nno crack speed: the crack did not grow between frames".to_string(),
     }
 }
