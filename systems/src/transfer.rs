@@ -41,6 +41,20 @@ pub struct ForceSources<'w, 's, D: Dim> {
     damage_in_stress: Option<Res<'w, DamageInStress>>,
 }
 
+/// The read-only inputs every grid update of a step shares: the clock, the body force, the
+/// boundary conditions and the connectivity.
+#[derive(SystemParam)]
+pub struct GridStepInputs<'w, D: Dim> {
+    /// The clock (`dt` of this step).
+    pub clock: Res<'w, SimClock>,
+    /// The body force per unit mass.
+    pub body_force: Res<'w, BodyForce<D>>,
+    /// The essential boundary conditions.
+    pub bcs: Res<'w, BoundaryConditions>,
+    /// The particle–node connectivity of this step.
+    pub connectivity: Res<'w, Connectivity<D>>,
+}
+
 /// Node data a particle-to-grid predictor writes.
 pub type NodeTransferQuery<'w, 's, D> = Query<
     'w,

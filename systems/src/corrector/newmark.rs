@@ -15,7 +15,7 @@
 //!   part) and leaves its force in `NodeContactForce`, which joins `f_I` and is integrated like
 //!   any other force (see `contact/frictional`).
 
-use crate::transfer::{ForceSources, ParticleSlices, field_forces};
+use crate::transfer::{ForceSources, GridStepInputs, ParticleSlices, field_forces};
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 
@@ -48,18 +48,20 @@ type NodeQuery<'w, 's, D> = Query<
 >;
 
 /// The `corrector/newmark` system.
-#[allow(clippy::too_many_arguments)]
 pub fn newmark_corrector<D: Dim>(
-    clock: Res<SimClock>,
+    inputs: GridStepInputs<D>,
     integration: Res<GridIntegration>,
-    body_force: Res<BodyForce<D>>,
-    bcs: Res<BoundaryConditions>,
     mut reactions: ResMut<Reactions<D>>,
-    connectivity: Res<Connectivity<D>>,
     particles: ForceSources<D>,
     mut nodes: NodeQuery<D>,
     mut buffers: Local<NodeBuffers<D>>,
 ) {
+    let GridStepInputs {
+        clock,
+        body_force,
+        bcs,
+        connectivity,
+    } = inputs;
     let Some(slices) = ParticleSlices::of(&particles) else {
         return;
     };

@@ -262,13 +262,19 @@ type ParticleQuery<'w, 's, D> = Query<
     With<Particle>,
 >;
 
+/// What `partition/dfg` carries from step to step: whether surfaces were detected, and its
+/// neighbour candidates.
+#[derive(bevy_ecs::system::SystemParam)]
+pub struct DfgCarried<'w, D: Dim> {
+    detected: ResMut<'w, SurfaceDetected>,
+    candidates: ResMut<'w, DfgNeighbours<D>>,
+}
+
 /// The `partition/dfg` system.
-#[allow(clippy::too_many_arguments)]
 pub fn dfg_partition<D: Spatial>(
     grid: Res<Grid<D>>,
     params: Res<DfgParams>,
-    mut detected: ResMut<SurfaceDetected>,
-    mut candidates: ResMut<DfgNeighbours<D>>,
+    carried: DfgCarried<D>,
     connectivity: Res<Connectivity<D>>,
     mut particles: ParticleQuery<D>,
     mut nodes: Query<(&NodeFields, &mut NodeFieldDamage), With<Node>>,
@@ -279,6 +285,10 @@ pub fn dfg_partition<D: Spatial>(
     else {
         return;
     };
+    let DfgCarried {
+        mut detected,
+        mut candidates,
+    } = carried;
     let radius = params.radius.unwrap_or(grid.spacing * (D::N as f64).sqrt());
     candidates.refresh(positions, groups, radius);
     let neighbours = &candidates.rows;

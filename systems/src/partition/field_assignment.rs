@@ -80,21 +80,33 @@ pub struct FieldScratch<V: Copy> {
 /// number reaches it: groups are `u8`).
 const GRADED: u16 = u16::MAX;
 
+/// The particle columns the assignment reads: groups, damage and masses, and the damage
+/// gradients and surface flags where a partition system gave particles them.
+#[derive(bevy_ecs::system::SystemParam)]
+pub struct AssignmentParticles<'w, 's, D: Dim> {
+    particles:
+        Query<'w, 's, (&'static ContactGroup, &'static Damage, &'static Mass), With<Particle>>,
+    gradients: Query<'w, 's, &'static DamageGradient<D>, With<Particle>>,
+    surface: Query<'w, 's, &'static SurfaceFlag, With<Particle>>,
+}
+
 /// The field assignment of every step, on the connectivity the basis stage has just built. A
 /// node that would need more than `MAX_FIELDS` fields stops the run, reported with the basis
 /// stage (whose check follows the window).
-#[allow(clippy::too_many_arguments)]
 pub fn assign_fields_system<D: Dim>(
     clock: Res<SimClock>,
     separability: Option<Res<Separability>>,
     mut health: ResMut<Health>,
     mut connectivity: ResMut<Connectivity<D>>,
-    particles: Query<(&ContactGroup, &Damage, &Mass), With<Particle>>,
-    gradients: Query<&DamageGradient<D>, With<Particle>>,
-    surface: Query<&SurfaceFlag, With<Particle>>,
+    particles: AssignmentParticles<D>,
     mut nodes: Query<&mut NodeFields, With<Node>>,
     mut scratch: Local<FieldScratch<D::Vector>>,
 ) {
+    let AssignmentParticles {
+        particles,
+        gradients,
+        surface,
+    } = particles;
     let Some((groups, damage, mass)) = single_table(particles.contiguous_iter(), "particles")
     else {
         return;

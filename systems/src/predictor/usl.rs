@@ -25,7 +25,8 @@
 //!   the grid, as in sliding contact.
 
 use crate::transfer::{
-    ForceSources, NodeSums, NodeTransferQuery, ParticleSlices, add_contribution, field_velocity,
+    ForceSources, GridStepInputs, NodeSums, NodeTransferQuery, ParticleSlices, add_contribution,
+    field_velocity,
 };
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
@@ -147,18 +148,20 @@ pub fn grid_update<D: Dim>(
 }
 
 /// The `predictor/usl` system.
-#[allow(clippy::too_many_arguments)]
 pub fn usl_predictor<D: Dim>(
-    clock: Res<SimClock>,
-    body_force: Res<BodyForce<D>>,
-    bcs: Res<BoundaryConditions>,
+    inputs: GridStepInputs<D>,
     mut reactions: ResMut<Reactions<D>>,
-    connectivity: Res<Connectivity<D>>,
     params: Res<UslPredictorParams>,
     particles: ForceSources<D>,
     mut nodes: NodeTransferQuery<D>,
     mut sums: Local<Vec<NodeSums<D>>>,
 ) {
+    let GridStepInputs {
+        clock,
+        body_force,
+        bcs,
+        connectivity,
+    } = inputs;
     let Some(slices) = ParticleSlices::of(&particles) else {
         return;
     };
