@@ -10,17 +10,16 @@
 //!   evaluates the velocity gradient from `v̄_I` (eq. 7).
 //! - Writes every velocity field of every node (each pair's field from the connectivity); the
 //!   node acceleration is the one implied by the held velocities, `(v̄_I − v_I)/Δt`, so
-//!   particles see the boundary conditions too. A contact system corrects `v̄_I` right after
-//!   this grid update, before the stress stage reads it (`contact/frictional`, installed as a
-//!   grid-update correction with this integrator).
+//!   particles see the boundary conditions too. Publishes `GridIntegration::UpdateStressLast`:
+//!   a contact law then corrects `v̄_I` in the step's `grid_update_correction` window, right
+//!   after this grid update and before the stress stage reads it.
 //! - Shape functions. With `basis/linear` a particle that has just entered a cell carries its
 //!   full `∇N` to the new nodes but only `N ≈ 0` of its mass, so a node holding nothing else
 //!   gets `v̄ = v + Δt f/m` growing as `1/N`, and the velocity gradient `Σ v̄ ⊗ ∇N` with it:
 //!   a stressed particle crossing into an empty cell can invert (the cell-crossing instability
-//!   of the tent functions). Measured: a block pushed by a 500 Pa traction at 0.5 m/s, no
-//!   contact, stops at step 267 on `basis/linear` and runs on `basis/gimp`, whose weight and
-//!   gradient vanish together at the edge of the support; the Newmark predictor-corrector
-//!   has no such term (its stress uses the predicted velocity `Σ N m v / m`). Use
+//!   of the tent functions). `basis/gimp`'s weight and gradient vanish together at the edge of
+//!   the support, so it has no such term, nor has the Newmark predictor-corrector (its stress
+//!   uses the predicted velocity `Σ N m v / m`; CHANGELOG.md has the measured block). Use
 //!   `basis/gimp` (or `basis/lme`) with this integrator when stressed surfaces move across
 //!   the grid, as in sliding contact.
 
