@@ -390,16 +390,8 @@ pub struct NodeBundle<D: Dim> {
     pub acceleration: NodeAcceleration<D>,
     /// Field forces.
     pub force: NodeForce<D>,
-    /// Field normals.
-    pub normal: NodeNormal<D>,
-    /// Field contact forces.
-    pub contact_force: NodeContactForce<D>,
-    /// Field contact impulses (kicks).
-    pub contact_impulse: NodeContactImpulse<D>,
     /// Field keys.
     pub fields: NodeFields,
-    /// Field damage statistics.
-    pub field_damage: NodeFieldDamage,
 }
 
 impl<D: Dim> NodeBundle<D> {
@@ -414,11 +406,7 @@ impl<D: Dim> NodeBundle<D> {
             velocity: NodeVelocity::default(),
             acceleration: NodeAcceleration::default(),
             force: NodeForce::default(),
-            normal: NodeNormal::default(),
-            contact_force: NodeContactForce::default(),
-            contact_impulse: NodeContactImpulse::default(),
             fields: NodeFields::default(),
-            field_damage: NodeFieldDamage::default(),
         }
     }
 }

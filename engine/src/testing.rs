@@ -18,7 +18,7 @@
 //! The same test in 3D is `tiny_world::<Three>` with `DVec3` positions.
 
 use crate::boundary::{BoundaryConditions, Reactions};
-use crate::components::{NodeBundle, NodeIndex, Particle, ParticleBundle, ParticleId};
+use crate::components::{Node, NodeBundle, NodeIndex, Particle, ParticleBundle, ParticleId};
 use crate::connectivity::Connectivity;
 use crate::dim::{Dim, Lattice, Three, Two, VectorOps};
 use crate::health::Health;
@@ -115,6 +115,18 @@ pub fn particle_values<T: Component + Copy>(world: &mut World) -> Vec<T> {
         .collect();
     rows.sort_by_key(|r| r.0);
     rows.into_iter().map(|r| r.1).collect()
+}
+
+/// Gives every node a component a system's installer would add
+/// (`Installer::add_node_component`), e.g. a contact law's normals and forces.
+pub fn give_nodes<C: Component + Clone>(world: &mut World, value: C) {
+    let nodes: Vec<Entity> = world
+        .query_filtered::<Entity, With<Node>>()
+        .iter(world)
+        .collect();
+    for node in nodes {
+        world.entity_mut(node).insert(value.clone());
+    }
 }
 
 /// A component of every node, in node-index order.

@@ -68,10 +68,12 @@ fn grid_frame_of<D: Dim>(world: &mut World) -> GridFrame {
         &NodeFields,
         &crate::components::NodeMass,
         &crate::components::NodeVelocity<D>,
-        &crate::components::NodeNormal<D>,
+        Option<&crate::components::NodeNormal<D>>,
     ), With<Node>>();
     let mut f = GridFrame::default();
     for (index, fields, mass, velocity, normal) in query.iter(world) {
+        // Normals exist where a contact system gave nodes them; zero elsewhere.
+        let normal = normal.copied().unwrap_or_default();
         if mass.0.iter().sum::<f64>() <= 0.0 {
             continue;
         }

@@ -255,6 +255,23 @@ impl<'a> Installer<'a> {
         }
     }
 
+    /// Gives every node a component of the system's own (a contact law's normals and forces,
+    /// a partition's field statistics), starting at `value`, unless another entry gave it
+    /// already. All nodes get it at once, before the first step, so they stay in one table.
+    /// Nothing carries node components across a checkpoint: a system must write them every
+    /// step before any system reads them.
+    pub fn add_node_component<C: Component + Clone>(&mut self, value: C) {
+        let nodes: Vec<Entity> = self
+            .world
+            .query_filtered::<Entity, (With<crate::components::Node>, bevy_ecs::query::Without<C>)>(
+            )
+            .iter(self.world)
+            .collect();
+        for node in nodes {
+            self.world.entity_mut(node).insert(value.clone());
+        }
+    }
+
     /// Declares storage this system will allocate per particle during the run (`bytes` per
     /// particle, described by `what`, e.g. "basis/lme: support of about 40 nodes"), so that
     /// building the scene refuses, with the estimate, a scene that cannot fit in memory

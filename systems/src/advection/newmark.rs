@@ -140,6 +140,7 @@ mod tests {
         let mut world = tiny_world::<Two>(2, 0.5, 0.1);
         let x = DVec2::new(0.3, 0.7);
         spawn_particle(&mut world, x, DVec2::ZERO, 1.0, 0.1);
+        give_nodes(&mut world, NodeContactImpulse::<Two>::default());
         let mut query = world.query::<(&mut NodeMass, &mut NodeContactImpulse<Two>)>();
         for (mut m, mut j) in query.iter_mut(&mut world) {
             m.0[0] = 2.0;

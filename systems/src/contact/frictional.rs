@@ -124,7 +124,12 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     // The field assignment keeps inseparable sides of a group in one field with this D̄_min.
     installer.insert_resource(fractum_engine::fields::Separability(parsed.separability));
     installer.insert_resource(parsed);
-    with_dim!(installer.dimension(), D => installer.add_impulse_systems(frictional_contact::<D>))
+    with_dim!(installer.dimension(), D => {
+        installer.add_node_component(NodeNormal::<D>::default());
+        installer.add_node_component(NodeContactForce::<D>::default());
+        installer.add_node_component(NodeContactImpulse::<D>::default());
+        installer.add_impulse_systems(frictional_contact::<D>)
+    })
 }
 
 /// Every pair names groups some body belongs to, once, with μ >= 0.
@@ -180,7 +185,6 @@ type NodeQuery<'w, 's, D> = Query<
     's,
     (
         &'static NodeFields,
-        &'static NodeFieldDamage,
         &'static NodeMass,
         &'static mut NodeVelocity<D>,
         &'static mut NodeAcceleration<D>,
@@ -410,27 +414,22 @@ pub fn frictional_contact<D: Dim>(
     inputs: ContactInputs<D>,
     particles: ForceSources<D>,
     mut nodes: NodeQuery<D>,
+    field_damage: Query<&NodeFieldDamage, With<Node>>,
 ) {
     let Some(slices) = ParticleSlices::of(&particles) else {
         return;
     };
-    let Some((
-        fields,
-        damage,
-        mass,
-        mut velocity,
-        mut acceleration,
-        mut normal,
-        mut contact,
-        mut impulse,
-    )) = single_table(nodes.contiguous_iter_mut(), "nodes")
+    // The partition's separability statistics, where a partition system computes them.
+    let damage = single_table(field_damage.contiguous_iter(), "nodes");
+    let Some((fields, mass, mut velocity, mut acceleration, mut normal, mut contact, mut impulse)) =
+        single_table(nodes.contiguous_iter_mut(), "nodes")
     else {
         return;
     };
     let held = inputs.bcs.held_mask(fields.len());
     let columns = ContactColumns {
         fields,
-        damage: Some(damage),
+        damage,
         mass,
         velocity: &mut velocity,
         acceleration: &mut acceleration,
@@ -472,6 +471,10 @@ mod tests {
         world.insert_resource(crate::predictor::usl::UslPredictorParams::default());
         world.insert_resource(crate::predictor::newmark::NewmarkParams::default());
         world.insert_resource(integration);
+        // The node columns the installer gives nodes.
+        give_nodes(&mut world, NodeNormal::<Two>::default());
+        give_nodes(&mut world, NodeContactForce::<Two>::default());
+        give_nodes(&mut world, NodeContactImpulse::<Two>::default());
         let a = spawn_particle(&mut world, DVec2::new(0.4, 0.3), DVec2::X, 1.0, 0.01);
         let b = spawn_particle(&mut world, DVec2::new(0.6, 0.3), -DVec2::X, 1.0, 0.01);
         world.entity_mut(a).insert(ContactGroup(0));

@@ -39,7 +39,6 @@ type NodeQuery<'w, 's, D> = Query<
     's,
     (
         &'static NodeMass,
-        &'static NodeContactForce<D>,
         &'static mut NodeVelocity<D>,
         &'static mut NodeAcceleration<D>,
         &'static mut NodeForce<D>,
@@ -54,6 +53,7 @@ pub fn newmark_corrector<D: Dim>(
     mut reactions: ResMut<Reactions<D>>,
     particles: ForceSources<D>,
     mut nodes: NodeQuery<D>,
+    contact: Query<&NodeContactForce<D>, With<Node>>,
     mut buffers: Local<NodeBuffers<D>>,
 ) {
     let GridStepInputs {
@@ -65,7 +65,9 @@ pub fn newmark_corrector<D: Dim>(
     let Some(slices) = ParticleSlices::of(&particles) else {
         return;
     };
-    let Some((node_mass, contact, mut node_velocity, mut node_acceleration, mut node_force)) =
+    // Contact forces exist where a contact system gave nodes them.
+    let contact = single_table(contact.contiguous_iter(), "nodes");
+    let Some((node_mass, mut node_velocity, mut node_acceleration, mut node_force)) =
         single_table(nodes.contiguous_iter_mut(), "nodes")
     else {
         return;
@@ -84,11 +86,13 @@ pub fn newmark_corrector<D: Dim>(
     velocities
         .par_iter_mut()
         .zip(forces.par_iter_mut())
-        .zip(contact.par_iter())
         .zip(node_mass.par_iter())
-        .for_each(|(((v, f), c), m)| {
+        .enumerate()
+        .for_each(|(i, ((v, f), m))| {
             for (k, fk) in f.iter_mut().enumerate() {
-                *fk += c.0[k];
+                // Without a contact system the force gains an exact zero, as it did when
+                // every node carried a zero contact force.
+                *fk += contact.map_or(D::Vector::ZERO, |c| c[i].0[k]);
                 v.0[k] = integration.end_of_step_velocity(m.0[k], v.0[k], *fk, dt);
             }
         });

@@ -159,6 +159,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     crate::neighbour::declare_lists(installer, "partition/dfg", radius_cells * (1.0 + SKIN), 1.0);
     installer.insert_resource(parsed);
     install_field_assignment(installer)?;
+    installer.add_node_component(NodeFieldDamage::default());
     installer.init_state::<SurfaceDetected>();
     installer.add_particle_component(SurfaceFlag::default());
     installer.add_frame_scalar::<SurfaceFlag>("surface", |s| s.0);
@@ -433,6 +434,7 @@ mod tests {
         });
         world.insert_resource(SurfaceDetected::default());
         world.init_resource::<DfgNeighbours<Two>>();
+        give_nodes(&mut world, NodeFieldDamage::default());
         for i in 0..16 {
             for j in 0..4 {
                 let x = DVec2::new(0.0625 + 0.125 * i as f64, 0.8125 + 0.125 * j as f64);
