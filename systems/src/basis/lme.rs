@@ -22,6 +22,7 @@
 //!   the result, does not depend on when the lists were rebuilt.
 //! - Writes the [`Connectivity`] tables; keeps λ and the candidate lists in [`LmeState`].
 
+use super::lme_graded::graded_rows;
 use super::lme_kernel::{LmeScratch, LmeSettings, lme_gradient, lme_solve, support_radius};
 use crate::spatial::Spatial;
 use fractum_engine::health::{Blowup, Health, fmt_vector};
@@ -152,7 +153,7 @@ impl<D: Dim> Default for LmeState<D> {
 }
 
 impl<D: Dim> LmeState<D> {
-    fn resize(&mut self, particles: usize) {
+    pub(super) fn resize(&mut self, particles: usize) {
         if self.lambda.len() != particles {
             self.lambda = vec![D::Vector::ZERO; particles];
             self.lambda_slope = vec![D::Matrix::ZERO; particles];
@@ -206,9 +207,9 @@ impl<D: Spatial> NodeCloud<D> {
 /// Per-thread buffers for [`particle_row`].
 #[derive(Clone, Debug)]
 pub struct RowScratch<D: Dim> {
-    support: Vec<u32>,
-    positions: Vec<D::Vector>,
-    lme: LmeScratch,
+    pub(super) support: Vec<u32>,
+    pub(super) positions: Vec<D::Vector>,
+    pub(super) lme: LmeScratch,
 }
 
 impl<D: Dim> Default for RowScratch<D> {
@@ -235,7 +236,7 @@ pub type RowSlices<'a, D> = (&'a mut [u32], &'a mut [f64], &'a mut [<D as Dim>::
 
 /// Writes the solved support of `scratch` into `row`: each node, its `N` and the gradient
 /// `gradient(x_I, N_I)` (in the coordinates the nodes were given in).
-fn write_row<D: Dim>(
+pub(super) fn write_row<D: Dim>(
     scratch: &RowScratch<D>,
     row: RowSlices<'_, D>,
     gradient: impl Fn(D::Vector, f64) -> D::Vector,
@@ -251,7 +252,7 @@ fn write_row<D: Dim>(
 
 /// Keeps every particle's λ, `dλ/dx = 2βI − J⁻¹` and position for the next step's warm start,
 /// or the first particle whose solve failed, with the reason.
-fn keep_solutions<D: Dim>(
+pub(super) fn keep_solutions<D: Dim>(
     solved: Vec<Result<Solved<D>, String>>,
     beta: f64,
     positions: &[Position<D>],
@@ -273,19 +274,33 @@ fn keep_solutions<D: Dim>(
     Ok(())
 }
 
+/// What every particle's row of one step shares on a uniform grid: the nodes, the solver's
+/// settings and the support radius.
+#[derive(Clone, Copy)]
+pub struct RowProblem<'a, D: Spatial> {
+    /// The grid nodes.
+    pub cloud: &'a NodeCloud<D>,
+    /// β, tolerance and iteration limit of the Newton solve.
+    pub settings: &'a LmeSettings,
+    /// The support radius.
+    pub radius: f64,
+}
+
 /// One particle's connectivity row (written into `row`, whose length is the number of
 /// `candidates` within `radius` of `x`), λ and `J⁻¹`, or the reason it has none.
-#[allow(clippy::too_many_arguments)]
 pub fn particle_row<D: Spatial>(
-    cloud: &NodeCloud<D>,
+    problem: &RowProblem<D>,
     x: D::Vector,
     candidates: &[u32],
-    settings: &LmeSettings,
-    radius: f64,
     lambda_guess: D::Vector,
     scratch: &mut RowScratch<D>,
     row: RowSlices<'_, D>,
 ) -> Result<Solved<D>, String> {
+    let RowProblem {
+        cloud,
+        settings,
+        radius,
+    } = *problem;
     let radius2 = radius * radius;
     scratch.support.clear();
     scratch.positions.clear();
@@ -312,135 +327,8 @@ pub fn particle_row<D: Spatial>(
     }
 }
 
-/// Whether `xi` is in the support of a particle at `x` on a graded grid: within `radius` in the
-/// coordinates scaled by the local spacing `scale` (one per axis).
-fn in_scaled_support<V: VectorOps>(x: V, xi: V, scale: V, radius2: f64) -> bool {
-    ((xi - x) / scale).length_squared() <= radius2
-}
-
-/// The rows of every particle on a graded grid, with the locality scaled to the grid around
-/// each particle: in the coordinates `ξ = (x_I − x) / s(x)`, `s` the local node spacing along
-/// each axis (`Grid::local_spacing`, continuous in `x`), the particle solves the LME problem
-/// of a unit grid, `β = γ̂`; its `N_I` are the same in both coordinates and `∂N/∂x_a =
-/// (∂N/∂ξ_a) / s_a`. This is `β = γ̂ / h_local²` made anisotropic where a rectilinear cell
-/// is, and keeps every consistency condition exactly (ξ is an affine map of x). Returns the
-/// first particle whose solve failed, with the reason.
-fn graded_rows<D: Spatial>(
-    grid: &Grid<D>,
-    params: &LmeParams,
-    cloud: &NodeCloud<D>,
-    positions: &[Position<D>],
-    state: &mut LmeState<D>,
-    connectivity: &mut Connectivity<D>,
-) -> Result<(), (usize, String)> {
-    let settings = LmeSettings {
-        beta: params.gamma,
-        tolerance: params.newton_tolerance,
-        length_scale: 1.0,
-        max_iterations: params.max_iterations,
-    };
-    let radius = support_radius(settings.beta, params.support_tolerance);
-    let scales: Vec<D::Vector> = positions
-        .par_iter()
-        .map(|x| grid.local_spacing(x.0))
-        .collect();
-    // Each particle's support reaches at least the corners of its cell: where a cell is much
-    // wider than the local spacing (a coarse cell beside a fine one) and γ̂ is large, the
-    // radius alone can leave the particle outside the hull of its support, where no LME
-    // solution exists. Elsewhere the radius covers the cell and nothing changes.
-    let radii: Vec<f64> = positions
-        .par_iter()
-        .zip(&scales)
-        .map(|(x, scale)| radius.max(cell_reach(grid, x.0, *scale)))
-        .collect();
-    state.resize(positions.len());
-    let LmeState {
-        lambda,
-        lambda_slope,
-        solved_at,
-        anchors,
-        candidates,
-        reach,
-    } = state;
-    anchors
-        .par_iter_mut()
-        .zip(candidates.par_iter_mut())
-        .zip(reach.par_iter_mut())
-        .zip(positions.par_iter().zip(&scales).zip(&radii))
-        .for_each(|(((anchor, list), reach), ((x, scale), radius))| {
-            // Every node of the support lies within `needed` of x; the list holds every node
-            // within `reach` of the anchor.
-            let needed = radius * (0..D::N).map(|a| scale[a]).fold(0.0, f64::max);
-            if needed + (x.0 - *anchor).length() > *reach {
-                *reach = 1.25 * needed;
-                *list = cloud.within(x.0, *reach);
-                *anchor = x.0;
-            }
-        });
-    let (candidates, guesses) = (&*candidates, (&*lambda, &*lambda_slope, &*solved_at));
-    let solved: Vec<Result<Solved<D>, String>> = connectivity.fill_rows(
-        positions.len(),
-        cloud.len(),
-        |p| {
-            let (x, scale, radius2) = (positions[p].0, scales[p], radii[p] * radii[p]);
-            candidates[p]
-                .iter()
-                .filter(|&&i| in_scaled_support(x, cloud.position(i), scale, radius2))
-                .count()
-        },
-        RowScratch::<D>::default,
-        |scratch, p, nodes, weights, gradients| {
-            let (x, scale, radius2) = (positions[p].0, scales[p], radii[p] * radii[p]);
-            scratch.support.clear();
-            scratch.positions.clear();
-            for &i in &candidates[p] {
-                let xi = cloud.position(i);
-                if in_scaled_support(x, xi, scale, radius2) {
-                    scratch.support.push(i);
-                    scratch.positions.push((xi - x) / scale);
-                }
-            }
-            let guess = guesses.0[p] + guesses.1[p] * ((x - guesses.2[p]) / scale);
-            let (lambda, j_inverse, _) = lme_solve::<D>(
-                D::Vector::ZERO,
-                &scratch.positions,
-                &settings,
-                guess,
-                &mut scratch.lme,
-            )
-            .map_err(|f| non_convergence(&f))?;
-            write_row::<D>(scratch, (nodes, weights, gradients), |xi, n| {
-                lme_gradient::<D>(D::Vector::ZERO, xi, n, j_inverse) / scale
-            });
-            Ok((lambda, j_inverse))
-        },
-    );
-    keep_solutions(
-        solved,
-        settings.beta,
-        positions,
-        lambda,
-        lambda_slope,
-        solved_at,
-    )
-}
-
-/// The scaled distance from `x` to the farthest corner of its cell (0 outside the grid), a
-/// hair beyond it so the corners pass the support test.
-fn cell_reach<D: Dim>(grid: &Grid<D>, x: D::Vector, scale: D::Vector) -> f64 {
-    let far2: Option<f64> = (0..D::N)
-        .map(|a| {
-            let i = grid.axis_cell(a, x[a])?;
-            let (lo, hi) = (grid.coordinate(a, i), grid.coordinate(a, i + 1));
-            let far = (x[a] - lo).abs().max((hi - x[a]).abs()) / scale[a];
-            Some(far * far)
-        })
-        .sum();
-    far2.map_or(0.0, |d2| d2.sqrt() * (1.0 + 1e-9))
-}
-
 /// The message of a solve that did not converge.
-fn non_convergence(f: &super::lme_kernel::LmeFailure) -> String {
+pub(super) fn non_convergence(f: &super::lme_kernel::LmeFailure) -> String {
     format!(
         "LME shape functions did not converge: |r| = {:e} after {} Newton iterations over {} \
          nodes (a particle at the edge of the node cloud, or too few nodes in the support; \
@@ -452,12 +340,17 @@ fn non_convergence(f: &super::lme_kernel::LmeFailure) -> String {
 type ParticleQuery<'w, 's, D> =
     Query<'w, 's, (&'static ParticleId, &'static Position<D>), With<Particle>>;
 
+/// The resources `basis/lme` reads: the grid, its parameters and the clock.
+#[derive(bevy_ecs::system::SystemParam)]
+pub struct LmeInputs<'w, D: Dim> {
+    grid: Res<'w, Grid<D>>,
+    params: Res<'w, LmeParams>,
+    clock: Res<'w, SimClock>,
+}
+
 /// The `basis/lme` system.
-#[allow(clippy::too_many_arguments)]
 pub fn lme_basis<D: Spatial>(
-    grid: Res<Grid<D>>,
-    params: Res<LmeParams>,
-    clock: Res<SimClock>,
+    inputs: LmeInputs<D>,
     mut health: ResMut<Health>,
     mut state: ResMut<LmeState<D>>,
     mut connectivity: ResMut<Connectivity<D>>,
@@ -465,6 +358,11 @@ pub fn lme_basis<D: Spatial>(
     nodes: Query<&NodePosition<D>, With<Node>>,
     particles: ParticleQuery<D>,
 ) {
+    let LmeInputs {
+        grid,
+        params,
+        clock,
+    } = inputs;
     let node_positions = single_table(nodes.contiguous_iter(), "nodes").unwrap_or(&[]);
     if cloud
         .as_ref()
@@ -475,21 +373,40 @@ pub fn lme_basis<D: Spatial>(
     let Some(cloud) = cloud.as_ref() else { return };
     let (ids, positions) =
         single_table(particles.contiguous_iter(), "particles").unwrap_or((&[], &[]));
-    if grid.is_graded() {
-        let solved = graded_rows(
+    let solved = if grid.is_graded() {
+        graded_rows(
             &grid,
             &params,
             cloud,
             positions,
             &mut state,
             &mut connectivity,
-        );
-        if let Err((p, message)) = solved {
-            report_failure(&mut health, clock.step, ids[p], positions[p], &message);
-        }
-        return;
+        )
+    } else {
+        uniform_rows(
+            grid.spacing,
+            &params,
+            cloud,
+            positions,
+            &mut state,
+            &mut connectivity,
+        )
+    };
+    if let Err((p, message)) = solved {
+        report_failure(&mut health, clock.step, ids[p], positions[p], &message);
     }
-    let h = grid.spacing;
+}
+
+/// Every particle's row on a uniform grid of spacing `h`, warm-started from the last step's
+/// solutions, which it then keeps; the first particle whose solve fails, with the reason.
+fn uniform_rows<D: Spatial>(
+    h: f64,
+    params: &LmeParams,
+    cloud: &NodeCloud<D>,
+    positions: &[Position<D>],
+    state: &mut LmeState<D>,
+    connectivity: &mut Connectivity<D>,
+) -> Result<(), (usize, String)> {
     let settings = LmeSettings {
         beta: params.gamma / (h * h),
         tolerance: params.newton_tolerance,
@@ -506,7 +423,7 @@ pub fn lme_basis<D: Spatial>(
         anchors,
         candidates,
         ..
-    } = &mut *state;
+    } = state;
     anchors
         .par_iter_mut()
         .zip(candidates.par_iter_mut())
@@ -519,6 +436,11 @@ pub fn lme_basis<D: Spatial>(
         });
     let radius2 = radius * radius;
     let (candidates, guesses) = (&*candidates, (&*lambda, &*lambda_slope, &*solved_at));
+    let problem = RowProblem {
+        cloud,
+        settings: &settings,
+        radius,
+    };
     // The rows go straight into the connectivity tables: no per-particle row buffers.
     let solved = connectivity.fill_rows(
         positions.len(),
@@ -535,21 +457,17 @@ pub fn lme_basis<D: Spatial>(
             let x = positions[p].0;
             let guess = guesses.0[p] + guesses.1[p] * (x - guesses.2[p]);
             let row = (nodes, weights, gradients);
-            let list = &candidates[p];
-            particle_row(cloud, x, list, &settings, radius, guess, scratch, row)
+            particle_row(&problem, x, &candidates[p], guess, scratch, row)
         },
     );
-    let kept = keep_solutions(
+    keep_solutions(
         solved,
         settings.beta,
         positions,
         lambda,
         lambda_slope,
         solved_at,
-    );
-    if let Err((p, message)) = kept {
-        report_failure(&mut health, clock.step, ids[p], positions[p], &message);
-    }
+    )
 }
 
 /// Stops the run at the basis stage, naming the particle whose shape functions failed.

@@ -2,6 +2,7 @@
 pub mod gimp;
 pub mod linear;
 pub mod lme;
+mod lme_graded;
 pub mod lme_kernel;
 
 use fractum_engine::prelude::*;

@@ -341,77 +341,80 @@ type ParticleQuery<'w, 's, D> = Query<
     With<Particle>,
 >;
 
-/// The `damage/eigensoftening` system.
-pub fn eigensoftening<D: Dim>(
-    params: Res<EigensofteningParams>,
-    neighbourhoods: Res<Neighbourhoods>,
-    mut columns: ResMut<SeriesColumns>,
-    mut reach: Local<StressReach<D>>,
-    mut particles: ParticleQuery<D>,
-) {
-    let Some((positions, mass, material, v0, stress, strain, mut damage, mut history, mut opening)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
-    else {
-        return;
-    };
-    let (damage, history, opening): (&mut [Damage], &mut [DamageHistory], &mut [CrackOpening]) =
-        (&mut damage, &mut history, &mut opening);
-    let law = params.law;
-    let previous: &[Damage] = damage;
-    // Each particle's largest principal stress, once, for all the neighbourhoods it is in.
-    let principal: Vec<f64> = stress.par_iter().map(|s| s.0.largest_principal()).collect();
-    // What each particle adds to its neighbours' sums, for the bound of where they can reach
-    // f_t (a failed particle adds nothing).
-    let contributed: Vec<f64> = principal
-        .iter()
-        .zip(previous)
-        .map(|(s, d)| if d.0 < 1.0 { *s } else { 0.0 })
-        .collect();
-    reach.refill(positions, &contributed, neighbourhoods.radius);
-    let reach = &*reach;
-    let updated: Vec<(f64, f64, f64)> = (0..mass.len())
-        .into_par_iter()
-        .map(|p| {
-            let (chi, onset, w) = (previous[p].0, history[p].0, opening[p].0);
-            if !params.materials.applies(material[p]) {
-                return (chi, onset, w);
-            }
-            let neighbours = if p < neighbourhoods.particle_count() {
-                neighbourhoods.of(p)
-            } else {
-                &[]
-            };
-            let strain_1 = strain[p].0.largest_principal();
-            // An intact particle whose neighbourhood cannot reach f_t, or that is not
-            // stretched, stays intact: soften() would return the same without the sum.
-            let intact = (chi, onset) == (0.0, 0.0);
-            if intact
-                && !(strain_1 > 0.0
-                    && reach.may_reach(positions[p].0, neighbours.len(), law.tensile_strength))
-            {
-                return (chi, onset, w);
-            }
-            if params.traction == Traction::Cohesive && chi < 1.0 && onset > 0.0 {
-                let modulus = params.normal_modulus[material[p].0 as usize];
-                let (chi, w) =
-                    soften_cohesive((chi, w), principal[p], &law, params.band_width, modulus);
-                return (chi, onset, w);
-            }
-            let sigma = if intact {
-                equivalent_stress(neighbours, mass, &principal, previous)
-            } else {
-                0.0
-            };
-            let (chi, onset) = soften((chi, onset), sigma, strain_1, &law, params.band_width);
-            let w = if onset > 0.0 && params.traction == Traction::Published {
-                w.max((strain_1 - onset) * params.band_width)
-                    .min(law.critical_opening())
-            } else {
-                w
-            };
-            (chi, onset, w)
-        })
-        .collect();
+/// What one particle's update reads: the law's parameters, the neighbourhoods and the bound
+/// of where they can reach `f_t`, and the particles' state before the update (Jacobi).
+struct ParticleUpdate<'a, D: Dim> {
+    params: &'a EigensofteningParams,
+    neighbourhoods: &'a Neighbourhoods,
+    reach: &'a StressReach<D>,
+    positions: &'a [Position<D>],
+    mass: &'a [Mass],
+    material: &'a [MaterialId],
+    strain: &'a [Strain<D>],
+    principal: &'a [f64],
+    previous: &'a [Damage],
+    history: &'a [DamageHistory],
+    opening: &'a [CrackOpening],
+}
+
+impl<D: Dim> ParticleUpdate<'_, D> {
+    /// Particle `p`'s new `(χ, onset strain, crack opening)`.
+    fn soften(&self, p: usize) -> (f64, f64, f64) {
+        let (params, law) = (self.params, &self.params.law);
+        let (chi, onset, w) = (self.previous[p].0, self.history[p].0, self.opening[p].0);
+        if !params.materials.applies(self.material[p]) {
+            return (chi, onset, w);
+        }
+        let neighbours = if p < self.neighbourhoods.particle_count() {
+            self.neighbourhoods.of(p)
+        } else {
+            &[]
+        };
+        let strain_1 = self.strain[p].0.largest_principal();
+        // An intact particle whose neighbourhood cannot reach f_t, or that is not stretched,
+        // stays intact: soften() would return the same without the sum.
+        let intact = (chi, onset) == (0.0, 0.0);
+        if intact
+            && !(strain_1 > 0.0
+                && self.reach.may_reach(
+                    self.positions[p].0,
+                    neighbours.len(),
+                    law.tensile_strength,
+                ))
+        {
+            return (chi, onset, w);
+        }
+        if params.traction == Traction::Cohesive && chi < 1.0 && onset > 0.0 {
+            let modulus = params.normal_modulus[self.material[p].0 as usize];
+            let (chi, w) =
+                soften_cohesive((chi, w), self.principal[p], law, params.band_width, modulus);
+            return (chi, onset, w);
+        }
+        let sigma = if intact {
+            equivalent_stress(neighbours, self.mass, self.principal, self.previous)
+        } else {
+            0.0
+        };
+        let (chi, onset) = soften((chi, onset), sigma, strain_1, law, params.band_width);
+        let w = if onset > 0.0 && params.traction == Traction::Published {
+            w.max((strain_1 - onset) * params.band_width)
+                .min(law.critical_opening())
+        } else {
+            w
+        };
+        (chi, onset, w)
+    }
+}
+
+/// Writes the updated state back and counts the damaged and failed particles and the energy
+/// the law has dissipated (J, per scene thickness in 2D).
+fn write_back(
+    params: &EigensofteningParams,
+    updated: Vec<(f64, f64, f64)>,
+    v0: &[InitialVolume],
+    (damage, history, opening): (&mut [Damage], &mut [DamageHistory], &mut [CrackOpening]),
+) -> (usize, usize, f64) {
+    let law = &params.law;
     let (mut damaged, mut failed, mut dissipated) = (0usize, 0usize, 0.0);
     for (p, (chi, onset, w)) in updated.into_iter().enumerate() {
         damage[p].0 = chi;
@@ -429,6 +432,55 @@ pub fn eigensoftening<D: Dim>(
             failed += 1;
         }
     }
+    (damaged, failed, dissipated)
+}
+
+/// The `damage/eigensoftening` system.
+pub fn eigensoftening<D: Dim>(
+    params: Res<EigensofteningParams>,
+    neighbourhoods: Res<Neighbourhoods>,
+    mut columns: ResMut<SeriesColumns>,
+    mut reach: Local<StressReach<D>>,
+    mut particles: ParticleQuery<D>,
+) {
+    let Some((positions, mass, material, v0, stress, strain, mut damage, mut history, mut opening)) =
+        single_table(particles.contiguous_iter_mut(), "particles")
+    else {
+        return;
+    };
+    let (damage, history, opening): (&mut [Damage], &mut [DamageHistory], &mut [CrackOpening]) =
+        (&mut damage, &mut history, &mut opening);
+    let previous: &[Damage] = damage;
+    // Each particle's largest principal stress, once, for all the neighbourhoods it is in.
+    let principal: Vec<f64> = stress.par_iter().map(|s| s.0.largest_principal()).collect();
+    // What each particle adds to its neighbours' sums, for the bound of where they can reach
+    // f_t (a failed particle adds nothing).
+    let contributed: Vec<f64> = principal
+        .iter()
+        .zip(previous)
+        .map(|(s, d)| if d.0 < 1.0 { *s } else { 0.0 })
+        .collect();
+    reach.refill(positions, &contributed, neighbourhoods.radius);
+    let reach = &*reach;
+    let step = ParticleUpdate {
+        params: &params,
+        neighbourhoods: &neighbourhoods,
+        reach,
+        positions,
+        mass,
+        material,
+        strain,
+        principal: &principal,
+        previous,
+        history,
+        opening,
+    };
+    let updated: Vec<(f64, f64, f64)> = (0..mass.len())
+        .into_par_iter()
+        .map(|p| step.soften(p))
+        .collect();
+    let (damaged, failed, dissipated) =
+        write_back(&params, updated, v0, (damage, history, opening));
     let [d, f, e] = params.columns;
     columns.values[d] = damaged as f64;
     columns.values[f] = failed as f64;

@@ -275,7 +275,7 @@ pub struct DfgCarried<'w, D: Dim> {
 pub fn dfg_partition<D: Spatial>(
     grid: Res<Grid<D>>,
     params: Res<DfgParams>,
-    carried: DfgCarried<D>,
+    mut carried: DfgCarried<D>,
     connectivity: Res<Connectivity<D>>,
     mut particles: ParticleQuery<D>,
     mut nodes: Query<(&NodeFields, &mut NodeFieldDamage), With<Node>>,
@@ -286,17 +286,13 @@ pub fn dfg_partition<D: Spatial>(
     else {
         return;
     };
-    let DfgCarried {
-        mut detected,
-        mut candidates,
-    } = carried;
     let radius = params.radius.unwrap_or(grid.spacing * (D::N as f64).sqrt());
-    candidates.refresh(positions, groups, radius);
-    let neighbours = &candidates.rows;
+    carried.candidates.refresh(positions, groups, radius);
+    let neighbours = &carried.candidates.rows;
     let surface: &mut [SurfaceFlag] = &mut surface;
-    if let (Some(threshold), false) = (params.surface, detected.0) {
+    if let (Some(threshold), false) = (params.surface, carried.detected.0) {
         detect_surface(positions, neighbours, bodies, radius, threshold, surface);
-        detected.0 = true;
+        carried.detected.0 = true;
     }
     let (effective, near_damage, damaged) = &mut *buffers;
     effective.clear();
