@@ -65,6 +65,21 @@ fn edited_scene(dir: &Path, scene: &str, edits: &[(&str, &str)]) -> PathBuf {
     path
 }
 
+/// `fractum run SCENE --out OUT --steps 30 --checkpoint-every 10 --quiet`.
+fn run_30_steps_checkpointed(scene: &str, out: &str) -> std::process::Output {
+    fractum(&[
+        "run",
+        scene,
+        "--out",
+        out,
+        "--steps",
+        "30",
+        "--checkpoint-every",
+        "10",
+        "--quiet",
+    ])
+}
+
 fn series_steps(dir: &Path) -> Vec<u64> {
     std::fs::read_to_string(dir.join("series.csv"))
         .unwrap()
@@ -226,17 +241,7 @@ fn resume_refuses_a_changed_scene_and_a_damaged_checkpoint() {
     let scene = edited_scene(&dir, "two_disks.ron", &[]);
     let out = dir.join("run");
     let (scene_arg, out_arg) = (scene.to_str().unwrap(), out.to_str().unwrap());
-    let first = fractum(&[
-        "run",
-        scene_arg,
-        "--out",
-        out_arg,
-        "--steps",
-        "30",
-        "--checkpoint-every",
-        "10",
-        "--quiet",
-    ]);
+    let first = run_30_steps_checkpointed(scene_arg, out_arg);
     assert!(first.status.success(), "{}", text(&first.stderr));
     // A resume to the step the run is at already is a usage error, and leaves every output
     // as it was (the final frame of step 30 was written after the checkpoint: a rewind would
@@ -550,17 +555,7 @@ fn steps_cap_a_run_and_a_plain_resume_goes_on_to_the_scenes_end() {
     );
     let out = dir.join("run");
     let (scene_arg, out_arg) = (scene.to_str().unwrap(), out.to_str().unwrap());
-    let capped = fractum(&[
-        "run",
-        scene_arg,
-        "--out",
-        out_arg,
-        "--steps",
-        "30",
-        "--checkpoint-every",
-        "10",
-        "--quiet",
-    ]);
+    let capped = run_30_steps_checkpointed(scene_arg, out_arg);
     assert!(capped.status.success(), "{}", text(&capped.stderr));
     assert_eq!(last_row(&out).0, 30);
     let resumed = fractum(&["resume", out_arg, "--checkpoint-every", "10", "--quiet"]);

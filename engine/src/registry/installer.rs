@@ -204,16 +204,20 @@ impl<'a> Installer<'a> {
             .map_or("pipeline".to_string(), |k| format!("pipeline[{k}].{what}"))
     }
 
+    /// Every particle entity, in storage order.
+    fn particles(&mut self) -> Vec<Entity> {
+        self.world
+            .query_filtered::<Entity, With<Particle>>()
+            .iter(self.world)
+            .collect()
+    }
+
     /// Gives every particle a component of the system's own (a damage gradient, a surface flag,
     /// a strength), starting at `value`. All particles get it at once, before the first step, so
     /// they stay in one storage table. Checkpoints carry it ([`crate::checkpoint`]).
     pub fn add_particle_component<C: ParticleState + Clone>(&mut self, value: C) {
         crate::checkpoint::carry_component::<C>(self.world);
-        let particles: Vec<Entity> = self
-            .world
-            .query_filtered::<Entity, With<Particle>>()
-            .iter(self.world)
-            .collect();
+        let particles = self.particles();
         for particle in particles {
             self.world.entity_mut(particle).insert(value.clone());
         }
@@ -230,11 +234,7 @@ impl<'a> Installer<'a> {
         mut value: impl FnMut(bevy_ecs::world::EntityRef<'_>) -> Option<C>,
     ) {
         crate::checkpoint::carry_component::<C>(self.world);
-        let particles: Vec<Entity> = self
-            .world
-            .query_filtered::<Entity, With<Particle>>()
-            .iter(self.world)
-            .collect();
+        let particles = self.particles();
         let values: Vec<(Entity, Option<C>, bool)> = particles
             .into_iter()
             .map(|particle| {
