@@ -14,7 +14,7 @@
 //!   the disk's moduli) takes up 4.9 × 10⁸ J/m³ one way round and gives as much back the other;
 //!   intact, the same cycle does nothing. Rubble of failed particles can so return energy the
 //!   loads never put in; it is the first suspect for the energy the finest Brazilian runs create
-//!   (README).
+//!   (docs/verification/, the Brazilian cases).
 //! - The damage is in the stress itself, so the force transfer must not scale by `1 − D` as
 //!   well: the install inserts [`DamageInStress`]. That is why these laws cannot share a
 //!   pipeline with `damage/eigenerosion` or `damage/eigensoftening`, which rely on the scaling.
