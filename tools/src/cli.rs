@@ -114,6 +114,30 @@ pub enum Command {
     /// A crack from a notch: its tip against time (crack.csv in the run's folder), initial
     /// angle and speed, beside the Rayleigh speed of the material.
     Crack(CrackArgs),
+    /// Run the verification catalogue: every published case, measured and held against its
+    /// reference; writes docs/VERIFICATION.md and docs/verification/.
+    Verify(crate::verify::VerifyArgs),
+    /// A picture (PNG) of a frame's particles coloured by a field, with a colour bar, the
+    /// bodies' outlines and a scale bar.
+    Snapshot {
+        /// A particle frame (frames/particles_NNNNNNNN.vtu).
+        frame: PathBuf,
+        /// The field (damage, velocity, velocity_x, stress_xy, pressure, a system's column...).
+        #[arg(long, default_value = "damage")]
+        field: String,
+        /// The plane a 3D frame is seen in.
+        #[arg(long, value_enum, default_value = "xy")]
+        view: crate::snapshot::View,
+        /// Width of the particle area in pixels.
+        #[arg(long, default_value_t = 900, value_parser = clap::value_parser!(u32).range(50..=8000))]
+        width: u32,
+        /// Colour range MIN,MAX [default: the field's range in the frame].
+        #[arg(long, value_delimiter = ',', num_args = 2)]
+        range: Vec<f64>,
+        /// Output PNG [default: the frame's name with .png, field appended].
+        #[arg(long)]
+        output: Option<PathBuf>,
+    },
     /// Measure particle-steps per second of the stock pipelines on a generated scene.
     Bench {
         /// Pipelines to measure.

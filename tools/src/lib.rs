@@ -35,6 +35,8 @@ pub mod plot;
 pub mod remedy;
 pub mod reports;
 pub mod running;
+pub mod snapshot;
+pub mod verify;
 
 pub use cli::{Cli, Command, CrackArgs, RunArgs};
 pub use reports::{check_report, energy_warning, summary_report, systems_report};
@@ -56,6 +58,9 @@ pub const EXIT_BLOWUP: i32 = 3;
 pub const EXIT_IO: i32 = 4;
 /// Exit code: the machine could not give what the run asked for (the thread pool).
 pub const EXIT_RESOURCES: i32 = 5;
+/// Exit code: `fractum verify` found a case outside its tolerance, or one it could not run or
+/// measure.
+pub const EXIT_VERIFY_FAILED: i32 = 6;
 /// Exit code: a signal (SIGINT, SIGTERM) stopped the run after a step; its outputs and a
 /// checkpoint are written, and `fractum resume` continues it.
 pub const EXIT_INTERRUPTED: i32 = 130;
@@ -122,6 +127,23 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
                 steps,
             };
             commands::bench::bench_command(&grid, registry)
+        }
+        Command::Verify(args) => verify::verify_command(&args),
+        Command::Snapshot {
+            frame,
+            field,
+            view,
+            width,
+            range,
+            output,
+        } => {
+            let options = snapshot::SnapshotOptions {
+                field,
+                view,
+                width,
+                range: (range.len() == 2).then(|| (range[0], range[1])),
+            };
+            commands::snapshot::snapshot_command(&frame, &options, output)
         }
         Command::Check { scene } => match load(&scene, registry) {
             Ok((_, mut built)) => {

@@ -95,7 +95,7 @@ impl BarReference {
     }
 }
 
-fn register_font() {
+pub(crate) fn register_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // The bundled font is valid; a failure here would only lose the text.
@@ -109,7 +109,7 @@ fn register_font() {
 
 /// A tick label readable at any scale: plain for everyday magnitudes, scientific for very
 /// small or large ones (microsecond runs, micrometre displacements, megapascal stresses).
-fn tick_label(v: f64) -> String {
+pub(crate) fn tick_label(v: f64) -> String {
     let magnitude = v.abs();
     if v == 0.0 {
         "0".into()

@@ -102,7 +102,7 @@ fn crack_report(request: &CrackArgs, registry: &Registry) -> Result<String, Stri
 }
 
 /// 1.5 particle spacings of the run's first frame.
-fn default_link(dir: &Path, thickness: Option<f64>) -> Result<f64, String> {
+pub(crate) fn default_link(dir: &Path, thickness: Option<f64>) -> Result<f64, String> {
     let frames = read_pvd(&dir.join("particles.pvd"))?;
     let first = frames
         .first()

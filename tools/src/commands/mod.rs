@@ -6,3 +6,4 @@ pub(crate) mod crack;
 pub(crate) mod curve;
 pub(crate) mod fragments;
 pub(crate) mod plot;
+pub(crate) mod snapshot;

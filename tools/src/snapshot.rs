@@ -1,0 +1,490 @@
+//! `fractum snapshot`: a headless picture of a frame's particles coloured by a field, with a
+//! colour bar, the bodies' outlines and a scale bar, so that a crack pattern can be seen (and
+//! put on a verification page) without ParaView.
+//!
+//! - Each particle is a square one particle spacing wide (the median spacing of the frame, as
+//!   `fractum fragments` finds it), so a body reads as a solid and a crack as a gap or a band.
+//! - 3D frames are seen along an axis (`--view xy`, `xz` or `yz`); nearer particles are drawn
+//!   over farther ones.
+//! - Outlines: a pixel is outline where its neighbour holds another body or nothing, so the
+//!   edges of each body and of every opened crack are drawn.
+//! - NaN values (a column a law leaves undefined) are drawn grey and left out of the range.
+
+use crate::fragments::{frame_thickness, median_spacing};
+use crate::plot::{register_font, tick_label};
+use fractum_engine::output::{ParticleFrame, read_particle_frame, read_pvd};
+use plotters::prelude::*;
+use std::path::Path;
+
+/// The plane a frame is seen in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum View {
+    /// Along z: x to the right, y up.
+    #[default]
+    Xy,
+    /// Along y: x to the right, z up.
+    Xz,
+    /// Along x: y to the right, z up.
+    Yz,
+}
+
+impl View {
+    /// (horizontal, vertical, depth) axes; the depth grows towards the viewer.
+    fn axes(self) -> (usize, usize, usize) {
+        match self {
+            View::Xy => (0, 1, 2),
+            View::Xz => (0, 2, 1),
+            View::Yz => (1, 2, 0),
+        }
+    }
+}
+
+/// What to draw.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SnapshotOptions {
+    /// The field's name (`damage`, `velocity`, `stress_xy`, a system's column...).
+    pub field: String,
+    /// The plane of a 3D frame.
+    pub view: View,
+    /// Width of the particle area in pixels.
+    pub width: u32,
+    /// The colour range [default: the field's range in the frame].
+    pub range: Option<(f64, f64)>,
+}
+
+impl Default for SnapshotOptions {
+    fn default() -> Self {
+        Self {
+            field: "damage".into(),
+            view: View::Xy,
+            width: 900,
+            range: None,
+        }
+    }
+}
+
+/// The frame of the run in `dir` nearest `time` (the last when `None`).
+pub fn frame_near(dir: &Path, time: Option<f64>) -> Result<ParticleFrame, String> {
+    let frames = read_pvd(&dir.join("particles.pvd"))?;
+    let chosen = match time {
+        Some(t) => frames
+            .iter()
+            .min_by(|a, b| (a.0 - t).abs().total_cmp(&(b.0 - t).abs())),
+        None => frames.last(),
+    }
+    .ok_or_else(|| format!("{}: the run wrote no particle frames", dir.display()))?;
+    read_particle_frame(&dir.join(&chosen.1))
+}
+
+/// The fields a frame can be coloured by.
+pub fn field_names(frame: &ParticleFrame) -> Vec<String> {
+    let mut names: Vec<String> = [
+        "damage",
+        "strain_energy_density",
+        "mass",
+        "volume",
+        "body",
+        "material",
+        "velocity",
+        "velocity_x",
+        "velocity_y",
+        "velocity_z",
+        "stress_xx",
+        "stress_yy",
+        "stress_zz",
+        "stress_xy",
+        "pressure",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    names.extend(frame.scalars.iter().map(|(n, _)| n.clone()));
+    names.extend(frame.vectors.iter().map(|(n, _)| n.clone()));
+    names
+}
+
+/// The values of `field` per particle (a vector's magnitude).
+pub fn field_values(frame: &ParticleFrame, field: &str) -> Result<Vec<f64>, String> {
+    let norm = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let stress = |k: usize| frame.stress.iter().map(|s| s[k]).collect();
+    let values = match field {
+        "damage" => frame.damage.clone(),
+        "strain_energy_density" => frame.strain_energy_density.clone(),
+        "mass" => frame.mass.clone(),
+        "volume" => frame.volume.clone(),
+        "body" => frame.body.iter().map(|b| f64::from(*b)).collect(),
+        "material" => frame.material.iter().map(|m| f64::from(*m)).collect(),
+        "velocity" => frame.velocity.iter().map(norm).collect(),
+        "velocity_x" | "velocity_y" | "velocity_z" => {
+            let k = usize::from(field.as_bytes()[9] - b'x');
+            frame.velocity.iter().map(|v| v[k]).collect()
+        }
+        "stress_xx" => stress(0),
+        "stress_yy" => stress(4),
+        "stress_zz" => stress(8),
+        "stress_xy" => stress(1),
+        "pressure" => frame
+            .stress
+            .iter()
+            .map(|s| -(s[0] + s[4] + s[8]) / 3.0)
+            .collect(),
+        other => {
+            if let Some((_, v)) = frame.scalars.iter().find(|(n, _)| n == other) {
+                v.clone()
+            } else if let Some((_, v)) = frame.vectors.iter().find(|(n, _)| n == other) {
+                v.iter().map(norm).collect()
+            } else {
+                return Err(format!(
+                    "no field `{other}` in the frame; it has: {}",
+                    field_names(frame).join(", ")
+                ));
+            }
+        }
+    };
+    Ok(values)
+}
+
+/// Viridis, by five stops.
+fn colour(t: f64) -> RGBColor {
+    const STOPS: [(f64, f64, f64); 5] = [
+        (68.0, 1.0, 84.0),
+        (59.0, 82.0, 139.0),
+        (33.0, 145.0, 140.0),
+        (94.0, 201.0, 98.0),
+        (253.0, 231.0, 37.0),
+    ];
+    if !t.is_finite() {
+        return RGBColor(200, 200, 200);
+    }
+    let s = t.clamp(0.0, 1.0) * 4.0;
+    let k = (s.floor() as usize).min(3);
+    let f = s - k as f64;
+    let mix = |a: f64, b: f64| (a + f * (b - a)).round() as u8;
+    let (a, b) = (STOPS[k], STOPS[k + 1]);
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// The particles rasterised: per pixel the colour parameter (NaN: a NaN value) and the body
+/// (`u32::MAX`: empty).
+struct Raster {
+    width: usize,
+    height: usize,
+    value: Vec<f64>,
+    body: Vec<u32>,
+    /// Metres per pixel.
+    scale: f64,
+}
+
+fn rasterise(
+    frame: &ParticleFrame,
+    values: &[f64],
+    range: (f64, f64),
+    view: View,
+    width: u32,
+) -> Result<Raster, String> {
+    let (h, v, depth) = view.axes();
+    let (planar, thickness) = frame_thickness(frame, None)?;
+    let spacing = median_spacing(frame, planar, thickness);
+    let bounds = |axis: usize| {
+        frame
+            .position
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                (a.min(p[axis]), b.max(p[axis]))
+            })
+    };
+    let ((h0, h1), (v0, v1)) = (bounds(h), bounds(v));
+    if !(h1 >= h0 && v1 >= v0) || !spacing.is_finite() {
+        return Err("the frame has no particles to draw".into());
+    }
+    let (h0, h1, v0, v1) = (h0 - spacing, h1 + spacing, v0 - spacing, v1 + spacing);
+    let scale = (h1 - h0) / f64::from(width);
+    let height = (((v1 - v0) / scale).ceil() as usize).clamp(1, 4 * width as usize);
+    let width = width as usize;
+    let mut raster = Raster {
+        width,
+        height,
+        value: vec![f64::NAN; width * height],
+        body: vec![u32::MAX; width * height],
+        scale,
+    };
+    let half = (0.5 * spacing / scale).max(0.5);
+    let mut order: Vec<usize> = (0..frame.position.len()).collect();
+    order.sort_by(|&a, &b| frame.position[a][depth].total_cmp(&frame.position[b][depth]));
+    let span = (range.1 - range.0).max(f64::MIN_POSITIVE);
+    for p in order {
+        let x = (frame.position[p][h] - h0) / scale;
+        let y = (v1 - frame.position[p][v]) / scale;
+        let t = (values[p] - range.0) / span;
+        let (xa, xb) = (
+            (x - half).floor().max(0.0) as usize,
+            ((x + half).ceil() as usize).min(width),
+        );
+        let (ya, yb) = (
+            (y - half).floor().max(0.0) as usize,
+            ((y + half).ceil() as usize).min(raster.height),
+        );
+        for row in ya..yb {
+            for col in xa..xb {
+                raster.value[row * width + col] = t;
+                raster.body[row * width + col] = u32::from(frame.body[p]);
+            }
+        }
+    }
+    Ok(raster)
+}
+
+impl Raster {
+    /// Whether the pixel is on a body's edge: a 4-neighbour holds another body or nothing.
+    fn outline(&self, row: usize, col: usize) -> bool {
+        let here = self.body[row * self.width + col];
+        if here == u32::MAX {
+            return false;
+        }
+        let other = |r: usize, c: usize| self.body[r * self.width + c] != here;
+        row == 0
+            || col == 0
+            || row + 1 == self.height
+            || col + 1 == self.width
+            || other(row - 1, col)
+            || other(row + 1, col)
+            || other(row, col - 1)
+            || other(row, col + 1)
+    }
+}
+
+/// The field's range over its finite values.
+fn finite_range(values: &[f64]) -> (f64, f64) {
+    let (lo, hi) = values
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(*v), b.max(*v))
+        });
+    if !lo.is_finite() {
+        (0.0, 1.0)
+    } else if hi > lo {
+        (lo, hi)
+    } else {
+        (lo - 0.5, lo + 0.5)
+    }
+}
+
+/// A round length (1, 2 or 5 × 10ⁿ) near a fifth of `extent`.
+fn scale_length(extent: f64) -> f64 {
+    let target = extent / 5.0;
+    let base = 10f64.powf(target.log10().floor());
+    [5.0, 2.0, 1.0]
+        .into_iter()
+        .map(|m| m * base)
+        .find(|l| *l <= target)
+        .unwrap_or(base)
+}
+
+const MARGIN: u32 = 50;
+const BAR: u32 = 170;
+
+/// Draws `frame` coloured by `options.field` into the PNG `output` (written to a temporary
+/// name and renamed).
+pub fn snapshot(
+    frame: &ParticleFrame,
+    options: &SnapshotOptions,
+    output: &Path,
+) -> Result<(), String> {
+    let values = field_values(frame, &options.field)?;
+    let range = options.range.unwrap_or_else(|| finite_range(&values));
+    let raster = rasterise(frame, &values, range, options.view, options.width.max(50))?;
+    register_font();
+    let size = (
+        raster.width as u32 + 2 * MARGIN + BAR,
+        raster.height as u32 + 2 * MARGIN + 30,
+    );
+    let name = output
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let temp = output.with_file_name(format!(".{name}.{}.tmp.png", std::process::id()));
+    draw(&raster, options, range, size, &temp)
+        .map_err(|e| format!("cannot draw {}: {e}", output.display()))?;
+    std::fs::rename(&temp, output).map_err(|e| format!("cannot write {}: {e}", output.display()))
+}
+
+type DrawResult = Result<(), Box<dyn std::error::Error>>;
+
+fn draw(
+    raster: &Raster,
+    options: &SnapshotOptions,
+    range: (f64, f64),
+    size: (u32, u32),
+    path: &Path,
+) -> DrawResult {
+    let root = BitMapBackend::new(path, size).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (ox, oy) = (MARGIN as i32, MARGIN as i32);
+    for row in 0..raster.height {
+        for col in 0..raster.width {
+            let k = row * raster.width + col;
+            if raster.body[k] == u32::MAX {
+                continue;
+            }
+            let c = if raster.outline(row, col) {
+                RGBColor(30, 30, 30)
+            } else {
+                colour(raster.value[k])
+            };
+            root.draw_pixel((ox + col as i32, oy + row as i32), &c)?;
+        }
+    }
+    let title = format!(
+        "{} ({} to {})",
+        options.field,
+        tick_label(range.0),
+        tick_label(range.1)
+    );
+    root.draw(&Text::new(title, (ox, 12), ("sans-serif", 22).into_font()))?;
+    draw_colour_bar(
+        &root,
+        range,
+        (ox + raster.width as i32 + 30, oy),
+        raster.height.min(400) as i32,
+    )?;
+    draw_scale_bar(&root, raster, (ox, oy + raster.height as i32 + 18))?;
+    root.present()?;
+    Ok(())
+}
+
+fn draw_colour_bar(
+    root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
+    range: (f64, f64),
+    at: (i32, i32),
+    height: i32,
+) -> DrawResult {
+    let height = height.max(60);
+    for k in 0..height {
+        let t = 1.0 - f64::from(k) / f64::from(height - 1);
+        root.draw(&Rectangle::new(
+            [(at.0, at.1 + k), (at.0 + 20, at.1 + k + 1)],
+            colour(t).filled(),
+        ))?;
+    }
+    root.draw(&Rectangle::new(
+        [(at.0, at.1), (at.0 + 20, at.1 + height)],
+        BLACK,
+    ))?;
+    for k in 0..=4 {
+        let t = f64::from(k) / 4.0;
+        let y = at.1 + ((1.0 - t) * f64::from(height - 1)) as i32;
+        let label = tick_label(range.0 + t * (range.1 - range.0));
+        root.draw(&Text::new(
+            label,
+            (at.0 + 26, y - 8),
+            ("sans-serif", 16).into_font(),
+        ))?;
+    }
+    Ok(())
+}
+
+fn draw_scale_bar(
+    root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
+    raster: &Raster,
+    at: (i32, i32),
+) -> DrawResult {
+    let length = scale_length(raster.width as f64 * raster.scale);
+    let pixels = (length / raster.scale).round() as i32;
+    root.draw(&Rectangle::new(
+        [(at.0, at.1), (at.0 + pixels, at.1 + 4)],
+        BLACK.filled(),
+    ))?;
+    let label = if length < 1e-2 {
+        format!("{} mm", tick_label(length * 1e3))
+    } else {
+        format!("{} m", tick_label(length))
+    };
+    root.draw(&Text::new(
+        label,
+        (at.0 + pixels + 10, at.1 - 6),
+        ("sans-serif", 16).into_font(),
+    ))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame() -> ParticleFrame {
+        // Two bodies of 4 × 4 particles, 0.1 apart, side by side with a gap of two spacings.
+        let mut f = ParticleFrame {
+            thickness: Some(1.0),
+            ..Default::default()
+        };
+        for body in 0..2u16 {
+            for i in 0..4 {
+                for j in 0..4 {
+                    f.id.push(f.id.len() as u32);
+                    f.body.push(body);
+                    f.material.push(0);
+                    f.position.push([
+                        f64::from(body) * 0.6 + 0.1 * f64::from(i),
+                        0.1 * f64::from(j),
+                        0.0,
+                    ]);
+                    f.velocity.push([1.0, 0.0, 0.0]);
+                    f.mass.push(1.0);
+                    f.volume.push(0.01);
+                    f.stress.push([0.0; 9]);
+                    f.damage.push(if body == 0 { 0.0 } else { 1.0 });
+                    f.strain_energy_density.push(0.0);
+                }
+            }
+        }
+        f
+    }
+
+    #[test]
+    fn colours_run_from_purple_to_yellow_and_nan_is_grey() {
+        assert_eq!(colour(0.0), RGBColor(68, 1, 84));
+        assert_eq!(colour(1.0), RGBColor(253, 231, 37));
+        assert_eq!(colour(f64::NAN), RGBColor(200, 200, 200));
+    }
+
+    #[test]
+    fn the_raster_holds_both_bodies_with_their_values_and_edges() {
+        let f = frame();
+        let values = field_values(&f, "damage").unwrap();
+        let raster = rasterise(&f, &values, (0.0, 1.0), View::Xy, 100).unwrap();
+        let row = raster.height / 2;
+        let bodies: Vec<u32> = (0..raster.width)
+            .map(|c| raster.body[row * raster.width + c])
+            .collect();
+        assert!(bodies.contains(&0) && bodies.contains(&1) && bodies.contains(&u32::MAX));
+        let first = bodies.iter().position(|b| *b == 0).unwrap();
+        assert!(raster.outline(row, first) && !raster.outline(row, first + 3));
+        let k = bodies.iter().position(|b| *b == 1).unwrap();
+        assert_eq!(raster.value[row * raster.width + k], 1.0);
+    }
+
+    #[test]
+    fn fields_are_found_by_name_and_unknown_ones_listed() {
+        let f = frame();
+        assert_eq!(field_values(&f, "velocity_x").unwrap()[0], 1.0);
+        let e = field_values(&f, "colour").unwrap_err();
+        assert!(
+            e.contains("no field `colour`") && e.contains("damage"),
+            "{e}"
+        );
+        assert_eq!(scale_length(1.0), 0.2);
+        assert_eq!(scale_length(0.013), 2e-3);
+    }
+
+    #[test]
+    fn a_snapshot_is_a_png() {
+        let dir = std::env::temp_dir().join(format!("fractum-snapshot-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("frame.png");
+        snapshot(&frame(), &SnapshotOptions::default(), &path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        assert_eq!(&bytes[1..4], b"PNG");
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+}
