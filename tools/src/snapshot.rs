@@ -194,7 +194,7 @@ fn rasterise(
             })
     };
     let ((h0, h1), (v0, v1)) = (bounds(h), bounds(v));
-    if !(h1 >= h0 && v1 >= v0) || !spacing.is_finite() {
+    if !(h1 >= h0 && v1 >= v0 && spacing.is_finite()) {
         return Err("the frame has no particles to draw".into());
     }
     let (h0, h1, v0, v1) = (h0 - spacing, h1 + spacing, v0 - spacing, v1 + spacing);

@@ -402,7 +402,7 @@ mod tests {
         let e = Catalogue::read(&write(&dir, &unknown))
             .unwrap_err()
             .to_string();
-        assert!(e.contains(":2:") && e.contains("colour"), "{e}");
+        assert!(e.contains(":3:38:") && e.contains("colour"), "{e}");
         let twice = ONE_CASE.replace("(cases: [(", "(cases: [(name: \"bar\", title: \"\", about: \"\", tier: Paper, scene: \"x\", cost: 1.0, checks: [(quantity: \"q\", measure: SeriesFinal(column: \"a\"), source: Paper(\"p\"), tolerance: Absolute(1.0))]), (");
         let e = Catalogue::read(&write(&dir, &twice))
             .unwrap_err()

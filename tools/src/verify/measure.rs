@@ -145,7 +145,7 @@ impl Measure {
                 }
                 Ok(())
             }
-            Measure::SeriesSlope { from, to, .. } if !(to > from) => {
+            Measure::SeriesSlope { from, to, .. } if to <= from || to.is_nan() || from.is_nan() => {
                 Err("the window needs `to` after `from`".into())
             }
             _ => Ok(()),
@@ -180,12 +180,12 @@ impl Measure {
                 .map(|f| f.diameter)
                 .fold(0.0, f64::max)),
             Measure::FragmentSpeed(at) => Ok(fragments::mean_speed(&fragments_at(dir, at)?)),
-            series_measure => series_measure.from_series(&read_series(dir)?),
+            series_measure => series_measure.of_series(&read_series(dir)?),
         }
     }
 
     /// The measures of `series.csv` alone.
-    fn from_series(&self, series: &plot::Series) -> Result<f64, String> {
+    fn of_series(&self, series: &plot::Series) -> Result<f64, String> {
         let time = series.column("time")?;
         match self {
             Measure::SeriesPeak { column, from } => {
@@ -381,9 +381,9 @@ mod tests {
             .collect();
         let s = series(&["time", "v"], rows);
         let period = Measure::OscillationPeriod { column: "v".into() };
-        assert!((period.from_series(&s).unwrap() - 10.0).abs() < 1e-6);
+        assert!((period.of_series(&s).unwrap() - 10.0).abs() < 1e-6);
         let amplitude = Measure::OscillationAmplitude { column: "v".into() };
-        assert!((amplitude.from_series(&s).unwrap() - 0.2).abs() < 1e-5);
+        assert!((amplitude.of_series(&s).unwrap() - 0.2).abs() < 1e-5);
     }
 
     #[test]
@@ -398,14 +398,14 @@ mod tests {
                 vec![2.0, 11.0, 3.0],
             ],
         );
-        assert_eq!(Measure::Dissipated.from_series(&s).unwrap(), 2.0);
-        assert_eq!(Measure::EnergyCreated.from_series(&s).unwrap(), 0.5);
+        assert_eq!(Measure::Dissipated.of_series(&s).unwrap(), 2.0);
+        assert_eq!(Measure::EnergyCreated.of_series(&s).unwrap(), 0.5);
         let drop = Measure::SeriesDrop {
             column: "total_energy".into(),
             from: 1.0,
             to: None,
         };
-        assert_eq!(drop.from_series(&s).unwrap(), -1.25);
+        assert_eq!(drop.of_series(&s).unwrap(), -1.25);
     }
 
     #[test]
@@ -424,21 +424,16 @@ mod tests {
             from: 0.0,
             to: 2.0,
         };
-        assert_eq!(slope.from_series(&s).unwrap(), -2.0);
+        assert_eq!(slope.of_series(&s).unwrap(), -2.0);
         let peak = Measure::SeriesPeak {
             column: "v".into(),
             from: 0.5,
         };
-        assert_eq!(peak.from_series(&s).unwrap(), 9.0);
+        assert_eq!(peak.of_series(&s).unwrap(), 9.0);
         let last = Measure::SeriesFinal { column: "v".into() };
-        assert_eq!(last.from_series(&s).unwrap(), 9.0);
+        assert_eq!(last.of_series(&s).unwrap(), 9.0);
         let missing = Measure::SeriesFinal { column: "w".into() };
-        assert!(
-            missing
-                .from_series(&s)
-                .unwrap_err()
-                .contains("no column `w`")
-        );
+        assert!(missing.of_series(&s).unwrap_err().contains("no column `w`"));
     }
 
     #[test]
