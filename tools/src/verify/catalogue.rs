@@ -3,7 +3,7 @@
 //!
 //! A case is one run: a scene, textual edits to it (resolution, speed, a variant) and the
 //! checks measured on its outputs. A check names the quantity, how it is measured
-//! ([`Measure`]), the reference value and where it comes from ([`Reference`]), the tolerance,
+//! ([`Measure`]), the reference value and where it comes from ([`Source`]), the tolerance,
 //! and, for a published number Fractum does not reproduce, the reason it is an expected miss.
 
 use super::measure::Measure;
