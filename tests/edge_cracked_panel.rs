@@ -5,7 +5,8 @@
 //! - The published LME curve peaks at R = 0.0301 for u = 0.0154 and falls to about zero within
 //!   Δu ≈ 0.002; the linear basis wiggles where LME stays straight.
 //! - With the Griffith-consistent normalisation the peak is linear-elastic fracture mechanics':
-//!   R = 0.0129 at u = 0.0065. The refinement study towards it is in README (too large here).
+//!   R = 0.0129 at u = 0.0065. The refinement study towards it is the `griffith_h*` cases of `fractum verify`
+//!   (docs/verification/; too large here).
 
 use fractum_cli::plot::{CurveSummary, curve_summary};
 use fractum_engine::output::series_row;
@@ -99,7 +100,7 @@ fn lme_panel_matches_the_published_curve_and_stays_straight_where_linear_wiggles
 fn griffith_normalisation_peaks_at_linear_elastic_fracture_mechanics() {
     let (u, r) = load_curve("edge_cracked_panel_griffith.ron", 9.0);
     let griffith = summary("Griffith", &u, &r);
-    // At the shipped h = 0.025 (4 cells per crack length); README has the refinement.
+    // At the shipped h = 0.025 (4 cells per crack length); `fractum verify` has the refinement.
     assert!(
         (griffith.peak / 0.0129 - 1.0).abs() < 0.10,
         "peak {}",

@@ -310,8 +310,7 @@ fn slope(points: &[(f64, f64)]) -> f64 {
 /// general, and this test does not claim it is: at c_f = 300 m/s (half the Rayleigh speed) the
 /// front runs at 0.86 c_f, and on a grid twice as fine (h = 0.01 m, c_f = 200 m/s) at
 /// 1.53 c_f, because the next particle passes σ_f while the one before it is still failing, and
-/// how soon depends on the stress concentration the grid resolves. BENCHMARKS.md and README
-/// give these numbers.
+/// how soon depends on the stress concentration the grid resolves.
 #[test]
 fn a_time_to_failure_crack_runs_within_ten_percent_of_c_f_at_the_shipped_resolution() {
     for crack_speed in [100.0, 200.0] {
