@@ -268,7 +268,21 @@ pub struct CurveSummary {
 
 /// Peak of `y` against `x`, and the RMS deviation from a straight line of the points with
 /// `x` between `from` and 90% of the peak's x (the "wiggle" of a loading curve).
+///
+/// A curve loaded in the negative direction (a loader pushing down records a negative
+/// displacement and reaction) is read with the signs of `x` and `y` taken from its point of
+/// largest `|y|`, so the peak, its `x`, `from` and the slope are magnitudes either way.
 pub fn curve_summary(x: &[f64], y: &[f64], from: f64) -> Option<CurveSummary> {
+    let extreme = (0..y.len()).max_by(|&a, &b| y[a].abs().total_cmp(&y[b].abs()))?;
+    let sign = |v: f64| if v < 0.0 { -1.0 } else { 1.0 };
+    let (sx, sy) = (sign(x[extreme]), sign(y[extreme]));
+    let x: Vec<f64> = x.iter().map(|v| sx * v).collect();
+    let y: Vec<f64> = y.iter().map(|v| sy * v).collect();
+    oriented_curve_summary(&x, &y, from)
+}
+
+/// [`curve_summary`] of a curve that rises in positive `x` and `y`.
+fn oriented_curve_summary(x: &[f64], y: &[f64], from: f64) -> Option<CurveSummary> {
     let peak_index = (0..y.len()).max_by(|&a, &b| y[a].total_cmp(&y[b]))?;
     let (peak, x_at_peak) = (y[peak_index], x[peak_index]);
     let points: Vec<(f64, f64)> = x
@@ -322,6 +336,21 @@ mod tests {
             .collect();
         let s = curve_summary(&x, &wiggly, 0.0).unwrap();
         assert!((s.rms_deviation - 0.01).abs() < 1e-3, "{}", s.rms_deviation);
+    }
+
+    #[test]
+    fn a_curve_loaded_downwards_reads_as_its_mirror_image() {
+        // A loader moving down: negative displacement and reaction, with a small positive
+        // ringing spike after the peak that must not be taken for it.
+        let x: Vec<f64> = (0..=100).map(|i| -(i as f64) / 100.0).collect();
+        let mut y: Vec<f64> = x
+            .iter()
+            .map(|v| if *v >= -0.5 { 2.0 * v } else { -1.0 - (v + 0.5) })
+            .collect();
+        y[80] = 0.3;
+        let s = curve_summary(&x, &y, 0.0).unwrap();
+        assert_eq!((s.peak, s.x_at_peak), (1.0, 0.5));
+        assert!((s.slope - 2.0).abs() < 1e-12 && s.rms_deviation < 1e-12);
     }
 
     #[test]
