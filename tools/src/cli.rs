@@ -70,7 +70,8 @@ pub enum Command {
         #[arg(long)]
         output: Option<PathBuf>,
     },
-    /// Peak of a load curve and the RMS deviation of its rising part from a straight line.
+    /// Peak of a load curve and the RMS deviation of its rising part from a straight line. A
+    /// curve loaded in the negative direction (a loader pushing down) reads as its magnitudes.
     Curve {
         /// The series.csv of a run.
         csv: PathBuf,

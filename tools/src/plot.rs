@@ -345,7 +345,13 @@ mod tests {
         let x: Vec<f64> = (0..=100).map(|i| -(i as f64) / 100.0).collect();
         let mut y: Vec<f64> = x
             .iter()
-            .map(|v| if *v >= -0.5 { 2.0 * v } else { -1.0 - (v + 0.5) })
+            .map(|v| {
+                if *v >= -0.5 {
+                    2.0 * v
+                } else {
+                    -1.0 - (v + 0.5)
+                }
+            })
             .collect();
         y[80] = 0.3;
         let s = curve_summary(&x, &y, 0.0).unwrap();
