@@ -255,13 +255,12 @@ pub struct RunFragments {
     pub link: f64,
 }
 
-/// Reads the frame of the run in `dir` nearest to `time` (the last one when `None`) and finds
-/// its fragments.
-pub fn run_fragments(
+/// The time and file of the particle frame of the run in `dir` nearest `time` (the last when
+/// `None`).
+pub fn frame_file_near(
     dir: &std::path::Path,
     time: Option<f64>,
-    options: &FragmentOptions,
-) -> Result<RunFragments, String> {
+) -> Result<(f64, std::path::PathBuf), String> {
     let frames = fractum_engine::output::read_pvd(&dir.join("particles.pvd"))?;
     let chosen = match time {
         Some(t) => frames
@@ -270,12 +269,23 @@ pub fn run_fragments(
         None => frames.last(),
     }
     .ok_or_else(|| format!("{}: the run wrote no particle frames", dir.display()))?;
-    let frame = fractum_engine::output::read_particle_frame(&dir.join(&chosen.1))?;
-    let (fragments, link) = find_fragments(&frame, options)
-        .map_err(|e| format!("{}: {e}", dir.join(&chosen.1).display()))?;
+    Ok((chosen.0, dir.join(&chosen.1)))
+}
+
+/// Reads the frame of the run in `dir` nearest to `time` (the last one when `None`) and finds
+/// its fragments.
+pub fn run_fragments(
+    dir: &std::path::Path,
+    time: Option<f64>,
+    options: &FragmentOptions,
+) -> Result<RunFragments, String> {
+    let (time, path) = frame_file_near(dir, time)?;
+    let frame = fractum_engine::output::read_particle_frame(&path)?;
+    let (fragments, link) =
+        find_fragments(&frame, options).map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(RunFragments {
         dir: dir.to_path_buf(),
-        time: chosen.0,
+        time,
         fragments,
         link,
     })

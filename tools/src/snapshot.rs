@@ -12,7 +12,7 @@
 
 use crate::fragments::{frame_thickness, median_spacing};
 use crate::plot::{register_font, tick_label};
-use fractum_engine::output::{ParticleFrame, read_particle_frame, read_pvd};
+use fractum_engine::output::{ParticleFrame, read_particle_frame};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -65,15 +65,7 @@ impl Default for SnapshotOptions {
 
 /// The frame of the run in `dir` nearest `time` (the last when `None`).
 pub fn frame_near(dir: &Path, time: Option<f64>) -> Result<ParticleFrame, String> {
-    let frames = read_pvd(&dir.join("particles.pvd"))?;
-    let chosen = match time {
-        Some(t) => frames
-            .iter()
-            .min_by(|a, b| (a.0 - t).abs().total_cmp(&(b.0 - t).abs())),
-        None => frames.last(),
-    }
-    .ok_or_else(|| format!("{}: the run wrote no particle frames", dir.display()))?;
-    read_particle_frame(&dir.join(&chosen.1))
+    read_particle_frame(&crate::fragments::frame_file_near(dir, time)?.1)
 }
 
 /// The fields a frame can be coloured by.
