@@ -2,8 +2,10 @@
 //! colour bar, the bodies' outlines and a scale bar, so that a crack pattern can be seen (and
 //! put on a verification page) without ParaView.
 //!
-//! - Each particle is a square one particle spacing wide (the median spacing of the frame, as
-//!   `fractum fragments` finds it), so a body reads as a solid and a crack as a gap or a band.
+//! - Each particle is a rectangle at least its own size (the side of its volume) and stretched
+//!   to its nearest neighbours along the two axes of the view, so a body reads as a solid and a
+//!   crack as a gap or a band, on graded grids too, where particles in coarse cells stand
+//!   farther apart along one axis than the other.
 //! - 3D frames are seen along an axis (`--view xy`, `xz` or `yz`); nearer particles are drawn
 //!   over farther ones.
 //! - Outlines: a pixel is outline where its neighbour holds another body or nothing, so the
@@ -13,6 +15,8 @@
 use crate::fragments::{frame_thickness, median_spacing};
 use crate::plot::{register_font, tick_label};
 use fractum_engine::output::{ParticleFrame, read_particle_frame};
+use fractum_engine::prelude::{DVec3, Three};
+use fractum_systems::spatial::Spatial;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -200,7 +204,7 @@ fn rasterise(
         body: vec![u32::MAX; width * height],
         scale,
     };
-    let half = (0.5 * spacing / scale).max(0.5);
+    let halves = half_extents(frame, (h, v), planar, thickness);
     let mut order: Vec<usize> = (0..frame.position.len()).collect();
     order.sort_by(|&a, &b| frame.position[a][depth].total_cmp(&frame.position[b][depth]));
     let span = (range.1 - range.0).max(f64::MIN_POSITIVE);
@@ -208,13 +212,17 @@ fn rasterise(
         let x = (frame.position[p][h] - h0) / scale;
         let y = (v1 - frame.position[p][v]) / scale;
         let t = (values[p] - range.0) / span;
+        let (half_x, half_y) = (
+            (halves[p][0] / scale).max(0.5),
+            (halves[p][1] / scale).max(0.5),
+        );
         let (xa, xb) = (
-            (x - half).floor().max(0.0) as usize,
-            ((x + half).ceil() as usize).min(width),
+            (x - half_x).floor().max(0.0) as usize,
+            ((x + half_x).ceil() as usize).min(width),
         );
         let (ya, yb) = (
-            (y - half).floor().max(0.0) as usize,
-            ((y + half).ceil() as usize).min(raster.height),
+            (y - half_y).floor().max(0.0) as usize,
+            ((y + half_y).ceil() as usize).min(raster.height),
         );
         for row in ya..yb {
             for col in xa..xb {
@@ -224,6 +232,55 @@ fn rasterise(
         }
     }
     Ok(raster)
+}
+
+/// Each particle's half-extent along the view's two axes (m): half its own size (the side of its
+/// volume), or half the distance to its nearest neighbour along that axis (an offset within
+/// about 27° of it, at most four sizes away) where that is larger. Particles of a graded grid's
+/// coarse cells, farther apart along one axis, then close up along it; an opened crack, wider
+/// than the spacing, stays open.
+fn half_extents(
+    frame: &ParticleFrame,
+    axes: (usize, usize),
+    planar: bool,
+    thickness: f64,
+) -> Vec<[f64; 2]> {
+    let points: Vec<DVec3> = frame
+        .position
+        .iter()
+        .map(|p| DVec3::from_array(*p))
+        .collect();
+    let tree = Three::tree(&points);
+    let mut found = Vec::new();
+    (0..points.len())
+        .map(|p| {
+            let size = if planar {
+                (frame.volume[p] / thickness).sqrt()
+            } else {
+                frame.volume[p].cbrt()
+            };
+            let mut nearest = [f64::INFINITY; 2];
+            found.clear();
+            Three::within(&tree, points[p], 4.0 * size, &mut found);
+            for &q in &found {
+                let offset = (points[q as usize] - points[p]).abs().to_array();
+                let length = offset.iter().sum::<f64>();
+                for (k, axis) in [axes.0, axes.1].into_iter().enumerate() {
+                    // Mostly along the axis: the other components are small beside it.
+                    if offset[axis] > 0.0 && 2.0 * (length - offset[axis]) <= offset[axis] {
+                        nearest[k] = nearest[k].min(offset[axis]);
+                    }
+                }
+            }
+            nearest.map(|d| {
+                if d.is_finite() {
+                    0.5 * d.max(size)
+                } else {
+                    0.5 * size
+                }
+            })
+        })
+        .collect()
 }
 
 impl Raster {
@@ -431,6 +488,35 @@ mod tests {
             }
         }
         f
+    }
+
+    #[test]
+    fn particles_of_coarse_cells_stretch_to_their_neighbours_along_each_axis() {
+        // Particles 0.1 apart in x and 0.4 apart in y, each covering 0.04 m² (its own size
+        // 0.2), plus one particle alone far away.
+        let mut f = ParticleFrame {
+            thickness: Some(1.0),
+            ..Default::default()
+        };
+        let mut place = |x: f64, y: f64| {
+            f.position.push([x, y, 0.0]);
+            f.volume.push(0.04);
+        };
+        for i in 0..6 {
+            for j in 0..3 {
+                place(0.1 * f64::from(i), 0.4 * f64::from(j));
+            }
+        }
+        place(10.0, 10.0);
+        let halves = half_extents(&f, (0, 1), true, 1.0);
+        // Along x the own size (0.2) is larger than the spacing; along y the spacing.
+        for h in &halves[..18] {
+            assert!(
+                (h[0] - 0.1).abs() < 1e-12 && (h[1] - 0.2).abs() < 1e-12,
+                "{h:?}"
+            );
+        }
+        assert_eq!(halves[18], [0.1, 0.1]);
     }
 
     #[test]
