@@ -170,11 +170,16 @@ pub fn median_spacing(frame: &ParticleFrame, planar: bool, thickness: f64) -> f6
         return 0.0;
     }
     volumes.sort_by(f64::total_cmp);
-    let v = volumes[volumes.len() / 2];
+    particle_size(volumes[volumes.len() / 2], planar, thickness)
+}
+
+/// The side of a particle of `volume`: of its area (volume over `thickness`) in a planar frame,
+/// of its volume in 3D.
+pub fn particle_size(volume: f64, planar: bool, thickness: f64) -> f64 {
     if planar {
-        (v / thickness).sqrt()
+        (volume / thickness).sqrt()
     } else {
-        v.cbrt()
+        volume.cbrt()
     }
 }
 

@@ -12,7 +12,7 @@
 //!   edges of each body and of every opened crack are drawn.
 //! - NaN values (a column a law leaves undefined) are drawn grey and left out of the range.
 
-use crate::fragments::{frame_thickness, median_spacing};
+use crate::fragments::{frame_thickness, median_spacing, particle_size};
 use crate::plot::{register_font, tick_label};
 use fractum_engine::output::{ParticleFrame, read_particle_frame};
 use fractum_engine::prelude::{DVec3, Three};
@@ -254,11 +254,7 @@ fn half_extents(
     let mut found = Vec::new();
     (0..points.len())
         .map(|p| {
-            let size = if planar {
-                (frame.volume[p] / thickness).sqrt()
-            } else {
-                frame.volume[p].cbrt()
-            };
+            let size = particle_size(frame.volume[p], planar, thickness);
             let mut nearest = [f64::INFINITY; 2];
             found.clear();
             Three::within(&tree, points[p], 4.0 * size, &mut found);
