@@ -131,6 +131,23 @@ pub fn account_work<D: Dim>(
 /// Brazilian disk's platens: 2-3%, which then stays).
 pub const CREATION_WARNING: f64 = 0.05;
 
+/// The strain whose elastic energy, over every particle, is the least energy in play that the
+/// [`EnergyWatch`] judges creation against: `½ Σ E V₀ ε²` with `ε` this strain. Below it the
+/// energy in play is round-off (a body at rest, a load not yet ramped up: a kilogram at 10⁻¹⁷ m/s
+/// carries 10⁻³⁴ J), and a fraction of it means nothing; a body strained by 10⁻⁶ is still far
+/// from any load a fracture run applies (rock fails near 10⁻⁴, steel near 10⁻³).
+pub const ROUND_OFF_STRAIN: f64 = 1.0e-6;
+
+/// The floor of the [`EnergyWatch`]'s energy in play, from each particle's initial volume and
+/// Young's modulus: `½ Σ E V₀ ε²` with `ε` = [`ROUND_OFF_STRAIN`].
+pub fn energy_floor(particles: impl Iterator<Item = (f64, f64)>) -> f64 {
+    let elastic: f64 = particles
+        .map(|(volume, modulus)| modulus * volume)
+        .filter(|e| e.is_finite())
+        .sum();
+    0.5 * elastic * ROUND_OFF_STRAIN * ROUND_OFF_STRAIN
+}
+
 /// Energy the scheme had created at one series row.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EnergyCreation {
@@ -148,7 +165,8 @@ pub struct EnergyCreation {
 /// run loop updates at every row, and a front end may read to warn while the run goes on).
 #[derive(Resource, Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EnergyWatch {
-    /// The energy in play: the largest initial energy, total energy or work done seen so far.
+    /// The energy in play: the largest initial energy, total energy or work done seen so far,
+    /// and never less than the floor the watch started from ([`EnergyWatch::with_floor`]).
     pub scale: f64,
     /// The first row at which the created energy passed [`CREATION_WARNING`] of the scale.
     pub first: Option<EnergyCreation>,
@@ -157,6 +175,14 @@ pub struct EnergyWatch {
 }
 
 impl EnergyWatch {
+    /// A watch that judges creation against no less than `floor` J ([`energy_floor`]).
+    pub fn with_floor(floor: f64) -> Self {
+        Self {
+            scale: floor.max(0.0),
+            ..Self::default()
+        }
+    }
+
     /// Takes in one series row: the step, time, total energy, initial energy, work done and
     /// the balance `W_ext − (E − E₀)` (negative: energy created). Returns true when this row
     /// is the first past the warning level.
@@ -253,5 +279,19 @@ mod tests {
         // A non-finite row does not poison the scale.
         assert!(!watch.observe(60, 6.0, f64::NAN, 10.0, f64::INFINITY, f64::NAN));
         assert_eq!(watch.scale, 25.0);
+    }
+
+    /// A body at rest whose round-off creates 10⁻³⁴ J on 10⁻³⁶ J in play is not a warning
+    /// (without the floor it read as 5000% created); the same body once loaded still is.
+    #[test]
+    fn round_off_on_a_body_at_rest_is_not_created_energy() {
+        // 1 m² of steel: the floor is ½ × 2e11 × 1 × 1e-12 = 0.1 J.
+        let floor = energy_floor([(0.5, 2.0e11), (0.5, 2.0e11)].into_iter());
+        assert!((floor - 0.1).abs() < 1e-15, "{floor}");
+        let mut watch = EnergyWatch::with_floor(floor);
+        assert!(!watch.observe(1, 1e-6, 5.1e-34, 1e-36, 0.0, -5.0e-34));
+        assert_eq!(watch.first, None);
+        assert!(watch.observe(900, 1e-3, 12.0, 1e-36, 10.0, -2.0));
+        assert_eq!(watch.first.unwrap().step, 900);
     }
 }

@@ -25,3 +25,23 @@ pub struct FieldsAssigned;
 /// in one field where they could not separate.
 #[derive(Resource, Clone, Copy, Debug, PartialEq)]
 pub struct Separability(pub f64);
+
+/// When a damage-gradient partition first gave a node two fields of one contact group (the
+/// step), kept by the partition that splits them (`partition/dfg`), so that a run can say when
+/// its partition never did: a node splits only where a particle has failed (the separability
+/// condition, dfg-partitioning-mpm.md §2.3), and a run in which none did moved as one field.
+#[derive(
+    Resource, Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize,
+)]
+pub struct FieldSplits {
+    /// The first step with a split node, if any.
+    pub first: Option<u64>,
+}
+
+crate::checkpoint_keys! { FieldSplits => "engine/field_splits" }
+
+/// Whether some node holds two fields (both sides) of one contact group.
+pub fn splits_a_group(fields: &crate::components::NodeFields) -> bool {
+    let keys = fields.active();
+    keys.windows(2).any(|w| w[0].group() == w[1].group())
+}

@@ -212,7 +212,7 @@ pub struct CrackArgs {
     /// Link length (m) joining crack particles [default: 1.5 particle spacings].
     #[arg(long)]
     pub link: Option<f64>,
-    /// Crack length (m) at which the initial angle is taken [default: 4 link lengths].
+    /// Crack length (m) at which the initial angle is taken [default: 8 link lengths].
     #[arg(long)]
     pub angle_length: Option<f64>,
     /// The run's scene, for the Rayleigh speed of its material.

@@ -210,8 +210,15 @@ pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
             worst.time
         )
     });
+    let never_split = if s.never_split {
+        "partition: no node was split in this run (a node splits only where a particle has \
+         failed and the damage on both sides passes the separability threshold, §2.3), so each \
+         contact group moved as one velocity field\n"
+    } else {
+        ""
+    };
     format!(
-        "steps {}, simulated time {:.6e} s, particles {}, threads {threads}\nwall time {:.3} s, {:.4e} particle-steps/s\n{} VTU frames, output in {}\n{removed}{energy}",
+        "steps {}, simulated time {:.6e} s, particles {}, threads {threads}\nwall time {:.3} s, {:.4e} particle-steps/s\n{} VTU frames, output in {}\n{removed}{energy}{never_split}",
         s.steps,
         s.time,
         s.particles,

@@ -280,3 +280,38 @@ fn a_closed_stdout_is_not_a_panic() {
     let out = child.wait_with_output().unwrap();
     assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
 }
+
+/// A DFG run in which no particle failed says that its partition never split a node; one that
+/// starts from a seeded crack does not.
+#[test]
+fn a_run_whose_partition_never_split_says_so() {
+    let base = std::env::temp_dir().join(format!("fractum-cli-split-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&base);
+    let intact = base.join("intact");
+    let run = fractum(&[
+        "run",
+        "scenes/brazilian_dfg.ron",
+        "--steps",
+        "3",
+        "--out",
+        intact.to_str().unwrap(),
+    ]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    assert!(
+        text(&run.stdout).contains("no node was split in this run"),
+        "{}",
+        text(&run.stdout)
+    );
+    let cracked = base.join("cracked");
+    let run = fractum(&[
+        "run",
+        "scenes/edge_cracked_panel_lme.ron",
+        "--steps",
+        "3",
+        "--out",
+        cracked.to_str().unwrap(),
+    ]);
+    assert!(run.status.success(), "{}", text(&run.stderr));
+    assert!(!text(&run.stdout).contains("no node was split"));
+    let _ = std::fs::remove_dir_all(&base);
+}

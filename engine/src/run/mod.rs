@@ -73,6 +73,9 @@ pub struct RunSummary {
     pub energy_created: Option<crate::energy::EnergyCreation>,
     /// Whether the run stopped early on [`RunOptions::interrupt`].
     pub interrupted: bool,
+    /// Whether the pipeline splits nodes by damage ([`crate::fields::FieldSplits`]) and no node
+    /// was split in the whole run (counting the steps before a resume).
+    pub never_split: bool,
     /// The last checkpoint written, if any.
     pub checkpoint: Option<PathBuf>,
 }
@@ -327,6 +330,10 @@ pub fn run_with(
             .get_resource::<EnergyWatch>()
             .and_then(|w| w.worst),
         interrupted,
+        never_split: sim
+            .world
+            .get_resource::<crate::fields::FieldSplits>()
+            .is_some_and(|s| s.first.is_none()),
         checkpoint,
     })
 }

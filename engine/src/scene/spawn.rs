@@ -129,6 +129,25 @@ impl<D: Dim> Spec<D> {
             start.total_energy(),
             moment,
         ));
+        let floor = {
+            let moduli: Vec<f64> = world
+                .resource::<crate::resources::Materials>()
+                .0
+                .iter()
+                .map(|m| m.youngs_modulus)
+                .collect();
+            let mut query = world.query_filtered::<(
+                &crate::components::InitialVolume,
+                &crate::components::MaterialId,
+            ), bevy_ecs::query::With<crate::components::Particle>>(
+            );
+            crate::energy::energy_floor(
+                query
+                    .iter(world)
+                    .map(|(v, m)| (v.0, moduli.get(usize::from(m.0)).copied().unwrap_or(0.0))),
+            )
+        };
+        world.insert_resource(crate::energy::EnergyWatch::with_floor(floor));
         schedule.add_systems(crate::energy::account_work::<D>.in_set(StepSet::AccountWork));
         if self.on_leave_grid == LeaveGrid::Remove {
             schedule

@@ -161,6 +161,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     install_field_assignment(installer)?;
     installer.add_node_component(NodeFieldDamage::default());
     installer.init_state::<SurfaceDetected>();
+    super::field_assignment::install_split_record(installer)?;
     installer.add_particle_component(SurfaceFlag::default());
     installer.add_frame_scalar::<SurfaceFlag>("surface", |s| s.0);
     with_dim!(installer.dimension(), D => {

@@ -26,7 +26,7 @@
 //! is the position of its key in that list. Both passes run in parallel (over nodes, then over
 //! particle rows) and the result is independent of the number of threads.
 
-use fractum_engine::fields::Separability;
+use fractum_engine::fields::{FieldSplits, Separability, splits_a_group};
 use fractum_engine::health::{Blowup, Health};
 use fractum_engine::prelude::*;
 use fractum_engine::stage::StepSet;
@@ -136,6 +136,34 @@ pub fn assign_fields_system<D: Dim>(
             StepSet::AssignFields.reported_as(),
             e.to_string(),
         ));
+    }
+}
+
+/// Adds [`record_field_splits`] after the field assignment (a partition that splits nodes by
+/// damage installs it, with the [`FieldSplits`] state).
+pub fn install_split_record(installer: &mut Installer) -> Result<(), SceneError> {
+    installer.init_state::<FieldSplits>();
+    with_dim!(installer.dimension(), D => installer.add_systems_to(
+        StepSet::AssignFields,
+        record_field_splits.after(assign_fields_system::<D>),
+    ))
+}
+
+/// Records in [`FieldSplits`] the first step at which some node holds both sides of a contact
+/// group. Looked for only until then: afterwards the system reads one resource.
+pub fn record_field_splits(
+    clock: Res<SimClock>,
+    mut splits: ResMut<FieldSplits>,
+    nodes: Query<&NodeFields, With<Node>>,
+) {
+    if splits.first.is_some() {
+        return;
+    }
+    let Some(fields) = single_table(nodes.contiguous_iter(), "nodes") else {
+        return;
+    };
+    if fields.par_iter().any(splits_a_group) {
+        splits.first = Some(clock.step + 1);
     }
 }
 
@@ -511,6 +539,39 @@ mod tests {
             2,
         );
         c
+    }
+
+    /// The run of [`record_field_splits`] alone: two groups at a node are not a split, both
+    /// sides of one group are, and the first step with one is kept.
+    #[test]
+    fn the_first_split_of_a_group_is_recorded_once() {
+        let mut world = fractum_engine::testing::tiny_world::<Two>(2, 1.0, 0.1);
+        world.init_resource::<FieldSplits>();
+        let fields = |keys: &[FieldKey]| {
+            let mut f = NodeFields {
+                count: keys.len() as u8,
+                ..NodeFields::default()
+            };
+            f.keys[..keys.len()].copy_from_slice(keys);
+            f
+        };
+        let two_groups = fields(&[FieldKey::new(0, 0), FieldKey::new(1, 0)]);
+        fractum_engine::testing::give_nodes(&mut world, two_groups);
+        fractum_engine::testing::run_system(&mut world, record_field_splits);
+        assert_eq!(world.resource::<FieldSplits>().first, None);
+        let node = world
+            .query_filtered::<Entity, With<Node>>()
+            .iter(&world)
+            .next()
+            .unwrap();
+        let split = fields(&[FieldKey::new(0, 0), FieldKey::new(0, 1)]);
+        world.entity_mut(node).insert(split);
+        world.resource_mut::<SimClock>().step = 41;
+        fractum_engine::testing::run_system(&mut world, record_field_splits);
+        assert_eq!(world.resource::<FieldSplits>().first, Some(42));
+        world.resource_mut::<SimClock>().step = 99;
+        fractum_engine::testing::run_system(&mut world, record_field_splits);
+        assert_eq!(world.resource::<FieldSplits>().first, Some(42));
     }
 
     #[test]

@@ -66,7 +66,9 @@ fn crack_report(request: &CrackArgs, registry: &Registry) -> Result<String, Stri
         notch_direction,
         damage_above: request.damage_above,
         link,
-        angle_length: request.angle_length.unwrap_or(4.0 * link),
+        angle_length: request
+            .angle_length
+            .unwrap_or(crack::DEFAULT_ANGLE_LINKS * link),
     };
     let history = crack::crack_history(dir, &options)?;
     let mut table = String::from("time,tip_x,tip_y,tip_z,length\n");

@@ -114,7 +114,7 @@ pub struct CrackAt {
     /// Particles damaged at least this much are crack.
     #[serde(default = "half")]
     pub damage_above: f64,
-    /// Crack length at which the angle is taken (m) [default: 4 link lengths].
+    /// Crack length at which the angle is taken (m) [default: 8 link lengths].
     #[serde(default)]
     pub angle_length: Option<f64>,
 }
@@ -343,7 +343,7 @@ fn crack_options(dir: &Path, at: &CrackAt) -> Result<crack::CrackOptions, String
         notch_direction: point(&at.direction),
         damage_above: at.damage_above,
         link,
-        angle_length: at.angle_length.unwrap_or(4.0 * link),
+        angle_length: at.angle_length.unwrap_or(crack::DEFAULT_ANGLE_LINKS * link),
     })
 }
 
