@@ -51,6 +51,8 @@ fn closest_approach<D: Dim>(world: &mut World) -> f64 {
 
 struct Collision {
     kinetic_back: f64,
+    /// The total (kinetic + stored) energy lost by the end, as a fraction of the initial.
+    energy_lost: f64,
     worst_momentum: f64,
     closest: f64,
     first_interaction: f64,
@@ -68,8 +70,10 @@ fn collide<D: Dim>(spec: Spec<D>) -> Collision {
     let start = body_states::<D>(&mut sim.world, 2);
     let kinetic0 = start[0].kinetic + start[1].kinetic;
     let along0 = start[0].momentum.dot(diagonal);
+    let energy0 = fractum_engine::diagnostics::totals(&mut sim.world).total_energy();
     let mut result = Collision {
         kinetic_back: 0.0,
+        energy_lost: 0.0,
         worst_momentum: 0.0,
         closest: f64::INFINITY,
         first_interaction: f64::NAN,
@@ -95,6 +99,8 @@ fn collide<D: Dim>(spec: Spec<D>) -> Collision {
         }
         result.kinetic_back = (states[0].kinetic + states[1].kinetic) / kinetic0;
     }
+    let energy = fractum_engine::diagnostics::totals(&mut sim.world).total_energy();
+    result.energy_lost = 1.0 - energy / energy0;
     result
 }
 
@@ -181,6 +187,51 @@ fn two_disks_in_contact_bounce_apart() {
     assert!(usl.monotone);
     assert!(usl.closest > 0.0125);
     assert!(usl.kinetic_back >= 0.8, "{}", usl.kinetic_back);
+}
+
+/// The two disks with `detection: Gap`: the contact engages only where the disks' particle
+/// domains touch, within one particle spacing (0.025 m) of the surfaces meeting, where
+/// Algorithm 3 as published engages once the disks share grid nodes, two cells before. The
+/// energy lost through the impact is printed beside the single field's (Newmark, same grid).
+#[test]
+fn two_disks_meet_where_their_particles_touch_with_the_gap_check() {
+    let newmark = |detection: &str| {
+        let mut entries = NEWMARK_CONTACT.to_vec();
+        let params = format!("(friction: 0.0, detection: {detection})");
+        entries[4] = ("contact/frictional", Some(params.leak()));
+        pipeline(&entries)
+    };
+    let gap = collide(scene::<Two>("two_disks_contact.ron").with_pipeline(newmark("Gap")));
+    let approach =
+        collide(scene::<Two>("two_disks_contact.ron").with_pipeline(newmark("Approach")));
+    let single_field: Vec<(&str, Option<&str>)> = NEWMARK_CONTACT
+        .iter()
+        .copied()
+        .filter(|(s, _)| !s.starts_with("partition/") && !s.starts_with("contact/"))
+        .collect();
+    let single = collide(scene::<Two>("two_disks.ron").with_pipeline(pipeline(&single_field)));
+    let (closing, spacing) = (0.2 * 2f64.sqrt(), 0.025);
+    let touching = (0.6 * 2f64.sqrt() - 0.4) / closing;
+    for (name, run) in [
+        ("gap", &gap),
+        ("approach", &approach),
+        ("single field", &single),
+    ] {
+        println!(
+            "two disks, Newmark, {name}: first interaction {:.4} m before the surfaces touch, \
+             energy lost {:.2}%, kinetic energy back {:.1}%, closest particles {:.4} m",
+            (touching - run.first_interaction) * closing,
+            100.0 * run.energy_lost,
+            100.0 * run.kinetic_back,
+            run.closest
+        );
+    }
+    let early = (touching - gap.first_interaction) * closing;
+    assert!(early >= 0.0 && early <= spacing, "{early} m early");
+    assert!((touching - approach.first_interaction) * closing > 2.0 * spacing);
+    assert!(gap.worst_momentum < 1e-13, "{}", gap.worst_momentum);
+    assert!(gap.monotone, "contact pulled the disks back (tension)");
+    assert!(gap.closest > 0.0125, "{}", gap.closest);
 }
 
 /// The same collision as two spheres in 3D, with Newmark.

@@ -39,8 +39,10 @@
 //!   deceleration at μg. The same runaway with no other field at the node is the tent
 //!   functions' cell-crossing instability, which `basis/gimp` does not have.
 
-pub use super::frictional_law::{ContactNormals, FieldState, FrictionalParams, PairFriction};
-use super::frictional_law::{node_impulses, split_newmark_impulse};
+pub use super::frictional_law::{
+    ContactDetection, ContactNormals, FieldState, FrictionalParams, PairFriction, PairGaps,
+};
+use super::frictional_law::{domain_reach, node_impulses, split_newmark_impulse};
 use crate::transfer::{ForceSources, ParticleSlices, force_contribution};
 use bevy_ecs::system::SystemParam;
 use fractum_engine::prelude::*;
@@ -78,6 +80,14 @@ pub const REGISTRATION: Registration = Registration {
             default: Some("Difference"),
             doc: "pair normal: eq. 11's corrected normal (n_a - n_b)/|n_a - n_b|, or the heavier \
                   field's own normal (better for a small body on a large flat one)",
+        },
+        ParamDoc {
+            name: "detection",
+            ty: "Approach | Gap",
+            default: Some("Approach"),
+            doc: "when an approaching separable pair is in contact: Approach, whenever its \
+                  fields share a node (Algorithm 3 as published); Gap, only where the two \
+                  fields' particle domains at the node touch within the step",
         },
         ParamDoc {
             name: "sliver_fraction",
@@ -240,11 +250,64 @@ pub struct ContactStep<'a, V> {
     pub body_force: V,
 }
 
+/// The particles' positions and the scene thickness (2D), from which
+/// [`ContactDetection::Gap`] finds each pair's gap: a particle's domain is the square (cube) of
+/// its current volume, of half-width `½ (V/t)^{1/d}`.
+pub struct ParticleDomains<'a, D: Dim> {
+    /// Positions, in the particle table's row order.
+    pub positions: &'a [Position<D>],
+    /// The scene thickness in 2D (volumes are per it); 1 in 3D.
+    pub thickness: f64,
+}
+
+impl<D: Dim> ParticleDomains<'_, D> {
+    /// Half-width of particle `p`'s domain of volume `volume`.
+    fn half_width(&self, volume: f64) -> f64 {
+        0.5 * (volume / self.thickness).powf(1.0 / D::N as f64)
+    }
+}
+
+/// The gaps between the fields of node `i` along their pair normals ([`PairGaps`]).
+fn pair_gaps<D: Dim>(
+    entries: &[(u32, u32)],
+    c: &Connectivity<D>,
+    (slices, domains): (&ParticleSlices<D>, &ParticleDomains<D>),
+    states: &[FieldState<D::Vector>],
+    normals: ContactNormals,
+    dt: f64,
+) -> PairGaps {
+    let mut gaps = [[f64::INFINITY; MAX_FIELDS]; MAX_FIELDS];
+    for a in 0..states.len() {
+        for b in a + 1..states.len() {
+            let Some(n) = normals.pair_normal(&states[a], &states[b]) else {
+                continue;
+            };
+            let (mut front_a, mut front_b) = (f64::NEG_INFINITY, f64::INFINITY);
+            for &(e, p) in entries {
+                let (field, p) = (c.field(e as usize), p as usize);
+                if field != a && field != b {
+                    continue;
+                }
+                let along = domains.positions[p].0.dot(n);
+                let reach = domain_reach(domains.half_width(slices.volume[p].0), n);
+                if field == a {
+                    front_a = front_a.max(along + reach);
+                } else {
+                    front_b = front_b.min(along - reach);
+                }
+            }
+            gaps[a][b] = front_b - front_a;
+        }
+    }
+    PairGaps { gaps, dt }
+}
+
 /// Algorithm 3 at every node with two fields or more: normals (eq. 11), impulses, and the
 /// correction the integrator's description asks for.
 pub fn apply_contact<D: Dim>(
     c: &Connectivity<D>,
     slices: &ParticleSlices<D>,
+    domains: &ParticleDomains<D>,
     nodes: ContactColumns<D>,
     step: &ContactStep<D::Vector>,
 ) {
@@ -256,7 +319,7 @@ pub fn apply_contact<D: Dim>(
         .collect();
     let results: Vec<NodeContact<D::Vector>> = shared
         .par_iter()
-        .map(|&i| node_contact(c, slices, &nodes, step, i))
+        .map(|&i| node_contact(c, (slices, domains), &nodes, step, i))
         .collect();
     write_contact(&shared, &results, nodes, step);
 }
@@ -270,7 +333,7 @@ const SEPARABLE_EVERYWHERE: NodeFieldDamage = NodeFieldDamage {
 /// The contact law at shared node `i`: its fields' normals and impulses.
 fn node_contact<D: Dim>(
     c: &Connectivity<D>,
-    slices: &ParticleSlices<D>,
+    (slices, domains): (&ParticleSlices<D>, &ParticleDomains<D>),
     nodes: &ContactColumns<D>,
     step: &ContactStep<D::Vector>,
     i: usize,
@@ -314,7 +377,27 @@ fn node_contact<D: Dim>(
         ImpulseWindow::AfterStress => (nodes.damage.map_or(&SEPARABLE_EVERYWHERE, |d| &d[i]), 0.0),
     };
     let held = &step.held[i][..D::N];
-    let impulses = node_impulses(&nodes.fields[i], &states, stats, params, held, merge_below);
+    let gaps = (params.detection == ContactDetection::Gap).then(|| {
+        let count = nodes.fields[i].count as usize;
+        let fields = &states[..count];
+        pair_gaps(
+            entries,
+            c,
+            (slices, domains),
+            fields,
+            params.normals,
+            step.dt,
+        )
+    });
+    let impulses = node_impulses(
+        &nodes.fields[i],
+        &states,
+        stats,
+        params,
+        held,
+        merge_below,
+        gaps.as_ref(),
+    );
     // Newmark: the part of the impulse that a collision of the predicted velocities asks
     // for, when the pair is in contact at all.
     let splits = matches!(integration, GridIntegration::PredictorCorrector { .. });
@@ -330,6 +413,7 @@ fn node_contact<D: Dim>(
             params,
             held,
             merge_below,
+            gaps.as_ref(),
         )
     } else {
         [D::Vector::ZERO; MAX_FIELDS]
@@ -405,6 +489,7 @@ pub struct ContactInputs<'w, D: Dim> {
     body_force: Res<'w, BodyForce<D>>,
     bcs: Res<'w, BoundaryConditions>,
     connectivity: Res<'w, Connectivity<D>>,
+    thickness: Option<Res<'w, Thickness>>,
 }
 
 /// The `contact/frictional` system, with either integrator: it runs where the integrator's
@@ -413,6 +498,7 @@ pub struct ContactInputs<'w, D: Dim> {
 pub fn frictional_contact<D: Dim>(
     inputs: ContactInputs<D>,
     particles: ForceSources<D>,
+    positions: Query<&Position<D>, With<Particle>>,
     mut nodes: NodeQuery<D>,
     field_damage: Query<&NodeFieldDamage, With<Node>>,
 ) {
@@ -444,7 +530,15 @@ pub fn frictional_contact<D: Dim>(
         dt: inputs.clock.dt,
         body_force: inputs.body_force.0,
     };
-    apply_contact(&inputs.connectivity, &slices, columns, &step);
+    let domains = ParticleDomains {
+        positions: single_table(positions.contiguous_iter(), "particles").unwrap_or(&[]),
+        thickness: if D::N == 2 {
+            inputs.thickness.map_or(1.0, |t| t.0)
+        } else {
+            1.0
+        },
+    };
+    apply_contact(&inputs.connectivity, &slices, &domains, columns, &step);
 }
 
 #[cfg(test)]
@@ -466,8 +560,24 @@ mod tests {
         predictor: impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, M>,
         integration: GridIntegration,
     ) -> World {
+        two_groups_at(
+            predictor,
+            integration,
+            (0.4, 0.6),
+            FrictionalParams::default(),
+        )
+    }
+
+    /// As [`two_groups_meeting`], with the particles at `x` along y = 0.3 and the law's
+    /// parameters `params`.
+    fn two_groups_at<M>(
+        predictor: impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, M>,
+        integration: GridIntegration,
+        x: (f64, f64),
+        params: FrictionalParams,
+    ) -> World {
         let mut world = tiny_world::<Two>(2, 0.5, 1e-3);
-        world.insert_resource(FrictionalParams::default());
+        world.insert_resource(params);
         world.insert_resource(crate::predictor::usl::UslPredictorParams::default());
         world.insert_resource(crate::predictor::newmark::NewmarkParams::default());
         world.insert_resource(integration);
@@ -475,8 +585,8 @@ mod tests {
         give_nodes(&mut world, NodeNormal::<Two>::default());
         give_nodes(&mut world, NodeContactForce::<Two>::default());
         give_nodes(&mut world, NodeContactImpulse::<Two>::default());
-        let a = spawn_particle(&mut world, DVec2::new(0.4, 0.3), DVec2::X, 1.0, 0.01);
-        let b = spawn_particle(&mut world, DVec2::new(0.6, 0.3), -DVec2::X, 1.0, 0.01);
+        let a = spawn_particle(&mut world, DVec2::new(x.0, 0.3), DVec2::X, 1.0, 0.01);
+        let b = spawn_particle(&mut world, DVec2::new(x.1, 0.3), -DVec2::X, 1.0, 0.01);
         world.entity_mut(a).insert(ContactGroup(0));
         world.entity_mut(b).insert(ContactGroup(1));
         run_system(&mut world, crate::basis::linear::linear_basis::<Two>);
@@ -518,6 +628,53 @@ mod tests {
             assert!(closing.abs() < 1e-14, "node {i}: {closing}");
         }
         shared
+    }
+
+    /// With `detection: Gap` the system leaves two approaching particles alone while their
+    /// domains (0.1 m squares) are apart by more than the step closes (2 m/s × 1 ms), and stops
+    /// their approach once they touch within the step, as `Approach` does at once.
+    #[test]
+    fn the_gap_check_waits_for_the_particles_domains_to_touch() {
+        let gap = FrictionalParams {
+            detection: ContactDetection::Gap,
+            ..FrictionalParams::default()
+        };
+        let usl = || crate::predictor::usl::usl_predictor::<Two>;
+        // Domains [0.25, 0.35] and [0.65, 0.75]: 0.3 m apart.
+        let mut apart = two_groups_at(
+            usl(),
+            GridIntegration::UpdateStressLast,
+            (0.3, 0.7),
+            gap.clone(),
+        );
+        let before = node_values::<NodeVelocity<Two>>(&mut apart);
+        run_system(&mut apart, frictional_contact::<Two>);
+        assert_eq!(node_values::<NodeVelocity<Two>>(&mut apart), before);
+        assert!(
+            node_values::<NodeContactForce<Two>>(&mut apart)
+                .iter()
+                .all(|f| f.0 == [DVec2::ZERO; MAX_FIELDS])
+        );
+        // Algorithm 3 as published stops them there already: they share the nodes at x = 0.5.
+        let mut early = two_groups_at(
+            usl(),
+            GridIntegration::UpdateStressLast,
+            (0.3, 0.7),
+            FrictionalParams::default(),
+        );
+        run_system(&mut early, frictional_contact::<Two>);
+        assert_no_approach_left(&mut early);
+        // Domains [0.3995, 0.4995] and [0.5005, 0.6005]: 1 mm apart, closed within the step.
+        let mut touching = two_groups_at(
+            usl(),
+            GridIntegration::UpdateStressLast,
+            (0.4495, 0.5505),
+            gap,
+        );
+        let before = node_momentum(&mut touching);
+        run_system(&mut touching, frictional_contact::<Two>);
+        assert!((node_momentum(&mut touching) - before).length() < 1e-15);
+        assert_no_approach_left(&mut touching);
     }
 
     /// The system alone on a tiny world: two groups approaching across one cell (USL: the node

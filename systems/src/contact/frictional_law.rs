@@ -59,6 +59,51 @@ pub struct FrictionalParams {
     /// mass moves with the other fields there.
     #[serde(default = "default_sliver_fraction")]
     pub sliver_fraction: f64,
+    /// When an approaching pair of separable fields is in contact.
+    #[serde(default)]
+    pub detection: ContactDetection,
+}
+
+/// When a separable pair of fields at a node is in contact (`detection`).
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+pub enum ContactDetection {
+    /// Algorithm 3 as published: whenever the two fields approach each other. Two bodies so
+    /// meet as soon as their particles share a node, up to two cells before their surfaces
+    /// touch with the linear tents, and crack faces collide while they are still apart.
+    #[default]
+    Approach,
+    /// While approaching, and only where the two fields' particles touch: the pair's gap at the
+    /// node ([`PairGaps`], from the particles' own domains along the pair normal) closes
+    /// within the step. Nairn's position check for multi-material contact, with the particles'
+    /// extents in place of a critical separation.
+    Gap,
+}
+
+/// The gap between each pair of fields at a node: along the pair normal `n` of field `a`
+/// (towards `b`), the least `x·n − r(n)` over `b`'s particles at the node less the largest
+/// `x·n + r(n)` over `a`'s, with `r(n) = l Σ|n_i|` the reach of a particle's square (cubic)
+/// domain of half-width `l` along `n`. Negative where the domains overlap. With the step `dt`,
+/// a pair is in contact when `gap − dt (v̄_a − v̄_b)·n ≤ 0`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PairGaps {
+    /// `gaps[a][b]` for `a < b` (the rest unused).
+    pub gaps: [[f64; MAX_FIELDS]; MAX_FIELDS],
+    /// The step.
+    pub dt: f64,
+}
+
+impl PairGaps {
+    /// Whether fields `a` and `b` (`a < b`), with outward normal `n` of `a`, touch within the
+    /// step at their velocities.
+    pub fn touch<V: VectorOps>(&self, a: usize, b: usize, states: &[FieldState<V>], n: V) -> bool {
+        let closing = (states[a].velocity - states[b].velocity).dot(n);
+        self.gaps[a][b] - self.dt * closing.max(0.0) <= 0.0
+    }
+}
+
+/// The reach `l Σ|n_i|` of a square (cubic) particle domain of half-width `l` along unit `n`.
+pub fn domain_reach<V: VectorOps>(half_width: f64, n: V) -> f64 {
+    half_width * n.to_3d().iter().map(|c| c.abs()).sum::<f64>()
 }
 
 /// The friction coefficient of one pair of contact groups.
@@ -143,6 +188,7 @@ impl Default for FrictionalParams {
             normals: ContactNormals::default(),
             min_mass_fraction: default_min_mass_fraction(),
             sliver_fraction: default_sliver_fraction(),
+            detection: ContactDetection::default(),
         }
     }
 }
@@ -214,7 +260,9 @@ pub const MAX_SWEEPS: usize = 8;
 
 /// Contact impulses of every field of one node. A pair in which one field holds less than
 /// `merge_below` of the node's mass moves as one field (the stick impulse, whatever the
-/// separability); `merge_below = 0` leaves every pair to Algorithm 3.
+/// separability); `merge_below = 0` leaves every pair to Algorithm 3. With `gaps`
+/// ([`ContactDetection::Gap`]), a separable pair acts only where its particles touch within
+/// the step.
 ///
 /// With three fields or more (two contact groups where one is split by its damage gradient),
 /// the pairs are taken one after the other, each from the velocities the pairs before it left
@@ -231,6 +279,7 @@ pub fn node_impulses<V: VectorOps>(
     params: &FrictionalParams,
     held: &[bool],
     merge_below: f64,
+    gaps: Option<&PairGaps>,
 ) -> [V; MAX_FIELDS] {
     let mut impulses = [V::ZERO; MAX_FIELDS];
     let count = fields.count as usize;
@@ -256,6 +305,13 @@ pub fn node_impulses<V: VectorOps>(
                         (a, b),
                         params.separability,
                     );
+                if can_separate
+                    && let Some(gaps) = gaps
+                    && let Some(n) = params.normals.pair_normal(&current[a], &current[b])
+                    && !gaps.touch(a, b, &current, n)
+                {
+                    continue;
+                }
                 let friction =
                     params.friction_between(fields.keys[a].group(), fields.keys[b].group());
                 let mut dp = pair_impulse(
@@ -425,9 +481,9 @@ pub(crate) mod tests {
         states[1] = state(2.0, DVec2::new(0.0065, 0.0054), DVec2::new(1.0, 0.0));
         let damage = NodeFieldDamage::default();
         let params = FrictionalParams::default();
-        let alone = node_impulses(&fields, &states, &damage, &params, &[false; 2], 0.0);
+        let alone = node_impulses(&fields, &states, &damage, &params, &[false; 2], 0.0, None);
         assert_eq!(alone[0], DVec2::ZERO);
-        let merged = node_impulses(&fields, &states, &damage, &params, &[false; 2], 1e-4);
+        let merged = node_impulses(&fields, &states, &damage, &params, &[false; 2], 1e-4, None);
         let after = states[0].velocity + merged[0] / states[0].mass;
         let v_cm = (states[0].velocity * 1e-7 + states[1].velocity * 2.0) / (2.0 + 1e-7);
         assert!((after - v_cm).length() < 1e-9, "{after}");
@@ -458,7 +514,7 @@ pub(crate) mod tests {
             friction: 0.3,
             ..FrictionalParams::default()
         };
-        let dp = node_impulses(&fields, &states, &damage, &params, &[false; 2], 0.0);
+        let dp = node_impulses(&fields, &states, &damage, &params, &[false; 2], 0.0, None);
         let momentum: DVec2 = (0..3).map(|k| dp[k]).sum();
         assert!(momentum.length() < 1e-12, "{momentum}");
         let energy = |scale: f64| -> f64 {
@@ -532,5 +588,33 @@ pub(crate) mod tests {
         let heavy_edged = FieldState { mass: 0.3, ..edged };
         let n = heavier.pair_normal(&flat, &heavy_edged).unwrap();
         assert!((n + heavy_edged.normal).length() < 1e-15, "{n}");
+    }
+
+    /// A square domain reaches `l` along an axis and `l √2` along a diagonal; a pair touches
+    /// when its gap is closed by the step's approach, and an opening pair never does.
+    #[test]
+    fn pairs_touch_when_the_step_closes_their_gap() {
+        assert_eq!(domain_reach(0.5, DVec2::X), 0.5);
+        let diagonal = DVec2::ONE / 2f64.sqrt();
+        assert!((domain_reach(0.5, diagonal) - 0.5 * 2f64.sqrt()).abs() < 1e-15);
+        let mut gaps = PairGaps {
+            gaps: [[f64::INFINITY; MAX_FIELDS]; MAX_FIELDS],
+            dt: 0.1,
+        };
+        // a moves at 1 m/s towards b at rest: 0.1 m closes in the step.
+        let states = [
+            state(1.0, DVec2::X, DVec2::X),
+            state(1.0, DVec2::ZERO, -DVec2::X),
+        ];
+        for (gap, touches) in [(0.2, false), (0.1, true), (0.0, true), (-0.05, true)] {
+            gaps.gaps[0][1] = gap;
+            assert_eq!(gaps.touch(0, 1, &states, DVec2::X), touches, "gap {gap}");
+        }
+        // Opening at 1 m/s: only an overlap touches.
+        let opening = [states[0], state(1.0, DVec2::X * 2.0, -DVec2::X)];
+        gaps.gaps[0][1] = 0.01;
+        assert!(!gaps.touch(0, 1, &opening, DVec2::X));
+        gaps.gaps[0][1] = -0.01;
+        assert!(gaps.touch(0, 1, &opening, DVec2::X));
     }
 }

@@ -3,6 +3,7 @@ pub mod eigenerosion;
 pub mod eigensoftening;
 pub mod rankine;
 pub mod softening;
+pub mod spectral_split;
 pub mod stress_reach;
 pub mod tensile_degradation;
 pub mod time_to_failure;

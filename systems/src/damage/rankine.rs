@@ -13,7 +13,9 @@
 //!   `l_ch` defaults to the cell diagonal; `H̄_s l_ch ≥ 1` has no softening branch (the stress
 //!   would have to snap back) and is refused at install.
 //! - The damage scales the tensile principal stresses only (eqs. 26–27,
-//!   `damage::tensile_degradation`), written back into `Stress`.
+//!   `damage::tensile_degradation`), written back into `Stress`; or, with
+//!   `degradation: Spectral`, the tensile part of the strain energy, the stress derived from it
+//!   (`damage::spectral_split`).
 //! - Strength per particle: `tensile_strength`, or drawn from a Weibull distribution (eq. 25)
 //!   with the `weibull` option (`damage::weibull`).
 //! - Publishes `series.csv` columns `damaged_particles` (D > 0), `failed_particles` (D = 1) and
@@ -24,8 +26,9 @@
 //!   elastic energy left on the unloading line); J per scene thickness in 2D.
 
 use super::tensile_degradation::{
-    TENSILE_STRENGTH_PARAM, WEIBULL_PARAM, characteristic_length, damage_counts, degrade_tensile,
-    degraded_energy, install_strength, largest_trial_principal, require_stress_degrading_pipeline,
+    DEGRADATION_PARAM, Degradation, TENSILE_STRENGTH_PARAM, WEIBULL_PARAM, characteristic_length,
+    damage_counts, degrade, install_strength, lame_constants, largest_trial_principal,
+    require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
 use fractum_engine::prelude::*;
@@ -52,6 +55,7 @@ pub const REGISTRATION: Registration = Registration {
             doc: "l_ch (m), the width over which a crack dissipates G_f",
         },
         WEIBULL_PARAM,
+        DEGRADATION_PARAM,
     ],
     requires: &[],
     install,
@@ -67,6 +71,8 @@ struct RawParams {
     characteristic_length: Option<f64>,
     #[serde(default)]
     weibull: Option<WeibullOption>,
+    #[serde(default)]
+    degradation: Degradation,
 }
 
 /// Installed parameters of `damage/rankine`.
@@ -85,6 +91,11 @@ pub struct RankineParams {
     /// `Σ V₀ g(D)` of the damage the particles start with (seeded cracks), which the run does
     /// not dissipate and the published column leaves out.
     pub initial_dissipation: f64,
+    /// How the damage degrades the stress.
+    pub degradation: Degradation,
+    /// Lamé constants `(λ, μ)` of each material (the scene's material table order), for
+    /// [`Degradation::Spectral`].
+    pub lame: Vec<(f64, f64)>,
 }
 
 /// Refuses strengths whose scaled brittleness `H̄_s l_ch` is not a normal f64 (too small to
@@ -179,6 +190,8 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         columns,
         materials,
         initial_dissipation,
+        degradation: raw.degradation,
+        lame: lame_constants(installer),
     });
     with_dim!(installer.dimension(), D => installer.add_systems(rankine::<D>));
     Ok(())
@@ -246,6 +259,7 @@ type ParticleQuery<'w, 's, D> = Query<
         &'static InitialVolume,
         &'static Strength,
         &'static Strain<D>,
+        &'static DeformationGradient<D>,
         &'static mut Stress<D>,
         &'static mut StrainEnergyDensity,
         &'static mut Damage,
@@ -259,7 +273,7 @@ pub fn rankine<D: Dim>(
     mut columns: ResMut<SeriesColumns>,
     mut particles: ParticleQuery<D>,
 ) {
-    let Some((material, v0, strength, strain, mut stress, mut energy, mut damage)) =
+    let Some((material, v0, strength, strain, deformation, mut stress, mut energy, mut damage)) =
         single_table(particles.contiguous_iter_mut(), "particles")
     else {
         return;
@@ -278,9 +292,17 @@ pub fn rankine<D: Dim>(
             let h = softening_modulus(sigma_f, e, p.fracture_energy, p.characteristic_length);
             d.0 = rankine_damage(d.0, largest_trial_principal(&s.0), sigma_f, h);
             if d.0 > 0.0 {
-                let trial = s.0;
-                s.0 = degrade_tensile(&trial, d.0);
-                w.0 = degraded_energy(w.0, &trial, &s.0, &strain[i].0);
+                let lame = p.lame[material[i].0 as usize];
+                let f = &deformation[i].0;
+                degrade::<D>(
+                    p.degradation,
+                    d.0,
+                    &mut s.0,
+                    &mut w.0,
+                    &strain[i].0,
+                    f,
+                    lame,
+                );
                 v0[i].0 * dissipated_density(d.0, sigma_f, e, h)
             } else {
                 0.0
@@ -356,6 +378,8 @@ mod tests {
             columns: slots,
             materials: MaterialFilter::all(),
             initial_dissipation: 0.0,
+            degradation: Degradation::Published,
+            lame: vec![test_material().lame()],
         });
         slots
     }
@@ -413,5 +437,38 @@ mod tests {
             xy: 1.0,
             ..SymTensor3::ZERO
         });
+    }
+
+    /// With `degradation: Spectral` the system writes the stress and energy of the split
+    /// potential for the particle's deformation gradient and damage.
+    #[test]
+    fn system_degrades_the_split_energy_with_the_spectral_option() {
+        use crate::damage::spectral_split::spectral_degraded;
+        use crate::stress::neo_hookean::{neo_hookean_energy, neo_hookean_stress_of};
+        let mut world = tiny_world::<Two>(4, 0.25, 1e-3);
+        insert_params(&mut world);
+        world.resource_mut::<RankineParams>().degradation = Degradation::Spectral;
+        let (lambda, mu) = test_material().lame();
+        // Opened along x, shortened along y: trial σ_xx ≈ 5.8 Pa against a strength of 1.
+        let f = DMat2::from_diagonal(DVec2::new(1.05, 0.99));
+        let p = spawn_particle(&mut world, DVec2::new(0.5, 0.5), DVec2::ZERO, 1.0, 0.01);
+        world.entity_mut(p).insert(Strength(1.0));
+        world.get_mut::<DeformationGradient<Two>>(p).unwrap().0 = f;
+        let trial = neo_hookean_stress_of::<Two>(f, lambda, mu).unwrap();
+        world.get_mut::<Stress<Two>>(p).unwrap().0 = trial;
+        world.get_mut::<StrainEnergyDensity>(p).unwrap().0 =
+            neo_hookean_energy::<Two>(f, lambda, mu);
+        run_system(&mut world, rankine::<Two>);
+        let d = particle_values::<Damage>(&mut world)[0].0;
+        let h = softening_modulus(1.0, 100.0, 0.01, 0.05);
+        assert_eq!(d, rankine_damage(0.0, trial.principal_values()[0], 1.0, h));
+        let (stress, energy) = spectral_degraded::<Two>(f, lambda, mu, d).unwrap();
+        assert_eq!(particle_values::<Stress<Two>>(&mut world)[0].0, stress);
+        assert_eq!(
+            particle_values::<StrainEnergyDensity>(&mut world)[0].0,
+            energy
+        );
+        // The shortened axis keeps its compression; the opened one lost (1 − D)'s complement.
+        assert!(stress.yy < 0.0 && stress.xx < trial.xx, "{stress:?}");
     }
 }

@@ -12,14 +12,17 @@
 //!   at that rate until `D = 1`, whatever its stress does meanwhile: the damage growing means a
 //!   crack crossing it, which does not stop half-way. (`D > 0` is the record that it started.)
 //! - The damage scales the tensile principal stresses only (eqs. 26–27,
-//!   `damage::tensile_degradation`), written back into `Stress`.
+//!   `damage::tensile_degradation`), written back into `Stress`; or, with
+//!   `degradation: Spectral`, the tensile part of the strain energy, the stress derived from it
+//!   (`damage::spectral_split`).
 //! - Strength per particle: `tensile_strength`, or drawn from a Weibull distribution (eq. 25)
 //!   with the `weibull` option (`damage::weibull`), as in the paper's Brazilian test.
 //! - Publishes `series.csv` columns `damaged_particles` (D > 0) and `failed_particles` (D = 1).
 
 use super::tensile_degradation::{
-    TENSILE_STRENGTH_PARAM, WEIBULL_PARAM, characteristic_length, damage_counts, degrade_tensile,
-    degraded_energy, install_strength, largest_trial_principal, require_stress_degrading_pipeline,
+    DEGRADATION_PARAM, Degradation, TENSILE_STRENGTH_PARAM, WEIBULL_PARAM, characteristic_length,
+    damage_counts, degrade, install_strength, lame_constants, largest_trial_principal,
+    require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
 use fractum_engine::prelude::*;
@@ -46,6 +49,7 @@ pub const REGISTRATION: Registration = Registration {
             doc: "l_ch (m); the time to failure is τ = l_ch / c_f",
         },
         WEIBULL_PARAM,
+        DEGRADATION_PARAM,
     ],
     requires: &[],
     install,
@@ -61,6 +65,8 @@ struct RawParams {
     characteristic_length: Option<f64>,
     #[serde(default)]
     weibull: Option<WeibullOption>,
+    #[serde(default)]
+    degradation: Degradation,
 }
 
 /// Installed parameters of `damage/time_to_failure`.
@@ -72,6 +78,11 @@ pub struct TimeToFailureParams {
     pub columns: [usize; 2],
     /// Which materials this entry damages.
     pub materials: MaterialFilter,
+    /// How the damage degrades the stress.
+    pub degradation: Degradation,
+    /// Lamé constants `(λ, μ)` of each material (the scene's material table order), for
+    /// [`Degradation::Spectral`].
+    pub lame: Vec<(f64, f64)>,
 }
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
@@ -89,6 +100,8 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         time_to_failure: length / raw.crack_speed,
         columns,
         materials,
+        degradation: raw.degradation,
+        lame: lame_constants(installer),
     });
     with_dim!(installer.dimension(), D => installer.add_systems(time_to_failure::<D>));
     Ok(())
@@ -111,6 +124,7 @@ type ParticleQuery<'w, 's, D> = Query<
         &'static MaterialId,
         &'static Strength,
         &'static Strain<D>,
+        &'static DeformationGradient<D>,
         &'static mut Stress<D>,
         &'static mut StrainEnergyDensity,
         &'static mut Damage,
@@ -125,7 +139,7 @@ pub fn time_to_failure<D: Dim>(
     mut columns: ResMut<SeriesColumns>,
     mut particles: ParticleQuery<D>,
 ) {
-    let Some((material, strength, strain, mut stress, mut energy, mut damage)) =
+    let Some((material, strength, strain, deformation, mut stress, mut energy, mut damage)) =
         single_table(particles.contiguous_iter_mut(), "particles")
     else {
         return;
@@ -144,8 +158,17 @@ pub fn time_to_failure<D: Dim>(
             let largest = largest_trial_principal(&trial);
             d.0 = time_to_failure_damage(d.0, largest, strength[i].0, dt, p.time_to_failure);
             if d.0 > 0.0 {
-                s.0 = degrade_tensile(&trial, d.0);
-                w.0 = degraded_energy(w.0, &trial, &s.0, &strain[i].0);
+                let lame = p.lame[material[i].0 as usize];
+                let f = &deformation[i].0;
+                degrade::<D>(
+                    p.degradation,
+                    d.0,
+                    &mut s.0,
+                    &mut w.0,
+                    &strain[i].0,
+                    f,
+                    lame,
+                );
             }
         });
     let (damaged, failed) = damage_counts(material, &damage, &p.materials);
@@ -195,6 +218,8 @@ mod tests {
             time_to_failure: 2e-3,
             columns: slots,
             materials: MaterialFilter::all(),
+            degradation: Degradation::Published,
+            lame: vec![test_material().lame()],
         });
         for (k, strength) in [(0, 1.0), (1, 10.0)] {
             let x = D::Vector::from_fn(|a| if a == 0 { 0.3 + 0.3 * k as f64 } else { 0.5 });
