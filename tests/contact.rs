@@ -865,3 +865,174 @@ fn bars_meeting_end_to_end_carry_the_plane_wave_contact_stress() {
     assert!(end[1].momentum.x / p0 > 0.85);
     assert!(kinetic_back > 0.85);
 }
+
+/// What [`roll`] measures of a disk on an incline.
+struct Rolling {
+    /// Least-squares acceleration of the centre of mass along the incline (m/s²).
+    acceleration: f64,
+    /// Least-squares angular acceleration, positive rolling down the incline (rad/s²).
+    angular_acceleration: f64,
+    /// The largest height of the disk's lowest particle above its start (m).
+    hop: f64,
+    /// Mean torques about the disk's centre of the contact forces on it, positive rolling down
+    /// the incline: of their components along the substrate's normal (y) and along it (x).
+    torques: (f64, f64),
+}
+
+/// A disk of radius 0.05 m (group 1) on a substrate (group 0) resting on a fixed floor, under
+/// gravity tilted by `angle` so that the substrate is an incline; `h` the grid spacing.
+/// Update-stress-last on GIMP as the sliding block, the substrate's normal (`Heavier`).
+fn roll(friction: f64, angle: f64, h: f64, detection: &str) -> Rolling {
+    use fractum_engine::scene::{Body, Boundary, Condition, Shape};
+    use fractum_engine::simulation::End;
+    let (radius, end) = (0.05, 0.15);
+    let mut spec = Spec::<Two>::new(Grid {
+        min: DVec2::ZERO,
+        spacing: h,
+        cells: [(0.8 / h).round() as usize, (0.24 / h).round() as usize],
+        graded: None,
+    })
+    .time(TimeStep::Cfl(0.4), End::Time(end))
+    .material(Material::new("stiff", 1000.0, 2.0e7, 0.25))
+    .body(
+        Body::new(
+            Shape::Rectangle {
+                min: DVec2::new(0.02, 0.02),
+                max: DVec2::new(0.78, 0.1),
+            },
+            "stiff",
+        )
+        .named("substrate"),
+    )
+    .body(
+        Body::new(
+            Shape::Disk {
+                center: DVec2::new(0.12, 0.1 + radius),
+                radius,
+            },
+            "stiff",
+        )
+        .named("disk")
+        .group(1),
+    )
+    .boundary(Boundary::new(
+        "floor",
+        DVec2::ZERO,
+        DVec2::new(0.8, 0.02),
+        Condition::Fixed,
+    ))
+    .with_pipeline(pipeline(USL_GIMP_CONTACT));
+    spec.pipeline[4] = entry(
+        "contact/frictional",
+        Some(&format!(
+            "(friction: {friction}, normals: Heavier, detection: {detection})"
+        )),
+    );
+    let g = 9.81;
+    spec.body_force = DVec2::new(g * angle.sin(), -g * angle.cos());
+    let registry = fractum_systems::stock_registry();
+    let mut sim = spec
+        .build(&registry)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .simulation;
+    let (mut velocity, mut spin) = (Vec::new(), Vec::new());
+    let mut lowest0 = f64::NAN;
+    let mut hop: f64 = 0.0;
+    let mut torques = (0.0, 0.0);
+    while !sim.finished() {
+        sim.step().unwrap_or_else(|e| panic!("{e}"));
+        let mut q = sim
+            .world
+            .query::<(&BodyId, &Mass, &Velocity<Two>, &Position<Two>)>();
+        let disk: Vec<(f64, DVec2, DVec2)> = q
+            .iter(&sim.world)
+            .filter(|(b, ..)| b.0 == 1)
+            .map(|(_, m, v, x)| (m.0, v.0, x.0))
+            .collect();
+        let m: f64 = disk.iter().map(|d| d.0).sum();
+        let centre = disk.iter().map(|d| d.2 * d.0).sum::<DVec2>() / m;
+        let v = disk.iter().map(|d| d.1 * d.0).sum::<DVec2>() / m;
+        let (moment, inertia) = disk.iter().fold((0.0, 0.0), |(l, i), (mp, vp, xp)| {
+            let r = *xp - centre;
+            (l + mp * r.perp_dot(*vp - v), i + mp * r.length_squared())
+        });
+        let lowest = disk.iter().map(|d| d.2.y).fold(f64::INFINITY, f64::min);
+        if lowest0.is_nan() {
+            lowest0 = lowest;
+        }
+        hop = hop.max(lowest - lowest0);
+        let t = sim.clock().time;
+        if t > 0.2 * end {
+            let (normal, tangential) = contact_torques(&mut sim.world, centre);
+            torques.0 += normal;
+            torques.1 += tangential;
+            velocity.push((t, v.x));
+            // Rolling towards +x turns clockwise: ω about z is negative.
+            spin.push((t, -moment / inertia));
+        }
+    }
+    let samples = velocity.len() as f64;
+    Rolling {
+        acceleration: slope(&velocity),
+        angular_acceleration: slope(&spin),
+        hop,
+        torques: (torques.0 / samples, torques.1 / samples),
+    }
+}
+
+/// The torques about `centre` of the contact forces on group 1's fields (clockwise positive):
+/// of their y components, and of their x components.
+fn contact_torques(world: &mut World, centre: DVec2) -> (f64, f64) {
+    let mut q = world.query::<(&NodeFields, &NodePosition<Two>, &NodeContactForce<Two>)>();
+    let (mut normal, mut tangential) = (0.0, 0.0);
+    for (fields, x, force) in q.iter(world) {
+        for (k, key) in fields.active().iter().enumerate() {
+            if key.group() == 1 {
+                let r = x.0 - centre;
+                let f = force.0[k];
+                // Clockwise: −(r × f).
+                normal -= r.x * f.y;
+                tangential += r.y * f.x;
+            }
+        }
+    }
+    (normal, tangential)
+}
+
+/// A disk on a 30° incline. With μ = 0.1 it must slip (μ < tan θ / 3), its centre
+/// accelerating at g (sin θ − μ cos θ) within 2%, both contact detections, at 2.5 and 5 cells
+/// per radius. Printed beside it, and not yet met: the spin-up the friction torque gives
+/// (2μg cos θ / R), and with μ = 0.5 rolling without slip at (2/3) g sin θ (issue 26's
+/// targets; CHANGELOG.md has the figures).
+#[test]
+fn a_disk_slides_down_an_incline_at_the_coulomb_rate() {
+    let (g, angle, radius) = (9.81, 30f64.to_radians(), 0.05);
+    let slipping = g * (angle.sin() - 0.1 * angle.cos());
+    let spin_up = 2.0 * 0.1 * g * angle.cos() / radius;
+    let rolling = 2.0 / 3.0 * g * angle.sin();
+    for h in [0.02, 0.01] {
+        for detection in ["Approach", "Gap"] {
+            let slip = roll(0.1, angle, h, detection);
+            let stick = roll(0.5, angle, h, detection);
+            println!(
+                "disk on a 30° incline, h = {h} m, {detection}: μ = 0.1 a = {:.4} m/s² \
+                 (expected {slipping:.4}), α = {:.2} rad/s² (expected {spin_up:.2}); μ = 0.5 \
+                 a = {:.4} (rolling {rolling:.4}), α = {:.2} (rolling {:.2}), hop {:.1e} m; \
+                 torques of the contact forces (μ = 0.1) normal {:.3e}, friction {:.3e} N m",
+                slip.acceleration,
+                slip.angular_acceleration,
+                stick.acceleration,
+                stick.angular_acceleration,
+                rolling / radius,
+                stick.hop.max(slip.hop),
+                slip.torques.0,
+                slip.torques.1
+            );
+            assert!(
+                (slip.acceleration / slipping - 1.0).abs() < 0.02,
+                "h = {h}, {detection}: {} against {slipping}",
+                slip.acceleration
+            );
+        }
+    }
+}
