@@ -211,6 +211,7 @@ const STOCK_KEYS: &[&str] = &[
     "engine/energy_account",
     "engine/energy_watch",
     "engine/escaped_particles",
+    "engine/field_splits",
     "engine/force_probes",
     "engine/series_columns",
     "kdtree/candidates",
