@@ -255,23 +255,16 @@ fn two_spheres_in_contact_bounce_apart() {
     // Δt = 4 ms; the rest is in the spheres' vibration.
 }
 
-/// A block of group 1 sliding on a substrate of group 0 under gravity; the substrate rests on a
-/// fixed bottom row of nodes. Returns `(time, x velocity, x position)` of the block's centre
-/// of mass every step.
-fn slide(
-    integrator: &[(&str, Option<&str>)],
-    friction: f64,
-    normals: &str,
-    v0: f64,
-    end: f64,
-) -> Vec<(f64, f64, f64)> {
-    use fractum_engine::scene::{Body, Boundary, Condition, InitialVelocity, Shape};
+/// A stiff substrate (group 0, 0.02–0.78 m by 0.02–0.1 m) on a fixed floor, on a grid of
+/// spacing `h` 0.8 m wide and `height` high, run to `end` at a CFL factor of 0.4: what the
+/// sliding block and the rolling disk stand on.
+fn on_substrate(h: f64, height: f64, end: f64) -> Spec<Two> {
+    use fractum_engine::scene::{Body, Boundary, Condition, Shape};
     use fractum_engine::simulation::End;
-    let h = 0.02;
-    let mut spec = Spec::<Two>::new(Grid {
+    Spec::<Two>::new(Grid {
         min: DVec2::ZERO,
         spacing: h,
-        cells: [40, 10],
+        cells: [(0.8 / h).round() as usize, (height / h).round() as usize],
         graded: None,
     })
     .time(TimeStep::Cfl(0.4), End::Time(end))
@@ -286,25 +279,39 @@ fn slide(
         )
         .named("substrate"),
     )
-    .body(
-        Body::new(
-            Shape::Rectangle {
-                min: DVec2::new(0.06, 0.1),
-                max: DVec2::new(0.16, 0.14),
-            },
-            "stiff",
-        )
-        .named("block")
-        .group(1)
-        .velocity(InitialVelocity::Uniform(DVec2::new(v0, 0.0))),
-    )
     .boundary(Boundary::new(
         "floor",
         DVec2::ZERO,
         DVec2::new(0.8, 0.02),
         Condition::Fixed,
     ))
-    .with_pipeline(pipeline(integrator));
+}
+
+/// A block of group 1 sliding on a substrate of group 0 under gravity; the substrate rests on a
+/// fixed bottom row of nodes. Returns `(time, x velocity, x position)` of the block's centre
+/// of mass every step.
+fn slide(
+    integrator: &[(&str, Option<&str>)],
+    friction: f64,
+    normals: &str,
+    v0: f64,
+    end: f64,
+) -> Vec<(f64, f64, f64)> {
+    use fractum_engine::scene::{Body, InitialVelocity, Shape};
+    let mut spec = on_substrate(0.02, 0.2, end)
+        .body(
+            Body::new(
+                Shape::Rectangle {
+                    min: DVec2::new(0.06, 0.1),
+                    max: DVec2::new(0.16, 0.14),
+                },
+                "stiff",
+            )
+            .named("block")
+            .group(1)
+            .velocity(InitialVelocity::Uniform(DVec2::new(v0, 0.0))),
+        )
+        .with_pipeline(pipeline(integrator));
     spec.pipeline[4] = entry(
         "contact/frictional",
         Some(&format!("(friction: {friction}, normals: {normals})")),
@@ -883,45 +890,21 @@ struct Rolling {
 /// gravity tilted by `angle` so that the substrate is an incline; `h` the grid spacing.
 /// Update-stress-last on GIMP as the sliding block, the substrate's normal (`Heavier`).
 fn roll(friction: f64, angle: f64, h: f64, detection: &str) -> Rolling {
-    use fractum_engine::scene::{Body, Boundary, Condition, Shape};
-    use fractum_engine::simulation::End;
+    use fractum_engine::scene::{Body, Shape};
     let (radius, end) = (0.05, 0.15);
-    let mut spec = Spec::<Two>::new(Grid {
-        min: DVec2::ZERO,
-        spacing: h,
-        cells: [(0.8 / h).round() as usize, (0.24 / h).round() as usize],
-        graded: None,
-    })
-    .time(TimeStep::Cfl(0.4), End::Time(end))
-    .material(Material::new("stiff", 1000.0, 2.0e7, 0.25))
-    .body(
-        Body::new(
-            Shape::Rectangle {
-                min: DVec2::new(0.02, 0.02),
-                max: DVec2::new(0.78, 0.1),
-            },
-            "stiff",
+    let mut spec = on_substrate(h, 0.24, end)
+        .body(
+            Body::new(
+                Shape::Disk {
+                    center: DVec2::new(0.12, 0.1 + radius),
+                    radius,
+                },
+                "stiff",
+            )
+            .named("disk")
+            .group(1),
         )
-        .named("substrate"),
-    )
-    .body(
-        Body::new(
-            Shape::Disk {
-                center: DVec2::new(0.12, 0.1 + radius),
-                radius,
-            },
-            "stiff",
-        )
-        .named("disk")
-        .group(1),
-    )
-    .boundary(Boundary::new(
-        "floor",
-        DVec2::ZERO,
-        DVec2::new(0.8, 0.02),
-        Condition::Fixed,
-    ))
-    .with_pipeline(pipeline(USL_GIMP_CONTACT));
+        .with_pipeline(pipeline(USL_GIMP_CONTACT));
     spec.pipeline[4] = entry(
         "contact/frictional",
         Some(&format!(

@@ -287,31 +287,16 @@ fn a_closed_stdout_is_not_a_panic() {
 fn a_run_whose_partition_never_split_says_so() {
     let base = std::env::temp_dir().join(format!("fractum-cli-split-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&base);
-    let intact = base.join("intact");
-    let run = fractum(&[
-        "run",
-        "scenes/brazilian_dfg.ron",
-        "--steps",
-        "3",
-        "--out",
-        intact.to_str().unwrap(),
-    ]);
-    assert!(run.status.success(), "{}", text(&run.stderr));
-    assert!(
-        text(&run.stdout).contains("no node was split in this run"),
-        "{}",
+    // Three steps of a scene, its summary.
+    let summary = |scene: &str, out: &str| {
+        let dir = base.join(out);
+        let run = fractum(&["run", scene, "--steps", "3", "--out", dir.to_str().unwrap()]);
+        assert!(run.status.success(), "{}", text(&run.stderr));
         text(&run.stdout)
-    );
-    let cracked = base.join("cracked");
-    let run = fractum(&[
-        "run",
-        "scenes/edge_cracked_panel_lme.ron",
-        "--steps",
-        "3",
-        "--out",
-        cracked.to_str().unwrap(),
-    ]);
-    assert!(run.status.success(), "{}", text(&run.stderr));
-    assert!(!text(&run.stdout).contains("no node was split"));
+    };
+    let intact = summary("scenes/brazilian_dfg.ron", "intact");
+    assert!(intact.contains("no node was split in this run"), "{intact}");
+    let cracked = summary("scenes/edge_cracked_panel_lme.ron", "cracked");
+    assert!(!cracked.contains("no node was split"), "{cracked}");
     let _ = std::fs::remove_dir_all(&base);
 }

@@ -26,8 +26,8 @@
 //!   elastic energy left on the unloading line); J per scene thickness in 2D.
 
 use super::tensile_degradation::{
-    DEGRADATION_PARAM, Degradation, TENSILE_STRENGTH_PARAM, WEIBULL_PARAM, characteristic_length,
-    damage_counts, degrade, install_strength, lame_constants, largest_trial_principal,
+    DEGRADATION_PARAM, Degradation, TENSILE_STRENGTH_PARAM, TensileDegradation, WEIBULL_PARAM,
+    characteristic_length, damage_counts, install_strength, largest_trial_principal,
     require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
@@ -92,10 +92,7 @@ pub struct RankineParams {
     /// not dissipate and the published column leaves out.
     pub initial_dissipation: f64,
     /// How the damage degrades the stress.
-    pub degradation: Degradation,
-    /// Lamé constants `(λ, μ)` of each material (the scene's material table order), for
-    /// [`Degradation::Spectral`].
-    pub lame: Vec<(f64, f64)>,
+    pub degradation: TensileDegradation,
 }
 
 /// Refuses strengths whose scaled brittleness `H̄_s l_ch` is not a normal f64 (too small to
@@ -190,8 +187,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         columns,
         materials,
         initial_dissipation,
-        degradation: raw.degradation,
-        lame: lame_constants(installer),
+        degradation: TensileDegradation::new(installer, raw.degradation),
     });
     with_dim!(installer.dimension(), D => installer.add_systems(rankine::<D>));
     Ok(())
@@ -292,17 +288,10 @@ pub fn rankine<D: Dim>(
             let h = softening_modulus(sigma_f, e, p.fracture_energy, p.characteristic_length);
             d.0 = rankine_damage(d.0, largest_trial_principal(&s.0), sigma_f, h);
             if d.0 > 0.0 {
-                let lame = p.lame[material[i].0 as usize];
-                let f = &deformation[i].0;
-                degrade::<D>(
-                    p.degradation,
-                    d.0,
-                    &mut s.0,
-                    &mut w.0,
-                    &strain[i].0,
-                    f,
-                    lame,
-                );
+                let (stress, energy) = (&mut s.0, &mut w.0);
+                let (strain, f) = (&strain[i].0, &deformation[i].0);
+                p.degradation
+                    .apply::<D>(material[i], d.0, (stress, energy), strain, f);
                 v0[i].0 * dissipated_density(d.0, sigma_f, e, h)
             } else {
                 0.0
@@ -378,8 +367,10 @@ mod tests {
             columns: slots,
             materials: MaterialFilter::all(),
             initial_dissipation: 0.0,
-            degradation: Degradation::Published,
-            lame: vec![test_material().lame()],
+            degradation: TensileDegradation {
+                kind: Degradation::Published,
+                lame: vec![test_material().lame()],
+            },
         });
         slots
     }
@@ -447,7 +438,7 @@ mod tests {
         use crate::stress::neo_hookean::{neo_hookean_energy, neo_hookean_stress_of};
         let mut world = tiny_world::<Two>(4, 0.25, 1e-3);
         insert_params(&mut world);
-        world.resource_mut::<RankineParams>().degradation = Degradation::Spectral;
+        world.resource_mut::<RankineParams>().degradation.kind = Degradation::Spectral;
         let (lambda, mu) = test_material().lame();
         // Opened along x, shortened along y: trial σ_xx ≈ 5.8 Pa against a strength of 1.
         let f = DMat2::from_diagonal(DVec2::new(1.05, 0.99));

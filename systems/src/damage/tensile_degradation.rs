@@ -61,15 +61,41 @@ pub const DEGRADATION_PARAM: ParamDoc = ParamDoc {
           (conservative at fixed damage)",
 };
 
-/// Each material's Lamé constants `(λ, μ)`, in the scene's material table order.
-pub fn lame_constants(installer: &Installer) -> Vec<(f64, f64)> {
-    installer
-        .world()
-        .resource::<Materials>()
-        .0
-        .iter()
-        .map(|m| m.lame())
-        .collect()
+/// The degradation a law applies, with what `Spectral` needs: each material's Lamé constants.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TensileDegradation {
+    /// Which degradation.
+    pub kind: Degradation,
+    /// Lamé constants `(λ, μ)` of each material, in the scene's material table order.
+    pub lame: Vec<(f64, f64)>,
+}
+
+impl TensileDegradation {
+    /// `kind` for the materials of the scene being installed.
+    pub fn new(installer: &Installer, kind: Degradation) -> Self {
+        let lame = installer
+            .world()
+            .resource::<Materials>()
+            .0
+            .iter()
+            .map(|m| m.lame())
+            .collect();
+        Self { kind, lame }
+    }
+
+    /// [`degrade`] for a particle of `material` with damage `damage` (> 0): its trial stress
+    /// and undamaged energy density in, the degraded ones out.
+    pub fn apply<D: Dim>(
+        &self,
+        material: MaterialId,
+        damage: f64,
+        (stress, energy): (&mut D::Sym, &mut f64),
+        strain: &D::Sym,
+        f: &D::Matrix,
+    ) {
+        let lame = self.lame[material.0 as usize];
+        degrade::<D>(self.kind, damage, stress, energy, strain, f, lame);
+    }
 }
 
 /// A damaged particle (`damage > 0`) as `degradation` degrades it: its trial `stress` and

@@ -20,8 +20,8 @@
 //! - Publishes `series.csv` columns `damaged_particles` (D > 0) and `failed_particles` (D = 1).
 
 use super::tensile_degradation::{
-    DEGRADATION_PARAM, Degradation, TENSILE_STRENGTH_PARAM, WEIBULL_PARAM, characteristic_length,
-    damage_counts, degrade, install_strength, lame_constants, largest_trial_principal,
+    DEGRADATION_PARAM, Degradation, TENSILE_STRENGTH_PARAM, TensileDegradation, WEIBULL_PARAM,
+    characteristic_length, damage_counts, install_strength, largest_trial_principal,
     require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
@@ -79,10 +79,7 @@ pub struct TimeToFailureParams {
     /// Which materials this entry damages.
     pub materials: MaterialFilter,
     /// How the damage degrades the stress.
-    pub degradation: Degradation,
-    /// Lamé constants `(λ, μ)` of each material (the scene's material table order), for
-    /// [`Degradation::Spectral`].
-    pub lame: Vec<(f64, f64)>,
+    pub degradation: TensileDegradation,
 }
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
@@ -100,8 +97,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         time_to_failure: length / raw.crack_speed,
         columns,
         materials,
-        degradation: raw.degradation,
-        lame: lame_constants(installer),
+        degradation: TensileDegradation::new(installer, raw.degradation),
     });
     with_dim!(installer.dimension(), D => installer.add_systems(time_to_failure::<D>));
     Ok(())
@@ -158,17 +154,10 @@ pub fn time_to_failure<D: Dim>(
             let largest = largest_trial_principal(&trial);
             d.0 = time_to_failure_damage(d.0, largest, strength[i].0, dt, p.time_to_failure);
             if d.0 > 0.0 {
-                let lame = p.lame[material[i].0 as usize];
-                let f = &deformation[i].0;
-                degrade::<D>(
-                    p.degradation,
-                    d.0,
-                    &mut s.0,
-                    &mut w.0,
-                    &strain[i].0,
-                    f,
-                    lame,
-                );
+                let (stress, energy) = (&mut s.0, &mut w.0);
+                let (strain, f) = (&strain[i].0, &deformation[i].0);
+                p.degradation
+                    .apply::<D>(material[i], d.0, (stress, energy), strain, f);
             }
         });
     let (damaged, failed) = damage_counts(material, &damage, &p.materials);
@@ -218,8 +207,10 @@ mod tests {
             time_to_failure: 2e-3,
             columns: slots,
             materials: MaterialFilter::all(),
-            degradation: Degradation::Published,
-            lame: vec![test_material().lame()],
+            degradation: TensileDegradation {
+                kind: Degradation::Published,
+                lame: vec![test_material().lame()],
+            },
         });
         for (k, strength) in [(0, 1.0), (1, 10.0)] {
             let x = D::Vector::from_fn(|a| if a == 0 { 0.3 + 0.3 * k as f64 } else { 0.5 });
