@@ -6,7 +6,9 @@
 //!     `ω(r̄) = 1 − 3r̄² + 2r̄³` on `[0, 1]` (eq. 18), normalised by the kernel sum
 //!     `S(x) = Σ_q ω` (eq. 19), and its gradient at every particle,
 //!     `∇D̄ = (S ∇D − D ∇S) / S²`, stored in `DamageGradient`. The radius `r` defaults to the
-//!     cell diagonal; the sums run over the particles of the same contact group;
+//!     cell diagonal; `radius` gives it in metres, `radius_cells` in grid spacings (so that it
+//!     follows the grid when a scene is refined); the sums run over the particles of the same
+//!     contact group;
 //!   - surface detection (§2.4, option `surface`): at the first step, particles whose kernel sum
 //!     is below `surface × max S` get `SurfaceFlag = 1`, and `max(s_p, D_p)` replaces `D_p` in
 //!     the field and in the separability statistics. The kernel sum of the detection runs over
@@ -50,6 +52,13 @@ pub const REGISTRATION: Registration = Registration {
             doc: "kernel radius r_p of eq. 18 (m)",
         },
         ParamDoc {
+            name: "radius_cells",
+            ty: "f64",
+            default: None,
+            doc: "the kernel radius in cells (grid spacings) instead of metres, so that it \
+                  follows the grid when a scene is refined; not with `radius`",
+        },
+        ParamDoc {
             name: "surface",
             ty: "f64",
             default: None,
@@ -68,6 +77,9 @@ pub struct DfgParams {
     /// Kernel radius; the cell diagonal when `None`.
     #[serde(default)]
     pub radius: Option<f64>,
+    /// Kernel radius in grid spacings; the install turns it into `radius`.
+    #[serde(default)]
+    pub radius_cells: Option<f64>,
     /// Surface detection threshold, off when `None`.
     #[serde(default)]
     pub surface: Option<f64>,
@@ -137,6 +149,10 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     {
         return Err(params.error("radius", "expected a positive radius in m"));
     }
+    let (spacing, dimensions) = with_dim!(installer.dimension(), D => {
+        (installer.world().resource::<Grid<D>>().spacing, D::N)
+    });
+    let parsed = resolve_radius_cells(params, parsed, spacing)?;
     if let Some(s) = parsed.surface
         && !(s > 0.0 && s < 1.0)
     {
@@ -150,9 +166,6 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
              `surface: 0.8` for self-contact, or use partition/bodies",
         ));
     }
-    let (spacing, dimensions) = with_dim!(installer.dimension(), D => {
-        (installer.world().resource::<Grid<D>>().spacing, D::N)
-    });
     let radius_cells = parsed
         .radius
         .map_or((dimensions as f64).sqrt(), |r| r / spacing);
@@ -171,6 +184,31 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         installer.add_systems(dfg_partition::<D>);
     });
     Ok(())
+}
+
+/// `radius_cells` turned into `radius` for a grid of `spacing` (checked positive, and not given
+/// with `radius`).
+fn resolve_radius_cells(
+    params: &Params,
+    parsed: DfgParams,
+    spacing: f64,
+) -> Result<DfgParams, SceneError> {
+    match (parsed.radius, parsed.radius_cells) {
+        (Some(_), Some(_)) => Err(params.error(
+            "radius_cells",
+            "give the kernel radius once: `radius` (m) or `radius_cells` (grid spacings)",
+        )),
+        (None, Some(cells)) if !(cells.is_finite() && cells > 0.0) => Err(params.error(
+            "radius_cells",
+            "expected a positive number of grid spacings",
+        )),
+        (None, Some(cells)) => Ok(DfgParams {
+            radius: Some(cells * spacing),
+            radius_cells: None,
+            ..parsed
+        }),
+        _ => Ok(parsed),
+    }
 }
 
 /// Whether some particle starts damaged (a body's `cracks`).
@@ -427,6 +465,7 @@ mod tests {
         let mut world = tiny_world::<Two>(8, 0.25, 1e-3);
         world.insert_resource(DfgParams {
             radius: Some(0.3),
+            radius_cells: None,
             surface,
         });
         world.insert_resource(SurfaceDetected::default());
