@@ -53,6 +53,8 @@ struct Collision {
     kinetic_back: f64,
     /// The total (kinetic + stored) energy lost by the end, as a fraction of the initial.
     energy_lost: f64,
+    /// The `contact_work` column at the end over the initial energy (NaN without contact).
+    contact_work: f64,
     worst_momentum: f64,
     closest: f64,
     first_interaction: f64,
@@ -74,6 +76,7 @@ fn collide<D: Dim>(spec: Spec<D>) -> Collision {
     let mut result = Collision {
         kinetic_back: 0.0,
         energy_lost: 0.0,
+        contact_work: f64::NAN,
         worst_momentum: 0.0,
         closest: f64::INFINITY,
         first_interaction: f64::NAN,
@@ -101,6 +104,11 @@ fn collide<D: Dim>(spec: Spec<D>) -> Collision {
     }
     let energy = fractum_engine::diagnostics::totals(&mut sim.world).total_energy();
     result.energy_lost = 1.0 - energy / energy0;
+    if let Some(columns) = sim.world.get_resource::<SeriesColumns>()
+        && let Some(slot) = columns.names.iter().position(|n| n == "contact_work")
+    {
+        result.contact_work = columns.values[slot] / energy0;
+    }
     result
 }
 
@@ -219,9 +227,11 @@ fn two_disks_meet_where_their_particles_touch_with_the_gap_check() {
     ] {
         println!(
             "two disks, Newmark, {name}: first interaction {:.4} m before the surfaces touch, \
-             energy lost {:.2}%, kinetic energy back {:.1}%, closest particles {:.4} m",
+             energy lost {:.2}% (contact work {:.2}%), kinetic energy back {:.1}%, closest \
+             particles {:.4} m",
             (touching - run.first_interaction) * closing,
             100.0 * run.energy_lost,
+            100.0 * run.contact_work,
             100.0 * run.kinetic_back,
             run.closest
         );

@@ -29,6 +29,12 @@
 //!     stress stage takes the velocity gradient from the corrected velocities. Every pair is
 //!     separable there: the field assignment has already kept inseparable sides of a group in
 //!     one field, from the damage at the start of the step as the paper's partition does.
+//! - Publishes the `series.csv` column `contact_work`: the work the contact law has done on the
+//!   node fields since the start, `Σ_steps Σ_nodes Σ_k (Δp_k · v_k + |Δp_k|² / 2m_k)` with `v_k`
+//!   the end-of-step velocity before contact and `Δp_k` the field's whole impulse (kick and
+//!   force alike: over the step the node velocity changes by `Δp/m` either way). Negative is
+//!   kinetic energy the nodal law removed: a frictionless law that only stops approach can
+//!   only remove it, so this is the share of a run's energy loss that the contact takes.
 //! - Slivers (`sliver_fraction`, update-stress-last only). A field that holds a tiny fraction
 //!   of a shared node's mass (one particle at `N ≈ 10⁻⁵` leaving the node) gets
 //!   `v̄ = (p + Δt f)/m` with a force that keeps the full `∇N` while the mass vanishes; with
@@ -134,6 +140,8 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     // The field assignment keeps inseparable sides of a group in one field with this D̄_min.
     installer.insert_resource(fractum_engine::fields::Separability(parsed.separability));
     installer.insert_resource(parsed);
+    let slot = installer.add_series_column("contact_work");
+    installer.insert_resource(ContactWorkColumn(slot));
     with_dim!(installer.dimension(), D => {
         installer.add_node_component(NodeNormal::<D>::default());
         installer.add_node_component(NodeContactForce::<D>::default());
@@ -211,6 +219,18 @@ struct NodeContact<V> {
     impulses: [V; MAX_FIELDS],
     /// Newmark: the collision part of `impulses` (zero otherwise).
     collision: [V; MAX_FIELDS],
+    /// The work of `impulses` on the node's fields ([`impulse_work`]).
+    work: f64,
+}
+
+/// The work an impulse `dp` does on a field of mass `mass` moving at `velocity`: its change of
+/// kinetic energy, `dp · v + |dp|² / 2m` (zero for an empty field).
+pub fn impulse_work<V: VectorOps>(dp: V, mass: f64, velocity: V) -> f64 {
+    if mass > 0.0 {
+        dp.dot(velocity) + dp.dot(dp) / (2.0 * mass)
+    } else {
+        0.0
+    }
 }
 
 /// The node columns the contact law reads and corrects, as plain slices in node order.
@@ -303,14 +323,15 @@ fn pair_gaps<D: Dim>(
 }
 
 /// Algorithm 3 at every node with two fields or more: normals (eq. 11), impulses, and the
-/// correction the integrator's description asks for.
+/// correction the integrator's description asks for. Returns the work of the impulses on the
+/// node fields (summed in node order, the same for any thread count).
 pub fn apply_contact<D: Dim>(
     c: &Connectivity<D>,
     slices: &ParticleSlices<D>,
     domains: &ParticleDomains<D>,
     nodes: ContactColumns<D>,
     step: &ContactStep<D::Vector>,
-) {
+) -> f64 {
     // Only nodes with two or more fields can be in contact: normals, trial velocities and
     // impulses are gathered there alone, from the node-major connectivity.
     let shared: Vec<usize> = (0..nodes.fields.len())
@@ -322,6 +343,7 @@ pub fn apply_contact<D: Dim>(
         .map(|&i| node_contact(c, (slices, domains), &nodes, step, i))
         .collect();
     write_contact(&shared, &results, nodes, step);
+    results.iter().map(|r| r.work).sum()
 }
 
 /// The statistics of fields failed throughout: every pair separable.
@@ -418,10 +440,14 @@ fn node_contact<D: Dim>(
     } else {
         [D::Vector::ZERO; MAX_FIELDS]
     };
+    let work = (0..MAX_FIELDS)
+        .map(|k| impulse_work(impulses[k], states[k].mass, states[k].velocity))
+        .sum();
     NodeContact {
         normals,
         impulses,
         collision,
+        work,
     }
 }
 
@@ -490,13 +516,19 @@ pub struct ContactInputs<'w, D: Dim> {
     bcs: Res<'w, BoundaryConditions>,
     connectivity: Res<'w, Connectivity<D>>,
     thickness: Option<Res<'w, Thickness>>,
+    work_column: Res<'w, ContactWorkColumn>,
+    columns: ResMut<'w, SeriesColumns>,
 }
+
+/// The slot of the `contact_work` series column.
+#[derive(Resource, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ContactWorkColumn(pub usize);
 
 /// The `contact/frictional` system, with either integrator: it runs where the integrator's
 /// [`GridIntegration`] says a grid impulse acts and applies its impulses as that description
 /// says (see the module header).
 pub fn frictional_contact<D: Dim>(
-    inputs: ContactInputs<D>,
+    mut inputs: ContactInputs<D>,
     particles: ForceSources<D>,
     positions: Query<&Position<D>, With<Particle>>,
     mut nodes: NodeQuery<D>,
@@ -538,7 +570,10 @@ pub fn frictional_contact<D: Dim>(
             1.0
         },
     };
-    apply_contact(&inputs.connectivity, &slices, &domains, columns, &step);
+    let work = apply_contact(&inputs.connectivity, &slices, &domains, columns, &step);
+    // Accumulated in the column itself, which checkpoints carry.
+    let slot = inputs.work_column.0;
+    inputs.columns.values[slot] += work;
 }
 
 #[cfg(test)]
@@ -578,6 +613,10 @@ mod tests {
     ) -> World {
         let mut world = tiny_world::<Two>(2, 0.5, 1e-3);
         world.insert_resource(params);
+        let mut columns = SeriesColumns::default();
+        let slot = columns.declare("contact_work");
+        world.insert_resource(columns);
+        world.insert_resource(ContactWorkColumn(slot));
         world.insert_resource(crate::predictor::usl::UslPredictorParams::default());
         world.insert_resource(crate::predictor::newmark::NewmarkParams::default());
         world.insert_resource(integration);
@@ -596,6 +635,20 @@ mod tests {
         );
         run_system(&mut world, predictor);
         world
+    }
+
+    /// Total kinetic energy of the node fields.
+    fn node_kinetic_energy(world: &mut World) -> f64 {
+        let m = node_values::<NodeMass>(world);
+        let v = node_values::<NodeVelocity<Two>>(world);
+        m.iter()
+            .zip(&v)
+            .map(|(m, v)| {
+                (0..MAX_FIELDS)
+                    .map(|k| 0.5 * m.0[k] * v.0[k].length_squared())
+                    .sum::<f64>()
+            })
+            .sum()
     }
 
     /// Total momentum of the node fields.
@@ -687,10 +740,18 @@ mod tests {
             GridIntegration::UpdateStressLast,
         );
         let before = node_momentum(&mut world);
+        let kinetic = node_kinetic_energy(&mut world);
         run_system(&mut world, frictional_contact::<Two>);
         let after = node_momentum(&mut world);
         assert!((after - before).length() < 1e-15);
         assert_no_approach_left(&mut world);
+        // The `contact_work` column is the kinetic energy the collision took from the fields.
+        let removed = node_kinetic_energy(&mut world) - kinetic;
+        let work = world.resource::<SeriesColumns>().values[0];
+        assert!(
+            removed < 0.0 && (work - removed).abs() < 1e-12 * removed.abs(),
+            "{work} {removed}"
+        );
         assert!(
             node_values::<NodeContactForce<Two>>(&mut world)
                 .iter()
