@@ -73,13 +73,10 @@ fn the_quick_tier_passes_and_keeps_its_results() {
 
 #[test]
 fn an_unknown_case_lists_the_known_ones() {
-    let out = verify(&[
-        "--case",
-        "kalthof",
-        "--docs",
-        scratch("unknown").to_str().unwrap(),
-    ]);
+    let dir = scratch("unknown");
+    let out = verify(&["--case", "kalthof", "--docs", dir.to_str().unwrap()]);
     let report = text(&out);
+    let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(out.status.code(), Some(2), "{report}");
     assert!(
         report.contains("no case \"kalthof\"") && report.contains("kalthoff_winkler_dfg"),
