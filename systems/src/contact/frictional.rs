@@ -281,9 +281,9 @@ pub struct ParticleDomains<'a, D: Dim> {
 }
 
 impl<D: Dim> ParticleDomains<'_, D> {
-    /// Half-width of particle `p`'s domain of volume `volume`.
+    /// Half-width of the domain of a particle of volume `volume`.
     fn half_width(&self, volume: f64) -> f64 {
-        0.5 * (volume / self.thickness).powf(1.0 / D::N as f64)
+        crate::basis::gimp::domain_half_width(volume, self.thickness, D::N)
     }
 }
 
