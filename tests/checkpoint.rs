@@ -208,6 +208,7 @@ const STOCK_KEYS: &[&str] = &[
     "dfg/surface_detected",
     "eigenerosion/state",
     "engine/clock",
+    "engine/contact_potential",
     "engine/energy_account",
     "engine/energy_watch",
     "engine/escaped_particles",

@@ -184,13 +184,26 @@ const NEWMARK: &[&str] = &[
     "advection/newmark",
 ];
 
+/// The Newmark integrator with eqs. 3–5's particle update as printed.
+const NEWMARK_PUBLISHED: &[&str] = &[
+    "predictor/newmark",
+    "stress/linear_elastic",
+    "corrector/newmark",
+    "advection/newmark(particle_update: Published)",
+];
+
+/// A pipeline of `basis` and the `integrator`'s systems; a system written `name(params)`
+/// takes those parameters.
 fn pipeline(basis: (&str, Option<&str>), integrator: &[&str]) -> Vec<PipelineEntry> {
     let basis = match basis.1 {
         Some(params) => PipelineEntry::with_params(basis.0, params),
         None => PipelineEntry::new(basis.0),
     };
     std::iter::once(basis)
-        .chain(integrator.iter().map(|s| PipelineEntry::new(s)))
+        .chain(integrator.iter().map(|s| match s.split_once('(') {
+            Some((name, params)) => PipelineEntry::with_params(name, &format!("({params}")),
+            None => PipelineEntry::new(s),
+        }))
         .collect()
 }
 
@@ -209,7 +222,10 @@ fn collision<D: Dim>(spec: Spec<D>) -> (Vec<(f64, f64)>, f64) {
     (series.swap_remove(0), largest)
 }
 
-fn check_collision<D: Dim>(spec: Spec<D>, allowed_rise: f64) {
+/// Checks a collision: momentum at round-off, the total energy never more than `allowed_rise`
+/// above its start, and some energy lost by the end when `loses` (the published update
+/// dissipates; the consistent one conserves, so its end may sit either side of the start).
+fn check_collision<D: Dim>(spec: Spec<D>, allowed_rise: f64, loses: bool) {
     let name = spec.pipeline[0].system.clone() + " + " + &spec.pipeline[1].system;
     let (energy, momentum) = collision(spec);
     // Each body carries about 130 kg·0.14 m/s (2D) or 34 kg·0.17 m/s (3D) in opposite
@@ -228,7 +244,11 @@ fn check_collision<D: Dim>(spec: Spec<D>, allowed_rise: f64) {
         100.0 * (peak / e0 - 1.0),
         100.0 * (end / e0 - 1.0)
     );
-    assert!(end < e0, "no energy lost through impact: {end} vs {e0}");
+    if loses {
+        assert!(end < e0, "no energy lost through impact: {end} vs {e0}");
+    } else {
+        assert!((end / e0 - 1.0).abs() < allowed_rise, "{end} vs {e0}");
+    }
 }
 
 fn disks(basis: (&str, Option<&str>), integrator: &[&str]) -> Spec<Two> {
@@ -236,11 +256,16 @@ fn disks(basis: (&str, Option<&str>), integrator: &[&str]) -> Spec<Two> {
 }
 
 #[test]
-fn two_disks_newmark_conserves_momentum_and_never_gains_energy() {
-    // The predictor-corrector is dissipative by construction: the energy must not rise at all
-    // (round-off allowance only).
-    check_collision(disks(LINEAR, NEWMARK), 1e-12);
-    check_collision(disks(LME, NEWMARK), 1e-12);
+fn two_disks_newmark_conserves_momentum_and_energy() {
+    // Newmark's own particle update (the default) conserves energy to within what the grid
+    // crossings exchange: measured +0.083% at the peak and +0.078% at the end (linear), +0.072%
+    // and +0.067% (LME). With eqs. 3–5 as printed the predictor-corrector is dissipative by
+    // construction (−1.20% and −0.93% by the end): the energy must not rise at all (round-off
+    // allowance only).
+    check_collision(disks(LINEAR, NEWMARK), 2e-3, false);
+    check_collision(disks(LME, NEWMARK), 2e-3, false);
+    check_collision(disks(LINEAR, NEWMARK_PUBLISHED), 1e-12, true);
+    check_collision(disks(LME, NEWMARK_PUBLISHED), 1e-12, true);
 }
 
 #[test]
@@ -248,8 +273,8 @@ fn two_disks_usl_conserves_momentum_and_energy_stays_bounded() {
     // USL exchanges kinetic and stored energy with an O(Δt) phase lag, so their sum oscillates
     // slightly before it decays: measured +0.026% (linear) and +0.021% (LME) before impact.
     // 0.1% bounds that oscillation; a real instability grows far beyond it.
-    check_collision(disks(LINEAR, USL), 1e-3);
-    check_collision(disks(LME, USL), 1e-3);
+    check_collision(disks(LINEAR, USL), 1e-3, true);
+    check_collision(disks(LME, USL), 1e-3, true);
 }
 
 /// The two-sphere scene with `basis` and `integrator`, stepped at 4 ms (a fifth of the stable
@@ -268,14 +293,18 @@ fn spheres(basis: (&str, Option<&str>), integrator: &[&str]) -> Spec<Three> {
 }
 
 #[test]
-fn two_spheres_newmark_conserves_momentum_and_never_gains_energy() {
-    check_collision(spheres(LINEAR, NEWMARK), 1e-12);
-    check_collision(spheres(LME, NEWMARK), 1e-12);
+fn two_spheres_newmark_conserves_momentum_and_energy() {
+    // As for the disks; at this step, a fifth of the stable one, the consistent update ends
+    // +0.46% (linear) and +0.33% (LME) above the start, the published one −3.1% and −2.6%.
+    check_collision(spheres(LINEAR, NEWMARK), 1e-2, false);
+    check_collision(spheres(LME, NEWMARK), 1e-2, false);
+    check_collision(spheres(LINEAR, NEWMARK_PUBLISHED), 1e-12, true);
+    check_collision(spheres(LME, NEWMARK_PUBLISHED), 1e-12, true);
 }
 
 #[test]
 fn two_spheres_usl_conserves_momentum_and_energy_stays_bounded() {
     // As for the disks: the USL oscillation of kinetic + stored energy stays within 0.1%
     // (measured +0.055% before impact).
-    check_collision(spheres(LINEAR, USL), 1e-3);
+    check_collision(spheres(LINEAR, USL), 1e-3, true);
 }

@@ -15,6 +15,8 @@ pub struct Totals {
     pub kinetic_energy: f64,
     /// Σ W V₀ (stored energy density times reference volume).
     pub strain_energy: f64,
+    /// Energy held by a contact potential ([`crate::energy::ContactPotential`]).
+    pub contact_energy: f64,
     /// Σ m v.
     pub momentum: [f64; 3],
     /// Σ m.
@@ -22,9 +24,9 @@ pub struct Totals {
 }
 
 impl Totals {
-    /// Kinetic plus strain energy.
+    /// Kinetic plus stored energy: the particles' strain energy and a contact potential's.
     pub fn total_energy(&self) -> f64 {
-        self.kinetic_energy + self.strain_energy
+        self.kinetic_energy + self.strain_energy + self.contact_energy
     }
 
     /// Centre-of-mass velocity (zero for an empty system).
@@ -62,9 +64,13 @@ pub fn totals_of<D: Dim>(world: &mut World) -> Totals {
         momentum += v.0 * m.0;
         mass += m.0;
     }
+    let contact_energy = world
+        .get_resource::<crate::energy::ContactPotential>()
+        .map_or(0.0, |c| c.0);
     Totals {
         kinetic_energy: kinetic,
         strain_energy: strain,
+        contact_energy,
         momentum: momentum.to_3d(),
         mass,
     }

@@ -99,6 +99,18 @@ type WorkQuery<'w, 's, D> = Query<
     With<Particle>,
 >;
 
+/// Energy held by a contact potential (`contact/penalty`'s overlapping particle pairs), as the
+/// contact system left it at its last step: stored energy like the particles' strain energy,
+/// which the totals ([`crate::diagnostics::Totals::contact_energy`]) add to the total energy so
+/// that the balance closes while bodies press on each other. Absent (zero) without such a
+/// system.
+#[derive(
+    Resource, Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize,
+)]
+pub struct ContactPotential(pub f64);
+
+crate::checkpoint_keys! { ContactPotential => "engine/contact_potential" }
+
 /// Adds the work of the step just taken to the [`EnergyAccount`] (sequential sums, so the same
 /// bits for any thread count).
 pub fn account_work<D: Dim>(

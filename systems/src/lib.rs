@@ -37,6 +37,7 @@ pub const ALL: &[Registration] = &[
     partition::bodies::REGISTRATION,
     partition::dfg::REGISTRATION,
     contact::frictional::REGISTRATION,
+    contact::penalty::REGISTRATION,
     corrector::newmark::REGISTRATION,
     advection::usl::REGISTRATION,
     advection::newmark::REGISTRATION,

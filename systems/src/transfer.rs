@@ -93,8 +93,8 @@ pub fn advect_particles<D: Dim>(
     particles: &mut AdvectedQuery<D>,
     update: impl Fn(&mut D::Vector, &mut D::Vector, D::Vector, D::Vector) + Sync,
 ) {
-    advect_rows(connectivity, nodes, particles, |_, x, v, a, v_grid| {
-        update(x, v, a, v_grid)
+    advect_rows(connectivity, nodes, particles, |_, x, v, motion| {
+        update(x, v, motion.acceleration, motion.velocity)
     });
 }
 
@@ -103,7 +103,7 @@ fn advect_rows<D: Dim>(
     connectivity: &Connectivity<D>,
     nodes: &NodeMotionQuery<D>,
     particles: &mut AdvectedQuery<D>,
-    update: impl Fn(usize, &mut D::Vector, &mut D::Vector, D::Vector, D::Vector) + Sync,
+    update: impl Fn(usize, &mut D::Vector, &mut D::Vector, GridMotion<D::Vector>) + Sync,
 ) {
     let (node_acceleration, node_velocity) =
         single_table(nodes.contiguous_iter(), "nodes").unwrap_or((&[], &[]));
@@ -119,20 +119,39 @@ fn advect_rows<D: Dim>(
         .enumerate()
         .for_each(|(p, ((x, v), a))| {
             let (a_grid, v_grid) = interpolate(connectivity, node_acceleration, node_velocity, p);
+            let motion = GridMotion {
+                acceleration: a_grid,
+                previous_acceleration: a.0,
+                velocity: v_grid,
+                kick: D::Vector::ZERO,
+            };
             a.0 = a_grid;
-            update(p, &mut x.0, &mut v.0, a_grid, v_grid);
+            update(p, &mut x.0, &mut v.0, motion);
         });
 }
 
+/// What the grid gives one particle in a grid-to-particle update.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridMotion<V> {
+    /// `Σ N a_I`, the particle's new acceleration.
+    pub acceleration: V,
+    /// The particle's acceleration from the previous step (before this update replaces it).
+    pub previous_acceleration: V,
+    /// `Σ N v_I`.
+    pub velocity: V,
+    /// `Σ N Δp_I/m_I`, the contact kick (zero without one).
+    pub kick: V,
+}
+
 /// [`advect_particles`] with a per-node-field velocity kick (a contact impulse over the mass,
-/// `Δp/m`) interpolated alongside: `update(x, v, Σ N a_I, Σ N v_I, Σ N kick_I)`. An empty
-/// `kicks` slice means no kicks.
+/// `Δp/m`) interpolated alongside, and the particle's previous acceleration:
+/// `update(x, v, motion)`. An empty `kicks` slice means no kicks.
 pub fn advect_particles_with_kicks<D: Dim>(
     connectivity: &Connectivity<D>,
     nodes: &NodeMotionQuery<D>,
     kicks: &[[D::Vector; MAX_FIELDS]],
     particles: &mut AdvectedQuery<D>,
-    update: impl Fn(&mut D::Vector, &mut D::Vector, D::Vector, D::Vector, D::Vector) + Sync,
+    update: impl Fn(&mut D::Vector, &mut D::Vector, GridMotion<D::Vector>) + Sync,
 ) {
     let kick_of = |p: usize| {
         connectivity.row(p).fold(D::Vector::ZERO, |sum, e| {
@@ -140,13 +159,11 @@ pub fn advect_particles_with_kicks<D: Dim>(
                 * connectivity.weights[e]
         })
     };
-    advect_rows(connectivity, nodes, particles, |p, x, v, a, v_grid| {
-        let kick = if kicks.is_empty() {
-            D::Vector::ZERO
-        } else {
-            kick_of(p)
-        };
-        update(x, v, a, v_grid, kick);
+    advect_rows(connectivity, nodes, particles, |p, x, v, mut motion| {
+        if !kicks.is_empty() {
+            motion.kick = kick_of(p);
+        }
+        update(x, v, motion);
     });
 }
 

@@ -151,7 +151,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
 }
 
 /// Every pair names groups some body belongs to, once, with μ >= 0.
-fn check_pairs(
+pub(crate) fn check_pairs(
     installer: &mut Installer,
     params: &Params,
     pairs: &[PairFriction],

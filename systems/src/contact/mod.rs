@@ -2,3 +2,5 @@
 
 pub mod frictional;
 pub mod frictional_law;
+pub mod penalty;
+pub mod penalty_law;

@@ -1,0 +1,637 @@
+//! Penalty contact between particles of different contact groups: a potential of the particles'
+//! positions on a smoothed surface, applied to each group's velocity field through the shape
+//! functions.
+//!
+//! - Stage: contact. Registration name: `contact/penalty`. Needs `partition/bodies` (one
+//!   velocity field per contact group, which alone would let the bodies pass through each
+//!   other: this system is then their only interaction).
+//! - The law is `contact::penalty_law` (penalty contact in MPM on the smoothed surface of each
+//!   body's particles; see its header for the potential, the stiffness and the friction). It is
+//!   the energy-conserving alternative to `contact/frictional` (dfg-partitioning-mpm.md §1.1.1,
+//!   Algorithm 3), whose nodal projection is a plastic collision of the fields at every step
+//!   and engages as soon as two bodies share a node.
+//! - Per step: each particle's contact position and velocity; in bins of the largest kernel
+//!   reach, each particle's depth in the other groups' material, then its pair forces; and the
+//!   node force of each field `f_Ik = Σ_p N_Ip f_p` over the particles of field `k`. Sums run
+//!   per particle and per node in a fixed order, so the result is the same for any thread count.
+//! - Integrators. The system reads the integrator's `GridIntegration` and is placed where it
+//!   says a grid force acts (`Installer::add_impulse_systems`):
+//!   - Newmark (`predictor/newmark`), after the stress: the stress is evaluated in the
+//!     predicted configuration `x_p + Δt Σ N ṽ_I`, so the contact is too (a force taken at the
+//!     start-of-step positions lags the motion and pumps energy into a vibrating contact); the
+//!     forces go to `NodeContactForce`, which the corrector integrates with the stress. With
+//!     `advection/newmark`'s `Consistent` update the particles then move to that configuration.
+//!   - Update-stress-last (`predictor/usl`), in the grid-update window: the contact at the
+//!     start-of-step positions, the end-of-step velocities and accelerations corrected in
+//!     place, before the stress takes its velocity gradient (a symplectic Euler step of the
+//!     potential).
+//!   - The friction reads the grid velocity at each particle: `ṽ` (Newmark) or the end-of-step
+//!     velocity before contact (update-stress-last). Held velocity components take no contact
+//!     force.
+//! - Particle sizes come from the initial volumes, so that the potential depends on positions
+//!   alone (a size that followed the strain would change the stored energy without work).
+//! - Energy: the contact energy `Σ ½ K (S − s₀)₊²` is stored energy, published as the engine's
+//!   `ContactPotential` (which the energy totals add) and as the `series.csv` column
+//!   `contact_energy`; the column `friction_work` accumulates the friction's work on the pairs'
+//!   relative motion (≤ 0, the energy friction has dissipated).
+
+pub use super::penalty_law::{ContactParticle, PairContact, PairLaw, PenaltyParams};
+use super::penalty_law::{
+    KERNEL_REACH, depth_energy, depth_slope, kernel, pair_force, penalty_modulus,
+};
+use bevy_ecs::system::SystemParam;
+use fractum_engine::energy::ContactPotential;
+use fractum_engine::prelude::*;
+use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// Registration of `contact/penalty`.
+pub const REGISTRATION: Registration = Registration {
+    name: "contact/penalty",
+    summary: "penalty contact between particles of different contact groups: ½ k δ² on \
+              overlapping particle domains, with Coulomb friction",
+    params: &[
+        ParamDoc {
+            name: "stiffness",
+            ty: "f64",
+            default: Some("1.0"),
+            doc: "κ > 0: pair stiffness k = κ Ē A / (r_a + r_b); 1 makes a layer of pairs as \
+                  stiff as one particle spacing of the material",
+        },
+        ParamDoc {
+            name: "friction",
+            ty: "f64",
+            default: Some("0.0"),
+            doc: "Coulomb friction coefficient μ >= 0",
+        },
+        ParamDoc {
+            name: "pairs",
+            ty: "[(groups: (u8, u8), friction: f64)]",
+            default: Some("[]"),
+            doc: "friction coefficients for particular pairs of contact groups; other pairs use \
+                  `friction`",
+        },
+    ],
+    requires: &["partition/bodies"],
+    install,
+};
+
+/// Upper bound of a pair's stiffness factor: beyond it a pair vibrates faster than the
+/// material's fastest mode by more than the stable step allows (`√(2κ)` times a particle's
+/// `c/h`, against a step of a fraction of `h/c`).
+const MAX_STIFFNESS: f64 = 2.0;
+
+fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    let parsed: PenaltyParams = params.parse()?;
+    params.require(
+        "stiffness",
+        parsed.stiffness > 0.0 && parsed.stiffness <= MAX_STIFFNESS,
+        &format!(
+            "expected κ in (0, {MAX_STIFFNESS}]: a stiffer pair vibrates faster than the time \
+             step resolves"
+        ),
+    )?;
+    params.require_non_negative(
+        "friction",
+        parsed.friction,
+        "expected a friction coefficient μ >= 0",
+    )?;
+    super::frictional::check_pairs(installer, params, &parsed.pairs)?;
+    let moduli = ContactModuli(
+        installer
+            .world()
+            .get_resource::<Materials>()
+            .map(|m| m.0.iter().map(|m| m.youngs_modulus).collect())
+            .unwrap_or_default(),
+    );
+    installer.insert_resource(moduli);
+    installer.insert_resource(parsed);
+    installer.init_state::<ContactPotential>();
+    let energy = installer.add_series_column("contact_energy");
+    let friction = installer.add_series_column("friction_work");
+    installer.insert_resource(PenaltyColumns { energy, friction });
+    with_dim!(installer.dimension(), D => {
+        installer.add_node_component(NodeContactForce::<D>::default());
+        installer.add_node_component(NodeContactImpulse::<D>::default());
+        installer.add_impulse_systems(penalty_contact::<D>)
+    })
+}
+
+/// Young's modulus of each material, by `MaterialId`.
+#[derive(Resource, Clone, Debug, Default, PartialEq)]
+pub struct ContactModuli(pub Vec<f64>);
+
+/// The slots of the `contact_energy` and `friction_work` series columns.
+#[derive(Resource, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PenaltyColumns {
+    /// `contact_energy`: the pairs' stored energy now.
+    pub energy: usize,
+    /// `friction_work`: the friction's work since the start.
+    pub friction: usize,
+}
+
+/// What the contact gives each particle: the summed force of its pairs, its contact energy, and
+/// its share of the pairs' friction power (half of each pair's, so that the sum over particles
+/// is the pairs' sum).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ParticleContact<V> {
+    /// Summed force of the particle's pairs on it.
+    pub force: V,
+    /// Its contact energy `½ K_p (S_p − s₀)₊²`.
+    pub energy: f64,
+    /// Half the friction power of its pairs.
+    pub friction_power: f64,
+}
+
+/// The particles of the contact, in particle-row order.
+pub struct ContactSet<'a, V> {
+    /// Each particle's state for the law.
+    pub particles: &'a [ContactParticle<V>],
+    /// Each particle's contact group.
+    pub groups: &'a [ContactGroup],
+}
+
+/// Bins of side the largest kernel reach: a particle's partners lie in its own bin or the
+/// adjacent ones. Each bin lists its particles in row order and whether it holds more than one
+/// contact group.
+struct Bins {
+    side: f64,
+    origin: [f64; 3],
+    cells: HashMap<[i64; 3], Bin>,
+}
+
+struct Bin {
+    rows: Vec<u32>,
+    group: u8,
+    mixed: bool,
+}
+
+impl Bins {
+    fn new<V: VectorOps>(set: &ContactSet<V>) -> Option<Self> {
+        let side = KERNEL_REACH * set.particles.iter().map(|p| p.width).fold(0.0, f64::max);
+        if !(side > 0.0 && side.is_finite()) {
+            return None;
+        }
+        let mut origin = [f64::INFINITY; 3];
+        for p in set.particles {
+            let x = p.position.to_3d();
+            for a in 0..3 {
+                origin[a] = origin[a].min(x[a]);
+            }
+        }
+        let mut bins = Self {
+            side,
+            origin,
+            cells: HashMap::new(),
+        };
+        for (row, (p, group)) in set.particles.iter().zip(set.groups).enumerate() {
+            let bin = bins.cells.entry(bins.key(p.position)).or_insert(Bin {
+                rows: Vec::new(),
+                group: group.0,
+                mixed: false,
+            });
+            bin.mixed |= bin.group != group.0;
+            bin.rows.push(row as u32);
+        }
+        Some(bins)
+    }
+
+    fn key<V: VectorOps>(&self, x: V) -> [i64; 3] {
+        let x = x.to_3d();
+        std::array::from_fn(|a| ((x[a] - self.origin[a]) / self.side).floor() as i64)
+    }
+
+    /// The bins around `x` (its own and the adjacent ones, in a fixed order).
+    fn around<V: VectorOps>(&self, x: V, dimension: usize) -> impl Iterator<Item = &Bin> + '_ {
+        let centre = self.key(x);
+        let span = move |a: usize| if a < dimension { -1..=1 } else { 0..=0 };
+        span(0)
+            .flat_map(move |i| span(1).flat_map(move |j| span(2).map(move |k| [i, j, k])))
+            .filter_map(move |d| {
+                self.cells
+                    .get(&[centre[0] + d[0], centre[1] + d[1], centre[2] + d[2]])
+            })
+    }
+}
+
+impl Bins {
+    /// Calls `visit(q)` for every particle `q` of another group than `row`'s within reach of
+    /// it, in a fixed order.
+    fn partners<V: VectorOps>(
+        &self,
+        set: &ContactSet<V>,
+        row: usize,
+        dimension: usize,
+        mut visit: impl FnMut(usize),
+    ) {
+        let group = set.groups[row].0;
+        for bin in self.around(set.particles[row].position, dimension) {
+            if !bin.mixed && bin.group == group {
+                continue;
+            }
+            for &other in &bin.rows {
+                if set.groups[other as usize].0 != group {
+                    visit(other as usize);
+                }
+            }
+        }
+    }
+}
+
+/// Each particle's contact with the particles of other groups (see [`ParticleContact`]), with
+/// the friction coefficient of each pair of groups from `params`: first each particle's depth
+/// `S_p` in the other groups' material, then the pair forces. Partners are visited from both
+/// sides, each side in a fixed order, so the sums are the same for any thread count.
+pub fn particle_contacts<V: VectorOps>(
+    set: &ContactSet<V>,
+    params: &PenaltyParams,
+    law: &PairLaw,
+) -> Vec<ParticleContact<V>> {
+    let Some(bins) = Bins::new(set) else {
+        return vec![ParticleContact::default(); set.particles.len()];
+    };
+    let d = law.dimension;
+    let particles = set.particles;
+    // K_p and the depth S_p of every particle.
+    let depths: Vec<(f64, f64)> = (0..particles.len())
+        .into_par_iter()
+        .map(|row| {
+            let me = &particles[row];
+            let mut depth = 0.0;
+            bins.partners(set, row, d, |q| {
+                depth += kernel(me.position - particles[q].position, particles[q].width, d);
+            });
+            (penalty_modulus(me, law), depth)
+        })
+        .collect();
+    let slopes: Vec<f64> = depths.iter().map(|&(k, s)| depth_slope(k, s)).collect();
+    (0..particles.len())
+        .into_par_iter()
+        .map(|row| {
+            let (me, group) = (&particles[row], set.groups[row].0);
+            let mut sum = ParticleContact {
+                energy: depth_energy(depths[row].0, depths[row].1),
+                ..ParticleContact::default()
+            };
+            bins.partners(set, row, d, |q| {
+                let pair = PairLaw {
+                    friction: params.friction_between(group, set.groups[q].0),
+                    ..*law
+                };
+                if let Some(c) = pair_force((me, slopes[row]), (&particles[q], slopes[q]), &pair) {
+                    sum.force += c.force;
+                    sum.friction_power += 0.5 * c.friction_power;
+                }
+            });
+            sum
+        })
+        .collect()
+}
+
+/// The contact force on each field of each node, `f_Ik = Σ_p N_Ip f_p` over the particles of
+/// field `k` (node-major, in particle order), with held components cleared.
+pub fn node_forces<D: Dim>(
+    c: &Connectivity<D>,
+    forces: &[ParticleContact<D::Vector>],
+    held: &[[bool; fractum_engine::boundary::MAX_COMPONENTS]],
+    out: &mut [NodeContactForce<D>],
+) {
+    out.par_iter_mut().enumerate().for_each(|(i, node)| {
+        let mut f = [D::Vector::ZERO; MAX_FIELDS];
+        if let Some(&[from, to]) = c.node_offsets.get(i..i + 2) {
+            for &(e, p) in &c.node_entries[from..to] {
+                let (e, p) = (e as usize, p as usize);
+                f[c.field(e)] += forces[p].force * c.weights[e];
+            }
+        }
+        for fk in &mut f {
+            for (a, &h) in held[i].iter().enumerate().take(D::N) {
+                if h {
+                    fk[a] = 0.0;
+                }
+            }
+        }
+        node.0 = f;
+    });
+}
+
+/// The grid velocity of each particle's field, `Σ N_Ip v_Ik` (the field of each entry).
+fn grid_velocities<D: Dim>(c: &Connectivity<D>, velocity: &[NodeVelocity<D>]) -> Vec<D::Vector> {
+    (0..c.particle_count())
+        .into_par_iter()
+        .map(|p| {
+            c.row(p).fold(D::Vector::ZERO, |v, e| {
+                v + velocity[c.nodes[e] as usize].0[c.field(e)] * c.weights[e]
+            })
+        })
+        .collect()
+}
+
+/// The resources the penalty system reads.
+#[derive(SystemParam)]
+pub struct PenaltyInputs<'w, D: Dim> {
+    clock: Res<'w, SimClock>,
+    params: Res<'w, PenaltyParams>,
+    moduli: Res<'w, ContactModuli>,
+    integration: Res<'w, GridIntegration>,
+    bcs: Res<'w, BoundaryConditions>,
+    connectivity: Res<'w, Connectivity<D>>,
+    thickness: Option<Res<'w, Thickness>>,
+    slots: Res<'w, PenaltyColumns>,
+    columns: ResMut<'w, SeriesColumns>,
+    potential: ResMut<'w, ContactPotential>,
+}
+
+type ParticleQuery<'w, 's, D> = Query<
+    'w,
+    's,
+    (
+        &'static Position<D>,
+        &'static Mass,
+        &'static InitialVolume,
+        &'static MaterialId,
+        &'static ContactGroup,
+    ),
+    With<Particle>,
+>;
+
+type NodeQuery<'w, 's, D> = Query<
+    'w,
+    's,
+    (
+        &'static NodeMass,
+        &'static mut NodeVelocity<D>,
+        &'static mut NodeAcceleration<D>,
+        &'static mut NodeContactForce<D>,
+    ),
+    With<Node>,
+>;
+
+/// The `contact/penalty` system, with either integrator (see the module header).
+pub fn penalty_contact<D: Dim>(
+    mut inputs: PenaltyInputs<D>,
+    particles: ParticleQuery<D>,
+    mut nodes: NodeQuery<D>,
+) {
+    let Some((positions, mass, volume, material, groups)) =
+        single_table(particles.contiguous_iter(), "particles")
+    else {
+        return;
+    };
+    let Some((node_mass, mut velocity, mut acceleration, mut contact)) =
+        single_table(nodes.contiguous_iter_mut(), "nodes")
+    else {
+        return;
+    };
+    let c = &*inputs.connectivity;
+    let (integration, dt) = (*inputs.integration, inputs.clock.dt);
+    let thickness = if D::N == 2 {
+        inputs.thickness.as_ref().map_or(1.0, |t| t.0)
+    } else {
+        1.0
+    };
+    let grid_velocity = grid_velocities(c, &velocity);
+    // Newmark's stress sees the predicted configuration; update-stress-last's grid update
+    // the start-of-step one.
+    let lookahead = match integration {
+        GridIntegration::PredictorCorrector { .. } => dt,
+        GridIntegration::UpdateStressLast => 0.0,
+    };
+    let states: Vec<ContactParticle<D::Vector>> = (0..positions.len())
+        .into_par_iter()
+        .map(|p| ContactParticle {
+            position: positions[p].0 + grid_velocity[p] * lookahead,
+            velocity: grid_velocity[p],
+            width: 2.0 * crate::basis::gimp::domain_half_width(volume[p].0, thickness, D::N),
+            mass: mass[p].0,
+            modulus: inputs
+                .moduli
+                .0
+                .get(usize::from(material[p].0))
+                .copied()
+                .unwrap_or(0.0),
+        })
+        .collect();
+    let law = PairLaw {
+        stiffness: inputs.params.stiffness,
+        friction: inputs.params.friction,
+        thickness,
+        dimension: D::N,
+        window: integration.force_window(dt),
+    };
+    let set = ContactSet {
+        particles: &states,
+        groups,
+    };
+    let forces = particle_contacts(&set, &inputs.params, &law);
+    let held = inputs.bcs.held_mask(node_mass.len());
+    node_forces(c, &forces, &held, &mut contact);
+    if integration == GridIntegration::UpdateStressLast {
+        let kicks: (&mut [NodeVelocity<D>], &mut [NodeAcceleration<D>]) =
+            (&mut velocity, &mut acceleration);
+        kicks
+            .0
+            .par_iter_mut()
+            .zip(kicks.1.par_iter_mut())
+            .zip(node_mass.par_iter().zip(contact.par_iter()))
+            .for_each(|((v, a), (m, f))| {
+                for k in 0..MAX_FIELDS {
+                    if m.0[k] > 0.0 {
+                        v.0[k] += f.0[k] * (dt / m.0[k]);
+                        a.0[k] += f.0[k] / m.0[k];
+                    }
+                }
+            });
+    }
+    // Sequential sums in particle order: the same bits for any thread count.
+    let energy: f64 = forces.iter().map(|f| f.energy).sum();
+    let power: f64 = forces.iter().map(|f| f.friction_power).sum();
+    inputs.potential.0 = energy;
+    let slots = *inputs.slots;
+    inputs.columns.values[slots.energy] = energy;
+    inputs.columns.values[slots.friction] += power * dt;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fractum_engine::testing::*;
+
+    /// `fractum systems` documents the fields its parameters read, and its documented defaults
+    /// are theirs.
+    #[test]
+    fn parameter_docs_match_the_parameters() {
+        crate::param_docs::assert_defaults::<PenaltyParams>(&REGISTRATION);
+    }
+
+    /// Two particles of groups 0 and 1, 0.4 apart with domains 0.5 wide (overlap 0.1), on a
+    /// tiny world after the basis, the field assignment and `predictor`, with the resources
+    /// the installer gives.
+    fn overlapping_pair<M>(
+        predictor: impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, M>,
+        integration: GridIntegration,
+    ) -> World {
+        let mut world = tiny_world::<Two>(2, 0.5, 1e-3);
+        world.insert_resource(PenaltyParams::default());
+        world.insert_resource(ContactModuli(vec![100.0]));
+        world.insert_resource(ContactPotential::default());
+        let mut columns = SeriesColumns::default();
+        let energy = columns.declare("contact_energy");
+        let friction = columns.declare("friction_work");
+        world.insert_resource(columns);
+        world.insert_resource(PenaltyColumns { energy, friction });
+        world.insert_resource(crate::predictor::usl::UslPredictorParams::default());
+        world.insert_resource(crate::predictor::newmark::NewmarkParams::default());
+        world.insert_resource(integration);
+        give_nodes(&mut world, NodeContactForce::<Two>::default());
+        give_nodes(&mut world, NodeContactImpulse::<Two>::default());
+        // Volume 0.25 m² at unit thickness: half-width 0.25.
+        let a = spawn_particle(&mut world, DVec2::new(0.3, 0.3), DVec2::ZERO, 1.0, 0.25);
+        let b = spawn_particle(&mut world, DVec2::new(0.7, 0.3), DVec2::ZERO, 1.0, 0.25);
+        world.entity_mut(a).insert(ContactGroup(0));
+        world.entity_mut(b).insert(ContactGroup(1));
+        run_system(&mut world, crate::basis::linear::linear_basis::<Two>);
+        run_system(
+            &mut world,
+            crate::partition::field_assignment::assign_fields_system::<Two>,
+        );
+        run_system(&mut world, predictor);
+        world
+    }
+
+    /// Sum of a node column's field vectors over all nodes and fields.
+    fn total<C: Component + Copy>(
+        world: &mut World,
+        of: impl Fn(&C) -> [DVec2; MAX_FIELDS],
+    ) -> DVec2 {
+        node_values::<C>(world)
+            .iter()
+            .flat_map(of)
+            .fold(DVec2::ZERO, |s, v| s + v)
+    }
+
+    /// What the law gives the pair of [`overlapping_pair`] at rest, computed without the ECS.
+    fn pair_at_rest() -> Vec<ParticleContact<DVec2>> {
+        let at = |x: f64| ContactParticle {
+            position: DVec2::new(x, 0.3),
+            velocity: DVec2::ZERO,
+            width: 0.5,
+            mass: 1.0,
+            modulus: 100.0,
+        };
+        let law = PairLaw {
+            stiffness: 1.0,
+            friction: 0.0,
+            thickness: 1.0,
+            dimension: 2,
+            window: 1e-3,
+        };
+        let set = ContactSet {
+            particles: &[at(0.3), at(0.7)],
+            groups: &[ContactGroup(0), ContactGroup(1)],
+        };
+        particle_contacts(&set, &PenaltyParams::default(), &law)
+    }
+
+    /// Newmark: each particle's contact force reaches the nodes of its own field, equal and
+    /// opposite; the contact energy is in the potential and the series column.
+    #[test]
+    fn the_pair_force_reaches_each_fields_nodes_with_newmark() {
+        let mut world = overlapping_pair(
+            crate::predictor::newmark::newmark_predictor::<Two>,
+            GridIntegration::PredictorCorrector { gamma: 0.5 },
+        );
+        run_system(&mut world, penalty_contact::<Two>);
+        let forces = node_values::<NodeContactForce<Two>>(&mut world);
+        let fields = node_values::<NodeFields>(&mut world);
+        let (mut on_0, mut on_1) = (DVec2::ZERO, DVec2::ZERO);
+        for (f, keys) in forces.iter().zip(&fields) {
+            for (k, key) in keys.active().iter().enumerate() {
+                if key.group() == 0 {
+                    on_0 += f.0[k];
+                } else {
+                    on_1 += f.0[k];
+                }
+            }
+        }
+        let expected = pair_at_rest();
+        // The domains (0.5 wide, 0.4 apart) overlap: the pair pushes apart along x.
+        assert!(expected[0].force.x < 0.0 && expected[0].force.y.abs() < 1e-15);
+        assert!((on_0 - expected[0].force).length() < 1e-12, "{on_0}");
+        assert!((on_0 + on_1).length() < 1e-14);
+        let potential = world.resource::<ContactPotential>().0;
+        assert!(potential > 0.0);
+        assert_eq!(potential, expected[0].energy + expected[1].energy);
+        let columns = world.resource::<SeriesColumns>();
+        assert_eq!(columns.value("contact_energy"), Some(potential));
+        let momentum_change = total::<NodeContactForce<Two>>(&mut world, |f| f.0);
+        assert!(momentum_change.length() < 1e-14);
+    }
+
+    /// Update-stress-last: the force changes the end-of-step velocities of the two fields in
+    /// place, by `Δt f / m` at each node, and pushes them apart.
+    #[test]
+    fn update_stress_last_kicks_the_fields_apart_in_the_grid_update() {
+        let mut world = overlapping_pair(
+            crate::predictor::usl::usl_predictor::<Two>,
+            GridIntegration::UpdateStressLast,
+        );
+        let before = node_values::<NodeVelocity<Two>>(&mut world);
+        run_system(&mut world, penalty_contact::<Two>);
+        let after = node_values::<NodeVelocity<Two>>(&mut world);
+        let masses = node_values::<NodeMass>(&mut world);
+        let fields = node_values::<NodeFields>(&mut world);
+        let mut momentum = [DVec2::ZERO; 2];
+        for i in 0..after.len() {
+            for (k, key) in fields[i].active().iter().enumerate() {
+                momentum[usize::from(key.group())] +=
+                    (after[i].0[k] - before[i].0[k]) * masses[i].0[k];
+            }
+        }
+        // Δt f on each particle.
+        let dt_force = pair_at_rest()[0].force * 1e-3;
+        assert!(dt_force.x < 0.0);
+        assert!((momentum[0] - dt_force).length() < 1e-15);
+        assert!((momentum[1] + dt_force).length() < 1e-15);
+    }
+
+    /// Particles of one group never act on each other, however close: two of group 3
+    /// overlapping each other and one of group 4 push only across the groups.
+    #[test]
+    fn one_group_is_left_to_the_continuum() {
+        let state = |x: f64| ContactParticle {
+            position: DVec2::new(x, 0.0),
+            velocity: DVec2::ZERO,
+            width: 1.0,
+            mass: 1.0,
+            modulus: 1.0,
+        };
+        let law = PairLaw {
+            stiffness: 1.0,
+            friction: 0.0,
+            thickness: 1.0,
+            dimension: 2,
+            window: 1.0,
+        };
+        let particles = [state(0.0), state(0.2), state(0.9)];
+        let alone = ContactSet {
+            particles: &particles[..2],
+            groups: &[ContactGroup(3), ContactGroup(3)],
+        };
+        let forces = particle_contacts(&alone, &PenaltyParams::default(), &law);
+        assert!(
+            forces
+                .iter()
+                .all(|f| f.force == DVec2::ZERO && f.energy == 0.0)
+        );
+        let groups = [ContactGroup(3), ContactGroup(3), ContactGroup(4)];
+        let set = ContactSet {
+            particles: &particles,
+            groups: &groups,
+        };
+        let forces = particle_contacts(&set, &PenaltyParams::default(), &law);
+        assert!(forces[0].force.x < 0.0 && forces[1].force.x < 0.0 && forces[2].force.x > 0.0);
+        let net: DVec2 = forces.iter().map(|f| f.force).sum();
+        assert!(net.length() < 1e-15);
+    }
+}
