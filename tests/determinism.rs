@@ -117,6 +117,21 @@ fn dfg_partition_and_contact_one_and_two_threads_give_identical_bits() {
 }
 
 #[test]
+fn penalty_contact_one_and_two_threads_give_identical_bits() {
+    // The disks through their impact (surfaces touch at t = 1.55 s) with friction, so that
+    // both the normal and the tangential pair forces act.
+    let mut spec = spec::<Two>("two_disks_penalty.ron", None);
+    let contact = spec
+        .pipeline
+        .iter()
+        .position(|e| e.system == "contact/penalty")
+        .unwrap();
+    spec.pipeline[contact] = PipelineEntry::with_params("contact/penalty", "(friction: 0.3)");
+    let run = |threads| state_after(spec.clone(), threads, 1700);
+    assert_same(&run(1), &run(2));
+}
+
+#[test]
 fn usl_contact_in_the_grid_update_one_and_two_threads_give_identical_bits() {
     // GIMP shape functions, frictional contact correcting the USL grid update: the block slides
     // for 0.17 s; 1000 steps cover a third of it.
