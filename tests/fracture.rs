@@ -271,10 +271,38 @@ fn a_rankine_band_as_wide_as_its_length_absorbs_the_fracture_energy_per_unit_are
 /// crack speed replaced by `crack_speed`: (time, the largest x of a fully failed particle on
 /// the crack line).
 fn time_to_failure_tip(crack_speed: f64) -> Vec<(f64, f64)> {
-    let speed = format!("crack_speed: {crack_speed:?}");
+    time_to_failure_tip_refined(crack_speed, 1, None)
+}
+
+/// As [`time_to_failure_tip`], on a grid `refinement` times finer (the spacing, the step and
+/// the notch's band divided by it) and with `characteristic_length` set when given.
+fn time_to_failure_tip_refined(
+    crack_speed: f64,
+    refinement: u32,
+    characteristic_length: Option<f64>,
+) -> Vec<(f64, f64)> {
+    let k = f64::from(refinement);
+    let mut damage = format!("crack_speed: {crack_speed:?}");
+    if let Some(length) = characteristic_length {
+        damage += &format!(", characteristic_length: {length:?}");
+    }
+    let (spacing, step) = (
+        format!("spacing: {:?})", 0.02 / k),
+        format!("Fixed({:?})", 1.0e-5 / k),
+    );
+    let notch = format!(
+        "Rectangle(min: (0.0, {:?}), max: (0.1, {:?}))",
+        0.2 - 0.01 / k,
+        0.2 + 0.01 / k
+    );
     let mut built = scene_with(
         "time_to_failure_strip.ron",
-        &[("crack_speed: 200.0", &speed)],
+        &[
+            ("crack_speed: 200.0", &damage),
+            ("spacing: 0.02)", &spacing),
+            ("Fixed(1.0e-5)", &step),
+            ("Rectangle(min: (0.0, 0.19), max: (0.1, 0.21))", &notch),
+        ],
     );
     let sim = &mut built.simulation;
     let mut tips = Vec::new();
@@ -293,6 +321,22 @@ fn time_to_failure_tip(crack_speed: f64) -> Vec<(f64, f64)> {
     tips
 }
 
+/// The front's speed once the load has stopped rising (t > 2 ms), while the tip runs from
+/// x = 0.2 to 0.9 m.
+fn steady_front_speed(tips: &[(f64, f64)]) -> f64 {
+    let steady: Vec<(f64, f64)> = tips
+        .iter()
+        .copied()
+        .filter(|&(t, x)| t > 2.0e-3 && x > 0.2 && x < 0.9)
+        .collect();
+    assert!(
+        steady.len() > 100,
+        "the crack ran through too soon: {}",
+        steady.len()
+    );
+    slope(&steady)
+}
+
 /// Least-squares slope of `points`.
 fn slope(points: &[(f64, f64)]) -> f64 {
     let n = points.len() as f64;
@@ -307,26 +351,25 @@ fn slope(points: &[(f64, f64)]) -> f64 {
 
 /// At this resolution (h = 0.02 m, two particles per cell) the failure front runs at 0.915 c_f
 /// for c_f = 100 m/s and 0.911 c_f for 200 m/s (measured). It is not the prescribed speed in
-/// general, and this test does not claim it is: at c_f = 300 m/s (half the Rayleigh speed) the
-/// front runs at 0.86 c_f, and on a grid twice as fine (h = 0.01 m, c_f = 200 m/s) at
-/// 1.53 c_f, because the next particle passes σ_f while the one before it is still failing, and
-/// how soon depends on the stress concentration the grid resolves.
+/// general, and this test does not claim it is. The front crosses one particle spacing s = h/2
+/// in the time the particle behind it takes to reach the damage D* at which the next one passes
+/// σ_f, so it runs at s / (D* τ), τ = l_ch / c_f. With the paper's l_ch, the cell diagonal, τ
+/// shrinks with the grid while the zone ahead of the tip that is above σ_f keeps its size, so
+/// the front speeds up under refinement (release runs, the scene's spacing, step and notch band
+/// divided by k, least squares while the tip runs from x = 0.2 to 0.9 m after 2 ms):
+///
+/// | h | c_f = 100 m/s | c_f = 200 m/s |
+/// | --- | --- | --- |
+/// | 0.02 m | 0.91 c_f | 0.91 c_f |
+/// | 0.01 m | 1.72 c_f | 1.54 c_f |
+/// | 0.005 m | 3.00 c_f | 2.13 c_f (0.73 c_R) |
+///
+/// The paper's claim of a speed "predictable even as the mesh is refined" (its §2.7) needs τ
+/// held fixed: see the next test.
 #[test]
 fn a_time_to_failure_crack_runs_within_ten_percent_of_c_f_at_the_shipped_resolution() {
     for crack_speed in [100.0, 200.0] {
-        let tips = time_to_failure_tip(crack_speed);
-        // Once the load has stopped rising (t > 2 ms), until the tip nears the far end.
-        let steady: Vec<(f64, f64)> = tips
-            .iter()
-            .copied()
-            .filter(|&(t, x)| t > 2.0e-3 && x > 0.2 && x < 0.9)
-            .collect();
-        assert!(
-            steady.len() > 100,
-            "the crack ran through too soon: {}",
-            steady.len()
-        );
-        let speed = slope(&steady);
+        let speed = steady_front_speed(&time_to_failure_tip(crack_speed));
         eprintln!(
             "time-to-failure crack at c_f = {crack_speed} m/s: front speed {speed:.1} m/s ({:.3} of c_f)",
             speed / crack_speed
@@ -334,6 +377,36 @@ fn a_time_to_failure_crack_runs_within_ten_percent_of_c_f_at_the_shipped_resolut
         assert!(
             (speed / crack_speed - 1.0).abs() < 0.10,
             "crack speed {speed} m/s against c_f {crack_speed} m/s"
+        );
+    }
+}
+
+/// With `characteristic_length` held at the shipped grid's cell diagonal, the time-to-failure
+/// front converges under refinement: its speed on a grid twice as fine is within 10% of the
+/// shipped grid's, for two values of c_f. Measured here: 0.915 and 0.867 c_f at h and h/2 for
+/// c_f = 100 m/s, 0.911 and 0.859 c_f for 200 m/s; at h/4 0.852 and 0.832 c_f (release runs,
+/// the tip read from frames every 0.1 ms). The front
+/// advances about 0.021–0.024 m (the zone above σ_f ahead of its tip) per τ whatever the grid,
+/// so its speed is set by τ, not by c_f alone: it is within 10% of c_f only at h.
+#[test]
+fn a_time_to_failure_front_converges_with_a_fixed_characteristic_length() {
+    let diagonal = 0.02 * 2f64.sqrt();
+    for crack_speed in [100.0, 200.0] {
+        let speeds: Vec<f64> = [1, 2]
+            .iter()
+            .map(|&k| {
+                steady_front_speed(&time_to_failure_tip_refined(crack_speed, k, Some(diagonal)))
+            })
+            .collect();
+        eprintln!(
+            "time-to-failure front, l_ch fixed at {diagonal:.4} m, c_f = {crack_speed} m/s: \
+             {:.3} c_f at h = 0.02 m, {:.3} c_f at 0.01 m",
+            speeds[0] / crack_speed,
+            speeds[1] / crack_speed
+        );
+        assert!(
+            (speeds[1] / speeds[0] - 1.0).abs() < 0.10,
+            "c_f {crack_speed}: {speeds:?} m/s"
         );
     }
 }

@@ -3,7 +3,7 @@
 //! field path, which a file's spec turns into a place in the text.
 
 use super::SceneError;
-use super::format::Probe;
+use super::format::{Placement, Probe};
 use super::seed::cell_points;
 use super::shape::Shape;
 use super::spec::{Condition, Spec};
@@ -190,7 +190,14 @@ impl<D: Dim> Spec<D> {
                     .source
                     .error(&field("particles_per_cell"), "expected 1 to 16"));
             }
-            if cell_points(body.placement, body.particles_per_cell).is_none() {
+            if body.placement == Placement::Rings {
+                if !matches!(body.shape, Shape::Disk { .. }) {
+                    return Err(self.source.error(
+                        &field("placement"),
+                        "Rings placement seeds Disk shapes only; use Uniform or Gauss",
+                    ));
+                }
+            } else if cell_points(body.placement, body.particles_per_cell).is_none() {
                 return Err(self.source.error(
                     &field("particles_per_cell"),
                     "Gauss placement supports 1, 2 or 3 particles per cell per direction",

@@ -298,6 +298,12 @@ pub enum Placement {
     Uniform,
     /// Gauss–Legendre points of the cell (1 to 3 per direction), volumes from the Gauss weights.
     Gauss,
+    /// Concentric rings (`Disk` shapes only): `particles_per_cell` rings per cell width of the
+    /// grid at the centre, each ring's particles as far apart along it as the rings are, the
+    /// outermost ring's domains ending on the circle. A lattice disk's edge is a staircase whose
+    /// bottom run is about `√(R h)` long and carries a rolling disk's normal force like the flat
+    /// face of a box; a ring disk's edge is a polygon with sides one spacing long.
+    Rings,
 }
 
 /// Initial velocity of a body.

@@ -1,4 +1,5 @@
-//! Seeding bodies with particles: cell by cell, at sub-cell centres or Gauss points.
+//! Seeding bodies with particles: cell by cell, at sub-cell centres or Gauss points; or a disk
+//! in concentric rings.
 
 use super::format::Placement;
 use super::shape::Shape;
@@ -26,7 +27,35 @@ pub fn cell_points(placement: Placement, per_direction: u32) -> Option<Vec<(f64,
             }
             _ => None,
         },
+        Placement::Rings => None,
     }
+}
+
+/// A disk of `radius` about `center` as concentric rings `spacing` apart (adjusted so that a
+/// whole number of rings fills the radius): ring `i` at radius `(i + ½) ℓ` holds
+/// `max(1, round(2π r_i / ℓ))` particles that share its annulus's area equally, odd rings
+/// turned by half a particle. In 2D, volumes for `thickness`.
+pub fn rings_in_disk(
+    center: [f64; 2],
+    radius: f64,
+    spacing: f64,
+    thickness: f64,
+) -> Vec<([f64; 2], f64)> {
+    let rings = (radius / spacing).round().max(1.0) as usize;
+    let step = radius / rings as f64;
+    let mut out = Vec::new();
+    for i in 0..rings {
+        let r = (i as f64 + 0.5) * step;
+        let count = ((std::f64::consts::TAU * r / step).round() as usize).max(1);
+        let area = std::f64::consts::TAU * r * step;
+        let turn = if i % 2 == 1 { 0.5 } else { 0.0 };
+        for j in 0..count {
+            let angle = std::f64::consts::TAU * (j as f64 + turn) / count as f64;
+            let x = [center[0] + r * angle.cos(), center[1] + r * angle.sin()];
+            out.push((x, area / count as f64 * thickness));
+        }
+    }
+    out
 }
 
 /// Positions and volumes of the particles of `shape`, cell by cell in the order of cell
@@ -42,6 +71,18 @@ pub fn particles_in_shape<D: Dim>(
     placement: Placement,
     thickness: f64,
 ) -> Vec<(D::Vector, f64)> {
+    if placement == Placement::Rings {
+        let Shape::Disk { center, radius } = shape else {
+            return Vec::new();
+        };
+        let (at, cells) = (grid.axis_cell(0, center.x), grid.cells[0]);
+        let width = grid.cell_width(0, at.unwrap_or(0).min(cells.saturating_sub(1)));
+        let spacing = width / f64::from(per_direction);
+        return rings_in_disk([center.x, center.y], *radius, spacing, thickness)
+            .into_iter()
+            .map(|(x, v)| (D::Vector::from_fn(|a| x[a]), v))
+            .collect();
+    }
     let Some(points) = cell_points(placement, per_direction) else {
         return Vec::new();
     };
@@ -116,6 +157,77 @@ mod tests {
     use super::*;
     use crate::dim::{Three, Two};
     use glam::{DVec2, DVec3};
+
+    /// A ring disk holds exactly the disk's area, every particle inside it, the outermost ring's
+    /// domains ending on the circle, and neighbours along each ring about one spacing apart.
+    #[test]
+    fn a_ring_disk_fills_the_disk_with_particles_one_spacing_apart() {
+        let (centre, radius, spacing) = ([0.3, -0.2], 0.05, 0.0049);
+        let rings = rings_in_disk(centre, radius, spacing, 0.01);
+        let volume: f64 = rings.iter().map(|p| p.1).sum();
+        let disk = std::f64::consts::PI * radius * radius * 0.01;
+        assert!(
+            (volume / disk - 1.0).abs() < 1e-12,
+            "{volume} against {disk}"
+        );
+        // 10 rings 5 mm apart (the spacing adjusted to fill the radius).
+        let step = radius / 10.0;
+        let distance = |x: [f64; 2]| (x[0] - centre[0]).hypot(x[1] - centre[1]);
+        let outermost = rings.iter().map(|p| distance(p.0)).fold(0.0, f64::max);
+        assert!((outermost - (radius - 0.5 * step)).abs() < 1e-12);
+        for (i, ring) in rings_by_radius(&rings, centre).iter().enumerate() {
+            let r = (i as f64 + 0.5) * step;
+            assert!(ring.iter().all(|&a| (distance(a) - r).abs() < 1e-12));
+            if ring.len() > 2 {
+                let chord = 2.0 * r * (std::f64::consts::PI / ring.len() as f64).sin();
+                assert!(
+                    (chord / step - 1.0).abs() < 0.15,
+                    "ring {i}: {chord} m apart"
+                );
+            }
+        }
+    }
+
+    fn rings_by_radius(particles: &[([f64; 2], f64)], centre: [f64; 2]) -> Vec<Vec<[f64; 2]>> {
+        let mut rings: Vec<(f64, Vec<[f64; 2]>)> = Vec::new();
+        for &(x, _) in particles {
+            let r = (x[0] - centre[0]).hypot(x[1] - centre[1]);
+            match rings.iter_mut().find(|(ring, _)| (ring - r).abs() < 1e-9) {
+                Some((_, members)) => members.push(x),
+                None => rings.push((r, vec![x])),
+            }
+        }
+        rings.sort_by(|a, b| a.0.total_cmp(&b.0));
+        rings.into_iter().map(|(_, members)| members).collect()
+    }
+
+    /// `Rings` seeds a disk at the grid's cell width over `particles_per_cell`, in 2D; the
+    /// scene check refuses it on other shapes.
+    #[test]
+    fn rings_placement_seeds_a_disk_at_the_grid_s_spacing() {
+        let grid = Grid::<Two> {
+            min: DVec2::ZERO,
+            spacing: 0.1,
+            cells: [10, 10],
+            graded: None,
+        };
+        let disk = Shape::Disk {
+            center: DVec2::new(0.5, 0.5),
+            radius: 0.2,
+        };
+        let seeded = particles_in_shape(&disk, &grid, 2, Placement::Rings, 1.0);
+        assert_eq!(
+            seeded.len(),
+            rings_in_disk([0.5, 0.5], 0.2, 0.05, 1.0).len()
+        );
+        let volume: f64 = seeded.iter().map(|p| p.1).sum();
+        assert!((volume - std::f64::consts::PI * 0.04).abs() < 1e-12);
+        let square = Shape::Rectangle {
+            min: DVec2::ZERO,
+            max: DVec2::ONE,
+        };
+        assert!(particles_in_shape(&square, &grid, 2, Placement::Rings, 1.0).is_empty());
+    }
 
     #[test]
     fn rectangle_filling_whole_cells_has_exact_volume() {
