@@ -30,6 +30,7 @@ pub mod bench;
 pub mod cli;
 mod commands;
 pub mod crack;
+pub mod crossing;
 pub mod fragments;
 pub mod plot;
 pub mod remedy;

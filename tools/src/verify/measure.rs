@@ -2,6 +2,7 @@
 //! use: `series.csv` columns, `curve`'s load-curve summary, `crack`'s angle and speed,
 //! `fragments`' statistics. Every measure gives one number in SI units.
 
+use crate::crossing::{CrossingLine, crack_crossing};
 use crate::{crack, fragments, plot};
 use serde::Deserialize;
 use std::path::Path;
@@ -101,6 +102,20 @@ pub enum Measure {
     LargestFragment(FragmentsAt),
     /// The mass-weighted mean speed of the fragments (m/s).
     FragmentSpeed(FragmentsAt),
+    /// Where a crack crosses a line at the frame nearest `time` (the last when absent): the
+    /// centre of its band there (m, [`crossing`](crate::crossing)).
+    CrackCrossing(CrossingAt),
+}
+
+/// A crack's crossing of a line at one frame.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CrossingAt {
+    /// The time of the frame (s); the nearest written is used, the last when absent.
+    #[serde(default)]
+    pub time: Option<f64>,
+    /// The line and the window on it.
+    pub line: CrossingLine,
 }
 
 /// Where a crack starts (as `fractum crack` takes it).
@@ -145,6 +160,7 @@ impl Measure {
                 }
                 Ok(())
             }
+            Measure::CrackCrossing(at) => at.line.validate(),
             Measure::SeriesSlope { from, to, .. } if to <= from || to.is_nan() || from.is_nan() => {
                 Err("the window needs `to` after `from`".into())
             }
@@ -180,6 +196,9 @@ impl Measure {
                 .map(|f| f.diameter)
                 .fold(0.0, f64::max)),
             Measure::FragmentSpeed(at) => Ok(fragments::mean_speed(&fragments_at(dir, at)?)),
+            Measure::CrackCrossing(at) => {
+                crack_crossing(&crate::snapshot::frame_near(dir, at.time)?, &at.line)
+            }
             series_measure => series_measure.of_series(&read_series(dir)?),
         }
     }

@@ -11,8 +11,9 @@ use std::path::Path;
 
 /// `--list`: one line per case.
 pub fn listing(catalogue: &Catalogue, results: &Results, cases: &[&Case]) -> String {
+    let width = cases.iter().map(|c| c.name.len()).fold(4, usize::max);
     let mut text = format!(
-        "{:<26} {:<6} {:>7}  {:<16} title\n",
+        "{:<width$} {:<6} {:>7}  {:<16} title\n",
         "case", "tier", "cost", "last result"
     );
     for case in cases {
@@ -23,7 +24,7 @@ pub fn listing(catalogue: &Catalogue, results: &Results, cases: &[&Case]) -> Str
         let worst = worst_status(catalogue, results, case);
         let _ = writeln!(
             text,
-            "{:<26} {:<6} {:>7}  {:<16} {}",
+            "{:<width$} {:<6} {:>7}  {:<16} {}",
             case.name,
             case.tier.name(),
             case.cost_class(),

@@ -1,0 +1,152 @@
+//! Where a crack crosses a line: a crack path reduced to numbers that two runs can be compared
+//! by (the crack of one resolution against another's, or of one graded grid against a grid
+//! refined over a wider zone).
+//!
+//! At one frame, the crack near the line `coordinate[across] = level` is the set of particles
+//! damaged at least `damage_above` whose domains the line cuts (their centre within half their
+//! own size of it, the size read from their volume) and whose coordinate `along` lies in
+//! `between`, which picks one crack of several. Its crossing is their volume-weighted mean
+//! coordinate `along`: the centre of the band where it crosses, whatever the band's width and
+//! whatever the particle spacing, so runs on different grids give the same number for the same
+//! path.
+
+use crate::fragments::{frame_thickness, particle_size};
+use fractum_engine::output::ParticleFrame;
+use fractum_engine::scene::Axis;
+use serde::Deserialize;
+
+/// A line (a plane in 3D) and the window on it in which one crack is looked for.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CrossingLine {
+    /// The coordinate held fixed on the line.
+    pub across: Axis,
+    /// Its value (m).
+    pub level: f64,
+    /// The coordinate measured along the line.
+    pub along: Axis,
+    /// The window of `along` (m) in which the crack is looked for.
+    pub between: (f64, f64),
+    /// Particles damaged at least this much are crack.
+    #[serde(default = "half")]
+    pub damage_above: f64,
+}
+
+fn half() -> f64 {
+    0.5
+}
+
+/// How far from the line a particle's centre may lie, in its own sizes: half, and a hair more,
+/// so that a line along the boundary between two rows of a lattice (where rounding would
+/// otherwise decide) cuts both.
+const ON_LINE_REACH: f64 = 0.5 * (1.0 + 1.0e-9);
+
+impl CrossingLine {
+    /// Checks what can be checked without a frame.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.across == self.along {
+            return Err("`across` and `along` name the same axis".into());
+        }
+        let (low, high) = self.between;
+        if !(low.is_finite() && high.is_finite() && low < high) {
+            return Err(format!(
+                "between: ({low}, {high}): expected a window with its lower end first"
+            ));
+        }
+        if !self.level.is_finite() {
+            return Err("level: expected a finite coordinate".into());
+        }
+        Ok(())
+    }
+}
+
+/// The crack's crossing of `line` in `frame` (m), or why there is none.
+pub fn crack_crossing(frame: &ParticleFrame, line: &CrossingLine) -> Result<f64, String> {
+    let (planar, thickness) = frame_thickness(frame, None)?;
+    let (across, along) = (line.across.index(), line.along.index());
+    let (low, high) = line.between;
+    let mut weighted = 0.0;
+    let mut volume = 0.0;
+    for p in 0..frame.position.len() {
+        let x = frame.position[p];
+        let size = particle_size(frame.volume[p], planar, thickness);
+        let on_line = (x[across] - line.level).abs() <= ON_LINE_REACH * size;
+        if on_line && frame.damage[p] >= line.damage_above && (low..=high).contains(&x[along]) {
+            weighted += frame.volume[p] * x[along];
+            volume += frame.volume[p];
+        }
+    }
+    if volume > 0.0 {
+        Ok(weighted / volume)
+    } else {
+        Err(format!(
+            "no particle damaged at least {} crosses {:?} = {} with {:?} in [{low}, {high}]",
+            line.damage_above, line.across, line.level, line.along
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 2D frame of square particles of side `h` over [0, 1] × [0, 1], damaged where `band`
+    /// says.
+    fn lattice(h: f64, band: impl Fn(f64, f64) -> bool) -> ParticleFrame {
+        let n = (1.0 / h).round() as usize;
+        let mut frame = ParticleFrame {
+            thickness: Some(1.0),
+            ..Default::default()
+        };
+        for i in 0..n {
+            for j in 0..n {
+                let (x, y) = ((i as f64 + 0.5) * h, (j as f64 + 0.5) * h);
+                frame.position.push([x, y, 0.0]);
+                frame.volume.push(h * h);
+                frame.damage.push(if band(x, y) { 1.0 } else { 0.0 });
+            }
+        }
+        frame
+    }
+
+    fn line(level: f64, between: (f64, f64)) -> CrossingLine {
+        CrossingLine {
+            across: Axis::Y,
+            level,
+            along: Axis::X,
+            between,
+            damage_above: 0.5,
+        }
+    }
+
+    #[test]
+    fn an_inclined_band_crosses_where_its_centreline_does_at_any_spacing() {
+        // A band 3 mm wide about x = 0.2 + y (45°): it crosses y = 0.3 at x = 0.5.
+        let band = |x: f64, y: f64| ((x - 0.2 - y) / 2f64.sqrt()).abs() <= 1.5e-3;
+        for h in [1.0e-3, 5.0e-4, 2.5e-4] {
+            let crossing = crack_crossing(&lattice(h, band), &line(0.3, (0.3, 0.7))).unwrap();
+            assert!((crossing - 0.5).abs() < 0.5 * h, "h {h}: {crossing}");
+        }
+    }
+
+    #[test]
+    fn the_window_picks_one_crack_of_two() {
+        // Two vertical bands at x = 0.25 and x = 0.75.
+        let bands = |x: f64, _: f64| (x - 0.25).abs() < 2.0e-3 || (x - 0.75).abs() < 2.0e-3;
+        let frame = lattice(1.0e-3, bands);
+        let left = crack_crossing(&frame, &line(0.5, (0.0, 0.5))).unwrap();
+        let right = crack_crossing(&frame, &line(0.5, (0.5, 1.0))).unwrap();
+        assert!((left - 0.25).abs() < 1.0e-3 && (right - 0.75).abs() < 1.0e-3);
+    }
+
+    #[test]
+    fn no_crack_on_the_line_is_an_error_that_says_where_it_looked() {
+        let frame = lattice(1.0e-2, |_, y| y > 0.8);
+        let error = crack_crossing(&frame, &line(0.5, (0.0, 1.0))).unwrap_err();
+        assert!(error.contains("Y = 0.5"), "{error}");
+        assert!(line(0.5, (1.0, 0.0)).validate().is_err());
+        let mut same = line(0.5, (0.0, 1.0));
+        same.along = Axis::Y;
+        assert!(same.validate().is_err());
+    }
+}
