@@ -162,7 +162,9 @@ fn page(catalogue: &Catalogue, results: &Results, case: &Case) -> String {
         case.name
     );
     text.push_str("| quantity | reference | source | measured | tolerance | status |\n| --- | --- | --- | --- | --- | --- |\n");
-    let mut notes = Vec::new();
+    // A check's shortfall, then the reason it is expected; checks that miss for one reason
+    // share that reason's note, where the first of them put it.
+    let mut notes: Vec<(String, Vec<&str>)> = Vec::new();
     for check in &case.checks {
         let e = record::evaluate(catalogue, results, case, check);
         let _ = writeln!(
@@ -176,16 +178,26 @@ fn page(catalogue: &Catalogue, results: &Results, case: &Case) -> String {
             e.status.word()
         );
         if !matches!(e.status, Status::Pass | Status::Pending) {
-            notes.push(format!("- {}", record::describe(check, &e)));
+            notes.push((record::describe(check, &e), Vec::new()));
         }
         if let Some(reason) = &check.expected_miss {
-            notes.push(format!(
-                "- Expected miss, {}: {}",
-                check.quantity,
-                reason.trim()
-            ));
+            let reason = reason.trim();
+            match notes.iter_mut().find(|(r, q)| !q.is_empty() && r == reason) {
+                Some((_, quantities)) => quantities.push(&check.quantity),
+                None => notes.push((reason.to_string(), vec![&check.quantity])),
+            }
         }
     }
+    let notes: Vec<String> = notes
+        .into_iter()
+        .map(|(note, quantities)| {
+            if quantities.is_empty() {
+                format!("- {note}")
+            } else {
+                format!("- Expected miss, {}: {note}", quantities.join(", "))
+            }
+        })
+        .collect();
     if !notes.is_empty() {
         let _ = write!(text, "\n{}\n", notes.join("\n"));
     }
@@ -215,4 +227,55 @@ fn edits_text(case: &Case) -> String {
         .map(|e| format!("`{}` → `{}`", e.find, e.replace))
         .collect();
     format!(", edited: {}", edits.join(", "))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::catalogue::{Check, Tolerance};
+    use super::super::measure::Measure;
+    use super::*;
+
+    fn check(quantity: &str, miss: &str) -> Check {
+        Check {
+            quantity: quantity.into(),
+            unit: "mm".into(),
+            measure: Measure::Dissipated,
+            scale: 1.0,
+            reference: 1.0,
+            source: Source::Analytic("a line".into()),
+            tolerance: Tolerance::Absolute(1.0),
+            expected_miss: Some(miss.into()),
+        }
+    }
+
+    #[test]
+    fn checks_missing_for_one_reason_share_one_note() {
+        let case = Case {
+            name: "beam".into(),
+            title: "A beam".into(),
+            about: "Cracks.".into(),
+            tier: Tier::Paper,
+            scene: "../scenes/beam.ron".into(),
+            edits: Vec::new(),
+            steps: None,
+            cost: 10.0,
+            checks: vec![
+                check("left", "the path moves"),
+                check("right", "the path moves"),
+                check("top", "it branches"),
+            ],
+            figures: Vec::new(),
+        };
+        let catalogue = Catalogue {
+            cases: vec![case.clone()],
+            root: Default::default(),
+        };
+        let text = page(&catalogue, &Results::default(), &case);
+        assert!(
+            text.contains("- Expected miss, left, right: the path moves\n"),
+            "{text}"
+        );
+        assert!(text.contains("- Expected miss, top: it branches"), "{text}");
+        assert_eq!(text.matches("the path moves").count(), 1, "{text}");
+    }
 }
