@@ -1,6 +1,6 @@
 //! Output: VTU particle frames with a PVD collection for ParaView, and the `series.csv` time
 //! series. Every file is written to a temporary name and renamed, so no reader ever sees a
-//! half-written file.
+//! half-written file. A run writes its frames on a thread of their own ([`FrameWriter`]).
 
 mod atomic;
 mod columns;
@@ -9,6 +9,7 @@ mod frames;
 mod probes;
 mod pvd;
 mod vtu;
+mod writer;
 
 pub use atomic::write_atomically;
 pub use columns::{ColumnValues, FrameColumns};
@@ -19,6 +20,7 @@ pub use pvd::{read_pvd, write_pvd};
 pub use vtu::{
     GridFrame, ParticleFrame, read_particle_frame, write_grid_frame, write_particle_frame,
 };
+pub use writer::{FrameWriter, WriteFailure};
 
 use crate::dim::Dimension;
 

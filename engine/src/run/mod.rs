@@ -11,8 +11,8 @@ use crate::checkpoint::{
 use crate::energy::EnergyWatch;
 use crate::health::Blowup;
 use crate::output::{
-    OutputPlan, SeriesWriter, grid_frame, largest_energy_particle, must_be_finite, particle_frame,
-    series_row, write_grid_frame, write_particle_frame, write_pvd,
+    FrameWriter, OutputPlan, SeriesWriter, WriteFailure, grid_frame, largest_energy_particle,
+    must_be_finite, particle_frame, series_row, write_particle_frame,
 };
 use crate::resources::SimClock;
 use crate::simulation::Simulation;
@@ -94,6 +94,12 @@ fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> RunError + '_ {
     }
 }
 
+impl From<WriteFailure> for RunError {
+    fn from((path, source): WriteFailure) -> Self {
+        RunError::Io { path, source }
+    }
+}
+
 /// Feeds a series row (time, kinetic, strain, total, …, work, residual) to the world's
 /// [`EnergyWatch`], with the balance `W_ext − (E − E₀)` left before the damage laws' own
 /// `dissipated_energy` accounts: dissipation is never negative, so a total energy above the
@@ -119,6 +125,8 @@ struct Outputs<'a> {
     grid_frames: Vec<(f64, String)>,
     /// The step of the last row, particle frame and grid frame written.
     written: [Option<u64>; 3],
+    /// Encodes and writes the frames while the next steps compute.
+    writer: FrameWriter,
 }
 
 impl Outputs<'_> {
@@ -148,12 +156,11 @@ impl Outputs<'_> {
         {
             self.written[1] = Some(step);
             let name = format!("frames/particles_{step:08}.vtu");
-            let path = self.dir.join(&name);
-            write_particle_frame(&path, &particle_frame(&mut sim.world))
-                .map_err(io_error(&path))?;
+            let frame = particle_frame(&mut sim.world);
+            self.writer.particles(self.dir.join(&name), frame)?;
             self.frames.push((sim.clock().time, name));
             let pvd = self.dir.join("particles.pvd");
-            write_pvd(&pvd, &self.frames).map_err(io_error(&pvd))?;
+            self.writer.collection(pvd, self.frames.clone())?;
             framed = true;
         }
         if self.plan.grid_every > 0
@@ -162,11 +169,11 @@ impl Outputs<'_> {
         {
             self.written[2] = Some(step);
             let name = format!("frames/grid_{step:08}.vtu");
-            let path = self.dir.join(&name);
-            write_grid_frame(&path, &grid_frame(&mut sim.world)).map_err(io_error(&path))?;
+            let frame = grid_frame(&mut sim.world);
+            self.writer.grid(self.dir.join(&name), frame)?;
             self.grid_frames.push((sim.clock().time, name));
             let pvd = self.dir.join("grid.pvd");
-            write_pvd(&pvd, &self.grid_frames).map_err(io_error(&pvd))?;
+            self.writer.collection(pvd, self.grid_frames.clone())?;
             framed = true;
         }
         if framed {
@@ -183,7 +190,7 @@ impl Outputs<'_> {
         // most energetic one is named to place the overflow.
         let broken = (0..row.len()).find(|&i| !row[i].is_finite() && must_be_finite(self.plan, i));
         if let Some(column) = broken {
-            self.flush()?;
+            self.settle()?;
             let name = &self.plan.columns()[column + 1];
             return Err(RunError::Blowup(
                 Blowup::new(
@@ -206,6 +213,13 @@ impl Outputs<'_> {
     fn flush(&mut self) -> Result<(), RunError> {
         let path = self.dir.join("series.csv");
         self.series.flush().map_err(io_error(&path))
+    }
+
+    /// Flushes the series and waits until every frame handed to the writer is on disk.
+    fn settle(&mut self) -> Result<(), RunError> {
+        let series = self.flush();
+        self.writer.wait()?;
+        series
     }
 }
 
@@ -284,7 +298,7 @@ pub fn run_with(
     while !sim.finished() {
         let last_good = plan.last_good_frame.then(|| particle_frame(&mut sim.world));
         if let Err(blowup) = sim.step() {
-            outputs.flush()?;
+            outputs.settle()?;
             let written = write_last_good(&frames_dir, sim.clock().step, last_good)?;
             return Err(RunError::Blowup(blowup, written));
         }
@@ -311,7 +325,8 @@ pub fn run_with(
             break;
         }
     }
-    outputs.flush()?;
+    // The run ends only when its files are safe.
+    outputs.settle()?;
     let clock = sim.clock();
     Ok(RunSummary {
         steps: clock.step - first_step,
@@ -354,6 +369,10 @@ fn open_outputs<'a>(
         frames: Vec::new(),
         grid_frames: Vec::new(),
         written: [None; 3],
+        writer: FrameWriter::start().map_err(|source| RunError::Io {
+            path: out_dir.join("frames"),
+            source,
+        })?,
     };
     let mut schedule = CheckpointSchedule::new(checkpoints, sim.clock().time);
     if let Some(earlier) = resume {
@@ -395,7 +414,8 @@ fn checkpoint_now(
     let scene = options.scene.as_ref().ok_or_else(|| {
         RunError::Checkpoint("a checkpoint needs the scene's text (RunOptions::scene)".into())
     })?;
-    outputs.flush()?;
+    // The checkpoint lists the frames written: they must be on disk first.
+    outputs.settle()?;
     let saved = CheckpointOutputs {
         series_bytes: outputs.series.text().len() as u64,
         frames: outputs.frames.clone(),

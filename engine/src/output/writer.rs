@@ -1,0 +1,252 @@
+//! The background frame writer: a run collects each frame from the world on the stepping
+//! thread (a copy of the particle or node state, which is quick) and hands it to a thread of
+//! its own, which encodes it and writes it atomically while the next steps compute.
+//!
+//! - Files are written one at a time in the order they were handed over, so a `.pvd`
+//!   collection never names a frame that is not yet complete on disk.
+//! - At most one frame waits while another is written: the queue holds one, and handing over a
+//!   second blocks until the first is taken. The memory a run needs grows by at most two frames.
+//! - [`FrameWriter::wait`] returns once every file handed over is on disk, with the first
+//!   error met. A run waits before a checkpoint (which lists the frames written), when it stops
+//!   on a blow-up, and at its end, so it never ends before its files are safe.
+//! - The bytes are those of [`write_particle_frame`] and [`write_grid_frame`] called directly:
+//!   the writer only moves them off the stepping thread.
+
+use super::{GridFrame, ParticleFrame, write_grid_frame, write_particle_frame, write_pvd};
+use std::path::PathBuf;
+use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+
+/// A file that could not be written, and why.
+pub type WriteFailure = (PathBuf, std::io::Error);
+
+enum Job {
+    Particles(PathBuf, ParticleFrame),
+    Grid(PathBuf, GridFrame),
+    Collection(PathBuf, Vec<(f64, String)>),
+    /// Answered once every job before it is done.
+    Sync(SyncSender<()>),
+}
+
+impl Job {
+    fn write(self) -> Result<(), WriteFailure> {
+        let (path, result) = match self {
+            Job::Particles(path, frame) => {
+                let result = write_particle_frame(&path, &frame);
+                (path, result)
+            }
+            Job::Grid(path, frame) => {
+                let result = write_grid_frame(&path, &frame);
+                (path, result)
+            }
+            Job::Collection(path, frames) => {
+                let result = write_pvd(&path, &frames);
+                (path, result)
+            }
+            Job::Sync(answer) => {
+                let _ = answer.send(());
+                return Ok(());
+            }
+        };
+        result.map_err(|e| (path, e))
+    }
+}
+
+/// Writes frames on a thread of its own (see the module's notes).
+pub struct FrameWriter {
+    jobs: Option<SyncSender<Job>>,
+    worker: Option<JoinHandle<()>>,
+    /// The first failure; later jobs are dropped unwritten once there is one.
+    failure: Arc<Mutex<Option<WriteFailure>>>,
+}
+
+impl FrameWriter {
+    /// Starts the writer's thread.
+    pub fn start() -> std::io::Result<Self> {
+        let (jobs, queue) = sync_channel::<Job>(1);
+        let failure = Arc::new(Mutex::new(None));
+        let shared = Arc::clone(&failure);
+        let worker = std::thread::Builder::new()
+            .name("fractum-frames".into())
+            .spawn(move || work(queue, shared))?;
+        Ok(Self {
+            jobs: Some(jobs),
+            worker: Some(worker),
+            failure,
+        })
+    }
+
+    /// Hands over a particle frame for `path`.
+    pub fn particles(&self, path: PathBuf, frame: ParticleFrame) -> Result<(), WriteFailure> {
+        self.submit(Job::Particles(path, frame))
+    }
+
+    /// Hands over a grid frame for `path`.
+    pub fn grid(&self, path: PathBuf, frame: GridFrame) -> Result<(), WriteFailure> {
+        self.submit(Job::Grid(path, frame))
+    }
+
+    /// Hands over a `.pvd` collection of `frames` (time, file) for `path`.
+    pub fn collection(
+        &self,
+        path: PathBuf,
+        frames: Vec<(f64, String)>,
+    ) -> Result<(), WriteFailure> {
+        self.submit(Job::Collection(path, frames))
+    }
+
+    /// Returns once every file handed over is on disk, or with the first failure.
+    pub fn wait(&self) -> Result<(), WriteFailure> {
+        let (answer, done) = sync_channel(1);
+        self.submit(Job::Sync(answer))?;
+        // The worker answers when it reaches the job; a worker gone (it cannot panic short of
+        // an allocation failure) has nothing more to write.
+        let _ = done.recv();
+        self.take_failure()
+    }
+
+    fn submit(&self, job: Job) -> Result<(), WriteFailure> {
+        self.take_failure()?;
+        if let Some(jobs) = &self.jobs {
+            // A send fails only when the worker has gone, which `take_failure` reports.
+            let _ = jobs.send(job);
+        }
+        self.take_failure()
+    }
+
+    fn take_failure(&self) -> Result<(), WriteFailure> {
+        let mut failure = self.failure.lock().unwrap_or_else(|e| e.into_inner());
+        match failure.take() {
+            Some(f) => {
+                // Keep a copy, so every later call reports the same failure.
+                let again = (
+                    f.0.clone(),
+                    std::io::Error::new(f.1.kind(), f.1.to_string()),
+                );
+                *failure = Some(again);
+                Err(f)
+            }
+            None => Ok(()),
+        }
+    }
+}
+
+impl Drop for FrameWriter {
+    /// Finishes the files already handed over: a run that returns early (an error elsewhere)
+    /// leaves complete frames, never half-written ones.
+    fn drop(&mut self) {
+        self.jobs = None;
+        if let Some(worker) = self.worker.take() {
+            let _ = worker.join();
+        }
+    }
+}
+
+fn work(queue: Receiver<Job>, failure: Arc<Mutex<Option<WriteFailure>>>) {
+    for job in queue {
+        let failed = failure.lock().unwrap_or_else(|e| e.into_inner()).is_some();
+        if failed {
+            // Answer waits; write nothing more once a file has failed.
+            if let Job::Sync(answer) = job {
+                let _ = answer.send(());
+            }
+            continue;
+        }
+        if let Err(f) = job.write() {
+            *failure.lock().unwrap_or_else(|e| e.into_inner()) = Some(f);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(n: usize) -> ParticleFrame {
+        ParticleFrame {
+            id: (0..n as u32).collect(),
+            body: vec![0; n],
+            material: vec![0; n],
+            position: (0..n).map(|i| [i as f64, 0.5, 0.0]).collect(),
+            velocity: vec![[1.0, 2.0, 0.0]; n],
+            mass: vec![2.0; n],
+            volume: vec![0.25; n],
+            stress: vec![[1.0, 0.5, 0.0, 0.5, 2.0, 0.0, 0.0, 0.0, 0.0]; n],
+            damage: (0..n).map(|i| i as f64 / n as f64).collect(),
+            strain_energy_density: vec![3.0; n],
+            thickness: Some(0.1),
+            ..Default::default()
+        }
+    }
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("fractum-writer-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[test]
+    fn frames_written_behind_are_the_bytes_written_directly() {
+        let dir = scratch("bytes");
+        let writer = FrameWriter::start().unwrap();
+        for k in 0..4 {
+            let path = dir.join(format!("behind_{k}.vtu"));
+            writer.particles(path, frame(10 + k)).unwrap();
+        }
+        let listed = vec![(0.0, "behind_0.vtu".to_string())];
+        writer
+            .collection(dir.join("all.pvd"), listed.clone())
+            .unwrap();
+        writer.wait().unwrap();
+        for k in 0..4 {
+            let direct = dir.join(format!("direct_{k}.vtu"));
+            write_particle_frame(&direct, &frame(10 + k)).unwrap();
+            let behind = std::fs::read(dir.join(format!("behind_{k}.vtu"))).unwrap();
+            assert_eq!(behind, std::fs::read(&direct).unwrap(), "frame {k}");
+        }
+        write_pvd(&dir.join("direct.pvd"), &listed).unwrap();
+        assert_eq!(
+            std::fs::read(dir.join("all.pvd")).unwrap(),
+            std::fs::read(dir.join("direct.pvd")).unwrap()
+        );
+        drop(writer);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_failed_write_is_reported_with_its_path_and_stops_the_writer() {
+        let dir = scratch("failure");
+        let writer = FrameWriter::start().unwrap();
+        let unwritable = dir.join("no_such_folder").join("frame.vtu");
+        writer.particles(unwritable.clone(), frame(3)).unwrap_or(());
+        let (path, _) = writer.wait().unwrap_err();
+        assert_eq!(path, unwritable);
+        // Every later call reports it, and nothing more is written.
+        let later = dir.join("later.vtu");
+        assert!(writer.particles(later.clone(), frame(3)).is_err());
+        assert!(writer.wait().is_err());
+        assert!(!later.exists());
+        drop(writer);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn dropping_the_writer_finishes_what_it_was_given() {
+        let dir = scratch("drop");
+        let writer = FrameWriter::start().unwrap();
+        for k in 0..3 {
+            writer
+                .particles(dir.join(format!("f{k}.vtu")), frame(50))
+                .unwrap();
+        }
+        drop(writer);
+        for k in 0..3 {
+            let frame = super::super::read_particle_frame(&dir.join(format!("f{k}.vtu"))).unwrap();
+            assert_eq!(frame.id.len(), 50);
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
