@@ -4,8 +4,9 @@
 //!
 //! - Files are written one at a time in the order they were handed over, so a `.pvd`
 //!   collection never names a frame that is not yet complete on disk.
-//! - At most one frame waits while another is written: the queue holds one, and handing over a
-//!   second blocks until the first is taken. The memory a run needs grows by at most two frames.
+//! - At most one frame waits while another is written: the queue holds one, and handing over
+//!   another blocks until there is room. Beside the state, a run holds at most three frames
+//!   (one being written, one queued, one being handed over).
 //! - [`FrameWriter::wait`] returns once every file handed over is on disk, with the first
 //!   error met. A run waits before a checkpoint (which lists the frames written), when it stops
 //!   on a blow-up, and at its end, so it never ends before its files are safe.
@@ -30,6 +31,14 @@ enum Job {
 }
 
 impl Job {
+    /// The file the job writes (none for a sync).
+    fn path(&self) -> PathBuf {
+        match self {
+            Job::Particles(path, _) | Job::Grid(path, _) | Job::Collection(path, _) => path.clone(),
+            Job::Sync(_) => PathBuf::from("frames"),
+        }
+    }
+
     fn write(self) -> Result<(), WriteFailure> {
         let (path, result) = match self {
             Job::Particles(path, frame) => {
@@ -100,19 +109,20 @@ impl FrameWriter {
     pub fn wait(&self) -> Result<(), WriteFailure> {
         let (answer, done) = sync_channel(1);
         self.submit(Job::Sync(answer))?;
-        // The worker answers when it reaches the job; a worker gone (it cannot panic short of
-        // an allocation failure) has nothing more to write.
-        let _ = done.recv();
+        // The worker answers when it reaches the job; no answer means its thread has ended.
+        if done.recv().is_err() {
+            return Err(stopped(PathBuf::from("frames")));
+        }
         self.take_failure()
     }
 
     fn submit(&self, job: Job) -> Result<(), WriteFailure> {
         self.take_failure()?;
-        if let Some(jobs) = &self.jobs {
-            // A send fails only when the worker has gone, which `take_failure` reports.
-            let _ = jobs.send(job);
+        let path = job.path();
+        match &self.jobs {
+            Some(jobs) if jobs.send(job).is_ok() => self.take_failure(),
+            _ => Err(stopped(path)),
         }
-        self.take_failure()
     }
 
     fn take_failure(&self) -> Result<(), WriteFailure> {
@@ -141,6 +151,13 @@ impl Drop for FrameWriter {
             let _ = worker.join();
         }
     }
+}
+
+/// The failure of a writer whose thread has ended (it panicked): the frames handed to it
+/// since may be missing.
+fn stopped(path: PathBuf) -> WriteFailure {
+    let why = std::io::Error::other("the frame writer's thread stopped before writing it");
+    (path, why)
 }
 
 fn work(queue: Receiver<Job>, failure: Arc<Mutex<Option<WriteFailure>>>) {
