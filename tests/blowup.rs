@@ -326,8 +326,10 @@ fn a_track_probe_of_a_removed_particle_reads_nan_and_the_run_goes_on() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
-/// A frame that cannot be written stops the run with an error, and the rows taken before it
-/// are on disk, not lost in the writer's buffer.
+/// A frame that cannot be written stops the run with an error naming the file, and the rows
+/// taken before it are on disk, not lost in the series' buffer. Frames are written behind the
+/// steps, so the failure surfaces when the run next hands over a frame (or waits for them): by
+/// the next frame's step at the latest.
 #[test]
 fn a_failed_frame_write_keeps_the_rows_before_it() {
     let file = scene("(0.0, 0.0)", "");
@@ -336,16 +338,23 @@ fn a_failed_frame_write_keeps_the_rows_before_it() {
     built.output.csv_every = 1;
     let out = temp_dir("failed-write");
     // A folder where the frame of step 40 should go makes that write fail.
-    std::fs::create_dir_all(out.join("frames/particles_00000040.vtu")).unwrap();
+    let blocked = out.join("frames/particles_00000040.vtu");
+    std::fs::create_dir_all(&blocked).unwrap();
     let error = run(&mut built.simulation, &built.output, &out, |_| {}).unwrap_err();
-    assert!(matches!(error, RunError::Io { .. }), "{error}");
+    let RunError::Io { path, .. } = &error else {
+        panic!("expected a write error, got {error}");
+    };
+    assert_eq!(path, &blocked, "{error}");
     let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
-    let last: u64 = series
+    let steps: Vec<u64> = series
         .lines()
-        .last()
-        .and_then(|l| l.split(',').next())
-        .and_then(|s| s.parse().ok())
-        .unwrap();
-    assert_eq!(last, 40, "{series}");
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap().parse().unwrap())
+        .collect();
+    // Every row up to the failed frame's step, in order, and none past the next frame's.
+    assert_eq!(steps[..41], (0..=40).collect::<Vec<u64>>()[..], "{series}");
+    let last = *steps.last().unwrap();
+    assert!((40..=80).contains(&last), "{series}");
+    assert!(steps.windows(2).all(|w| w[1] == w[0] + 1), "{series}");
     let _ = std::fs::remove_dir_all(&out);
 }
