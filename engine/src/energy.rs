@@ -54,15 +54,52 @@ impl EnergyAccount {
     }
 }
 
-/// `Σ m x` of the particles, per axis (zero beyond the dimension).
-pub fn first_moment<D: Dim>(particles: impl Iterator<Item = (f64, D::Vector)>) -> [f64; 3] {
-    let mut moment = [0.0; 3];
-    for (m, x) in particles {
-        for (a, s) in moment.iter_mut().enumerate().take(D::N) {
-            *s += m * x[a];
-        }
-    }
-    moment
+/// Particles per block of the energy account's sums: blocks are summed in parallel, each in
+/// particle order, and their sums added in block order, so the account is the same bits for any
+/// thread count.
+pub const SUM_BLOCK: usize = 4096;
+
+/// `Σ m x` of the particles, per axis (zero beyond the dimension), and `Σ f · v` where the
+/// forces are given: over fixed blocks in parallel ([`SUM_BLOCK`]).
+pub fn moment_and_power<D: Dim>(
+    masses: &[Mass],
+    positions: &[Position<D>],
+    velocities: &[Velocity<D>],
+    forces: Option<&[ExternalForce<D>]>,
+) -> ([f64; 3], f64) {
+    use rayon::prelude::*;
+    let count = masses.len();
+    let blocks: Vec<([f64; 3], f64)> = (0..count.div_ceil(SUM_BLOCK))
+        .into_par_iter()
+        .map(|block| {
+            let mut moment = [0.0; 3];
+            let mut power = 0.0;
+            for p in block * SUM_BLOCK..((block + 1) * SUM_BLOCK).min(count) {
+                for (a, s) in moment.iter_mut().enumerate().take(D::N) {
+                    *s += masses[p].0 * positions[p].0[a];
+                }
+                if let Some(forces) = forces {
+                    power += forces[p].0.dot(velocities[p].0);
+                }
+            }
+            (moment, power)
+        })
+        .collect();
+    blocks
+        .into_iter()
+        .fold(([0.0; 3], 0.0), |(mut moment, power), (m, p)| {
+            for (s, m) in moment.iter_mut().zip(m) {
+                *s += m;
+            }
+            (moment, power + p)
+        })
+}
+
+/// `Σ m x` of the particles in `world`, per axis, summed as [`account_work`] sums it.
+pub fn first_moment<D: Dim>(world: &mut bevy_ecs::world::World) -> [f64; 3] {
+    let mut query = world.query_filtered::<(&Mass, &Position<D>, &Velocity<D>), With<Particle>>();
+    crate::storage::single_table(query.contiguous_iter(world), "particles")
+        .map_or([0.0; 3], |(m, x, v)| moment_and_power(m, x, v, None).0)
 }
 
 /// The work of prescribed-velocity regions over a step from `time` to `time + dt`.
@@ -111,8 +148,8 @@ pub struct ContactPotential(pub f64);
 
 crate::checkpoint_keys! { ContactPotential => "engine/contact_potential" }
 
-/// Adds the work of the step just taken to the [`EnergyAccount`] (sequential sums, so the same
-/// bits for any thread count).
+/// Adds the work of the step just taken to the [`EnergyAccount`] (sums over fixed blocks, so the
+/// same bits for any thread count).
 pub fn account_work<D: Dim>(
     clock: Res<SimClock>,
     body_force: Res<BodyForce<D>>,
@@ -122,11 +159,10 @@ pub fn account_work<D: Dim>(
     mut account: ResMut<EnergyAccount>,
 ) {
     // One pass over the particles for both sums.
-    let mut power = 0.0;
-    let moment = first_moment::<D>(particles.iter().map(|(m, x, v, f)| {
-        power += f.0.dot(v.0);
-        (m.0, x.0)
-    }));
+    let (moment, power) = crate::storage::single_table(particles.contiguous_iter(), "particles")
+        .map_or(([0.0; 3], 0.0), |(m, x, v, f)| {
+            moment_and_power(m, x, v, Some(f))
+        });
     let b = body_force.0;
     let body: f64 = (0..D::N)
         .map(|a| b[a] * (moment[a] - account.first_moment[a]))

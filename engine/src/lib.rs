@@ -25,6 +25,7 @@ pub mod integration;
 pub mod loads;
 pub mod neighbourhood;
 pub mod output;
+pub mod profile;
 pub mod registry;
 pub mod resources;
 pub mod run;
@@ -35,6 +36,7 @@ pub mod stage;
 pub mod storage;
 pub mod testing;
 pub mod text;
+pub mod traffic;
 
 pub use simulation::Simulation;
 

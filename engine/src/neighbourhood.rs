@@ -40,6 +40,13 @@ impl PartialEq for Neighbourhoods {
 }
 
 impl Neighbourhoods {
+    /// Bytes of the lists (row ends and entries), for the traffic count of
+    /// [`crate::traffic`].
+    pub fn heap_bytes(&self) -> f64 {
+        let entries: usize = self.blocks.iter().map(Vec::len).sum();
+        (4 * (self.ends.len() + entries)) as f64
+    }
+
     /// Number of particle rows.
     pub fn particle_count(&self) -> usize {
         self.ends.len()

@@ -192,6 +192,43 @@ impl Simulation {
         self.threads_set && (self.pool.is_none() || self.particles_at_start < self.serial_below)
     }
 
+    /// Runs `f` on this simulation where its steps run: on the calling thread alone, or in its
+    /// pool (rayon's global pool when no thread count was set).
+    fn in_pool<R: Send>(&mut self, f: impl FnOnce(&mut Self) -> R + Send) -> R {
+        let serially = self.runs_serially();
+        match self.pool.take() {
+            Some(pool) if !serially => {
+                let result = pool.install(|| f(self));
+                self.pool = Some(pool);
+                result
+            }
+            pool => {
+                self.pool = pool;
+                if serially {
+                    on_this_thread(|| f(self))
+                } else {
+                    f(self)
+                }
+            }
+        }
+    }
+
+    /// Times every stage of the following steps ([`crate::profile::StageClock`], a resource of
+    /// the world): for profiling; the markers cost two clock reads per stage.
+    pub fn profile_stages(&mut self) -> Result<(), String> {
+        if self.world.contains_resource::<crate::profile::StageClock>() {
+            return Ok(());
+        }
+        self.world.init_resource::<crate::profile::StageClock>();
+        crate::profile::install_stage_clock(&mut self.schedule);
+        initialize_schedule(&mut self.schedule, &mut self.world)
+    }
+
+    /// The bytes each system of the step reads and writes (see [`crate::traffic`]).
+    pub fn traffic(&self) -> Vec<crate::traffic::SystemTraffic> {
+        crate::traffic::schedule_traffic(&self.schedule, &self.world)
+    }
+
     /// Threads asked for with [`Simulation::set_threads`] (rayon's default without it).
     pub fn threads_asked(&self) -> usize {
         match &self.pool {
@@ -318,11 +355,15 @@ impl Simulation {
 
     /// Takes one step. On failure the state is left as the failing stage produced it.
     pub fn step(&mut self) -> Result<(), Blowup> {
-        let dt = self.next_time_step();
+        // In the step's pool, whose threads share the stable-step search.
+        let dt = self.in_pool(Self::next_time_step);
         self.check_time_step(dt)?;
         let removed_before = self.removed_so_far();
         self.world.resource_mut::<SimClock>().dt = dt;
         let serially = self.runs_serially();
+        if let Some(mut clock) = self.world.get_resource_mut::<crate::profile::StageClock>() {
+            clock.start();
+        }
         let (world, schedule) = (&mut self.world, &mut self.schedule);
         match &self.pool {
             _ if serially => on_this_thread(|| schedule.run(world)),
@@ -331,6 +372,9 @@ impl Simulation {
         }
         if let Some(failure) = self.world.resource::<Health>().failure.clone() {
             return Err(failure);
+        }
+        if let Some(mut clock) = self.world.get_resource_mut::<crate::profile::StageClock>() {
+            clock.finish();
         }
         // Compensated summation keeps t = Σ dt exact to round-off over millions of steps, so
         // output times read as the user expects (3.0, not 2.9999999999997806).
@@ -442,10 +486,6 @@ pub fn stable_time_step<D: Dim>(world: &mut World) -> StableStep {
         .iter()
         .map(|m| m.wave_speed())
         .collect();
-    // The particle with the least time to cross its spacing: on a uniform grid the fastest,
-    // on a graded one the smallest cell width around each particle counts too.
-    let mut limiting: (f64, f64, f64, Option<(u32, u16)>) =
-        (f64::INFINITY, grid.spacing, 0.0, None);
     let mut query = world.query_filtered::<(
         &ParticleId,
         &MaterialId,
@@ -453,26 +493,42 @@ pub fn stable_time_step<D: Dim>(world: &mut World) -> StableStep {
         &Velocity<D>,
         &Position<D>,
     ), With<Particle>>();
-    for (id, m, c, v, x) in query.iter(world) {
-        let c = if c.0 > 0.0 {
-            c.0
-        } else {
-            speeds.get(m.0 as usize).copied().unwrap_or(0.0)
-        };
-        let speed = c + v.0.length();
-        if !grid.is_graded() {
-            // One spacing: the fastest particle (a comparison of speeds, not of quotients).
-            if speed > limiting.2 {
-                limiting = (0.0, grid.spacing, speed, Some((id.0, m.0)));
-            }
-            continue;
-        }
-        let h = grid.smallest_width_near(x.0);
-        if speed > 0.0 && h / speed < limiting.0 {
-            limiting = (h / speed, h, speed, Some((id.0, m.0)));
-        }
-    }
-    let (_, h, speed, particle) = limiting;
+    let limiting = crate::storage::single_table(query.contiguous_iter(world), "particles")
+        .and_then(|(ids, materials, waves, velocities, positions)| {
+            let signal = |p: usize| {
+                let c = waves[p].0;
+                let c = if c > 0.0 {
+                    c
+                } else {
+                    speeds.get(materials[p].0 as usize).copied().unwrap_or(0.0)
+                };
+                c + velocities[p].0.length()
+            };
+            let limiting = if grid.is_graded() {
+                first_least(ids.len(), f64::INFINITY, |p| {
+                    let speed = signal(p);
+                    let h = grid.smallest_width_near(positions[p].0);
+                    (speed > 0.0).then(|| h / speed)
+                })
+            } else {
+                // One spacing: the fastest particle with a signal at all (a comparison of
+                // speeds, not of quotients).
+                first_least(ids.len(), 0.0, |p| Some(-signal(p)))
+            };
+            limiting.map(|p| {
+                let speed = signal(p);
+                let h = if grid.is_graded() {
+                    grid.smallest_width_near(positions[p].0)
+                } else {
+                    grid.spacing
+                };
+                (h, speed, (ids[p].0, materials[p].0))
+            })
+        });
+    let (h, speed, particle) = match limiting {
+        Some((h, speed, particle)) => (h, speed, Some(particle)),
+        None => (grid.spacing, 0.0, None),
+    };
     let limit = world.get_resource_or_init::<TimeStepLimit>();
     StableStep {
         dt: limit.stable_step(D::N, h, speed),
@@ -484,6 +540,38 @@ pub fn stable_time_step<D: Dim>(world: &mut World) -> StableStep {
     }
 }
 
+/// The first of `0..count` with the least `key` below `bound` (`None` keys and NaN never win),
+/// in parallel over fixed blocks whose winners are compared in block order: the particle a
+/// serial scan with a strict comparison finds, whatever the thread count.
+fn first_least(
+    count: usize,
+    bound: f64,
+    key: impl Fn(usize) -> Option<f64> + Sync,
+) -> Option<usize> {
+    use rayon::prelude::*;
+    const BLOCK: usize = 4096;
+    let better = |best: (Option<usize>, f64), p: usize, k: f64| {
+        if k < best.1 { (Some(p), k) } else { best }
+    };
+    let winners: Vec<(Option<usize>, f64)> = (0..count.div_ceil(BLOCK))
+        .into_par_iter()
+        .map(|block| {
+            let rows = block * BLOCK..((block + 1) * BLOCK).min(count);
+            rows.fold((None, bound), |best, p| match key(p) {
+                Some(k) => better(best, p, k),
+                None => best,
+            })
+        })
+        .collect();
+    let best = winners
+        .into_iter()
+        .fold((None, bound), |best, (p, k)| match p {
+            Some(p) => better(best, p, k),
+            None => best,
+        });
+    best.0
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -491,6 +579,37 @@ mod tests {
 
     /// Work handed to `on_this_thread` runs on the caller, with rayon's parallel sections
     /// sequential in it (one thread), however often it is called.
+    #[test]
+    fn the_least_key_found_in_parallel_is_the_first_a_serial_scan_finds() {
+        // Keys with many ties and some NaN and missing ones, over several blocks.
+        let count = 20_000;
+        let key = |p: usize| match p % 97 {
+            0 => None,
+            1 => Some(f64::NAN),
+            _ => Some(((p * 7919) % 1013) as f64),
+        };
+        let serial = |bound: f64| {
+            let mut best = (None, bound);
+            for p in 0..count {
+                if let Some(k) = key(p).filter(|&k| k < best.1) {
+                    best = (Some(p), k);
+                }
+            }
+            best.0
+        };
+        for bound in [f64::INFINITY, 500.0, 0.0] {
+            for threads in [1, 2, 5] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let found = pool.install(|| first_least(count, bound, key));
+                assert_eq!(found, serial(bound), "bound {bound}, {threads} threads");
+            }
+        }
+        assert_eq!(first_least(0, f64::INFINITY, key), None);
+    }
+
     #[test]
     fn serial_work_runs_on_the_calling_thread() {
         let caller = std::thread::current().id();

@@ -4,11 +4,20 @@
 //! direction, vibrating in a sine velocity profile, on a grid with a margin of four cells; no
 //! output is written. It is built in code with the scene builder. One warm-up step (cold LME
 //! multipliers, first neighbour search) is excluded from the timing.
+//!
+//! With `--profile` each measurement also gives the wall time of every stage per step
+//! ([`fractum_engine::profile`]), the bytes a particle-step moves as counted from the data each
+//! system reads and writes ([`fractum_engine::traffic`]), and the memory bandwidth of a
+//! STREAM-style triad at the same thread count ([`triad_bandwidth`]): the rate as a fraction of
+//! what the bandwidth allows (the roofline), and, where one and several threads were measured,
+//! the serial fraction of the step (Karp–Flatt) and the speedup it predicts at 16 threads.
 
 use fractum_engine::prelude::*;
+use fractum_engine::profile::StageClock;
 use fractum_engine::registry::Registry;
 use fractum_engine::scene::{Body, InitialVelocity, Output, Shape, Spec};
 use fractum_engine::simulation::{End, TimeStep};
+use fractum_engine::stage::Stage;
 use std::fmt::Write as _;
 use std::time::Instant;
 
@@ -162,6 +171,11 @@ pub struct BenchResult {
     pub steps: u64,
     /// Wall seconds of the timed steps.
     pub seconds: f64,
+    /// Bytes a particle-step moves, counted from what each system reads and writes
+    /// ([`fractum_engine::traffic`]).
+    pub bytes_per_particle_step: f64,
+    /// Seconds per step of each stage, when profiled.
+    pub stages: Option<Vec<(Stage, f64)>>,
 }
 
 impl BenchResult {
@@ -184,6 +198,8 @@ pub struct BenchCase {
     pub threads: usize,
     /// Timed steps.
     pub steps: u64,
+    /// Time every stage too.
+    pub profile: bool,
 }
 
 /// Runs one measurement: build, one warm-up step, then `case.steps` timed steps.
@@ -194,20 +210,182 @@ pub fn measure(registry: &Registry, case: BenchCase) -> Result<BenchResult, Stri
     .map_err(|e| e.to_string())?;
     let mut sim = built.simulation;
     sim.set_threads(case.threads).map_err(|e| e.to_string())?;
+    if case.profile {
+        sim.profile_stages()?;
+    }
     let count = sim.particle_count();
     sim.step().map_err(|e| e.to_string())?;
+    if let Some(mut clock) = sim.world.get_resource_mut::<StageClock>() {
+        clock.reset();
+    }
     let started = Instant::now();
     for _ in 0..case.steps {
         sim.step().map_err(|e| e.to_string())?;
     }
+    let seconds = started.elapsed().as_secs_f64();
+    let bytes: f64 = sim.traffic().iter().map(|t| t.bytes()).sum();
     Ok(BenchResult {
         pipeline: case.pipeline,
         dimension: case.dimension,
         particles: count,
         threads: case.threads,
         steps: case.steps,
-        seconds: started.elapsed().as_secs_f64(),
+        seconds,
+        bytes_per_particle_step: bytes / count.max(1) as f64,
+        stages: sim
+            .world
+            .get_resource::<StageClock>()
+            .map(StageClock::per_step),
     })
+}
+
+/// Memory bandwidth (bytes/s) of a STREAM triad `a = b + s·c` over `elements` f64s per array
+/// on `threads` threads: the best of five passes, counting 24 bytes per element (two reads and
+/// a write, as STREAM does). Arrays must be well beyond the caches (STREAM asks for four times
+/// the last-level cache); `fractum bench` uses 2²⁴ elements, 384 MiB in all.
+pub fn triad_bandwidth(threads: usize, elements: usize) -> Result<f64, String> {
+    use rayon::prelude::*;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+        .map_err(|e| e.to_string())?;
+    pool.install(|| {
+        // First touch on the threads that use the arrays, as the steps do.
+        let filled = |value: f64| {
+            let mut v = vec![0.0f64; elements];
+            v.par_iter_mut().for_each(|x| *x = value);
+            v
+        };
+        let (mut a, b, c) = (filled(0.0), filled(1.0), filled(2.0));
+        let scalar = 3.0;
+        let chunk = 1 << 14;
+        let mut best = f64::INFINITY;
+        for _ in 0..5 {
+            let started = Instant::now();
+            a.par_chunks_mut(chunk)
+                .zip(b.par_chunks(chunk))
+                .zip(c.par_chunks(chunk))
+                .for_each(|((a, b), c)| {
+                    for ((a, b), c) in a.iter_mut().zip(b).zip(c) {
+                        *a = b + scalar * c;
+                    }
+                });
+            best = best.min(started.elapsed().as_secs_f64());
+        }
+        if a.iter().any(|&x| x != 7.0) {
+            return Err("the triad computed a wrong sum".to_string());
+        }
+        Ok(24.0 * elements as f64 / best.max(1e-12))
+    })
+}
+
+/// The serial fraction of a step by the Karp–Flatt metric: from the speedup `speedup` on
+/// `threads` threads, `e = (1/S − 1/p) / (1 − 1/p)`, the share of one thread's step that did
+/// not run in parallel (load imbalance and synchronisation count as serial).
+pub fn serial_fraction(speedup: f64, threads: usize) -> f64 {
+    let p = threads as f64;
+    (1.0 / speedup - 1.0 / p) / (1.0 - 1.0 / p)
+}
+
+/// Amdahl's speedup on `threads` threads of a step whose serial fraction is `serial`.
+pub fn amdahl(serial: f64, threads: usize) -> f64 {
+    1.0 / (serial + (1.0 - serial) / threads as f64)
+}
+
+/// The profile tables of `results`: the roofline of each measurement against the triad
+/// bandwidth at its thread count (`bandwidth`, thread count → bytes/s), each stage's time per
+/// step, and the serial fraction where one and more threads were measured.
+pub fn profile_report(results: &[BenchResult], bandwidth: &[(usize, f64)]) -> String {
+    let mut out = String::from(
+        "\n| pipeline | dim | particles | threads | bytes/particle-step | triad GB/s | attained GB/s | of triad | rate bound by triad |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
+    );
+    for r in results {
+        let Some(&(_, triad)) = bandwidth.iter().find(|(t, _)| *t == r.threads) else {
+            continue;
+        };
+        let attained = r.rate() * r.bytes_per_particle_step;
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {} | {:.0} | {:.1} | {:.1} | {:.0}% | {:.3e} |",
+            r.pipeline.name(),
+            dimension_name(r.dimension),
+            r.particles,
+            r.threads,
+            r.bytes_per_particle_step,
+            triad / 1e9,
+            attained / 1e9,
+            100.0 * attained / triad,
+            triad / r.bytes_per_particle_step.max(1.0),
+        );
+    }
+    let _ = writeln!(
+        out,
+        "\n| pipeline | dim | particles | threads | stage | ms/step | share | speedup over 1 thread |\n| --- | --- | --- | --- | --- | --- | --- | --- |"
+    );
+    for r in results {
+        let Some(stages) = &r.stages else { continue };
+        let total: f64 = stages.iter().map(|(_, s)| s).sum();
+        let one = single_thread_twin(results, r).and_then(|one| one.stages.as_ref());
+        for (stage, seconds) in stages {
+            let speedup = one
+                .and_then(|one| one.iter().find(|(s, _)| s == stage))
+                .map_or(String::from("–"), |(_, s1)| {
+                    format!("{:.2}", s1 / seconds)
+                });
+            let _ = writeln!(
+                out,
+                "| {} | {} | {} | {} | {} | {:.3} | {:.1}% | {} |",
+                r.pipeline.name(),
+                dimension_name(r.dimension),
+                r.particles,
+                r.threads,
+                stage.name(),
+                1e3 * seconds,
+                100.0 * seconds / total,
+                speedup
+            );
+        }
+    }
+    let _ = writeln!(
+        out,
+        "\n| pipeline | dim | particles | threads | speedup | serial fraction (Karp–Flatt) | predicted speedup at 16 threads |\n| --- | --- | --- | --- | --- | --- | --- |"
+    );
+    for r in results.iter().filter(|r| r.threads > 1) {
+        let Some(one) = single_thread_twin(results, r) else {
+            continue;
+        };
+        let speedup = r.rate() / one.rate();
+        let serial = serial_fraction(speedup, r.threads);
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {} | {:.2} | {:.3} | {:.1} |",
+            r.pipeline.name(),
+            dimension_name(r.dimension),
+            r.particles,
+            r.threads,
+            speedup,
+            serial,
+            amdahl(serial.max(0.0), 16)
+        );
+    }
+    out
+}
+
+/// The one-thread measurement of the same pipeline, dimension and size as `r`.
+fn single_thread_twin<'a>(results: &'a [BenchResult], r: &BenchResult) -> Option<&'a BenchResult> {
+    results.iter().find(|o| {
+        o.threads == 1
+            && o.pipeline == r.pipeline
+            && o.dimension == r.dimension
+            && o.particles == r.particles
+    })
+}
+
+fn dimension_name(dimension: Dimension) -> &'static str {
+    match dimension {
+        Dimension::Two => "2D",
+        Dimension::Three => "3D",
+    }
 }
 
 /// Default number of timed steps: about two million particle-steps, at least 5.
@@ -225,10 +403,7 @@ pub fn table(results: &[BenchResult]) -> String {
             out,
             "| {} | {} | {} | {} | {} | {:.3} | {:.3e} |",
             r.pipeline.name(),
-            match r.dimension {
-                Dimension::Two => "2D",
-                Dimension::Three => "3D",
-            },
+            dimension_name(r.dimension),
             r.particles,
             r.threads,
             r.steps,
@@ -262,11 +437,43 @@ mod tests {
                     particles,
                     threads: 1,
                     steps: 2,
+                    profile: true,
                 };
                 let result = measure(&registry, case).unwrap();
                 assert_eq!(result.particles, particles);
                 assert!(result.rate() > 0.0);
+                // Positions, velocities, stresses and the connectivity at the least.
+                assert!(result.bytes_per_particle_step > 100.0, "{pipeline:?}");
+                let stages = result.stages.unwrap();
+                for stage in [
+                    Stage::Basis,
+                    Stage::Predictor,
+                    Stage::Stress,
+                    Stage::Advection,
+                ] {
+                    assert!(
+                        stages.iter().any(|(s, t)| *s == stage && *t > 0.0),
+                        "{stage:?}"
+                    );
+                }
             }
         }
+    }
+
+    #[test]
+    fn the_triad_measures_a_positive_bandwidth_and_checks_its_sum() {
+        let bandwidth = triad_bandwidth(1, 1 << 12).unwrap();
+        assert!(bandwidth.is_finite() && bandwidth > 0.0);
+    }
+
+    #[test]
+    fn karp_flatt_recovers_the_serial_fraction_amdahl_was_given() {
+        for serial in [0.0, 0.05, 0.3, 1.0] {
+            for threads in [2, 4, 16] {
+                let speedup = amdahl(serial, threads);
+                assert!((serial_fraction(speedup, threads) - serial).abs() < 1e-12);
+            }
+        }
+        assert!((amdahl(0.05, 16) - 1.0 / (0.05 + 0.95 / 16.0)).abs() < 1e-12);
     }
 }

@@ -156,6 +156,11 @@ pub enum Command {
         /// Timed steps per measurement [default: about 2 million particle-steps, at least 5].
         #[arg(long)]
         steps: Option<u64>,
+        /// Also time each stage, count the bytes a particle-step moves, measure the memory
+        /// bandwidth (a STREAM triad at each thread count) and report the roofline and the
+        /// serial fraction of the step.
+        #[arg(long)]
+        profile: bool,
     },
 }
 

@@ -247,7 +247,15 @@ pub fn crack_history(dir: &Path, options: &CrackOptions) -> Result<Vec<TipAt>, S
     let first = frames
         .first()
         .ok_or_else(|| format!("{}: the run wrote no particle frames", dir.display()))?;
-    let start = read_particle_frame(&dir.join(&first.1))?;
+    let read = |file: &str| -> Result<ParticleFrame, String> {
+        let path = dir.join(file);
+        let frame = read_particle_frame(&path)?;
+        frame
+            .require(&["id", "damage"])
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        Ok(frame)
+    };
+    let start = read(&first.1)?;
     // Particles are matched by id: a frame lists them in table order, which can change.
     let seeded_ids: std::collections::HashSet<u32> = (0..start.id.len())
         .filter(|&p| start.damage[p] >= options.damage_above)
@@ -255,7 +263,7 @@ pub fn crack_history(dir: &Path, options: &CrackOptions) -> Result<Vec<TipAt>, S
         .collect();
     let mut path = CrackPath::new(options);
     for (time, file) in &frames {
-        let frame = read_particle_frame(&dir.join(file))?;
+        let frame = read(file)?;
         let seeded: Vec<bool> = frame.id.iter().map(|id| seeded_ids.contains(id)).collect();
         path.push(*time, crack_at_frame(&frame, &seeded, options), options);
     }

@@ -62,6 +62,7 @@ impl CrossingLine {
 
 /// The crack's crossing of `line` in `frame` (m), or why there is none.
 pub fn crack_crossing(frame: &ParticleFrame, line: &CrossingLine) -> Result<f64, String> {
+    frame.require(&["damage", "volume"])?;
     let (planar, thickness) = frame_thickness(frame, None)?;
     let (across, along) = (line.across.index(), line.along.index());
     let (low, high) = line.between;
@@ -148,5 +149,16 @@ mod tests {
         let mut same = line(0.5, (0.0, 1.0));
         same.along = Axis::Y;
         assert!(same.validate().is_err());
+    }
+
+    #[test]
+    fn a_frame_without_volumes_is_refused_with_how_to_get_them() {
+        let mut frame = lattice(1.0e-2, |_, y| y > 0.4);
+        frame.keep_only(&["damage".into()]);
+        let error = crack_crossing(&frame, &line(0.5, (0.0, 1.0))).unwrap_err();
+        assert!(
+            error.contains("volume") && error.contains("output.fields"),
+            "{error}"
+        );
     }
 }

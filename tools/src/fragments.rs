@@ -97,6 +97,10 @@ pub fn find_fragments(
     frame: &ParticleFrame,
     options: &FragmentOptions,
 ) -> Result<(Vec<Fragment>, f64), String> {
+    frame.require(&["damage", "mass", "velocity", "volume"])?;
+    if !options.bodies.is_empty() {
+        frame.require(&["body"])?;
+    }
     let (planar, thickness) = frame_thickness(frame, options.thickness)?;
     let chosen = |p: usize| {
         options.bodies.is_empty()

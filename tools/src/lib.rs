@@ -115,6 +115,7 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             particles,
             threads,
             steps,
+            profile,
         } => {
             let dimensions: Vec<Dimension> = dimensions
                 .iter()
@@ -126,6 +127,7 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
                 particles: &particles,
                 threads: &threads,
                 steps,
+                profile,
             };
             commands::bench::bench_command(&grid, registry)
         }

@@ -137,6 +137,15 @@ pub fn field_values(frame: &ParticleFrame, field: &str) -> Result<Vec<f64>, Stri
             }
         }
     };
+    if values.len() != frame.position.len() {
+        // The column the field is drawn from, which the run's `output.fields` left out.
+        let column = match field {
+            "velocity_x" | "velocity_y" | "velocity_z" => "velocity",
+            "stress_xx" | "stress_yy" | "stress_zz" | "stress_xy" | "pressure" => "stress",
+            other => other,
+        };
+        frame.require(&[column])?;
+    }
     Ok(values)
 }
 
@@ -336,6 +345,8 @@ pub fn snapshot(
     options: &SnapshotOptions,
     output: &Path,
 ) -> Result<(), String> {
+    // Particles are drawn at their size and outlined by body.
+    frame.require(&["volume", "body"])?;
     let values = field_values(frame, &options.field)?;
     let range = options.range.unwrap_or_else(|| finite_range(&values));
     let raster = rasterise(frame, &values, range, options.view, options.width.max(50))?;

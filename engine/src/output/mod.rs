@@ -18,7 +18,8 @@ pub use frames::{grid_frame, particle_frame};
 pub use probes::{ForceProbeMemory, largest_energy_particle, must_be_finite, series_row};
 pub use pvd::{read_pvd, write_pvd};
 pub use vtu::{
-    GridFrame, ParticleFrame, read_particle_frame, write_grid_frame, write_particle_frame,
+    ENGINE_FRAME_FIELDS, FrameCompression, GridFrame, ParticleFrame, read_particle_frame,
+    write_grid_frame, write_particle_frame,
 };
 pub use writer::{FrameWriter, WriteFailure};
 
@@ -41,6 +42,10 @@ pub struct OutputPlan {
     pub last_good_frame: bool,
     /// Columns published by systems, after the probes.
     pub system_columns: Vec<String>,
+    /// How frame arrays are encoded.
+    pub compression: FrameCompression,
+    /// The arrays a particle frame carries beside positions; `None`: every one there is.
+    pub frame_fields: Option<Vec<String>>,
 }
 
 impl OutputPlan {
@@ -54,6 +59,8 @@ impl OutputPlan {
             probes: Vec::new(),
             last_good_frame: true,
             system_columns: Vec::new(),
+            compression: FrameCompression::default(),
+            frame_fields: None,
         }
     }
 }

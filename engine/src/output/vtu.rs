@@ -1,18 +1,54 @@
 //! VTU (VTK XML unstructured grid) frames of the particles, one vertex cell per particle.
 //!
-//! Arrays are written inline as base64 of their little-endian bytes, each preceded by its byte
-//! count (`header_type="UInt64"`, header and data encoded together as VTK does for uncompressed
-//! data). Unlike raw appended data this keeps the file well-formed XML, so generic XML tools and
-//! every VTK reader accept it.
+//! Arrays are written inline as base64, so the file stays well-formed XML that generic XML
+//! tools and every VTK reader accept (unlike raw appended data). Two encodings, chosen by the
+//! scene's `output.compression` ([`FrameCompression`]):
+//!
+//! - `Zlib` (the default): each array is one zlib block, preceded by VTK's compression header
+//!   `[blocks = 1, block size, last partial block = 0, compressed size]` (`header_type="UInt64"`);
+//!   the header and the compressed bytes are base64-encoded separately, as VTK's own writer
+//!   does, and the file names `compressor="vtkZLibDataCompressor"`. ParaView and VTK read it.
+//! - `None`: each array's bytes preceded by their byte count, encoded together (VTK's
+//!   uncompressed form).
+//!
+//! The scene's `output.fields` chooses the arrays a particle frame carries; positions are always
+//! written. An array left out is an empty column of [`ParticleFrame`].
 
 use super::atomic::write_atomically;
 use base64::Engine as _;
 use base64::engine::general_purpose::STANDARD as BASE64;
 use std::fmt::Write;
+use std::io::Read as _;
 use std::path::Path;
 
+/// How the arrays of a frame are encoded (the scene's `output.compression`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FrameCompression {
+    /// Raw little-endian bytes, base64-encoded.
+    None,
+    /// zlib at its fastest level (float data gains almost nothing from slower ones), then
+    /// base64.
+    #[default]
+    Zlib,
+}
+
+/// The names of the arrays a particle frame of the engine itself can carry, beside positions
+/// (which every frame has) and the columns systems register.
+pub const ENGINE_FRAME_FIELDS: [&str; 9] = [
+    "id",
+    "body",
+    "material",
+    "velocity",
+    "mass",
+    "volume",
+    "stress",
+    "damage",
+    "strain_energy_density",
+];
+
 /// Particle data of one frame, in particle-table order. Vectors have three components (z = 0
-/// in 2D) and stresses nine (plane strain: `xz = yz = 0`, `zz` kept), as VTK expects.
+/// in 2D) and stresses nine (plane strain: `xz = yz = 0`, `zz` kept), as VTK expects. A column
+/// the scene's `output.fields` leaves out is empty.
 #[derive(Clone, Debug, Default)]
 pub struct ParticleFrame {
     /// Particle ids.
@@ -45,18 +81,103 @@ pub struct ParticleFrame {
     pub thickness: Option<f64>,
 }
 
+impl ParticleFrame {
+    /// Empties every column not named in `fields` (positions and the thickness stay), so the
+    /// frame carries only the arrays the scene chose.
+    pub fn keep_only(&mut self, fields: &[String]) {
+        let keep = |name: &str| fields.iter().any(|f| f == name);
+        macro_rules! drop_unless {
+            ($($column:ident),*) => {$(
+                if !keep(stringify!($column)) {
+                    self.$column = Vec::new();
+                }
+            )*};
+        }
+        drop_unless!(
+            id,
+            body,
+            material,
+            velocity,
+            mass,
+            volume,
+            stress,
+            damage,
+            strain_energy_density
+        );
+        self.scalars.retain(|(name, _)| keep(name));
+        self.vectors.retain(|(name, _)| keep(name));
+    }
+
+    /// The engine columns among `fields` that this frame lacks (its file was written with a
+    /// narrower `output.fields`), as an error that says how to get them; `Ok` when it has all.
+    pub fn require(&self, fields: &[&str]) -> Result<(), String> {
+        let n = self.position.len();
+        let len = |name: &str| match name {
+            "id" => self.id.len(),
+            "body" => self.body.len(),
+            "material" => self.material.len(),
+            "velocity" => self.velocity.len(),
+            "mass" => self.mass.len(),
+            "volume" => self.volume.len(),
+            "stress" => self.stress.len(),
+            "damage" => self.damage.len(),
+            "strain_energy_density" => self.strain_energy_density.len(),
+            other => self
+                .scalars
+                .iter()
+                .find(|(s, _)| s == other)
+                .map(|(_, v)| v.len())
+                .or_else(|| {
+                    self.vectors
+                        .iter()
+                        .find(|(s, _)| s == other)
+                        .map(|(_, v)| v.len())
+                })
+                .unwrap_or(usize::MAX),
+        };
+        let missing: Vec<&str> = fields.iter().copied().filter(|&f| len(f) != n).collect();
+        if missing.is_empty() {
+            Ok(())
+        } else {
+            Err(format!(
+                "the frame lacks {}: add {} to the scene's output.fields and run it again",
+                missing.join(", "),
+                if missing.len() == 1 { "it" } else { "them" }
+            ))
+        }
+    }
+}
+
 struct Inline {
     xml: String,
+    compression: FrameCompression,
+    /// Arrays must have this many tuples; an empty one is left out (`output.fields`).
+    tuples: usize,
 }
 
 impl Inline {
     /// Starts a file of `n` VTK vertices, with `field_data` (name, value) as the grid's field
     /// data, opening the vertices' point data.
-    fn vertices(n: usize, field_data: &[(&str, f64)], scalars: &str, vectors: &str) -> Self {
-        let mut out = Inline { xml: String::new() };
-        out.xml.push_str(
+    fn vertices(
+        n: usize,
+        compression: FrameCompression,
+        field_data: &[(&str, f64)],
+        scalars: &str,
+        vectors: &str,
+    ) -> Self {
+        let mut out = Inline {
+            xml: String::new(),
+            compression,
+            tuples: n,
+        };
+        let compressor = match compression {
+            FrameCompression::None => "",
+            FrameCompression::Zlib => " compressor=\"vtkZLibDataCompressor\"",
+        };
+        let _ = writeln!(
+            out.xml,
             "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" \
-             byte_order=\"LittleEndian\" header_type=\"UInt64\">\n  <UnstructuredGrid>\n",
+             byte_order=\"LittleEndian\" header_type=\"UInt64\"{compressor}>\n  <UnstructuredGrid>"
         );
         if !field_data.is_empty() {
             out.xml.push_str("    <FieldData>\n");
@@ -94,17 +215,52 @@ impl Inline {
         write_atomically(path, self.xml.as_bytes())
     }
 
+    /// A point-data array of `tuples` × `components` values, left out when the scene's
+    /// `output.fields` emptied it.
+    fn column(&mut self, name: &str, ty: &str, components: usize, tuples: usize, bytes: Vec<u8>) {
+        if tuples == self.tuples {
+            self.array(Some(name), ty, components, bytes);
+        }
+    }
+
     fn array(&mut self, name: Option<&str>, ty: &str, components: usize, bytes: Vec<u8>) {
         let name_attr = name.map(|n| format!(" Name=\"{n}\"")).unwrap_or_default();
-        let mut block = (bytes.len() as u64).to_le_bytes().to_vec();
-        block.extend_from_slice(&bytes);
-        let _ = writeln!(
+        let _ = write!(
             self.xml,
             "        <DataArray type=\"{ty}\"{name_attr} NumberOfComponents=\"{components}\" \
-             format=\"binary\">{}</DataArray>",
-            BASE64.encode(&block)
+             format=\"binary\">"
         );
+        match self.compression {
+            FrameCompression::None => {
+                let mut block = (bytes.len() as u64).to_le_bytes().to_vec();
+                block.extend_from_slice(&bytes);
+                BASE64.encode_string(&block, &mut self.xml);
+            }
+            FrameCompression::Zlib => {
+                let compressed = zlib(&bytes);
+                let header: Vec<u8> = [1, bytes.len() as u64, 0, compressed.len() as u64]
+                    .into_iter()
+                    .flat_map(u64::to_le_bytes)
+                    .collect();
+                BASE64.encode_string(&header, &mut self.xml);
+                BASE64.encode_string(&compressed, &mut self.xml);
+            }
+        }
+        self.xml.push_str("</DataArray>\n");
     }
+}
+
+/// `bytes` as one zlib stream at the fastest level.
+fn zlib(bytes: &[u8]) -> Vec<u8> {
+    use std::io::Write as _;
+    let mut encoder = flate2::write::ZlibEncoder::new(
+        Vec::with_capacity(bytes.len() / 2),
+        flate2::Compression::fast(),
+    );
+    encoder
+        .write_all(bytes)
+        .and_then(|()| encoder.finish())
+        .expect("compressing into memory cannot fail")
 }
 
 fn f64_bytes(values: impl Iterator<Item = f64>) -> Vec<u8> {
@@ -127,8 +283,9 @@ struct ReadArray {
     bytes: Vec<u8>,
 }
 
-/// The `DataArray`s of a file written by this module, in file order.
-fn read_arrays(xml: &str) -> Result<Vec<ReadArray>, String> {
+/// The `DataArray`s of a file written by this module, in file order; `compressed` when the
+/// file names VTK's zlib compressor.
+fn read_arrays(xml: &str, compressed: bool) -> Result<Vec<ReadArray>, String> {
     let mut arrays = Vec::new();
     for piece in xml.split("<DataArray").skip(1) {
         let (tag, rest) = piece
@@ -137,21 +294,13 @@ fn read_arrays(xml: &str) -> Result<Vec<ReadArray>, String> {
         let body = rest
             .split_once("</DataArray>")
             .ok_or("a DataArray without its end tag")?
-            .0;
-        let block = BASE64
-            .decode(body.trim())
-            .map_err(|e| format!("a DataArray that is not base64: {e}"))?;
-        if block.len() < 8 {
-            return Err("a DataArray without its byte count".into());
-        }
-        let (count, data) = block.split_at(8);
-        let count = u64::from_le_bytes(count.try_into().expect("8 bytes")) as usize;
-        if count != data.len() {
-            return Err(format!(
-                "a DataArray of {} bytes that says {count}",
-                data.len()
-            ));
-        }
+            .0
+            .trim();
+        let bytes = if compressed {
+            decode_compressed(body)?
+        } else {
+            decode_plain(body)?
+        };
         arrays.push(ReadArray {
             name: super::pvd::attribute(tag, "Name").map(str::to_string),
             ty: super::pvd::attribute(tag, "type")
@@ -160,10 +309,77 @@ fn read_arrays(xml: &str) -> Result<Vec<ReadArray>, String> {
             components: super::pvd::attribute(tag, "NumberOfComponents")
                 .and_then(|c| c.parse().ok())
                 .unwrap_or(1),
-            bytes: data.to_vec(),
+            bytes,
         });
     }
     Ok(arrays)
+}
+
+fn base64_of(text: &str) -> Result<Vec<u8>, String> {
+    BASE64
+        .decode(text)
+        .map_err(|e| format!("a DataArray that is not base64: {e}"))
+}
+
+fn u64_at(bytes: &[u8], index: usize) -> Option<usize> {
+    let chunk = bytes.get(8 * index..8 * index + 8)?;
+    Some(u64::from_le_bytes(chunk.try_into().ok()?) as usize)
+}
+
+/// An uncompressed array: its byte count and bytes, encoded together.
+fn decode_plain(body: &str) -> Result<Vec<u8>, String> {
+    let block = base64_of(body)?;
+    let count = u64_at(&block, 0).ok_or("a DataArray without its byte count")?;
+    let data = &block[8..];
+    if count != data.len() {
+        return Err(format!(
+            "a DataArray of {} bytes that says {count}",
+            data.len()
+        ));
+    }
+    Ok(data.to_vec())
+}
+
+/// A zlib-compressed array: VTK's header `[blocks, block size, last block size, compressed
+/// sizes…]`, then the blocks, encoded separately (any number of blocks, as VTK writes them).
+fn decode_compressed(body: &str) -> Result<Vec<u8>, String> {
+    // Base64 of n bytes is 4·⌈n/3⌉ characters.
+    let encoded_len = |bytes: usize| bytes.div_ceil(3) * 4;
+    let short = || "a compressed DataArray whose header is cut short".to_string();
+    let first = body.get(..encoded_len(8)).ok_or_else(short)?;
+    let blocks = u64_at(&base64_of(first)?, 0).ok_or_else(short)?;
+    if blocks > body.len() {
+        return Err(format!("a compressed DataArray that says {blocks} blocks"));
+    }
+    let header_len = encoded_len(8 * (3 + blocks));
+    let header = base64_of(body.get(..header_len).ok_or_else(short)?)?;
+    let word = |i: usize| u64_at(&header, i).ok_or_else(short);
+    let (block_size, last_size) = (word(1)?, word(2)?);
+    let total = match (blocks, last_size) {
+        (0, _) => 0,
+        (b, 0) => b * block_size,
+        (b, last) => (b - 1) * block_size + last,
+    };
+    let data = base64_of(&body[header_len..])?;
+    let mut out = Vec::with_capacity(total);
+    let mut at = 0;
+    for i in 0..blocks {
+        let size = word(3 + i)?;
+        let block = data
+            .get(at..at + size)
+            .ok_or("a compressed DataArray shorter than its header says")?;
+        flate2::read::ZlibDecoder::new(block)
+            .read_to_end(&mut out)
+            .map_err(|e| format!("a compressed DataArray that does not inflate: {e}"))?;
+        at += size;
+    }
+    if out.len() != total {
+        return Err(format!(
+            "a compressed DataArray of {} bytes that says {total}",
+            out.len()
+        ));
+    }
+    Ok(out)
 }
 
 impl ReadArray {
@@ -192,16 +408,26 @@ impl ReadArray {
     }
 }
 
-/// Reads a particle frame written by [`write_particle_frame`] (the arrays it writes, extra
-/// scalars and vectors by name; a frame from elsewhere is refused with the reason).
+/// Reads a particle frame written by [`write_particle_frame`], compressed or not (the arrays it
+/// writes, extra scalars and vectors by name; a column the scene's `output.fields` left out is
+/// empty, see [`ParticleFrame::require`]; a frame from elsewhere is refused with the reason).
 pub fn read_particle_frame(path: &Path) -> Result<ParticleFrame, String> {
     let xml = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let at = |e: String| format!("{}: {e}", path.display());
+    let compressed = match xml
+        .split_once("<VTKFile")
+        .and_then(|(_, tag)| tag.split_once('>'))
+        .and_then(|(tag, _)| super::pvd::attribute(tag, "compressor"))
+    {
+        None => false,
+        Some("vtkZLibDataCompressor") => true,
+        Some(other) => return Err(at(format!("a frame compressed by {other}, not zlib"))),
+    };
     let (field_data, piece) = match xml.split_once("<Piece") {
-        Some((head, piece)) => (read_arrays(head).map_err(at)?, piece),
+        Some((head, piece)) => (read_arrays(head, compressed).map_err(at)?, piece),
         None => (Vec::new(), xml.as_str()),
     };
-    let arrays = read_arrays(piece).map_err(at)?;
+    let arrays = read_arrays(piece, compressed).map_err(at)?;
     let mut f = ParticleFrame::default();
     for a in &field_data {
         if a.name.as_deref() == Some("thickness") {
@@ -240,19 +466,26 @@ pub fn read_particle_frame(path: &Path) -> Result<ParticleFrame, String> {
         }
     }
     let n = f.position.len();
-    let complete = seen_points
-        && [
-            f.id.len(),
-            f.mass.len(),
-            f.volume.len(),
-            f.damage.len(),
-            f.velocity.len(),
-        ]
-        .iter()
-        .all(|&len| len == n);
-    if !complete {
+    let lengths = [
+        f.id.len(),
+        f.body.len(),
+        f.material.len(),
+        f.velocity.len(),
+        f.mass.len(),
+        f.volume.len(),
+        f.stress.len(),
+        f.damage.len(),
+        f.strain_energy_density.len(),
+    ];
+    let extra = f.scalars.iter().map(|(_, v)| v.len());
+    let extra = extra.chain(f.vectors.iter().map(|(_, v)| v.len()));
+    let consistent = lengths
+        .into_iter()
+        .chain(extra)
+        .all(|len| len == n || len == 0);
+    if !seen_points || !consistent {
         return Err(at(
-            "not a particle frame of fractum (missing or short arrays)".into(),
+            "not a particle frame of fractum (no points, or arrays of the wrong length)".into(),
         ));
     }
     Ok(f)
@@ -279,132 +512,86 @@ pub struct GridFrame {
 
 /// Writes the grid `frame` to `path` atomically: one VTK vertex per node, with `index`,
 /// `fields`, and `key_k`, `mass_k`, `velocity_k`, `normal_k` for each field slot `k`.
-pub fn write_grid_frame(path: &Path, frame: &GridFrame) -> std::io::Result<()> {
-    let mut out = Inline::vertices(frame.position.len(), &[], "fields", "velocity_0");
-    out.array(
-        Some("index"),
-        "Int32",
-        1,
-        i32_bytes(frame.index.iter().map(|&v| v as i32)),
-    );
-    out.array(
-        Some("fields"),
-        "Int32",
-        1,
-        i32_bytes(frame.fields.iter().map(|&v| i32::from(v))),
-    );
+pub fn write_grid_frame(
+    path: &Path,
+    frame: &GridFrame,
+    compression: FrameCompression,
+) -> std::io::Result<()> {
+    let n = frame.position.len();
+    let mut out = Inline::vertices(n, compression, &[], "fields", "velocity_0");
+    let index = i32_bytes(frame.index.iter().map(|&v| v as i32));
+    out.column("index", "Int32", 1, n, index);
+    let fields = i32_bytes(frame.fields.iter().map(|&v| i32::from(v)));
+    out.column("fields", "Int32", 1, n, fields);
     for k in 0..crate::components::MAX_FIELDS {
-        out.array(
-            Some(&format!("key_{k}")),
-            "Int32",
-            1,
-            i32_bytes(frame.key.iter().map(|v| v[k])),
-        );
-        out.array(
-            Some(&format!("mass_{k}")),
-            "Float64",
-            1,
-            f64_bytes(frame.mass.iter().map(|v| v[k])),
-        );
-        out.array(
-            Some(&format!("velocity_{k}")),
-            "Float64",
-            3,
-            f64_bytes(frame.velocity.iter().flat_map(|v| v[k])),
-        );
-        out.array(
-            Some(&format!("normal_{k}")),
-            "Float64",
-            3,
-            f64_bytes(frame.normal.iter().flat_map(|v| v[k])),
-        );
+        let key = i32_bytes(frame.key.iter().map(|v| v[k]));
+        out.column(&format!("key_{k}"), "Int32", 1, n, key);
+        let mass = f64_bytes(frame.mass.iter().map(|v| v[k]));
+        out.column(&format!("mass_{k}"), "Float64", 1, n, mass);
+        let velocity = f64_bytes(frame.velocity.iter().flat_map(|v| v[k]));
+        out.column(&format!("velocity_{k}"), "Float64", 3, n, velocity);
+        let normal = f64_bytes(frame.normal.iter().flat_map(|v| v[k]));
+        out.column(&format!("normal_{k}"), "Float64", 3, n, normal);
     }
     out.finish(path, &frame.position)
 }
 
-/// Writes `frame` to `path` atomically.
-pub fn write_particle_frame(path: &Path, frame: &ParticleFrame) -> std::io::Result<()> {
+/// Writes `frame` to `path` atomically, each non-empty column as one array.
+pub fn write_particle_frame(
+    path: &Path,
+    frame: &ParticleFrame,
+    compression: FrameCompression,
+) -> std::io::Result<()> {
     let field_data: Vec<(&str, f64)> = frame
         .thickness
         .map(|t| ("thickness", t))
         .into_iter()
         .collect();
-    let mut out = Inline::vertices(frame.position.len(), &field_data, "damage", "velocity");
-    out.array(
-        Some("id"),
+    let f = frame;
+    let mut out = Inline::vertices(
+        f.position.len(),
+        compression,
+        &field_data,
+        "damage",
+        "velocity",
+    );
+    let ints = |v: &[u16]| i32_bytes(v.iter().map(|&v| i32::from(v)));
+    out.column(
+        "id",
         "Int32",
         1,
-        i32_bytes(frame.id.iter().map(|&v| v as i32)),
+        f.id.len(),
+        i32_bytes(f.id.iter().map(|&v| v as i32)),
     );
-    out.array(
-        Some("body"),
-        "Int32",
-        1,
-        i32_bytes(frame.body.iter().map(|&v| v as i32)),
-    );
-    out.array(
-        Some("material"),
-        "Int32",
-        1,
-        i32_bytes(frame.material.iter().map(|&v| v as i32)),
-    );
-    out.array(
-        Some("velocity"),
-        "Float64",
-        3,
-        f64_bytes(frame.velocity.iter().flatten().copied()),
-    );
-    out.array(
-        Some("mass"),
-        "Float64",
-        1,
-        f64_bytes(frame.mass.iter().copied()),
-    );
-    out.array(
-        Some("volume"),
-        "Float64",
-        1,
-        f64_bytes(frame.volume.iter().copied()),
-    );
-    out.array(
-        Some("stress"),
-        "Float64",
-        9,
-        f64_bytes(frame.stress.iter().flatten().copied()),
-    );
-    out.array(
-        Some("damage"),
-        "Float64",
-        1,
-        f64_bytes(frame.damage.iter().copied()),
-    );
-    out.array(
-        Some("strain_energy_density"),
-        "Float64",
-        1,
-        f64_bytes(frame.strain_energy_density.iter().copied()),
-    );
-    for (name, values) in &frame.scalars {
-        out.array(Some(name), "Float64", 1, f64_bytes(values.iter().copied()));
+    out.column("body", "Int32", 1, f.body.len(), ints(&f.body));
+    out.column("material", "Int32", 1, f.material.len(), ints(&f.material));
+    let velocity = f64_bytes(f.velocity.iter().flatten().copied());
+    out.column("velocity", "Float64", 3, f.velocity.len(), velocity);
+    let scalar = |v: &[f64]| f64_bytes(v.iter().copied());
+    out.column("mass", "Float64", 1, f.mass.len(), scalar(&f.mass));
+    out.column("volume", "Float64", 1, f.volume.len(), scalar(&f.volume));
+    let stress = f64_bytes(f.stress.iter().flatten().copied());
+    out.column("stress", "Float64", 9, f.stress.len(), stress);
+    out.column("damage", "Float64", 1, f.damage.len(), scalar(&f.damage));
+    let energy = scalar(&f.strain_energy_density);
+    let energy_len = f.strain_energy_density.len();
+    out.column("strain_energy_density", "Float64", 1, energy_len, energy);
+    for (name, values) in &f.scalars {
+        out.column(name, "Float64", 1, values.len(), scalar(values));
     }
-    for (name, values) in &frame.vectors {
-        out.array(
-            Some(name),
-            "Float64",
-            3,
-            f64_bytes(values.iter().flatten().copied()),
-        );
+    for (name, values) in &f.vectors {
+        let bytes = f64_bytes(values.iter().flatten().copied());
+        out.column(name, "Float64", 3, values.len(), bytes);
     }
-    out.finish(path, &frame.position)
+    out.finish(path, &f.position)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    #[test]
-    fn a_particle_frame_reads_back_as_written() {
-        let frame = ParticleFrame {
+    fn sample() -> ParticleFrame {
+        ParticleFrame {
             id: vec![3, 1],
             body: vec![0, 2],
             material: vec![1, 0],
@@ -418,12 +605,16 @@ mod tests {
             scalars: vec![("strength".into(), vec![7.0, 8.0])],
             vectors: vec![("damage_gradient".into(), vec![[0.0; 3], [1.0, 0.0, 0.0]])],
             thickness: Some(2.0e-3),
-        };
-        let dir = std::env::temp_dir().join(format!("fractum-vtu-read-{}", std::process::id()));
+        }
+    }
+
+    fn scratch(name: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("fractum-vtu-{name}-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("frame.vtu");
-        write_particle_frame(&path, &frame).unwrap();
-        let read = read_particle_frame(&path).unwrap();
+        dir
+    }
+
+    fn assert_same(read: &ParticleFrame, frame: &ParticleFrame) {
         assert_eq!(read.id, frame.id);
         assert_eq!(read.body, frame.body);
         assert_eq!(read.material, frame.material);
@@ -437,6 +628,82 @@ mod tests {
         assert_eq!(read.scalars, frame.scalars);
         assert_eq!(read.vectors, frame.vectors);
         assert_eq!(read.thickness, frame.thickness);
+    }
+
+    #[test]
+    fn a_particle_frame_reads_back_as_written_in_either_encoding() {
+        let dir = scratch("read");
+        for compression in [FrameCompression::None, FrameCompression::Zlib] {
+            let path = dir.join(format!("{compression:?}.vtu"));
+            write_particle_frame(&path, &sample(), compression).unwrap();
+            let text = std::fs::read_to_string(&path).unwrap();
+            let named = text.contains("compressor=\"vtkZLibDataCompressor\"");
+            assert_eq!(named, compression == FrameCompression::Zlib);
+            assert_same(&read_particle_frame(&path).unwrap(), &sample());
+        }
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn compression_shrinks_a_frame_of_repetitive_columns() {
+        let n = 2000;
+        let frame = ParticleFrame {
+            id: (0..n).collect(),
+            body: vec![0; n as usize],
+            position: (0..n).map(|i| [f64::from(i) * 1e-3, 0.5, 0.0]).collect(),
+            damage: vec![0.0; n as usize],
+            ..Default::default()
+        };
+        let dir = scratch("shrink");
+        let size = |compression| {
+            let path = dir.join("frame.vtu");
+            write_particle_frame(&path, &frame, compression).unwrap();
+            std::fs::metadata(&path).unwrap().len()
+        };
+        let (plain, zlib) = (size(FrameCompression::None), size(FrameCompression::Zlib));
+        assert!(zlib * 3 < plain, "zlib {zlib} B against {plain} B");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_narrowed_frame_carries_only_the_chosen_fields() {
+        let mut frame = sample();
+        frame.keep_only(&["damage".into(), "strength".into()]);
+        assert!(frame.id.is_empty() && frame.stress.is_empty() && frame.vectors.is_empty());
+        assert_eq!(frame.scalars.len(), 1);
+        let dir = scratch("narrow");
+        let path = dir.join("frame.vtu");
+        write_particle_frame(&path, &frame, FrameCompression::Zlib).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(!text.contains("Name=\"stress\"") && text.contains("Name=\"damage\""));
+        let read = read_particle_frame(&path).unwrap();
+        assert_same(&read, &frame);
+        assert!(read.require(&["damage", "strength"]).is_ok());
+        let missing = read.require(&["damage", "volume", "mass"]).unwrap_err();
+        assert!(missing.contains("volume, mass"), "{missing}");
+        assert!(missing.contains("output.fields"), "{missing}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// VTK's own writer splits an array into 32 KiB blocks; the reader takes any number.
+    #[test]
+    fn an_array_in_several_zlib_blocks_decodes() {
+        let bytes: Vec<u8> = (0..10_000u32)
+            .flat_map(|i| (i % 251).to_le_bytes())
+            .collect();
+        let (block, last) = (16_384, bytes.len() % 16_384);
+        let blocks: Vec<Vec<u8>> = bytes.chunks(block).map(zlib).collect();
+        let mut header = vec![blocks.len() as u64, block as u64, last as u64];
+        header.extend(blocks.iter().map(|b| b.len() as u64));
+        let header: Vec<u8> = header.into_iter().flat_map(u64::to_le_bytes).collect();
+        let body = BASE64.encode(header) + &BASE64.encode(blocks.concat());
+        assert_eq!(decode_compressed(&body).unwrap(), bytes);
+        // Cut short, or with a corrupt block: an error, not a panic.
+        assert!(decode_compressed(&body[..body.len() / 2]).is_err());
+        assert!(decode_compressed(&body[..20]).is_err());
+        let mut corrupt = body.into_bytes();
+        let end = corrupt.len() - 10;
+        corrupt[end] = if corrupt[end] == b'A' { b'B' } else { b'A' };
+        assert!(decode_compressed(std::str::from_utf8(&corrupt).unwrap()).is_err());
     }
 }

@@ -13,7 +13,9 @@
 //! - The bytes are those of [`write_particle_frame`] and [`write_grid_frame`] called directly:
 //!   the writer only moves them off the stepping thread.
 
-use super::{GridFrame, ParticleFrame, write_grid_frame, write_particle_frame, write_pvd};
+use super::{
+    FrameCompression, GridFrame, ParticleFrame, write_grid_frame, write_particle_frame, write_pvd,
+};
 use std::path::PathBuf;
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::sync::{Arc, Mutex};
@@ -39,14 +41,14 @@ impl Job {
         }
     }
 
-    fn write(self) -> Result<(), WriteFailure> {
+    fn write(self, compression: FrameCompression) -> Result<(), WriteFailure> {
         let (path, result) = match self {
             Job::Particles(path, frame) => {
-                let result = write_particle_frame(&path, &frame);
+                let result = write_particle_frame(&path, &frame, compression);
                 (path, result)
             }
             Job::Grid(path, frame) => {
-                let result = write_grid_frame(&path, &frame);
+                let result = write_grid_frame(&path, &frame, compression);
                 (path, result)
             }
             Job::Collection(path, frames) => {
@@ -71,14 +73,14 @@ pub struct FrameWriter {
 }
 
 impl FrameWriter {
-    /// Starts the writer's thread.
-    pub fn start() -> std::io::Result<Self> {
+    /// Starts the writer's thread, which encodes frames with `compression`.
+    pub fn start(compression: FrameCompression) -> std::io::Result<Self> {
         let (jobs, queue) = sync_channel::<Job>(1);
         let failure = Arc::new(Mutex::new(None));
         let shared = Arc::clone(&failure);
         let worker = std::thread::Builder::new()
             .name("fractum-frames".into())
-            .spawn(move || work(queue, shared))?;
+            .spawn(move || work(queue, shared, compression))?;
         Ok(Self {
             jobs: Some(jobs),
             worker: Some(worker),
@@ -160,7 +162,11 @@ fn stopped(path: PathBuf) -> WriteFailure {
     (path, why)
 }
 
-fn work(queue: Receiver<Job>, failure: Arc<Mutex<Option<WriteFailure>>>) {
+fn work(
+    queue: Receiver<Job>,
+    failure: Arc<Mutex<Option<WriteFailure>>>,
+    compression: FrameCompression,
+) {
     for job in queue {
         let failed = failure.lock().unwrap_or_else(|e| e.into_inner()).is_some();
         if failed {
@@ -170,7 +176,7 @@ fn work(queue: Receiver<Job>, failure: Arc<Mutex<Option<WriteFailure>>>) {
             }
             continue;
         }
-        if let Err(f) = job.write() {
+        if let Err(f) = job.write(compression) {
             *failure.lock().unwrap_or_else(|e| e.into_inner()) = Some(f);
         }
     }
@@ -208,7 +214,7 @@ mod tests {
     #[test]
     fn frames_written_behind_are_the_bytes_written_directly() {
         let dir = scratch("bytes");
-        let writer = FrameWriter::start().unwrap();
+        let writer = FrameWriter::start(FrameCompression::Zlib).unwrap();
         for k in 0..4 {
             let path = dir.join(format!("behind_{k}.vtu"));
             writer.particles(path, frame(10 + k)).unwrap();
@@ -220,7 +226,7 @@ mod tests {
         writer.wait().unwrap();
         for k in 0..4 {
             let direct = dir.join(format!("direct_{k}.vtu"));
-            write_particle_frame(&direct, &frame(10 + k)).unwrap();
+            write_particle_frame(&direct, &frame(10 + k), FrameCompression::Zlib).unwrap();
             let behind = std::fs::read(dir.join(format!("behind_{k}.vtu"))).unwrap();
             assert_eq!(behind, std::fs::read(&direct).unwrap(), "frame {k}");
         }
@@ -236,7 +242,7 @@ mod tests {
     #[test]
     fn a_failed_write_is_reported_with_its_path_and_stops_the_writer() {
         let dir = scratch("failure");
-        let writer = FrameWriter::start().unwrap();
+        let writer = FrameWriter::start(FrameCompression::default()).unwrap();
         let unwritable = dir.join("no_such_folder").join("frame.vtu");
         writer.particles(unwritable.clone(), frame(3)).unwrap_or(());
         let (path, _) = writer.wait().unwrap_err();
@@ -253,7 +259,7 @@ mod tests {
     #[test]
     fn dropping_the_writer_finishes_what_it_was_given() {
         let dir = scratch("drop");
-        let writer = FrameWriter::start().unwrap();
+        let writer = FrameWriter::start(FrameCompression::default()).unwrap();
         for k in 0..3 {
             writer
                 .particles(dir.join(format!("f{k}.vtu")), frame(50))

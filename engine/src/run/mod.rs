@@ -156,7 +156,10 @@ impl Outputs<'_> {
         {
             self.written[1] = Some(step);
             let name = format!("frames/particles_{step:08}.vtu");
-            let frame = particle_frame(&mut sim.world);
+            let mut frame = particle_frame(&mut sim.world);
+            if let Some(fields) = &self.plan.frame_fields {
+                frame.keep_only(fields);
+            }
             self.writer.particles(self.dir.join(&name), frame)?;
             self.frames.push((sim.clock().time, name));
             let pvd = self.dir.join("particles.pvd");
@@ -299,7 +302,7 @@ pub fn run_with(
         let last_good = plan.last_good_frame.then(|| particle_frame(&mut sim.world));
         if let Err(blowup) = sim.step() {
             outputs.settle()?;
-            let written = write_last_good(&frames_dir, sim.clock().step, last_good)?;
+            let written = write_last_good(plan, &frames_dir, sim.clock().step, last_good)?;
             return Err(RunError::Blowup(blowup, written));
         }
         outputs.record(sim, false)?;
@@ -369,7 +372,7 @@ fn open_outputs<'a>(
         frames: Vec::new(),
         grid_frames: Vec::new(),
         written: [None; 3],
-        writer: FrameWriter::start().map_err(|source| RunError::Io {
+        writer: FrameWriter::start(plan.compression).map_err(|source| RunError::Io {
             path: out_dir.join("frames"),
             source,
         })?,
@@ -388,8 +391,10 @@ fn open_outputs<'a>(
     Ok((outputs, schedule))
 }
 
-/// Writes the state at the start of the failing step, when the plan kept it.
+/// Writes the state at the start of the failing step, when the plan kept it (every field, for
+/// the diagnosis, encoded as the plan says).
 fn write_last_good(
+    plan: &OutputPlan,
     frames_dir: &Path,
     step: u64,
     last_good: Option<crate::output::ParticleFrame>,
@@ -398,7 +403,7 @@ fn write_last_good(
         return Ok(None);
     };
     let path = frames_dir.join(format!("particles_last_good_{step:08}.vtu"));
-    write_particle_frame(&path, &frame).map_err(io_error(&path))?;
+    write_particle_frame(&path, &frame, plan.compression).map_err(io_error(&path))?;
     Ok(Some(path))
 }
 

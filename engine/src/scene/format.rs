@@ -434,6 +434,24 @@ pub struct OutputSpec {
     /// up can write the last good state (`frames/particles_last_good_<step>.vtu`).
     #[serde(default = "default_true")]
     pub last_good_frame: bool,
+    /// How frame arrays are encoded: `Zlib` (the default; ParaView and VTK read it) or `None`.
+    #[serde(default)]
+    pub compression: CompressionSpec,
+    /// The arrays each particle frame carries beside positions (`["velocity", "damage",
+    /// "stress"]`): engine fields and the columns the pipeline's systems register; every one of
+    /// them when absent.
+    #[serde(default)]
+    pub fields: Option<Vec<String>>,
+}
+
+/// Frame compression, as the scene names it.
+#[derive(Debug, Deserialize, Clone, Copy, Default, PartialEq, Eq)]
+pub enum CompressionSpec {
+    /// Uncompressed arrays.
+    None,
+    /// zlib-compressed arrays.
+    #[default]
+    Zlib,
 }
 
 fn default_true() -> bool {
@@ -452,6 +470,8 @@ impl Default for OutputSpec {
             csv_every: default_csv_every(),
             probes: Vec::new(),
             last_good_frame: true,
+            compression: CompressionSpec::default(),
+            fields: None,
         }
     }
 }

@@ -35,6 +35,7 @@ impl<D: Dim> Spec<D> {
         let mut schedule = step_schedule();
         let pipeline = self.install_pipeline(registry, &mut schedule, &mut world)?;
         self.check_checkpoint_keys(&world)?;
+        self.check_frame_fields(&world)?;
         output.system_columns = world
             .get_resource::<SeriesColumns>()
             .map(SeriesColumns::published)
@@ -60,6 +61,39 @@ impl<D: Dim> Spec<D> {
             body_particles,
             summary,
         })
+    }
+
+    /// Every name in `output.fields` is an array a particle frame of this pipeline has.
+    fn check_frame_fields(&self, world: &World) -> Result<(), SceneError> {
+        let Some(fields) = &self.output.fields else {
+            return Ok(());
+        };
+        let mut known: Vec<&str> = crate::output::ENGINE_FRAME_FIELDS.to_vec();
+        if let Some(columns) = world.get_resource::<crate::output::FrameColumns>() {
+            known.extend(columns.names());
+        }
+        if world.contains_resource::<crate::fields::FieldsAssigned>() {
+            known.push("velocity_field");
+        }
+        for (i, name) in fields.iter().enumerate() {
+            let field = format!("output.fields[{i}]");
+            if fields[..i].contains(name) {
+                return Err(self
+                    .source
+                    .error(&field, format!("{name:?} is listed twice")));
+            }
+            if !known.contains(&name.as_str()) {
+                return Err(self.source.error(
+                    &field,
+                    format!(
+                        "no frame field {name:?} in this pipeline (positions are always \
+                         written); expected one of: {}",
+                        known.join(", ")
+                    ),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// The world before the pipeline: the engine's resources, the nodes and the bodies'
@@ -118,13 +152,7 @@ impl<D: Dim> Spec<D> {
             schedule.add_systems(apply_loads::<D>.in_set(StepSet::ApplyLoads));
         }
         let start = crate::diagnostics::totals(world);
-        let moment = {
-            let mut query = world.query_filtered::<(
-                &crate::components::Mass,
-                &crate::components::Position<D>,
-            ), bevy_ecs::query::With<crate::components::Particle>>();
-            crate::energy::first_moment::<D>(query.iter(world).map(|(m, x)| (m.0, x.0)))
-        };
+        let moment = crate::energy::first_moment::<D>(world);
         world.insert_resource(crate::energy::EnergyAccount::new(
             start.total_energy(),
             moment,
@@ -408,6 +436,8 @@ impl<D: Dim> Spec<D> {
             probes,
             last_good_frame: self.output.last_good_frame,
             system_columns: Vec::new(),
+            compression: self.output.compression,
+            frame_fields: self.output.fields.clone(),
         })
     }
 }

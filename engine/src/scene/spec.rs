@@ -295,6 +295,10 @@ pub struct Output {
     pub probes: Vec<Probe>,
     /// Keep the state at the start of each step to write it if the step blows up.
     pub last_good_frame: bool,
+    /// How frame arrays are encoded.
+    pub compression: crate::output::FrameCompression,
+    /// The arrays a particle frame carries beside positions; every one when `None`.
+    pub fields: Option<Vec<String>>,
 }
 
 impl Default for Output {
@@ -305,6 +309,8 @@ impl Default for Output {
             csv_every: 1,
             probes: Vec::new(),
             last_good_frame: true,
+            compression: crate::output::FrameCompression::default(),
+            fields: None,
         }
     }
 }

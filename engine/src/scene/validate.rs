@@ -158,6 +158,11 @@ impl<D: Dim> Reader<D> {
                 csv_every: scene.output.csv_every,
                 probes: scene.output.probes.clone(),
                 last_good_frame: scene.output.last_good_frame,
+                compression: match scene.output.compression {
+                    CompressionSpec::None => crate::output::FrameCompression::None,
+                    CompressionSpec::Zlib => crate::output::FrameCompression::Zlib,
+                },
+                fields: scene.output.fields.clone(),
             },
             on_leave_grid: match scene.safety.on_leave_grid {
                 LeaveGridSpec::Stop => LeaveGrid::Stop,

@@ -1,7 +1,9 @@
 //! `fractum bench`: particle-steps per second of the stock pipelines.
 
 use crate::EXIT_BLOWUP;
-use crate::bench::{BenchCase, BenchPipeline, default_steps, measure, table};
+use crate::bench::{
+    BenchCase, BenchPipeline, default_steps, measure, profile_report, table, triad_bandwidth,
+};
 use fractum_engine::dim::Dimension;
 use fractum_engine::registry::Registry;
 
@@ -12,6 +14,7 @@ pub(crate) struct BenchGrid<'a> {
     pub(crate) particles: &'a [usize],
     pub(crate) threads: &'a [usize],
     pub(crate) steps: Option<u64>,
+    pub(crate) profile: bool,
 }
 
 impl BenchGrid<'_> {
@@ -27,6 +30,7 @@ impl BenchGrid<'_> {
                             particles,
                             threads: threads.max(1),
                             steps: self.steps.unwrap_or_else(|| default_steps(particles)),
+                            profile: self.profile,
                         });
                     }
                 }
@@ -58,5 +62,28 @@ pub(crate) fn bench_command(grid: &BenchGrid, registry: &Registry) -> i32 {
         }
     }
     out!("{}", table(&results));
+    if grid.profile {
+        let mut bandwidth = Vec::new();
+        for &threads in grid.threads {
+            match triad_bandwidth(threads.max(1), TRIAD_ELEMENTS) {
+                Ok(bytes_per_second) => {
+                    eprintln!(
+                        "triad, {threads} threads: {:.2} GB/s",
+                        bytes_per_second / 1e9
+                    );
+                    bandwidth.push((threads.max(1), bytes_per_second));
+                }
+                Err(e) => {
+                    eprintln!("error: the triad: {e}");
+                    return EXIT_BLOWUP;
+                }
+            }
+        }
+        out!("{}", profile_report(&results, &bandwidth));
+    }
     0
 }
+
+/// Elements of each triad array: 2²⁴ f64s, 128 MiB, well beyond the caches of the machines we
+/// measure on.
+const TRIAD_ELEMENTS: usize = 1 << 24;

@@ -111,6 +111,9 @@ pub(crate) fn default_link(dir: &Path, thickness: Option<f64>) -> Result<f64, St
         .ok_or_else(|| format!("{}: the run wrote no particle frames", dir.display()))?;
     let path = dir.join(&first.1);
     let frame = read_particle_frame(&path)?;
+    frame
+        .require(&["volume"])
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     let (planar, thickness) = fragments::frame_thickness(&frame, thickness)
         .map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(1.5 * fragments::median_spacing(&frame, planar, thickness))
