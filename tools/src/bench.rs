@@ -296,9 +296,42 @@ pub fn amdahl(serial: f64, threads: usize) -> f64 {
 /// bandwidth at its thread count (`bandwidth`, thread count → bytes/s), each stage's time per
 /// step, and the serial fraction where one and more threads were measured.
 pub fn profile_report(results: &[BenchResult], bandwidth: &[(usize, f64)]) -> String {
-    let mut out = String::from(
-        "\n| pipeline | dim | particles | threads | bytes/particle-step | triad GB/s | attained GB/s | of triad | rate bound by triad |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
-    );
+    [
+        roofline_table(results, bandwidth),
+        stage_table(results),
+        scaling_table(results),
+    ]
+    .join("\n")
+}
+
+/// The columns that name a measurement: pipeline, dimension, particles, threads.
+const KEY_HEADER: &str = "| pipeline | dim | particles | threads |";
+
+/// `r`'s cells under [`KEY_HEADER`].
+fn key(r: &BenchResult) -> String {
+    format!(
+        "| {} | {} | {} | {} |",
+        r.pipeline.name(),
+        dimension_name(r.dimension),
+        r.particles,
+        r.threads
+    )
+}
+
+/// A table's header and its separator: the key columns, then `columns`.
+fn header(columns: &[&str]) -> String {
+    let rule = "| --- ".repeat(4 + columns.len());
+    format!("\n{KEY_HEADER} {} |\n{rule}|\n", columns.join(" | "))
+}
+
+fn roofline_table(results: &[BenchResult], bandwidth: &[(usize, f64)]) -> String {
+    let mut out = header(&[
+        "bytes/particle-step",
+        "triad GB/s",
+        "attained GB/s",
+        "of triad",
+        "rate bound by triad",
+    ]);
     for r in results {
         let Some(&(_, triad)) = bandwidth.iter().find(|(t, _)| *t == r.threads) else {
             continue;
@@ -306,11 +339,8 @@ pub fn profile_report(results: &[BenchResult], bandwidth: &[(usize, f64)]) -> St
         let attained = r.rate() * r.bytes_per_particle_step;
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {} | {:.0} | {:.1} | {:.1} | {:.0}% | {:.3e} |",
-            r.pipeline.name(),
-            dimension_name(r.dimension),
-            r.particles,
-            r.threads,
+            "{} {:.0} | {:.1} | {:.1} | {:.0}% | {:.3e} |",
+            key(r),
             r.bytes_per_particle_step,
             triad / 1e9,
             attained / 1e9,
@@ -318,10 +348,11 @@ pub fn profile_report(results: &[BenchResult], bandwidth: &[(usize, f64)]) -> St
             triad / r.bytes_per_particle_step.max(1.0),
         );
     }
-    let _ = writeln!(
-        out,
-        "\n| pipeline | dim | particles | threads | stage | ms/step | share | speedup over 1 thread |\n| --- | --- | --- | --- | --- | --- | --- | --- |"
-    );
+    out
+}
+
+fn stage_table(results: &[BenchResult]) -> String {
+    let mut out = header(&["stage", "ms/step", "share", "speedup over 1 thread"]);
     for r in results {
         let Some(stages) = &r.stages else { continue };
         let total: f64 = stages.iter().map(|(_, s)| s).sum();
@@ -334,11 +365,8 @@ pub fn profile_report(results: &[BenchResult], bandwidth: &[(usize, f64)]) -> St
                 });
             let _ = writeln!(
                 out,
-                "| {} | {} | {} | {} | {} | {:.3} | {:.1}% | {} |",
-                r.pipeline.name(),
-                dimension_name(r.dimension),
-                r.particles,
-                r.threads,
+                "{} {} | {:.3} | {:.1}% | {} |",
+                key(r),
                 stage.name(),
                 1e3 * seconds,
                 100.0 * seconds / total,
@@ -346,10 +374,15 @@ pub fn profile_report(results: &[BenchResult], bandwidth: &[(usize, f64)]) -> St
             );
         }
     }
-    let _ = writeln!(
-        out,
-        "\n| pipeline | dim | particles | threads | speedup | serial fraction (Karp–Flatt) | predicted speedup at 16 threads |\n| --- | --- | --- | --- | --- | --- | --- |"
-    );
+    out
+}
+
+fn scaling_table(results: &[BenchResult]) -> String {
+    let mut out = header(&[
+        "speedup",
+        "serial fraction (Karp–Flatt)",
+        "predicted speedup at 16 threads",
+    ]);
     for r in results.iter().filter(|r| r.threads > 1) {
         let Some(one) = single_thread_twin(results, r) else {
             continue;
@@ -358,11 +391,8 @@ pub fn profile_report(results: &[BenchResult], bandwidth: &[(usize, f64)]) -> St
         let serial = serial_fraction(speedup, r.threads);
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {} | {:.2} | {:.3} | {:.1} |",
-            r.pipeline.name(),
-            dimension_name(r.dimension),
-            r.particles,
-            r.threads,
+            "{} {:.2} | {:.3} | {:.1} |",
+            key(r),
             speedup,
             serial,
             amdahl(serial.max(0.0), 16)
@@ -395,17 +425,14 @@ pub fn default_steps(particles: usize) -> u64 {
 
 /// Markdown table of results.
 pub fn table(results: &[BenchResult]) -> String {
-    let mut out = String::from(
-        "| pipeline | dim | particles | threads | steps | wall (s) | particle-steps/s |\n| --- | --- | --- | --- | --- | --- | --- |\n",
-    );
+    let mut out = header(&["steps", "wall (s)", "particle-steps/s"])
+        .trim_start()
+        .to_string();
     for r in results {
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {} | {} | {:.3} | {:.3e} |",
-            r.pipeline.name(),
-            dimension_name(r.dimension),
-            r.particles,
-            r.threads,
+            "{} {} | {:.3} | {:.3e} |",
+            key(r),
             r.steps,
             r.seconds,
             r.rate()
@@ -475,5 +502,36 @@ mod tests {
             }
         }
         assert!((amdahl(0.05, 16) - 1.0 / (0.05 + 0.95 / 16.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_profile_report_places_each_measurement_and_pairs_threads() {
+        let result = |threads, seconds| BenchResult {
+            pipeline: BenchPipeline::LinearUsl,
+            dimension: Dimension::Two,
+            particles: 1000,
+            threads,
+            steps: 10,
+            seconds,
+            bytes_per_particle_step: 2000.0,
+            stages: Some(vec![(Stage::Basis, seconds / 10.0)]),
+        };
+        // 1e4 particle-steps in 1 s and 0.625 s: 1.6× on 2 threads, serial fraction 0.25.
+        let results = [result(1, 1.0), result(2, 0.625)];
+        let report = profile_report(&results, &[(1, 4.0e7), (2, 8.0e7)]);
+        // 1e4 particle-steps/s × 2000 bytes = 2e7 bytes/s: half the one-thread triad.
+        assert!(
+            report.contains("| linear+usl | 2D | 1000 | 1 | 2000 | 0.0 | 0.0 | 50% | 2.000e4 |"),
+            "{report}"
+        );
+        assert!(
+            report.contains("| linear+usl | 2D | 1000 | 2 | basis | 62.500 | 100.0% | 1.60 |"),
+            "{report}"
+        );
+        assert!(
+            report.contains("| linear+usl | 2D | 1000 | 2 | 1.60 | 0.250 |"),
+            "{report}"
+        );
+        assert_eq!(table(&results).lines().count(), 4);
     }
 }

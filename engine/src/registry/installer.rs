@@ -10,7 +10,7 @@ use crate::resources::TimeStepLimit;
 use crate::series::SeriesColumns;
 use crate::stage::{Stage, StepSet};
 use crate::text::SceneError;
-use bevy_ecs::prelude::{Component, Entity, FromWorld, Resource, With, World};
+use bevy_ecs::prelude::{Component, FromWorld, Resource, World};
 use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule, ScheduleConfigs};
 use bevy_ecs::system::ScheduleSystem;
 
@@ -205,37 +205,34 @@ impl<'a> Installer<'a> {
     }
 
     /// Every particle entity, in storage order.
-    fn particles(&mut self) -> Vec<Entity> {
-        self.world
-            .query_filtered::<Entity, With<Particle>>()
-            .iter(self.world)
-            .collect()
-    }
-
     /// Gives every particle a component of the system's own (a damage gradient, a surface flag,
     /// a strength), starting at `value`. All particles get it at once, before the first step, so
     /// they stay in one storage table. Checkpoints carry it ([`crate::checkpoint`]).
+    ///
+    /// The component goes in once every system is installed, with the other systems'
+    /// components, entity by entity (`registry/pending.rs`): an install function cannot read it
+    /// back (its systems can), and a later call for the same component replaces the values.
     pub fn add_particle_component<C: ParticleState + Clone>(&mut self, value: C) {
         crate::checkpoint::carry_component::<C>(self.world);
-        let particles = self.particles();
-        for particle in particles {
-            self.world.entity_mut(particle).insert(value.clone());
-        }
+        let count = super::pending::entities_with::<Particle>(self.world).len();
+        self.pending().particles.set(vec![Some(value); count]);
     }
 
     /// Gives particles a component of the system's own computed per particle: `value` is
     /// asked for each particle (read-only, with every component it has) and returns the
     /// particle's value, or `None` for a particle this entry does not own (another material),
     /// which gets `default` unless it already has the component (from another entry). All
-    /// particles end with the component, so they stay in one storage table.
+    /// particles end with the component, so they stay in one storage table. It goes in at once
+    /// (with the components held so far), so the install function can read it back.
     pub fn add_particle_component_with<C: ParticleState + Clone>(
         &mut self,
         default: C,
         mut value: impl FnMut(bevy_ecs::world::EntityRef<'_>) -> Option<C>,
     ) {
         crate::checkpoint::carry_component::<C>(self.world);
-        let particles = self.particles();
-        let values: Vec<(Entity, Option<C>, bool)> = particles
+        super::pending::insert_pending_components(self.world);
+        let particles = super::pending::entities_with::<Particle>(self.world);
+        let values: Vec<(bevy_ecs::prelude::Entity, Option<C>, bool)> = particles
             .into_iter()
             .map(|particle| {
                 let entity = self.world.entity(particle);
@@ -257,19 +254,25 @@ impl<'a> Installer<'a> {
 
     /// Gives every node a component of the system's own (a contact law's normals and forces,
     /// a partition's field statistics), starting at `value`, unless another entry gave it
-    /// already. All nodes get it at once, before the first step, so they stay in one table.
-    /// Nothing carries node components across a checkpoint: a system must write them every
-    /// step before any system reads them.
+    /// already. All nodes get it before the first step, with the other systems' components,
+    /// entity by entity (`registry/pending.rs`), so they stay in one table. Nothing carries node
+    /// components across a checkpoint: a system must write them every step before any system
+    /// reads them.
     pub fn add_node_component<C: Component + Clone>(&mut self, value: C) {
-        let nodes: Vec<Entity> = self
-            .world
-            .query_filtered::<Entity, (With<crate::components::Node>, bevy_ecs::query::Without<C>)>(
-            )
-            .iter(self.world)
-            .collect();
-        for node in nodes {
-            self.world.entity_mut(node).insert(value.clone());
+        if self.pending().nodes.get_mut::<C>().is_some() {
+            return;
         }
+        let nodes = super::pending::entities_with::<crate::components::Node>(self.world);
+        let values: Vec<Option<C>> = nodes
+            .iter()
+            .map(|&node| (!self.world.entity(node).contains::<C>()).then(|| value.clone()))
+            .collect();
+        self.pending().nodes.set(values);
+    }
+
+    fn pending(&mut self) -> bevy_ecs::world::Mut<'_, super::pending::PendingComponents> {
+        self.world
+            .get_resource_or_init::<super::pending::PendingComponents>()
     }
 
     /// Declares storage this system will allocate per particle during the run (`bytes` per
@@ -356,7 +359,10 @@ impl<'a> Installer<'a> {
             .vector(name, value);
     }
 
-    /// Read access to the world as built from the scene (grid, materials, particles).
+    /// Read access to the world as built from the scene (grid, materials, particles). The
+    /// components given with [`Installer::add_particle_component`] and
+    /// [`Installer::add_node_component`] are not in it yet; those of
+    /// [`Installer::add_particle_component_with`] are.
     pub fn world(&self) -> &World {
         self.world
     }

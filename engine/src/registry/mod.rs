@@ -8,6 +8,7 @@
 
 mod installer;
 mod params;
+pub(crate) mod pending;
 
 pub use crate::stage::PipelineEntrySet;
 pub use installer::Installer;

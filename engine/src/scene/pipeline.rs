@@ -58,6 +58,7 @@ impl<D: Dim> Spec<D> {
                 .for_entry(*k, filter.clone());
             (registration.install)(&mut installer, &params)?;
         }
+        crate::registry::pending::insert_pending_components(world);
         // Entries of one stage run in the order the scene lists them.
         for (a, (ka, ra)) in chosen.iter().enumerate() {
             if let Some((kb, _)) = chosen[a + 1..]
