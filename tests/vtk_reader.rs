@@ -2,12 +2,13 @@
 //! kind of frame Fractum writes, zlib-compressed and not, and finds in it exactly the values
 //! Fractum's own reader finds.
 //!
-//! The test needs Python with `vtk`, so `cargo test` skips it; `.ci/run` installs the package
-//! into a virtual environment and runs it with `FRACTUM_VTK_PYTHON` naming that interpreter:
+//! The test needs Python with `vtk`, so it is built only with the `vtk-reader` feature and plain
+//! `cargo test` leaves it out; `.ci/run` installs the package into a virtual environment and
+//! runs it with `FRACTUM_VTK_PYTHON` naming that interpreter:
 //!
 //! ```text
 //! python3 -m venv target/vtk-venv && target/vtk-venv/bin/pip install vtk
-//! FRACTUM_VTK_PYTHON=target/vtk-venv/bin/python cargo test --test vtk_reader -- --ignored
+//! FRACTUM_VTK_PYTHON=target/vtk-venv/bin/python cargo test --features vtk-reader --test vtk_reader
 //! ```
 
 use fractum_engine::output::{
@@ -110,7 +111,6 @@ fn same_bits(a: &[f64], b: &[f64]) -> bool {
 }
 
 #[test]
-#[ignore = "needs Python with the vtk package; .ci/run installs it and runs this test"]
 fn vtk_reads_every_frame_fractum_writes() {
     let root = temp_dir("vtk-reader");
     let cases: [(&str, &str, FrameCompression, Option<&[&str]>); 5] = [

@@ -360,16 +360,10 @@ impl Simulation {
         self.check_time_step(dt)?;
         let removed_before = self.removed_so_far();
         self.world.resource_mut::<SimClock>().dt = dt;
-        let serially = self.runs_serially();
         if let Some(mut clock) = self.world.get_resource_mut::<crate::profile::StageClock>() {
             clock.start();
         }
-        let (world, schedule) = (&mut self.world, &mut self.schedule);
-        match &self.pool {
-            _ if serially => on_this_thread(|| schedule.run(world)),
-            Some(pool) => pool.install(|| schedule.run(world)),
-            None => schedule.run(world),
-        }
+        self.in_pool(|sim| sim.schedule.run(&mut sim.world));
         if let Some(failure) = self.world.resource::<Health>().failure.clone() {
             return Err(failure);
         }
