@@ -432,6 +432,12 @@ impl Simulation {
         ))
     }
 
+    /// Runs `f` on this simulation's world where its steps run (its pool, or the calling thread
+    /// alone), e.g. output that reads the world with rayon's parallel iterators.
+    pub fn with_world_in_pool<R: Send>(&mut self, f: impl FnOnce(&mut World) -> R + Send) -> R {
+        self.in_pool(|sim| f(&mut sim.world))
+    }
+
     /// Runs `f` on this simulation's thread pool (e.g. output that uses rayon).
     pub fn install<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
         match &self.pool {

@@ -14,7 +14,7 @@ mod writer;
 pub use atomic::write_atomically;
 pub use columns::{ColumnValues, FrameColumns};
 pub use csv::SeriesWriter;
-pub use frames::{grid_frame, particle_frame};
+pub use frames::{grid_frame, particle_frame, refill_particle_frame};
 pub use probes::{ForceProbeMemory, largest_energy_particle, must_be_finite, series_row};
 pub use pvd::{read_pvd, write_pvd};
 pub use vtu::{

@@ -12,7 +12,7 @@ use crate::energy::EnergyWatch;
 use crate::health::Blowup;
 use crate::output::{
     FrameWriter, OutputPlan, SeriesWriter, WriteFailure, grid_frame, largest_energy_particle,
-    must_be_finite, particle_frame, series_row, write_particle_frame,
+    must_be_finite, particle_frame, refill_particle_frame, series_row, write_particle_frame,
 };
 use crate::resources::SimClock;
 use crate::simulation::Simulation;
@@ -156,7 +156,7 @@ impl Outputs<'_> {
         {
             self.written[1] = Some(step);
             let name = format!("frames/particles_{step:08}.vtu");
-            let mut frame = particle_frame(&mut sim.world);
+            let mut frame = sim.with_world_in_pool(particle_frame);
             if let Some(fields) = &self.plan.frame_fields {
                 frame.keep_only(fields);
             }
@@ -298,10 +298,15 @@ pub fn run_with(
     }
     let mut interrupted = false;
     let mut checkpoint = None;
+    // The state at the start of the step, refilled in place each step (no allocation).
+    let mut last_good = crate::output::ParticleFrame::default();
     while !sim.finished() {
-        let last_good = plan.last_good_frame.then(|| particle_frame(&mut sim.world));
+        if plan.last_good_frame {
+            sim.with_world_in_pool(|world| refill_particle_frame(world, &mut last_good));
+        }
         if let Err(blowup) = sim.step() {
             outputs.settle()?;
+            let last_good = plan.last_good_frame.then_some(&last_good);
             let written = write_last_good(plan, &frames_dir, sim.clock().step, last_good)?;
             return Err(RunError::Blowup(blowup, written));
         }
@@ -397,13 +402,13 @@ fn write_last_good(
     plan: &OutputPlan,
     frames_dir: &Path,
     step: u64,
-    last_good: Option<crate::output::ParticleFrame>,
+    last_good: Option<&crate::output::ParticleFrame>,
 ) -> Result<Option<PathBuf>, RunError> {
     let Some(frame) = last_good else {
         return Ok(None);
     };
     let path = frames_dir.join(format!("particles_last_good_{step:08}.vtu"));
-    write_particle_frame(&path, &frame, plan.compression).map_err(io_error(&path))?;
+    write_particle_frame(&path, frame, plan.compression).map_err(io_error(&path))?;
     Ok(Some(path))
 }
 
