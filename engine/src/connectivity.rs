@@ -12,7 +12,7 @@
 //! the transposed table (node → entries, in particle order), so each node's sum is always
 //! accumulated in the same order and the result is bitwise identical for any thread count.
 
-use crate::dim::{Dim, VectorOps};
+use crate::dim::{Dim, MatrixOps, VectorOps};
 use bevy_ecs::prelude::Resource;
 use rayon::prelude::*;
 use std::ops::AddAssign;
@@ -26,8 +26,14 @@ pub struct Connectivity<D: Dim> {
     pub nodes: Vec<u32>,
     /// Shape function value `N_Ip` of each entry.
     pub weights: Vec<f64>,
-    /// Shape function gradient `∇N_Ip` of each entry.
+    /// Shape function gradient `∇N_Ip` of each entry, where the basis stores them; empty where
+    /// they follow from [`Self::row_maps`] (read either way with [`Self::gradient`]).
     pub gradients: Vec<D::Vector>,
+    /// Per particle row, the map its gradients follow instead of being stored (LME's eq. 8),
+    /// filled by [`Self::fill_rows_mapped`]; empty where `gradients` holds them.
+    pub row_maps: Vec<RowMap<D>>,
+    /// Position of every node, for the gradients of [`Self::row_maps`].
+    pub node_positions: Vec<D::Vector>,
     /// Velocity-field slot of each entry at its node (0 without partitioning).
     pub fields: Vec<u8>,
     /// Transposed offsets: entries touching node `I` are `node_offsets[I]..node_offsets[I + 1]`.
@@ -45,6 +51,8 @@ impl<D: Dim> Connectivity<D> {
             + bytes(self.nodes.len(), 4)
             + bytes(self.weights.len(), 8)
             + bytes(self.gradients.len(), std::mem::size_of::<D::Vector>())
+            + bytes(self.row_maps.len(), std::mem::size_of::<RowMap<D>>())
+            + bytes(self.node_positions.len(), std::mem::size_of::<D::Vector>())
             + bytes(self.fields.len(), 1)
             + bytes(self.node_offsets.len(), 8)
             + bytes(self.node_entries.len(), 8)
@@ -58,10 +66,45 @@ impl<D: Dim> Default for Connectivity<D> {
             nodes: Vec::new(),
             weights: Vec::new(),
             gradients: Vec::new(),
+            row_maps: Vec::new(),
+            node_positions: Vec::new(),
             fields: Vec::new(),
             node_offsets: Vec::new(),
             node_entries: Vec::new(),
         }
+    }
+}
+
+/// The map a row's shape-function gradients follow, `∇N_I = −N_I A (x − x_I)`: LME's eq. (8)
+/// (eigensoftening-lme-mpm.md) with `A = J⁻¹` at the converged λ and `x` the particle's position
+/// when the row was computed.
+///
+/// A row of `n` entries stores one map (a matrix and a point) instead of `n` gradients: 48 bytes
+/// against 208 for a 2D LME row of 13 entries, 96 against about 790 in 3D, and the transfers that
+/// walk the entries node by node read it with the particle's other data instead of one gradient
+/// per entry from a table hundreds of megabytes long.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RowMap<D: Dim> {
+    /// `A` (LME: the inverse Hessian `J⁻¹`).
+    pub matrix: D::Matrix,
+    /// `x`, the point the row was computed at.
+    pub point: D::Vector,
+}
+
+impl<D: Dim> Default for RowMap<D> {
+    fn default() -> Self {
+        Self {
+            matrix: D::Matrix::ZERO,
+            point: D::Vector::ZERO,
+        }
+    }
+}
+
+impl<D: Dim> RowMap<D> {
+    /// `∇N_I = −N_I A (x − x_I)` for the node at `node` with value `weight`.
+    #[inline]
+    pub fn gradient(&self, node: D::Vector, weight: f64) -> D::Vector {
+        -((self.matrix * (self.point - node)) * weight)
     }
 }
 
@@ -130,6 +173,16 @@ impl<D: Dim> Connectivity<D> {
         self.row_offsets[p]..self.row_offsets[p + 1]
     }
 
+    /// `∇N_Ip` of entry `e` of particle row `p`: stored, or from the row's map (LME).
+    #[inline]
+    pub fn gradient(&self, e: usize, p: usize) -> D::Vector {
+        match self.gradients.get(e) {
+            Some(&gradient) => gradient,
+            None => self.row_maps[p]
+                .gradient(self.node_positions[self.nodes[e] as usize], self.weights[e]),
+        }
+    }
+
     /// Replaces the tables from per-particle rows of `(node, N, ∇N)` and rebuilds the transpose.
     ///
     /// `rows` must be in particle-row order. `node_count` is the number of grid nodes. The
@@ -172,6 +225,7 @@ impl<D: Dim> Connectivity<D> {
         self.nodes.resize(entries, 0);
         self.weights.resize(entries, 0.0);
         self.gradients.resize(entries, D::Vector::ZERO);
+        self.row_maps = Vec::new();
         self.nodes
             .par_chunks_mut(width)
             .zip(self.weights.par_chunks_mut(width))
@@ -201,6 +255,66 @@ impl<D: Dim> Connectivity<D> {
         W: Fn(usize) -> usize + Sync,
         F: Fn(&mut S, usize, &mut [u32], &mut [f64], &mut [D::Vector]) -> T + Sync,
     {
+        self.row_maps = Vec::new();
+        let mut gradients = std::mem::take(&mut self.gradients);
+        let values = self.fill_rows_with(particles, &width, true, &mut gradients, init, fill);
+        self.gradients = gradients;
+        self.rebuild_transpose(node_count);
+        values
+    }
+
+    /// [`Self::fill_rows`] for rows whose gradients follow a map ([`RowMap`], LME's eq. 8):
+    /// `fill(scratch, p, nodes, weights, map)` writes the row's nodes and values and its map,
+    /// and no gradient is stored. `node_positions` are the positions the rows' nodes index
+    /// (kept in [`Self::node_positions`] for [`Self::gradient`]).
+    pub fn fill_rows_mapped<S, T, W, F>(
+        &mut self,
+        particles: usize,
+        node_positions: &[D::Vector],
+        width: W,
+        init: impl Fn() -> S + Sync,
+        fill: F,
+    ) -> Vec<T>
+    where
+        T: Send,
+        W: Fn(usize) -> usize + Sync,
+        F: Fn(&mut S, usize, &mut [u32], &mut [f64], &mut RowMap<D>) -> T + Sync,
+    {
+        self.gradients = Vec::new();
+        if self.node_positions != node_positions {
+            self.node_positions = node_positions.to_vec();
+        }
+        let mut maps = std::mem::take(&mut self.row_maps);
+        let values = self.fill_rows_with(
+            particles,
+            &width,
+            false,
+            &mut maps,
+            init,
+            |s, p, n, w, m| fill(s, p, n, w, &mut m[0]),
+        );
+        self.row_maps = maps;
+        self.rebuild_transpose(node_positions.len());
+        values
+    }
+
+    /// The loop of [`Self::fill_rows`] and [`Self::fill_rows_mapped`]: each row gets its slices
+    /// of the nodes and weights, and its items of `extra`: one per entry (its gradients) where
+    /// `per_entry`, else one (its map).
+    fn fill_rows_with<S, T, X, F>(
+        &mut self,
+        particles: usize,
+        width: &(impl Fn(usize) -> usize + Sync),
+        per_entry: bool,
+        extra: &mut Vec<X>,
+        init: impl Fn() -> S + Sync,
+        fill: F,
+    ) -> Vec<T>
+    where
+        T: Send,
+        X: Default + Clone + Send,
+        F: Fn(&mut S, usize, &mut [u32], &mut [f64], &mut [X]) -> T + Sync,
+    {
         const BLOCK: usize = 1024;
         self.row_offsets.resize(particles + 1, 0);
         self.row_offsets[0] = 0;
@@ -212,41 +326,44 @@ impl<D: Dim> Connectivity<D> {
         let total = self.row_offsets[particles];
         self.nodes.resize(total, 0);
         self.weights.resize(total, 0.0);
-        self.gradients.resize(total, D::Vector::ZERO);
+        extra.resize(if per_entry { total } else { particles }, X::default());
         let offsets = &self.row_offsets;
+        let extra_len = |rows: std::ops::Range<usize>| {
+            if per_entry {
+                offsets[rows.end] - offsets[rows.start]
+            } else {
+                rows.len()
+            }
+        };
         let mut blocks = Vec::with_capacity(particles.div_ceil(BLOCK));
-        let (mut nodes, mut weights, mut gradients) = (
-            &mut self.nodes[..],
-            &mut self.weights[..],
-            &mut self.gradients[..],
-        );
+        let (mut nodes, mut weights, mut extras) =
+            (&mut self.nodes[..], &mut self.weights[..], &mut extra[..]);
         for start in (0..particles).step_by(BLOCK) {
             let end = (start + BLOCK).min(particles);
             let len = offsets[end] - offsets[start];
             let (n, rest_n) = nodes.split_at_mut(len);
             let (w, rest_w) = weights.split_at_mut(len);
-            let (g, rest_g) = gradients.split_at_mut(len);
-            (nodes, weights, gradients) = (rest_n, rest_w, rest_g);
-            blocks.push((start..end, n, w, g));
+            let (x, rest_x) = extras.split_at_mut(extra_len(start..end));
+            (nodes, weights, extras) = (rest_n, rest_w, rest_x);
+            blocks.push((start..end, n, w, x));
         }
         let values: Vec<Vec<T>> = blocks
             .into_par_iter()
-            .map(|(rows, mut n, mut w, mut g)| {
+            .map(|(rows, mut n, mut w, mut x)| {
                 let mut scratch = init();
                 let mut values = Vec::with_capacity(rows.len());
                 for p in rows {
                     let len = offsets[p + 1] - offsets[p];
                     let (row_n, rest_n) = std::mem::take(&mut n).split_at_mut(len);
                     let (row_w, rest_w) = std::mem::take(&mut w).split_at_mut(len);
-                    let (row_g, rest_g) = std::mem::take(&mut g).split_at_mut(len);
-                    (n, w, g) = (rest_n, rest_w, rest_g);
-                    values.push(fill(&mut scratch, p, row_n, row_w, row_g));
+                    let (row_x, rest_x) = std::mem::take(&mut x).split_at_mut(extra_len(p..p + 1));
+                    (n, w, x) = (rest_n, rest_w, rest_x);
+                    values.push(fill(&mut scratch, p, row_n, row_w, row_x));
                 }
                 values
             })
             .collect();
         self.reset_fields();
-        self.rebuild_transpose(node_count);
         values.into_iter().flatten().collect()
     }
 

@@ -264,7 +264,7 @@ pub fn force_contribution<D: Dim>(
     };
     let n = c.weights[e];
     body_force * (n * particles.mass[p].0) + particles.external[p].0 * n
-        - particles.stress[p].0.dot(c.gradients[e]) * (intact * particles.volume[p].0)
+        - particles.stress[p].0.dot(c.gradient(e, p)) * (intact * particles.volume[p].0)
 }
 
 /// Per-field force sums `Σ N (m b + f_ext) − Σ (1 − D) V σ·∇N` (without `1 − D` under
@@ -307,7 +307,7 @@ pub fn velocity_gradient<D: Dim>(
     c.row(p).fold(D::Matrix::ZERO, |l, e| {
         l + D::Matrix::outer(
             node_velocity[c.nodes[e] as usize].0[c.field(e)],
-            c.gradients[e],
+            c.gradient(e, p),
         )
     })
 }

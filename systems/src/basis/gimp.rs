@@ -51,7 +51,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         ));
     }
     let nodes = 3f64.powi(installer.dimension().count() as i32);
-    super::declare_support(installer, "basis/gimp", nodes, 0.0);
+    super::declare_support(installer, "basis/gimp", nodes, true, 0.0);
     with_dim!(installer.dimension(), D => installer.add_systems(gimp_basis::<D>));
     Ok(())
 }

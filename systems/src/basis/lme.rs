@@ -23,8 +23,9 @@
 //! - Writes the [`Connectivity`] tables; keeps λ and the candidate lists in [`LmeState`].
 
 use super::lme_graded::graded_rows;
-use super::lme_kernel::{LmeScratch, LmeSettings, lme_gradient, lme_solve, support_radius};
+use super::lme_kernel::{LmeScratch, LmeSettings, lme_row_map, lme_solve, support_radius};
 use crate::spatial::Spatial;
+use fractum_engine::connectivity::RowMap;
 use fractum_engine::health::{Blowup, Health, fmt_vector};
 use fractum_engine::prelude::*;
 use fractum_engine::scene::budget::cells_in_ball;
@@ -113,7 +114,23 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     let nodes = cells_in_ball(d, reach);
     let candidates = cells_in_ball(d, 1.25 * reach);
     let state = (8 * (3 * d + d * d)) as f64;
-    super::declare_support(installer, "basis/lme", nodes, 4.0 * candidates + state);
+    // On a uniform grid each row keeps `J⁻¹` and its point instead of its gradients.
+    let graded = with_dim!(installer.dimension(), D => installer
+        .world()
+        .get_resource::<Grid<D>>()
+        .is_some_and(Grid::is_graded));
+    let row_map = if graded {
+        0.0
+    } else {
+        (8 * (d * d + d)) as f64
+    };
+    super::declare_support(
+        installer,
+        "basis/lme",
+        nodes,
+        graded,
+        4.0 * candidates + state + row_map,
+    );
     installer.insert_resource(parsed);
     with_dim!(installer.dimension(), D => {
         installer.init_state::<LmeState<D>>();
@@ -242,11 +259,21 @@ pub(super) fn write_row<D: Dim>(
     gradient: impl Fn(D::Vector, f64) -> D::Vector,
 ) {
     let (nodes, weights, gradients) = row;
-    let support = scratch.support.iter().zip(&scratch.positions);
-    let entries = nodes.iter_mut().zip(weights.iter_mut()).zip(gradients);
-    for (((node, weight), g), ((&i, &xi), &n)) in entries.zip(support.zip(&scratch.lme.values)) {
-        (*node, *weight) = (i, n);
+    write_nodes_and_values(scratch, nodes, weights);
+    for ((g, &xi), &n) in gradients
+        .iter_mut()
+        .zip(&scratch.positions)
+        .zip(&scratch.lme.values)
+    {
         *g = gradient(xi, n);
+    }
+}
+
+/// Writes the solved support of `scratch`: each node and its `N`.
+fn write_nodes_and_values<D: Dim>(scratch: &RowScratch<D>, nodes: &mut [u32], weights: &mut [f64]) {
+    let support = scratch.support.iter().zip(&scratch.lme.values);
+    for ((node, weight), (&i, &n)) in nodes.iter_mut().zip(weights.iter_mut()).zip(support) {
+        (*node, *weight) = (i, n);
     }
 }
 
@@ -294,7 +321,7 @@ pub fn particle_row<D: Spatial>(
     candidates: &[u32],
     lambda_guess: D::Vector,
     scratch: &mut RowScratch<D>,
-    row: RowSlices<'_, D>,
+    (nodes, weights, map): (&mut [u32], &mut [f64], &mut RowMap<D>),
 ) -> Result<Solved<D>, String> {
     let RowProblem {
         cloud,
@@ -311,7 +338,7 @@ pub fn particle_row<D: Spatial>(
             scratch.positions.push(xi);
         }
     }
-    debug_assert_eq!(scratch.support.len(), row.0.len());
+    debug_assert_eq!(scratch.support.len(), nodes.len());
     match lme_solve::<D>(
         x,
         &scratch.positions,
@@ -320,7 +347,8 @@ pub fn particle_row<D: Spatial>(
         &mut scratch.lme,
     ) {
         Ok((lambda, j_inverse, _)) => {
-            write_row::<D>(scratch, row, |xi, n| lme_gradient::<D>(x, xi, n, j_inverse));
+            write_nodes_and_values(scratch, nodes, weights);
+            *map = lme_row_map::<D>(x, j_inverse);
             Ok((lambda, j_inverse))
         }
         Err(f) => Err(non_convergence(&f)),
@@ -441,10 +469,11 @@ fn uniform_rows<D: Spatial>(
         settings: &settings,
         radius,
     };
-    // The rows go straight into the connectivity tables: no per-particle row buffers.
-    let solved = connectivity.fill_rows(
+    // The rows go straight into the connectivity tables: no per-particle row buffers, and
+    // no gradients: each row keeps `J⁻¹` and its point, from which eq. (8) gives them.
+    let solved = connectivity.fill_rows_mapped(
         positions.len(),
-        cloud.len(),
+        &cloud.positions,
         |p| {
             let x = positions[p].0;
             let support = candidates[p].iter();
@@ -453,10 +482,10 @@ fn uniform_rows<D: Spatial>(
                 .count()
         },
         RowScratch::default,
-        |scratch, p, nodes, weights, gradients| {
+        |scratch, p, nodes, weights, map| {
             let x = positions[p].0;
             let guess = guesses.0[p] + guesses.1[p] * (x - guesses.2[p]);
-            let row = (nodes, weights, gradients);
+            let row = (nodes, weights, map);
             particle_row(&problem, x, &candidates[p], guess, scratch, row)
         },
     );
@@ -522,7 +551,7 @@ mod tests {
                 .clone()
                 .map(|e| grid.node_position(c.nodes[e] as usize) * c.weights[e])
                 .sum();
-            let gradients: D::Vector = row.clone().map(|e| c.gradients[e]).sum();
+            let gradients: D::Vector = row.clone().map(|e| c.gradient(e, p)).sum();
             assert!((unity - 1.0).abs() < 1e-12);
             assert!((first - x).length() < 1e-12);
             assert!(gradients.length() < 1e-9);
@@ -584,9 +613,12 @@ mod tests {
                     .clone()
                     .map(|e| grid.node_position(c.nodes[e] as usize) * c.weights[e])
                     .sum();
-                let gradients: D::Vector = row.clone().map(|e| c.gradients[e]).sum();
+                let gradients: D::Vector = row.clone().map(|e| c.gradient(e, p)).sum();
                 let jacobian = row.clone().fold(D::Matrix::ZERO, |acc, e| {
-                    acc + D::Matrix::outer(grid.node_position(c.nodes[e] as usize), c.gradients[e])
+                    acc + D::Matrix::outer(
+                        grid.node_position(c.nodes[e] as usize),
+                        c.gradient(e, p),
+                    )
                 });
                 let h = grid.smallest_width_near(x);
                 assert!((unity - 1.0).abs() < 1e-10, "{unity}");

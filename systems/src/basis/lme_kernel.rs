@@ -21,6 +21,7 @@
 //!
 //! Generic over the dimension: λ, `r` are `d`-vectors and `J` is `d × d`.
 
+use fractum_engine::connectivity::RowMap;
 use fractum_engine::prelude::{Dim, MatrixOps, VectorOps};
 
 /// Solver settings.
@@ -324,6 +325,15 @@ pub fn lme_solve<D: Dim>(
     Ok((lambda, m.j.inverse(), iterations))
 }
 
+/// The map of eq. (8) at `x`: `∇N_I = −N_I J⁻¹ (x − x_I)` for every node of the row
+/// ([`RowMap::gradient`]).
+pub fn lme_row_map<D: Dim>(x: D::Vector, j_inverse: D::Matrix) -> RowMap<D> {
+    RowMap {
+        matrix: j_inverse,
+        point: x,
+    }
+}
+
 /// `∇N_I = −N_I J⁻¹ (x − x_I)` (eq. 8).
 pub fn lme_gradient<D: Dim>(
     x: D::Vector,
@@ -331,7 +341,7 @@ pub fn lme_gradient<D: Dim>(
     value: f64,
     j_inverse: D::Matrix,
 ) -> D::Vector {
-    -((j_inverse * (x - node)) * value)
+    lme_row_map::<D>(x, j_inverse).gradient(node, value)
 }
 
 /// LME shape functions at `x` over `nodes`, warm-started from `lambda_guess` (allocating

@@ -369,7 +369,7 @@ fn node_contact<D: Dim>(
     let mut force = [D::Vector::ZERO; MAX_FIELDS];
     for &(e, p) in entries {
         let (e, p) = (e as usize, p as usize);
-        gradient[c.field(e)] += c.gradients[e] * slices.mass[p].0;
+        gradient[c.field(e)] += c.gradient(e, p) * slices.mass[p].0;
         if integration.needs_stress_forces() {
             force[c.field(e)] += force_contribution(c, slices, step.body_force, e, p);
         }
