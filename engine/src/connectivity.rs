@@ -607,7 +607,55 @@ impl<D: Dim> Connectivity<D> {
 mod fill_rows_tests {
     use super::*;
     use crate::dim::Two;
-    use glam::DVec2;
+    use glam::{DMat2, DVec2};
+
+    /// Rows filled with maps give eq. (8)'s gradients from them, in particle order and through
+    /// the transpose, and rows filled with stored gradients afterwards drop the maps.
+    #[test]
+    fn mapped_rows_give_their_maps_gradients_until_rows_are_stored_again() {
+        let node_positions = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(0.0, 1.0),
+            DVec2::new(1.0, 1.0),
+        ];
+        let map = |p: usize| RowMap::<Two> {
+            matrix: DMat2::from_cols(DVec2::new(2.0 + p as f64, 0.5), DVec2::new(0.5, 3.0)),
+            point: DVec2::new(0.25 * p as f64, 0.5),
+        };
+        let mut c = Connectivity::<Two>::default();
+        c.rebuild(&vec![vec![(0, 1.0, DVec2::new(9.0, 9.0))]; 5], 4);
+        let values = c.fill_rows_mapped(
+            3,
+            &node_positions,
+            |p| p + 2,
+            || (),
+            |_, p, nodes, weights, row_map| {
+                for k in 0..nodes.len() {
+                    (nodes[k], weights[k]) = (k as u32, 0.1 * (k + 1) as f64);
+                }
+                *row_map = map(p);
+                p * 10
+            },
+        );
+        assert_eq!(values, vec![0, 10, 20]);
+        assert!(c.gradients.is_empty(), "no gradient is stored");
+        for p in 0..3 {
+            assert_eq!(c.row(p).len(), p + 2);
+            for e in c.row(p) {
+                let x_i = node_positions[c.nodes[e] as usize];
+                let expected = -((map(p).matrix * (map(p).point - x_i)) * c.weights[e]);
+                assert_eq!(c.gradient(e, p), expected);
+            }
+        }
+        let through_transpose: usize = (0..4)
+            .map(|node| c.node_offsets[node + 1] - c.node_offsets[node])
+            .sum();
+        assert_eq!(through_transpose, 2 + 3 + 4);
+        c.rebuild(&vec![vec![(1, 1.0, DVec2::new(7.0, 7.0))]; 2], 4);
+        assert!(c.row_maps.is_empty(), "stored rows drop the maps");
+        assert_eq!(c.gradient(1, 1), DVec2::new(7.0, 7.0));
+    }
 
     /// Rows of varying width over several blocks land in row order, each in its own range.
     #[test]
