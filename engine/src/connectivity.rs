@@ -173,6 +173,24 @@ impl<D: Dim> Connectivity<D> {
         self.row_offsets[p]..self.row_offsets[p + 1]
     }
 
+    /// Every entry of particle row `p` with its `∇N_Ip` (as [`Self::gradient`] gives it), the
+    /// row's map fetched once.
+    #[inline]
+    pub fn row_gradients(&self, p: usize) -> impl Iterator<Item = (usize, D::Vector)> + '_ {
+        let range = self.row(p);
+        let stored = self.gradients.get(range.clone()).unwrap_or(&[]);
+        let map = stored.is_empty().then(|| self.row_maps[p]);
+        let nodes = &self.nodes[range.clone()];
+        let weights = &self.weights[range.clone()];
+        range.enumerate().map(move |(k, e)| {
+            let gradient = match map {
+                Some(map) => map.gradient(self.node_positions[nodes[k] as usize], weights[k]),
+                None => stored[k],
+            };
+            (e, gradient)
+        })
+    }
+
     /// `∇N_Ip` of entry `e` of particle row `p`: stored, or from the row's map (LME).
     #[inline]
     pub fn gradient(&self, e: usize, p: usize) -> D::Vector {

@@ -304,10 +304,8 @@ pub fn velocity_gradient<D: Dim>(
     node_velocity: &[NodeVelocity<D>],
     p: usize,
 ) -> D::Matrix {
-    c.row(p).fold(D::Matrix::ZERO, |l, e| {
-        l + D::Matrix::outer(
-            node_velocity[c.nodes[e] as usize].0[c.field(e)],
-            c.gradient(e, p),
-        )
-    })
+    c.row_gradients(p)
+        .fold(D::Matrix::ZERO, |l, (e, gradient)| {
+            l + D::Matrix::outer(node_velocity[c.nodes[e] as usize].0[c.field(e)], gradient)
+        })
 }
