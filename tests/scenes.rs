@@ -5,6 +5,7 @@
 //! reader takes both encodings in `tests/vtk_reader.rs`.
 
 use fractum_engine::output::{FrameCompression, base_columns, read_particle_frame};
+use fractum_engine::registry::templates::SPAWN_BATCH;
 use fractum_engine::run::run;
 use fractum_engine::simulation::End;
 use fractum_suite::{load, ron_files, temp_dir};
@@ -33,6 +34,23 @@ fn frame_point_count(path: &std::path::Path) -> usize {
     piece.num_points()
 }
 
+/// Entities are spawned with the components the installers give them
+/// (`registry/templates.rs`), so no table that every particle or node left holds more than one
+/// spawn batch of memory.
+fn assert_no_emptied_table_is_kept(world: &bevy_ecs::world::World, name: &str) {
+    let kept: Vec<usize> = world
+        .storages()
+        .tables
+        .iter()
+        .filter(|t| t.is_empty() && t.entity_capacity() > SPAWN_BATCH)
+        .map(|t| t.entity_capacity())
+        .collect();
+    assert!(
+        kept.is_empty(),
+        "{name}: empty tables keep room for {kept:?} entities"
+    );
+}
+
 #[test]
 fn every_shipped_scene_runs_a_few_steps() {
     let scenes = ron_files("scenes");
@@ -41,6 +59,7 @@ fn every_shipped_scene_runs_a_few_steps() {
         let name = path.file_stem().unwrap().to_string_lossy().into_owned();
         let mut built = load(&path).unwrap_or_else(|e| panic!("{e}"));
         let particles = built.simulation.particle_count();
+        assert_no_emptied_table_is_kept(&built.simulation.world, &name);
         built.simulation.set_end(End::Steps(5));
         let mut plan = built.output.clone();
         plan.vtu_every = 5;

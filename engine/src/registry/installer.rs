@@ -204,16 +204,18 @@ impl<'a> Installer<'a> {
             .map_or("pipeline".to_string(), |k| format!("pipeline[{k}].{what}"))
     }
 
-    /// Every particle entity, in storage order.
     /// Gives every particle a component of the system's own (a damage gradient, a surface flag,
     /// a strength), starting at `value`. All particles get it at once, before the first step, so
     /// they stay in one storage table. Checkpoints carry it ([`crate::checkpoint`]).
     ///
-    /// The component goes in once every system is installed, with the other systems'
-    /// components, entity by entity (`registry/pending.rs`): an install function cannot read it
-    /// back (its systems can), and a later call for the same component replaces the values.
+    /// The values go in once every system is installed, with the other systems' components,
+    /// entity by entity (`registry/pending.rs`): an install function cannot read them back (its
+    /// systems can), and a later call for the same component replaces the values. A scene is
+    /// then built a second time with its particles spawned with the component
+    /// (`registry/templates.rs`), so that no table is left behind.
     pub fn add_particle_component<C: ParticleState + Clone>(&mut self, value: C) {
         crate::checkpoint::carry_component::<C>(self.world);
+        self.templates().particles.record(&value);
         let count = super::pending::entities_with::<Particle>(self.world).len();
         self.pending().particles.set(vec![Some(value); count]);
     }
@@ -230,6 +232,7 @@ impl<'a> Installer<'a> {
         mut value: impl FnMut(bevy_ecs::world::EntityRef<'_>) -> Option<C>,
     ) {
         crate::checkpoint::carry_component::<C>(self.world);
+        self.templates().particles.record(&default);
         super::pending::insert_pending_components(self.world);
         let particles = super::pending::entities_with::<Particle>(self.world);
         let values: Vec<(bevy_ecs::prelude::Entity, Option<C>, bool)> = particles
@@ -259,6 +262,7 @@ impl<'a> Installer<'a> {
     /// components across a checkpoint: a system must write them every step before any system
     /// reads them.
     pub fn add_node_component<C: Component + Clone>(&mut self, value: C) {
+        self.templates().nodes.record(&value);
         if self.pending().nodes.get_mut::<C>().is_some() {
             return;
         }
@@ -268,6 +272,11 @@ impl<'a> Installer<'a> {
             .map(|&node| (!self.world.entity(node).contains::<C>()).then(|| value.clone()))
             .collect();
         self.pending().nodes.set(values);
+    }
+
+    fn templates(&mut self) -> bevy_ecs::world::Mut<'_, super::templates::ComponentTemplates> {
+        self.world
+            .get_resource_or_init::<super::templates::ComponentTemplates>()
     }
 
     fn pending(&mut self) -> bevy_ecs::world::Mut<'_, super::pending::PendingComponents> {
@@ -360,9 +369,12 @@ impl<'a> Installer<'a> {
     }
 
     /// Read access to the world as built from the scene (grid, materials, particles). The
-    /// components given with [`Installer::add_particle_component`] and
+    /// values given with [`Installer::add_particle_component`] and
     /// [`Installer::add_node_component`] are not in it yet; those of
-    /// [`Installer::add_particle_component_with`] are.
+    /// [`Installer::add_particle_component_with`] are. Where the pipeline gives entities
+    /// components, the scene is built twice and the second build spawns every entity with them
+    /// at their first given value (`registry/templates.rs`), so whether such a component is
+    /// present tells nothing.
     pub fn world(&self) -> &World {
         self.world
     }

@@ -9,6 +9,7 @@
 mod installer;
 mod params;
 pub(crate) mod pending;
+pub mod templates;
 
 pub use crate::stage::PipelineEntrySet;
 pub use installer::Installer;

@@ -6,8 +6,10 @@
 //! left a full-size table behind for each (with partition and contact, about a third of the peak
 //! memory at a million particles). Held here and inserted entity by entity, every component of
 //! one entity goes in before the next entity moves, so the tables in between hold one entity at a
-//! time and only the table of the spawned bundle is left behind. The entities keep their order, so
-//! particle rows are the same as with component-by-component insertion.
+//! time. The entities keep their order, so particle rows are the same as with
+//! component-by-component insertion. The table of the spawned bundle would still be left behind;
+//! `registry/templates.rs` spawns the entities with these components instead, and then the
+//! values inserted here replace the ones the entities were spawned with, in place.
 
 use bevy_ecs::prelude::{Component, Entity, Resource, With, World};
 use bevy_ecs::world::EntityWorldMut;

@@ -21,6 +21,9 @@ impl<D: Dim> Spec<D> {
         }
     }
 
+    /// Installs the chosen systems into `schedule` and `world`, in stage order. The components
+    /// installers give every particle or node are left held (`registry/pending.rs`); the caller
+    /// inserts them.
     pub(super) fn install_pipeline(
         &self,
         registry: &Registry,
@@ -58,7 +61,6 @@ impl<D: Dim> Spec<D> {
                 .for_entry(*k, filter.clone());
             (registration.install)(&mut installer, &params)?;
         }
-        crate::registry::pending::insert_pending_components(world);
         // Entries of one stage run in the order the scene lists them.
         for (a, (ka, ra)) in chosen.iter().enumerate() {
             if let Some((kb, _)) = chosen[a + 1..]

@@ -17,12 +17,22 @@ use crate::health::{LeaveGrid, remove_escaped_particles};
 use crate::loads::{LoadShare, ParticleLoads, apply_loads};
 use crate::output::{OutputPlan, ProbeKind};
 use crate::registry::Registry;
+use crate::registry::templates::{ComponentTemplates, TemplateSet};
 use crate::resources::{BodyForce, Grid, Materials, SimClock, Thickness};
 use crate::series::SeriesColumns;
 use crate::simulation::{Simulation, add_stage_checks, step_schedule};
 use crate::stage::{Stage, StageCheck, StepSet};
 use bevy_ecs::prelude::World;
 use bevy_ecs::schedule::IntoScheduleConfigs;
+
+/// A scene's world with its pipeline installed, before the engine's own systems.
+struct Installed {
+    world: World,
+    schedule: bevy_ecs::schedule::Schedule,
+    body_particles: Vec<usize>,
+    output: OutputPlan,
+    pipeline: super::spec::PipelineSummary,
+}
 
 impl<D: Dim> Spec<D> {
     /// Checks the spec, builds the world and the step schedule with systems from `registry`,
@@ -31,9 +41,13 @@ impl<D: Dim> Spec<D> {
         self.check()?;
         let available = super::budget::available_memory();
         self.check_memory_before_spawning(available)?;
-        let (mut world, body_particles, mut output) = self.spawn_world()?;
-        let mut schedule = step_schedule();
-        let pipeline = self.install_pipeline(registry, &mut schedule, &mut world)?;
+        let Installed {
+            mut world,
+            mut schedule,
+            body_particles,
+            mut output,
+            pipeline,
+        } = self.spawn_and_install(registry)?;
         self.check_checkpoint_keys(&world)?;
         self.check_frame_fields(&world)?;
         output.system_columns = world
@@ -96,15 +110,56 @@ impl<D: Dim> Spec<D> {
         Ok(())
     }
 
+    /// The world with the pipeline installed. Where the installers give particles or nodes
+    /// components of their own, the world is built a second time with every entity spawned
+    /// with them (`registry/templates.rs` says why), the first world dropped before the second
+    /// is spawned.
+    fn spawn_and_install(&self, registry: &Registry) -> Result<Installed, SceneError> {
+        let mut installed =
+            self.spawn_and_install_with(registry, &ComponentTemplates::default())?;
+        let templates = installed
+            .world
+            .remove_resource::<ComponentTemplates>()
+            .unwrap_or_default();
+        if !templates.is_empty() {
+            drop(installed);
+            installed = self.spawn_and_install_with(registry, &templates)?;
+            installed.world.remove_resource::<ComponentTemplates>();
+        }
+        crate::registry::pending::insert_pending_components(&mut installed.world);
+        Ok(installed)
+    }
+
+    fn spawn_and_install_with(
+        &self,
+        registry: &Registry,
+        templates: &ComponentTemplates,
+    ) -> Result<Installed, SceneError> {
+        let (mut world, body_particles, output) = self.spawn_world(templates)?;
+        let mut schedule = step_schedule();
+        let pipeline = self.install_pipeline(registry, &mut schedule, &mut world)?;
+        Ok(Installed {
+            world,
+            schedule,
+            body_particles,
+            output,
+            pipeline,
+        })
+    }
+
     /// The world before the pipeline: the engine's resources, the nodes and the bodies'
-    /// particles. Returns it with each body's particle count and the output plan.
-    fn spawn_world(&self) -> Result<(World, Vec<usize>, OutputPlan), SceneError> {
+    /// particles, each spawned with the components of `templates`. Returns it with each
+    /// body's particle count and the output plan.
+    fn spawn_world(
+        &self,
+        templates: &ComponentTemplates,
+    ) -> Result<(World, Vec<usize>, OutputPlan), SceneError> {
         let mut world = World::new();
         world.insert_resource(self.grid.clone());
         world.insert_resource(D::DIMENSION);
         world.insert_resource(Thickness(self.thickness));
-        spawn_nodes(&mut world, &self.grid);
-        let body_particles = self.spawn_bodies(&mut world)?;
+        spawn_nodes(&mut world, &self.grid, &templates.nodes);
+        let body_particles = self.spawn_bodies(&mut world, &templates.particles)?;
         let boundaries = self.boundary_conditions()?;
         let output = self.output_plan(&mut world)?;
         world.insert_resource(Materials(self.materials.clone()));
@@ -204,7 +259,11 @@ impl<D: Dim> Spec<D> {
         }
     }
 
-    fn spawn_bodies(&self, world: &mut World) -> Result<Vec<usize>, SceneError> {
+    fn spawn_bodies(
+        &self,
+        world: &mut World,
+        templates: &TemplateSet,
+    ) -> Result<Vec<usize>, SceneError> {
         let mut counts = Vec::new();
         let mut next_id: u32 = 0;
         let mut loads = ParticleLoads::<D>::default();
@@ -212,7 +271,7 @@ impl<D: Dim> Spec<D> {
             let mut bundles = self.body_particles(b, body, &mut next_id)?;
             self.share_loads(b, body, &mut bundles, &mut loads)?;
             counts.push(bundles.len());
-            world.spawn_batch(bundles);
+            templates.spawn(world, bundles);
         }
         world.insert_resource(loads);
         Ok(counts)
@@ -442,11 +501,11 @@ impl<D: Dim> Spec<D> {
     }
 }
 
-fn spawn_nodes<D: Dim>(world: &mut World, grid: &Grid<D>) {
+fn spawn_nodes<D: Dim>(world: &mut World, grid: &Grid<D>, templates: &TemplateSet) {
     let nodes: Vec<NodeBundle<D>> = (0..grid.node_count())
         .map(|i| NodeBundle::new(i as u32, grid.node_position(i)))
         .collect();
-    world.spawn_batch(nodes);
+    templates.spawn(world, nodes);
 }
 
 /// The particle of `body` that is nearest `at` (the lowest entity on a tie) and its position.
