@@ -19,8 +19,8 @@ use std::time::{Duration, Instant};
 use support::{root, text};
 
 /// Small shipped scenes of every kind of pipeline (2D and 3D, USL and Newmark, LME, damage,
-/// contact, partitioning).
-const SEEDS: [&str; 10] = [
+/// contact, partitioning) and of shape (a boolean difference in `plate_with_hole`).
+const SEEDS: [&str; 11] = [
     "two_disks.ron",
     "two_disks_contact.ron",
     "tension_softening.ron",
@@ -31,6 +31,7 @@ const SEEDS: [&str; 10] = [
     "bar_vibration_graded.ron",
     "bar_vibration_3d.ron",
     "block_compression.ron",
+    "plate_with_hole.ron",
 ];
 
 /// Values a number is swapped for: zero, signs, the edges of f64, huge counts.

@@ -141,10 +141,19 @@ impl<D: Dim> Spec<D> {
     }
 
     fn check_shape(&self, field: &str, shape: &Shape) -> Result<(), SceneError> {
+        if shape.is_boolean() {
+            if let Some(expected) = shape.problem() {
+                return Err(self.source.error(field, format!("expected {expected}")));
+            }
+            for (k, operand) in shape.operands().into_iter().enumerate() {
+                self.check_shape(&format!("{field}{}", shape.operand_path(k)), operand)?;
+            }
+            return Ok(());
+        }
         if shape.dimension() != D::DIMENSION {
             let allowed = match D::N {
-                2 => "Rectangle, Disk, Polygon",
-                _ => "Box, Sphere, Cylinder, Prism",
+                2 => "Rectangle, Disk, Polygon and their Union, Intersection, Difference",
+                _ => "Box, Sphere, Cylinder, Prism and their Union, Intersection, Difference",
             };
             return Err(self.source.error(
                 field,

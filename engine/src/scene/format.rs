@@ -226,8 +226,9 @@ fn default_particles_per_cell() -> u32 {
     2
 }
 
-/// Geometric shapes a body (or an initial crack) can take: the first three in 2D scenes, the
-/// others in 3D scenes.
+/// Geometric shapes a body (or an initial crack) can take: Rectangle, Disk and Polygon in 2D
+/// scenes, Box, Sphere, Cylinder and Prism in 3D scenes, and their unions, intersections and
+/// differences in either.
 #[derive(Debug, Deserialize, Clone, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub enum ShapeSpec {
@@ -287,6 +288,14 @@ pub enum ShapeSpec {
         /// Coordinate along the axis where it ends.
         max: f64,
     },
+    /// Every point of any of the shapes (at least two, of the scene's dimension):
+    /// `Union([Rectangle(..), Disk(..)])`.
+    Union(Vec<ShapeSpec>),
+    /// The points common to all the shapes (at least two): `Intersection([Box(..), Sphere(..)])`.
+    Intersection(Vec<ShapeSpec>),
+    /// The points of the first shape outside the second: `Difference(Rectangle(..), Disk(..))`,
+    /// a plate with a hole.
+    Difference(Box<ShapeSpec>, Box<ShapeSpec>),
 }
 
 /// Placement of particles inside each grid cell.

@@ -303,4 +303,100 @@ mod tests {
         assert_eq!(particles[0].0, DVec3::splat(0.0625));
         assert_eq!(particles[1].0, DVec3::new(0.1875, 0.0625, 0.0625));
     }
+
+    fn plate_and_hole() -> (Grid<Two>, Shape, Shape) {
+        // A 1 × 0.5 plate, a hole of radius 0.1 at its centre: 16 cells across the hole.
+        let grid = Grid::<Two> {
+            min: DVec2::ZERO,
+            spacing: 0.0125,
+            cells: [80, 40],
+            graded: None,
+        };
+        let plate = Shape::Rectangle {
+            min: DVec2::ZERO,
+            max: DVec2::new(1.0, 0.5),
+        };
+        let hole = Shape::Disk {
+            center: DVec2::new(0.5, 0.25),
+            radius: 0.1,
+        };
+        (grid, plate, hole)
+    }
+
+    #[test]
+    fn a_plate_with_a_hole_is_the_plate_without_the_holes_particles() {
+        let (grid, plate, hole) = plate_and_hole();
+        let holed = Shape::Difference(Box::new(plate.clone()), Box::new(hole.clone()));
+        for placement in [Placement::Uniform, Placement::Gauss] {
+            let particles = particles_in_shape(&holed, &grid, 2, placement, 1.0);
+            let expected: Vec<(DVec2, f64)> = particles_in_shape(&plate, &grid, 2, placement, 1.0)
+                .into_iter()
+                .filter(|p| !hole.contains(p.0.extend(0.0)))
+                .collect();
+            assert_eq!(particles, expected, "{placement:?}");
+            let area: f64 = particles.iter().map(|p| p.1).sum();
+            let exact = 0.5 - std::f64::consts::PI * 0.01;
+            assert!(
+                ((area - exact) / exact).abs() < 0.01,
+                "{placement:?}: area {area}, analytic {exact}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_union_of_tiles_is_the_whole_and_an_intersection_their_overlap() {
+        let (grid, plate, hole) = plate_and_hole();
+        let left = Shape::Rectangle {
+            min: DVec2::ZERO,
+            max: DVec2::new(0.5, 0.5),
+        };
+        let right = Shape::Rectangle {
+            min: DVec2::new(0.5, 0.0),
+            max: DVec2::new(1.0, 0.5),
+        };
+        let seeded = |shape: &Shape| particles_in_shape(shape, &grid, 2, Placement::Gauss, 1.0);
+        assert_eq!(
+            seeded(&Shape::Union(vec![left.clone(), right.clone()])),
+            seeded(&plate)
+        );
+        // The hole's right half: the disk and the right tile.
+        let half = seeded(&Shape::Intersection(vec![hole.clone(), right]));
+        let expected: Vec<(DVec2, f64)> =
+            seeded(&hole).into_iter().filter(|p| p.0.x >= 0.5).collect();
+        assert_eq!(half, expected);
+        // Shapes that share no point seed nothing.
+        let far = Shape::Disk {
+            center: DVec2::new(0.9, 0.4),
+            radius: 0.05,
+        };
+        assert!(seeded(&Shape::Intersection(vec![left, far])).is_empty());
+    }
+
+    #[test]
+    fn an_octant_of_a_sphere_has_its_volume_in_3d() {
+        let grid = Grid::<Three> {
+            min: DVec3::splat(-0.5),
+            spacing: 0.025,
+            cells: [40, 40, 40],
+            graded: None,
+        };
+        let octant = Shape::Intersection(vec![
+            Shape::Box {
+                min: DVec3::ZERO,
+                max: DVec3::splat(0.5),
+            },
+            Shape::Sphere {
+                center: DVec3::ZERO,
+                radius: 0.4,
+            },
+        ]);
+        let particles = particles_in_shape(&octant, &grid, 2, Placement::Gauss, 1.0);
+        let volume: f64 = particles.iter().map(|p| p.1).sum();
+        let exact = std::f64::consts::PI * 0.4f64.powi(3) / 6.0;
+        assert!(
+            ((volume - exact) / exact).abs() < 0.01,
+            "{volume} against {exact}"
+        );
+        assert!(particles.iter().all(|p| p.0.min_element() > 0.0));
+    }
 }

@@ -1,7 +1,7 @@
 //! Shapes of bodies and initial cracks, as checked values: membership and bounding boxes.
 //!
 //! 2D shapes (rectangle, disk, polygon) look at x and y; 3D shapes (box, sphere, cylinder,
-//! prism) at x, y and z. Points are given with three coordinates (z = 0 in 2D); which shapes a
+//! prism) at x, y and z; unions, intersections and differences combine shapes of one dimension. Points are given with three coordinates (z = 0 in 2D); which shapes a
 //! scene may use is checked against its dimension when the scene is built.
 
 use crate::dim::Dimension;
@@ -65,6 +65,12 @@ pub enum Shape {
         /// End along the axis.
         max: f64,
     },
+    /// Every point of any of the shapes.
+    Union(Vec<Shape>),
+    /// The points common to all the shapes.
+    Intersection(Vec<Shape>),
+    /// The points of the first shape outside the second (the second's boundary removed too).
+    Difference(Box<Shape>, Box<Shape>),
 }
 
 /// The two coordinates across `axis`, in x, y, z order.
@@ -161,7 +167,37 @@ impl Shape {
     pub fn dimension(&self) -> Dimension {
         match self {
             Shape::Rectangle { .. } | Shape::Disk { .. } | Shape::Polygon { .. } => Dimension::Two,
+            Shape::Union(shapes) | Shape::Intersection(shapes) => shapes
+                .first()
+                .map_or(Dimension::Two, |first| first.dimension()),
+            Shape::Difference(base, _) => base.dimension(),
             _ => Dimension::Three,
+        }
+    }
+
+    /// Whether the shape is a union, intersection or difference of others.
+    pub fn is_boolean(&self) -> bool {
+        matches!(
+            self,
+            Shape::Union(_) | Shape::Intersection(_) | Shape::Difference(..)
+        )
+    }
+
+    /// The shapes a boolean combines, in order; none for a primitive shape.
+    pub fn operands(&self) -> Vec<&Shape> {
+        match self {
+            Shape::Union(shapes) | Shape::Intersection(shapes) => shapes.iter().collect(),
+            Shape::Difference(base, removed) => vec![base, removed],
+            _ => Vec::new(),
+        }
+    }
+
+    /// Where operand `k` of a boolean sits below the shape's own field path, as errors name
+    /// it: `.0[k]` for a union or intersection's list, `.k` for a difference's pair.
+    pub fn operand_path(&self, k: usize) -> String {
+        match self {
+            Shape::Difference(..) => format!(".{k}"),
+            _ => format!(".0[{k}]"),
         }
     }
 
@@ -175,6 +211,9 @@ impl Shape {
             Shape::Sphere { .. } => "Sphere",
             Shape::Cylinder { .. } => "Cylinder",
             Shape::Prism { .. } => "Prism",
+            Shape::Union(_) => "Union",
+            Shape::Intersection(_) => "Intersection",
+            Shape::Difference(..) => "Difference",
         }
     }
 
@@ -211,6 +250,9 @@ impl Shape {
                     && max.is_finite()
                     && max > min
             }
+            // Operands are checked one by one, each at its own field path.
+            Shape::Union(shapes) | Shape::Intersection(shapes) => shapes.len() >= 2,
+            Shape::Difference(..) => true,
         };
         (!valid).then_some(match self {
             Shape::Rectangle { .. } => "a rectangle with `max` above and to the right of `min`",
@@ -225,6 +267,11 @@ impl Shape {
                 "a prism with at least 3 finite vertices, edges that do not cross, and `max` \
                  above `min`"
             }
+            Shape::Union(_) => "a union of at least two shapes: `Union([shape, shape, ...])`",
+            Shape::Intersection(_) => {
+                "an intersection of at least two shapes: `Intersection([shape, shape, ...])`"
+            }
+            Shape::Difference(..) => "a difference of two shapes: `Difference(shape, shape)`",
         })
     }
 
@@ -256,6 +303,9 @@ impl Shape {
                 min,
                 max,
             } => x[*axis] >= *min && x[*axis] <= *max && in_polygon(vertices, across(x, *axis)),
+            Shape::Union(shapes) => shapes.iter().any(|s| s.contains(x)),
+            Shape::Intersection(shapes) => shapes.iter().all(|s| s.contains(x)),
+            Shape::Difference(base, removed) => base.contains(x) && !removed.contains(x),
         }
     }
 
@@ -294,6 +344,19 @@ impl Shape {
                 let (lo, hi) = polygon_bounds(vertices);
                 (compose(*axis, *min, lo), compose(*axis, *max, hi))
             }
+            Shape::Union(shapes) => shapes.iter().map(Shape::bounds).fold(
+                (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+                |(lo, hi), (a, b)| (lo.min(a), hi.max(b)),
+            ),
+            Shape::Intersection(shapes) => {
+                let (lo, hi) = shapes.iter().map(Shape::bounds).fold(
+                    (DVec3::splat(f64::NEG_INFINITY), DVec3::splat(f64::INFINITY)),
+                    |(lo, hi), (a, b)| (lo.max(a), hi.min(b)),
+                );
+                // Shapes whose boxes do not meet share no point: an empty box at the corner.
+                (lo, hi.max(lo))
+            }
+            Shape::Difference(base, _) => base.bounds(),
         }
     }
 }

@@ -388,20 +388,45 @@ impl<D: Dim> Reader<D> {
                 min: *min,
                 max: *max,
             },
+            ShapeSpec::Union(shapes) => Shape::Union(self.operands(field, shapes)?),
+            ShapeSpec::Intersection(shapes) => Shape::Intersection(self.operands(field, shapes)?),
+            ShapeSpec::Difference(base, removed) => Shape::Difference(
+                Box::new(self.shape_of_dimension(&at("0"), base)?),
+                Box::new(self.shape_of_dimension(&at("1"), removed)?),
+            ),
         })
+    }
+
+    /// The shapes a union or intersection at `field` combines (`field.0[k]`).
+    fn operands(&self, field: &str, shapes: &[ShapeSpec]) -> Result<Vec<Shape>, SceneError> {
+        shapes
+            .iter()
+            .enumerate()
+            .map(|(k, shape)| self.shape_of_dimension(&format!("{field}.0[{k}]"), shape))
+            .collect()
     }
 
     /// A shape of the scene's dimension; a shape of the other dimension is reported before its
     /// coordinates are looked at, since that is the real mistake.
     fn shape_of_dimension(&self, field: &str, shape: &ShapeSpec) -> Result<Shape, SceneError> {
-        let two = matches!(
-            shape,
-            ShapeSpec::Rectangle { .. } | ShapeSpec::Disk { .. } | ShapeSpec::Polygon { .. }
-        );
-        if two != (D::N == 2) {
+        // A boolean's dimension is its operands', each checked where it is written.
+        let two = match shape {
+            ShapeSpec::Rectangle { .. } | ShapeSpec::Disk { .. } | ShapeSpec::Polygon { .. } => {
+                Some(true)
+            }
+            ShapeSpec::Union(_) | ShapeSpec::Intersection(_) | ShapeSpec::Difference(..) => None,
+            _ => Some(false),
+        };
+        if two.is_some_and(|two| two != (D::N == 2)) {
             let (kind, allowed) = match D::N {
-                2 => ("a 3D shape", "Rectangle, Disk, Polygon"),
-                _ => ("a 2D shape", "Box, Sphere, Cylinder, Prism"),
+                2 => (
+                    "a 3D shape",
+                    "Rectangle, Disk, Polygon and their Union, Intersection, Difference",
+                ),
+                _ => (
+                    "a 2D shape",
+                    "Box, Sphere, Cylinder, Prism and their Union, Intersection, Difference",
+                ),
             };
             return Err(self.error(
                 field,
