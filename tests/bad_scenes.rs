@@ -57,6 +57,7 @@ fn corpus_covers_the_mistakes_users_make() {
         "shape_2d_in_3d_scene",
         "z_axis_in_2d_scene",
         "thickness_in_3d_scene",
+        "overlapping_bodies",
     ] {
         assert!(
             names.iter().any(|n| n == required),

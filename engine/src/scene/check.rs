@@ -237,6 +237,7 @@ impl<D: Dim> Spec<D> {
                     .source
                     .error(&field("velocity"), format!("expected {expected}")));
             }
+            self.check_winners(b)?;
         }
         Ok(())
     }

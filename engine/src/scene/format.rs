@@ -198,6 +198,10 @@ pub struct BodySpec {
     /// Loads on the particles of this body (or of a region of it).
     #[serde(default)]
     pub loads: Vec<LoadSpec>,
+    /// Names of bodies this body overlaps on purpose: it keeps the overlap, and their particles
+    /// inside its shape are not seeded. Overlapping bodies that neither names are refused.
+    #[serde(default)]
+    pub wins_over: Vec<String>,
 }
 
 /// A force on the particles of a body or of a region of it, shared in proportion to their

@@ -13,6 +13,7 @@
 
 mod check;
 mod format;
+mod overlap;
 mod pipeline;
 mod seed;
 mod shape;

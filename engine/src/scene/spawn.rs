@@ -347,6 +347,7 @@ impl<D: Dim> Spec<D> {
             body.placement,
             self.thickness,
         );
+        let seeded = self.resolve_overlaps(b, seeded)?;
         if seeded.is_empty() {
             return Err(self.source.error(
                 &format!("bodies[{b}].shape"),

@@ -91,6 +91,9 @@ pub struct Body<D: Dim> {
     pub cracks: Vec<Shape>,
     /// Loads on the body's particles.
     pub loads: Vec<Load<D>>,
+    /// Names of the bodies whose particles inside this body's shape are not seeded (it keeps
+    /// the overlap; `scene/overlap.rs`).
+    pub wins_over: Vec<String>,
 }
 
 /// A ramped force on the particles of a body (or of a region of it), shared by volume.
@@ -141,7 +144,15 @@ impl<D: Dim> Body<D> {
             contact_group: 0,
             cracks: Vec::new(),
             loads: Vec::new(),
+            wins_over: Vec::new(),
         }
+    }
+
+    /// Lets this body keep its overlap with body `name`, whose particles inside this body's
+    /// shape are then not seeded.
+    pub fn wins_over(mut self, name: &str) -> Self {
+        self.wins_over.push(name.to_string());
+        self
     }
 
     /// Puts the body in a contact group.

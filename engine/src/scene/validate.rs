@@ -508,6 +508,7 @@ impl<D: Dim> Reader<D> {
                 .enumerate()
                 .map(|(k, load)| self.load(&field(&format!("loads[{k}]")), load))
                 .collect::<Result<_, _>>()?,
+            wins_over: body.wins_over.clone(),
         })
     }
 
