@@ -19,8 +19,9 @@ use std::time::{Duration, Instant};
 use support::{root, text};
 
 /// Small shipped scenes of every kind of pipeline (2D and 3D, USL and Newmark, LME, damage,
-/// contact, partitioning) and of shape (a boolean difference in `plate_with_hole`).
-const SEEDS: [&str; 11] = [
+/// contact, partitioning) and of shape (a boolean difference in `plate_with_hole`, an STL
+/// surface in `spinning_sphere`).
+const SEEDS: [&str; 12] = [
     "two_disks.ron",
     "two_disks_contact.ron",
     "tension_softening.ron",
@@ -32,6 +33,7 @@ const SEEDS: [&str; 11] = [
     "bar_vibration_3d.ron",
     "block_compression.ron",
     "plate_with_hole.ron",
+    "spinning_sphere.ron",
 ];
 
 /// Values a number is swapped for: zero, signs, the edges of f64, huge counts.
@@ -351,7 +353,13 @@ proptest! {
             scene = mutate(&scene, kind, at, pick);
         }
         let dir = std::env::temp_dir().join(format!("fractum-fuzz-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        // The geometry files the shipped scenes name, beside the mutated scene.
+        let geometry = dir.join("geometry");
+        std::fs::create_dir_all(&geometry).unwrap();
+        for file in std::fs::read_dir(root().join("scenes/geometry")).unwrap() {
+            let file = file.unwrap();
+            std::fs::copy(file.path(), geometry.join(file.file_name())).unwrap();
+        }
         let outcome = try_scene(&dir, &scene);
         log(SEEDS[seed], &outcome);
         // A failing case's folder stays for a look; the others leave nothing behind.

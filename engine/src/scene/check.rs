@@ -153,7 +153,9 @@ impl<D: Dim> Spec<D> {
         if shape.dimension() != D::DIMENSION {
             let allowed = match D::N {
                 2 => "Rectangle, Disk, Polygon and their Union, Intersection, Difference",
-                _ => "Box, Sphere, Cylinder, Prism and their Union, Intersection, Difference",
+                _ => {
+                    "Box, Sphere, Cylinder, Prism, Surface and their Union, Intersection, Difference"
+                }
             };
             return Err(self.source.error(
                 field,

@@ -292,6 +292,9 @@ pub enum ShapeSpec {
         /// Coordinate along the axis where it ends.
         max: f64,
     },
+    /// 3D: the inside of a closed triangle surface in an STL (ASCII or binary) or OBJ file,
+    /// its path relative to the scene file: `Surface("parts/anvil.stl")`.
+    Surface(String),
     /// Every point of any of the shapes (at least two, of the scene's dimension):
     /// `Union([Rectangle(..), Disk(..)])`.
     Union(Vec<ShapeSpec>),

@@ -19,6 +19,7 @@ mod seed;
 mod shape;
 mod spawn;
 mod spec;
+pub mod surface;
 mod validate;
 mod world_checks;
 

@@ -65,6 +65,8 @@ pub enum Shape {
         /// End along the axis.
         max: f64,
     },
+    /// 3D: the inside of a closed triangle surface read from an STL or OBJ file.
+    Surface(std::sync::Arc<super::surface::Surface>),
     /// Every point of any of the shapes.
     Union(Vec<Shape>),
     /// The points common to all the shapes.
@@ -211,6 +213,7 @@ impl Shape {
             Shape::Sphere { .. } => "Sphere",
             Shape::Cylinder { .. } => "Cylinder",
             Shape::Prism { .. } => "Prism",
+            Shape::Surface(_) => "Surface",
             Shape::Union(_) => "Union",
             Shape::Intersection(_) => "Intersection",
             Shape::Difference(..) => "Difference",
@@ -250,6 +253,8 @@ impl Shape {
                     && max.is_finite()
                     && max > min
             }
+            // Checked closed and consistently oriented when read.
+            Shape::Surface(_) => true,
             // Operands are checked one by one, each at its own field path.
             Shape::Union(shapes) | Shape::Intersection(shapes) => shapes.len() >= 2,
             Shape::Difference(..) => true,
@@ -267,6 +272,7 @@ impl Shape {
                 "a prism with at least 3 finite vertices, edges that do not cross, and `max` \
                  above `min`"
             }
+            Shape::Surface(_) => "a closed triangle surface",
             Shape::Union(_) => "a union of at least two shapes: `Union([shape, shape, ...])`",
             Shape::Intersection(_) => {
                 "an intersection of at least two shapes: `Intersection([shape, shape, ...])`"
@@ -303,6 +309,7 @@ impl Shape {
                 min,
                 max,
             } => x[*axis] >= *min && x[*axis] <= *max && in_polygon(vertices, across(x, *axis)),
+            Shape::Surface(surface) => surface.contains(x),
             Shape::Union(shapes) => shapes.iter().any(|s| s.contains(x)),
             Shape::Intersection(shapes) => shapes.iter().all(|s| s.contains(x)),
             Shape::Difference(base, removed) => base.contains(x) && !removed.contains(x),
@@ -344,6 +351,7 @@ impl Shape {
                 let (lo, hi) = polygon_bounds(vertices);
                 (compose(*axis, *min, lo), compose(*axis, *max, hi))
             }
+            Shape::Surface(surface) => surface.bounds(),
             Shape::Union(shapes) => shapes.iter().map(Shape::bounds).fold(
                 (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
                 |(lo, hi), (a, b)| (lo.min(a), hi.max(b)),

@@ -7,12 +7,14 @@
 use super::format::*;
 use super::shape::Shape;
 use super::spec::{Body, Boundary, Condition, InitialVelocity, Load, Output, PipelineEntry, Spec};
+use super::surface::{Surface, read_surface};
 use super::{SceneError, SceneFile, Source};
 use crate::dim::{Dim, MatrixOps, VectorOps};
 use crate::health::LeaveGrid;
 use crate::resources::{Grid, Material};
 use crate::simulation::{End, TimeStep};
 use glam::{DVec2, DVec3};
+use std::path::{Path, PathBuf};
 
 impl<D: Dim> Spec<D> {
     /// Reads the spec of `file`, whose grid must be `D`-dimensional.
@@ -388,12 +390,29 @@ impl<D: Dim> Reader<D> {
                 min: *min,
                 max: *max,
             },
+            ShapeSpec::Surface(file) => {
+                Shape::Surface(std::sync::Arc::new(self.surface(field, file)?))
+            }
             ShapeSpec::Union(shapes) => Shape::Union(self.operands(field, shapes)?),
             ShapeSpec::Intersection(shapes) => Shape::Intersection(self.operands(field, shapes)?),
             ShapeSpec::Difference(base, removed) => Shape::Difference(
                 Box::new(self.shape_of_dimension(&at("0"), base)?),
                 Box::new(self.shape_of_dimension(&at("1"), removed)?),
             ),
+        })
+    }
+
+    /// The surface in `file` (relative to the scene file's folder), read and checked.
+    fn surface(&self, field: &str, file: &str) -> Result<Surface, SceneError> {
+        let path = match Path::new(self.source.name()).parent() {
+            Some(folder) if Path::new(file).is_relative() => folder.join(file),
+            _ => PathBuf::from(file),
+        };
+        read_surface(&path, file).map_err(|e| {
+            self.error(
+                &format!("{field}.0"),
+                format!("surface `{}`: {e}", path.display()),
+            )
         })
     }
 
@@ -425,7 +444,7 @@ impl<D: Dim> Reader<D> {
                 ),
                 _ => (
                     "a 2D shape",
-                    "Box, Sphere, Cylinder, Prism and their Union, Intersection, Difference",
+                    "Box, Sphere, Cylinder, Prism, Surface and their Union, Intersection, Difference",
                 ),
             };
             return Err(self.error(
