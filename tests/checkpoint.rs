@@ -15,14 +15,23 @@ use fractum_engine::simulation::End;
 use fractum_suite::{repo_root, temp_dir};
 use std::path::Path;
 
+/// The name scenes are built under: a file in `scenes/`, so that the geometry files shipped
+/// scenes name (`geometry/sphere.stl`) are found beside it.
+fn scene_name() -> String {
+    repo_root()
+        .join("scenes/checkpoint-test.ron")
+        .display()
+        .to_string()
+}
+
 fn build(text: &str) -> Built {
-    let file = SceneFile::parse("checkpoint-test.ron", text.to_string()).expect("scene parses");
+    let file = SceneFile::parse(&scene_name(), text.to_string()).expect("scene parses");
     build_simulation(&file, &fractum_systems::stock_registry()).expect("scene builds")
 }
 
 fn record(text: &str) -> SceneRecord {
     SceneRecord {
-        path: "checkpoint-test.ron".into(),
+        path: scene_name(),
         text: text.to_string(),
     }
 }
