@@ -40,11 +40,13 @@ fn coordinates<D: Dim>(x: D::Vector) -> String {
     format!("({})", shown.join(", "))
 }
 
-/// Whether `x` lies in the shape of `body`, its bounding box tried first.
-fn inside<D: Dim>(body: &Body<D>, x: D::Vector) -> bool {
+/// The test "`x` lies in the shape of `body`", its bounding box (computed once) tried first.
+fn inside<D: Dim>(body: &Body<D>) -> impl Fn(D::Vector) -> bool + '_ {
     let (lo, hi) = body.shape.bounds();
-    let p: DVec3 = x.to_3d().into();
-    p.cmpge(lo).all() && p.cmple(hi).all() && body.shape.contains(p)
+    move |x| {
+        let p: DVec3 = x.to_3d().into();
+        p.cmpge(lo).all() && p.cmple(hi).all() && body.shape.contains(p)
+    }
 }
 
 impl<D: Dim> Spec<D> {
@@ -62,11 +64,12 @@ impl<D: Dim> Spec<D> {
             if a == b || wins_over(body, other) {
                 continue;
             }
+            let in_other = inside(other);
             if wins_over(other, body) {
-                seeded.retain(|&(x, _)| !inside(other, x));
+                seeded.retain(|&(x, _)| !in_other(x));
                 continue;
             }
-            if let Some(&(x, _)) = seeded.iter().find(|&&(x, _)| inside(other, x)) {
+            if let Some(&(x, _)) = seeded.iter().find(|&&(x, _)| in_other(x)) {
                 // Placed at the later of the two, the body most likely added last.
                 return Err(self.overlap_error(b.max(a), b.min(a), x));
             }
