@@ -58,6 +58,13 @@ fn corpus_covers_the_mistakes_users_make() {
         "z_axis_in_2d_scene",
         "thickness_in_3d_scene",
         "overlapping_bodies",
+        "mesh_truncated",
+        "mesh_truncated_binary",
+        "mesh_wrong_count",
+        "mesh_nan_coordinate",
+        "mesh_unknown_element_type",
+        "mesh_inverted_element",
+        "mesh_unknown_physical",
     ] {
         assert!(
             names.iter().any(|n| n == required),

@@ -20,8 +20,8 @@ use support::{root, text};
 
 /// Small shipped scenes of every kind of pipeline (2D and 3D, USL and Newmark, LME, damage,
 /// contact, partitioning) and of shape (a boolean difference in `plate_with_hole`, an STL
-/// surface in `spinning_sphere`).
-const SEEDS: [&str; 12] = [
+/// surface in `spinning_sphere`, a Gmsh mesh in `two_disks_mesh`).
+const SEEDS: [&str; 13] = [
     "two_disks.ron",
     "two_disks_contact.ron",
     "tension_softening.ron",
@@ -34,7 +34,30 @@ const SEEDS: [&str; 12] = [
     "block_compression.ron",
     "plate_with_hole.ron",
     "spinning_sphere.ron",
+    "two_disks_mesh.ron",
 ];
+
+/// Mesh files of each format a `Mesh` shape reads (Gmsh ASCII and binary, GiD), each filling
+/// part of the unit square, mutated under [`MESH_SCENE`].
+const MESH_SEEDS: [&str; 3] = [
+    "scenes/geometry/two_disks.msh",
+    "tests/fixtures/meshes/disk_binary.msh",
+    "tests/fixtures/meshes/nl-partsol/MPM_Mesh.msh",
+];
+
+/// A small 2D scene whose one body is the mutated mesh `fuzzed.msh`, seeded as `SEEDING`.
+const MESH_SCENE: &str = r#"(
+    time: (step: Fixed(1.0e-3), end: Steps(5)),
+    grid: (min: (0.0, 0.0), max: (1.0, 1.0), spacing: 0.05),
+    materials: {"elastic": (density: 1000.0, youngs_modulus: 1000.0, poisson_ratio: 0.3)},
+    bodies: [(shape: Mesh(file: "fuzzed.msh", seeding: SEEDING), material: "elastic", particles_per_cell: 1)],
+    pipeline: [
+        (system: "basis/linear"),
+        (system: "predictor/usl"),
+        (system: "stress/linear_elastic"),
+        (system: "advection/usl"),
+    ],
+)"#;
 
 /// Values a number is swapped for: zero, signs, the edges of f64, huge counts.
 const EXTREMES: [&str; 14] = [
@@ -367,6 +390,56 @@ proptest! {
             let _ = std::fs::remove_dir_all(&dir);
         }
         prop_assert!(outcome.is_ok(), "{}\n--- scene from {} ---\n{scene}", outcome.unwrap_err(), SEEDS[seed]);
+    }
+}
+
+/// One mutation of a mesh file: a text file as a scene's text is mutated; a binary one cut
+/// short, or with one byte or one 8-byte value overwritten (by an extreme double).
+fn mutate_mesh(bytes: &[u8], kind: u8, at: usize, pick: usize) -> Vec<u8> {
+    if let Ok(text) = std::str::from_utf8(bytes) {
+        return mutate(text, kind, at, pick).into_bytes();
+    }
+    let mut out = bytes.to_vec();
+    let at = at % bytes.len().max(1);
+    match kind % 3 {
+        0 => out.truncate(at),
+        1 => out[at] = pick as u8,
+        _ => {
+            let extreme = [f64::NAN, f64::INFINITY, 1e308, -1.0, 0.0][pick % 5];
+            let end = (at + 8).min(out.len());
+            out[at..end].copy_from_slice(&extreme.to_le_bytes()[..end - at]);
+        }
+    }
+    out
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: std::env::var("PROPTEST_CASES").ok().and_then(|c| c.parse().ok()).unwrap_or(256) / 4,
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn mutated_meshes_are_refused_with_a_place_or_run_cleanly(
+        seed in 0..MESH_SEEDS.len(),
+        elements in any::<bool>(),
+        mutations in prop::collection::vec((any::<u8>(), any::<usize>(), any::<usize>()), 1..3),
+    ) {
+        let mut mesh = std::fs::read(root().join(MESH_SEEDS[seed])).unwrap();
+        for (kind, at, pick) in mutations {
+            mesh = mutate_mesh(&mesh, kind, at, pick);
+        }
+        let dir = std::env::temp_dir().join(format!("fractum-fuzz-mesh-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("fuzzed.msh"), &mesh).unwrap();
+        let seeding = if elements { "Elements" } else { "Grid" };
+        let outcome = try_scene(&dir, &MESH_SCENE.replace("SEEDING", seeding));
+        log(MESH_SEEDS[seed], &outcome);
+        if outcome.is_ok() {
+            let _ = std::fs::remove_dir_all(&dir);
+        }
+        prop_assert!(outcome.is_ok(), "{}\n--- mesh from {} ({seeding}) kept in {} ---", outcome.unwrap_err(), MESH_SEEDS[seed], dir.display());
     }
 }
 

@@ -152,9 +152,13 @@ impl<D: Dim> Spec<D> {
         }
         if shape.dimension() != D::DIMENSION {
             let allowed = match D::N {
-                2 => "Rectangle, Disk, Polygon and their Union, Intersection, Difference",
+                2 => {
+                    "Rectangle, Disk, Polygon, Mesh (of triangles and quadrilaterals) and their Union, \
+                     Intersection, Difference"
+                }
                 _ => {
-                    "Box, Sphere, Cylinder, Prism, Surface and their Union, Intersection, Difference"
+                    "Box, Sphere, Cylinder, Prism, Surface, Mesh (of tetrahedra and hexahedra) and their \
+                     Union, Intersection, Difference"
                 }
             };
             return Err(self.source.error(
@@ -201,7 +205,24 @@ impl<D: Dim> Spec<D> {
                     .source
                     .error(&field("particles_per_cell"), "expected 1 to 16"));
             }
-            if body.placement == Placement::Rings {
+            if let Some(path) = body.shape.misplaced_element_seeding() {
+                return Err(self.source.error(
+                    &format!("{}{path}.seeding", field("shape")),
+                    "a mesh seeded by `Elements` places the body's particles, so it must be the \
+                     body's shape or the first operand of an Intersection or Difference; \
+                     elsewhere write `seeding: Grid`",
+                ));
+            }
+            if body.shape.seeds_itself() {
+                if !(1..=2).contains(&body.particles_per_cell) {
+                    return Err(self.source.error(
+                        &field("particles_per_cell"),
+                        "a mesh seeded by `Elements` takes 1 (one particle per element, at its \
+                         centroid) or 2 (three per triangle, four per quadrilateral or \
+                         tetrahedron, eight per hexahedron)",
+                    ));
+                }
+            } else if body.placement == Placement::Rings {
                 if !matches!(body.shape, Shape::Disk { .. }) {
                     return Err(self.source.error(
                         &field("placement"),

@@ -7,6 +7,7 @@
 //! Coordinates are tuples of two numbers in a 2D scene and three in a 3D one; the grid's
 //! corners decide which, and every other coordinate of the scene must agree.
 
+use super::mesh::MeshSeeding;
 use ron::value::RawValue;
 use serde::Deserialize;
 use serde::de::{Deserializer, SeqAccess, Visitor};
@@ -295,6 +296,21 @@ pub enum ShapeSpec {
     /// 3D: the inside of a closed triangle surface in an STL (ASCII or binary) or OBJ file,
     /// its path relative to the scene file: `Surface("parts/anvil.stl")`.
     Surface(String),
+    /// 2D or 3D: the elements of a Gmsh MSH 4.1 (ASCII or binary) or GiD ASCII mesh, its path
+    /// relative to the scene file: `Mesh(file: "geometry/rock.msh", physical: "rock", seeding:
+    /// Elements)`.
+    Mesh {
+        /// The mesh file.
+        file: String,
+        /// The physical group (Gmsh `$PhysicalNames`) whose elements make the shape; all the
+        /// elements of the mesh's highest dimension when left out.
+        #[serde(default)]
+        physical: Option<String>,
+        /// `Grid` (default): the per-cell rule every shape uses. `Elements`: each element's
+        /// quadrature points with their exact volumes.
+        #[serde(default)]
+        seeding: MeshSeeding,
+    },
     /// Every point of any of the shapes (at least two, of the scene's dimension):
     /// `Union([Rectangle(..), Disk(..)])`.
     Union(Vec<ShapeSpec>),

@@ -12,7 +12,9 @@
 //! from a file turns that path into a place in the text.
 
 mod check;
+mod file_error;
 mod format;
+pub mod mesh;
 mod overlap;
 mod pipeline;
 mod seed;
@@ -25,6 +27,7 @@ mod world_checks;
 
 pub use crate::budget;
 pub use crate::text::{Location, SceneError, locate, parse_fragment, scene_text};
+pub use file_error::FileError;
 pub use format::*;
 pub use seed::{cell_points, particles_in_shape};
 pub use shape::Shape;

@@ -62,6 +62,9 @@ pub fn rings_in_disk(
 /// indices (first axis fastest), `per_direction` points along each axis of every cell.
 /// In 2D the volumes are for the out-of-plane `thickness`.
 ///
+/// A mesh seeded by `Elements` gives its elements' quadrature points instead, of the rule of
+/// order `per_direction` (see [`Shape::own_particles`]).
+///
 /// Returns an empty list when `placement` does not support `per_direction` points (checked by
 /// the scene validation before seeding).
 pub fn particles_in_shape<D: Dim>(
@@ -71,6 +74,13 @@ pub fn particles_in_shape<D: Dim>(
     placement: Placement,
     thickness: f64,
 ) -> Vec<(D::Vector, f64)> {
+    if shape.seeds_itself() {
+        return shape
+            .own_particles(per_direction)
+            .into_iter()
+            .map(|(x, v)| (D::Vector::from_fn(|a| x[a]), v * thickness))
+            .collect();
+    }
     if placement == Placement::Rings {
         let Shape::Disk { center, radius } = shape else {
             return Vec::new();

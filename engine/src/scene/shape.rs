@@ -67,6 +67,9 @@ pub enum Shape {
     },
     /// 3D: the inside of a closed triangle surface read from an STL or OBJ file.
     Surface(std::sync::Arc<super::surface::Surface>),
+    /// 2D or 3D: the elements of a mesh read from a Gmsh or GiD file, with how a body made of
+    /// it is seeded.
+    Mesh(std::sync::Arc<super::mesh::Mesh>),
     /// Every point of any of the shapes.
     Union(Vec<Shape>),
     /// The points common to all the shapes.
@@ -173,7 +176,71 @@ impl Shape {
                 .first()
                 .map_or(Dimension::Two, |first| first.dimension()),
             Shape::Difference(base, _) => base.dimension(),
+            Shape::Mesh(mesh) if mesh.dimension() == 2 => Dimension::Two,
             _ => Dimension::Three,
+        }
+    }
+
+    /// Whether the shape places its own particles instead of the grid's lattice: a mesh seeded
+    /// by `Elements`, alone or as the first operand of an intersection or difference (whose
+    /// other operands then only remove particles).
+    pub fn seeds_itself(&self) -> bool {
+        match self {
+            Shape::Mesh(mesh) => mesh.seeding == super::mesh::MeshSeeding::Elements,
+            Shape::Intersection(shapes) => shapes.first().is_some_and(Shape::seeds_itself),
+            Shape::Difference(base, _) => base.seeds_itself(),
+            _ => false,
+        }
+    }
+
+    /// The path below the shape's own field of a mesh seeded by `Elements` that is not where
+    /// [`Self::seeds_itself`] looks for one (inside a union, or as a later operand), if any:
+    /// its particles would be silently ignored.
+    pub fn misplaced_element_seeding(&self) -> Option<String> {
+        let elements = |s: &Shape| matches!(s, Shape::Mesh(mesh) if mesh.seeding == super::mesh::MeshSeeding::Elements);
+        fn find(s: &Shape, elements: &dyn Fn(&Shape) -> bool) -> Option<String> {
+            if elements(s) {
+                return Some(String::new());
+            }
+            s.operands()
+                .into_iter()
+                .enumerate()
+                .find_map(|(k, o)| find(o, elements).map(|p| format!("{}{p}", s.operand_path(k))))
+        }
+        match self {
+            Shape::Intersection(_) | Shape::Difference(..) => {
+                let operands = self.operands();
+                if let Some(p) = operands[0].misplaced_element_seeding() {
+                    return Some(format!("{}{p}", self.operand_path(0)));
+                }
+                operands[1..].iter().enumerate().find_map(|(k, o)| {
+                    find(o, &elements).map(|p| format!("{}{p}", self.operand_path(k + 1)))
+                })
+            }
+            Shape::Union(_) => find(self, &elements),
+            _ => None,
+        }
+    }
+
+    /// The particles of a shape that [seeds itself](Self::seeds_itself): the mesh's
+    /// quadrature points of `order`, less those outside the intersection's other operands or
+    /// inside the difference's removed shape. Empty for other shapes or orders.
+    pub fn own_particles(&self, order: u32) -> Vec<(DVec3, f64)> {
+        match self {
+            Shape::Mesh(mesh) if self.seeds_itself() => {
+                mesh.quadrature_points(order).unwrap_or_default()
+            }
+            Shape::Intersection(shapes) if self.seeds_itself() => {
+                let mut points = shapes[0].own_particles(order);
+                points.retain(|p| shapes[1..].iter().all(|s| s.contains(p.0)));
+                points
+            }
+            Shape::Difference(base, removed) if self.seeds_itself() => {
+                let mut points = base.own_particles(order);
+                points.retain(|p| !removed.contains(p.0));
+                points
+            }
+            _ => Vec::new(),
         }
     }
 
@@ -214,6 +281,7 @@ impl Shape {
             Shape::Cylinder { .. } => "Cylinder",
             Shape::Prism { .. } => "Prism",
             Shape::Surface(_) => "Surface",
+            Shape::Mesh(_) => "Mesh",
             Shape::Union(_) => "Union",
             Shape::Intersection(_) => "Intersection",
             Shape::Difference(..) => "Difference",
@@ -255,6 +323,8 @@ impl Shape {
             }
             // Checked closed and consistently oriented when read.
             Shape::Surface(_) => true,
+            // Checked element by element when read.
+            Shape::Mesh(_) => true,
             // Operands are checked one by one, each at its own field path.
             Shape::Union(shapes) | Shape::Intersection(shapes) => shapes.len() >= 2,
             Shape::Difference(..) => true,
@@ -273,6 +343,7 @@ impl Shape {
                  above `min`"
             }
             Shape::Surface(_) => "a closed triangle surface",
+            Shape::Mesh(_) => "a mesh of valid elements",
             Shape::Union(_) => "a union of at least two shapes: `Union([shape, shape, ...])`",
             Shape::Intersection(_) => {
                 "an intersection of at least two shapes: `Intersection([shape, shape, ...])`"
@@ -310,6 +381,7 @@ impl Shape {
                 max,
             } => x[*axis] >= *min && x[*axis] <= *max && in_polygon(vertices, across(x, *axis)),
             Shape::Surface(surface) => surface.contains(x),
+            Shape::Mesh(mesh) => mesh.contains(x),
             Shape::Union(shapes) => shapes.iter().any(|s| s.contains(x)),
             Shape::Intersection(shapes) => shapes.iter().all(|s| s.contains(x)),
             Shape::Difference(base, removed) => base.contains(x) && !removed.contains(x),
@@ -352,6 +424,7 @@ impl Shape {
                 (compose(*axis, *min, lo), compose(*axis, *max, hi))
             }
             Shape::Surface(surface) => surface.bounds(),
+            Shape::Mesh(mesh) => mesh.bounds(),
             Shape::Union(shapes) => shapes.iter().map(Shape::bounds).fold(
                 (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
                 |(lo, hi), (a, b)| (lo.min(a), hi.max(b)),

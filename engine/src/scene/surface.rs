@@ -15,6 +15,8 @@ use glam::{DVec2, DVec3};
 use std::collections::HashMap;
 use std::path::Path;
 
+use super::file_error::{FileError, fail};
+
 /// A closed, consistently oriented triangle surface and its index for inside tests.
 #[derive(Clone, Debug)]
 pub struct Surface {
@@ -89,25 +91,6 @@ impl Bins {
     }
 }
 
-/// What is wrong with a surface file: where (a line, a byte offset or a facet) and what.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SurfaceError {
-    /// `line 12`, `byte 84`, `facet 7`, or empty for the file as a whole.
-    pub place: String,
-    /// What was found and what was expected.
-    pub message: String,
-}
-
-impl std::fmt::Display for SurfaceError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if self.place.is_empty() {
-            write!(f, "{}", self.message)
-        } else {
-            write!(f, "{}: {}", self.place, self.message)
-        }
-    }
-}
-
 /// A corner as the file wrote it: `(x, y, z)`, single-precision values (STL's) shown as such.
 fn point(v: DVec3) -> String {
     let shown = |c: f64| {
@@ -121,15 +104,8 @@ fn point(v: DVec3) -> String {
     format!("({}, {}, {})", shown(v.x), shown(v.y), shown(v.z))
 }
 
-fn fail(place: impl Into<String>, message: impl Into<String>) -> SurfaceError {
-    SurfaceError {
-        place: place.into(),
-        message: message.into(),
-    }
-}
-
 /// Reads and checks the surface at `path` (`.stl` or `.obj`); `file` is how the scene names it.
-pub fn read_surface(path: &Path, file: &str) -> Result<Surface, SurfaceError> {
+pub fn read_surface(path: &Path, file: &str) -> Result<Surface, FileError> {
     let bytes = std::fs::read(path).map_err(|e| fail("", format!("cannot read it: {e}")))?;
     let extension = path
         .extension()
@@ -149,7 +125,7 @@ pub fn read_surface(path: &Path, file: &str) -> Result<Surface, SurfaceError> {
 
 impl Surface {
     /// A surface of `triangles`, checked closed, manifold and consistently oriented.
-    pub fn new(file: &str, triangles: Vec<[DVec3; 3]>) -> Result<Self, SurfaceError> {
+    pub fn new(file: &str, triangles: Vec<[DVec3; 3]>) -> Result<Self, FileError> {
         if triangles.len() < 4 {
             return Err(fail(
                 "",
@@ -269,7 +245,7 @@ fn crossing(t: &[DVec3; 3], x: DVec3) -> Crossing {
 }
 
 /// Every edge in exactly two facets, once in each direction; no facet of zero area.
-fn check_closed(triangles: &[[DVec3; 3]]) -> Result<(), SurfaceError> {
+fn check_closed(triangles: &[[DVec3; 3]]) -> Result<(), FileError> {
     let key = |v: DVec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
     let mut ids: HashMap<[u64; 3], u32> = HashMap::new();
     let mut faces = Vec::with_capacity(triangles.len());
@@ -340,7 +316,7 @@ fn check_closed(triangles: &[[DVec3; 3]]) -> Result<(), SurfaceError> {
 }
 
 /// The facets of an STL file: binary when its length is that of its facet count, else ASCII.
-fn parse_stl(bytes: &[u8]) -> Result<Vec<[DVec3; 3]>, SurfaceError> {
+fn parse_stl(bytes: &[u8]) -> Result<Vec<[DVec3; 3]>, FileError> {
     if bytes.len() >= 84 {
         let count = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as usize;
         if bytes.len() == 84 + 50 * count {
@@ -366,7 +342,7 @@ fn parse_stl(bytes: &[u8]) -> Result<Vec<[DVec3; 3]>, SurfaceError> {
     parse_ascii_stl(text)
 }
 
-fn parse_binary_stl(bytes: &[u8], count: usize) -> Result<Vec<[DVec3; 3]>, SurfaceError> {
+fn parse_binary_stl(bytes: &[u8], count: usize) -> Result<Vec<[DVec3; 3]>, FileError> {
     let mut triangles = Vec::with_capacity(count);
     for k in 0..count {
         let at = 84 + 50 * k + 12;
@@ -395,7 +371,7 @@ fn parse_binary_stl(bytes: &[u8], count: usize) -> Result<Vec<[DVec3; 3]>, Surfa
     Ok(triangles)
 }
 
-fn parse_ascii_stl(text: &str) -> Result<Vec<[DVec3; 3]>, SurfaceError> {
+fn parse_ascii_stl(text: &str) -> Result<Vec<[DVec3; 3]>, FileError> {
     let mut triangles = Vec::new();
     let mut corners: Vec<DVec3> = Vec::new();
     let mut ended = false;
@@ -458,7 +434,7 @@ fn parse_ascii_stl(text: &str) -> Result<Vec<[DVec3; 3]>, SurfaceError> {
 
 /// The facets of an OBJ file: `v x y z` vertices and `f` faces (1-based or negative indices,
 /// `i/t/n` forms); faces of more than three corners are fanned into triangles.
-fn parse_obj(bytes: &[u8]) -> Result<Vec<[DVec3; 3]>, SurfaceError> {
+fn parse_obj(bytes: &[u8]) -> Result<Vec<[DVec3; 3]>, FileError> {
     let text = std::str::from_utf8(bytes).map_err(|e| {
         fail(
             format!("byte {}", e.valid_up_to()),

@@ -4,7 +4,9 @@
 //! Value checks that do not depend on the file (positive spacing, known materials, bodies
 //! inside the grid, …) are `Spec::check`'s, so scenes built in code get them too.
 
+use super::file_error::FileError;
 use super::format::*;
+use super::mesh::{Mesh, MeshSeeding, check_physical, read_raw_mesh};
 use super::shape::Shape;
 use super::spec::{Body, Boundary, Condition, InitialVelocity, Load, Output, PipelineEntry, Spec};
 use super::surface::{Surface, read_surface};
@@ -393,6 +395,16 @@ impl<D: Dim> Reader<D> {
             ShapeSpec::Surface(file) => {
                 Shape::Surface(std::sync::Arc::new(self.surface(field, file)?))
             }
+            ShapeSpec::Mesh {
+                file,
+                physical,
+                seeding,
+            } => Shape::Mesh(std::sync::Arc::new(self.mesh(
+                field,
+                file,
+                physical.as_deref(),
+                *seeding,
+            )?)),
             ShapeSpec::Union(shapes) => Shape::Union(self.operands(field, shapes)?),
             ShapeSpec::Intersection(shapes) => Shape::Intersection(self.operands(field, shapes)?),
             ShapeSpec::Difference(base, removed) => Shape::Difference(
@@ -402,12 +414,40 @@ impl<D: Dim> Reader<D> {
         })
     }
 
-    /// The surface in `file` (relative to the scene file's folder), read and checked.
-    fn surface(&self, field: &str, file: &str) -> Result<Surface, SceneError> {
-        let path = match Path::new(self.source.name()).parent() {
+    /// Where a geometry file the scene names lies: relative paths from the scene file's folder.
+    fn geometry_path(&self, file: &str) -> PathBuf {
+        match Path::new(self.source.name()).parent() {
             Some(folder) if Path::new(file).is_relative() => folder.join(file),
             _ => PathBuf::from(file),
+        }
+    }
+
+    /// The region `physical` of the mesh in `file`, read and checked; errors about the group's
+    /// name point at `physical`, others at `file`.
+    fn mesh(
+        &self,
+        field: &str,
+        file: &str,
+        physical: Option<&str>,
+        seeding: MeshSeeding,
+    ) -> Result<Mesh, SceneError> {
+        let path = self.geometry_path(file);
+        let at = |f: &str, e: FileError| {
+            self.error(
+                &format!("{field}.{f}"),
+                format!("mesh `{}`: {e}", path.display()),
+            )
         };
+        let raw = read_raw_mesh(&path).map_err(|e| at("file", e))?;
+        if let Some(name) = physical {
+            check_physical(&raw, name).map_err(|e| at("physical", e))?;
+        }
+        Mesh::from_raw(raw, file, physical, seeding).map_err(|e| at("file", e))
+    }
+
+    /// The surface in `file` (relative to the scene file's folder), read and checked.
+    fn surface(&self, field: &str, file: &str) -> Result<Surface, SceneError> {
+        let path = self.geometry_path(file);
         read_surface(&path, file).map_err(|e| {
             self.error(
                 &format!("{field}.0"),
@@ -433,18 +473,24 @@ impl<D: Dim> Reader<D> {
             ShapeSpec::Rectangle { .. } | ShapeSpec::Disk { .. } | ShapeSpec::Polygon { .. } => {
                 Some(true)
             }
-            ShapeSpec::Union(_) | ShapeSpec::Intersection(_) | ShapeSpec::Difference(..) => None,
+            // A mesh's dimension is its elements', known once it is read.
+            ShapeSpec::Union(_)
+            | ShapeSpec::Intersection(_)
+            | ShapeSpec::Difference(..)
+            | ShapeSpec::Mesh { .. } => None,
             _ => Some(false),
         };
         if two.is_some_and(|two| two != (D::N == 2)) {
             let (kind, allowed) = match D::N {
                 2 => (
                     "a 3D shape",
-                    "Rectangle, Disk, Polygon and their Union, Intersection, Difference",
+                    "Rectangle, Disk, Polygon, Mesh (of triangles and quadrilaterals) and their Union, \
+                     Intersection, Difference",
                 ),
                 _ => (
                     "a 2D shape",
-                    "Box, Sphere, Cylinder, Prism, Surface and their Union, Intersection, Difference",
+                    "Box, Sphere, Cylinder, Prism, Surface, Mesh (of tetrahedra and hexahedra) and their \
+                     Union, Intersection, Difference",
                 ),
             };
             return Err(self.error(
