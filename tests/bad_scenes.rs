@@ -65,6 +65,7 @@ fn corpus_covers_the_mistakes_users_make() {
         "mesh_unknown_element_type",
         "mesh_inverted_element",
         "mesh_unknown_physical",
+        "mesh_unknown_boundary_group",
     ] {
         assert!(
             names.iter().any(|n| n == required),

@@ -4,11 +4,12 @@
 //! that code seeds from it.
 
 use bevy_ecs::query::With;
+use fractum_engine::boundary::BoundaryConditions;
 use fractum_engine::components::{InitialVolume, Particle, Position, Velocity};
 use fractum_engine::prelude::*;
-use fractum_engine::scene::mesh::{Mesh, MeshSeeding, read_mesh};
+use fractum_engine::scene::mesh::{Mesh, MeshSeeding, boundary_facets, read_mesh, read_raw_mesh};
 use fractum_engine::scene::{
-    Body, Built, InitialVelocity, Placement, Shape, Spec, particles_in_shape,
+    Body, Boundary, Built, Condition, InitialVelocity, Placement, Shape, Spec, particles_in_shape,
 };
 use fractum_engine::simulation::{End, TimeStep};
 use fractum_suite::{load, repo_root};
@@ -274,6 +275,34 @@ fn state3(world: &mut bevy_ecs::world::World) -> Vec<(DVec3, DVec3)> {
 }
 
 #[test]
+fn the_meshed_plate_with_its_end_groups_runs_as_its_built_in_twin() {
+    let run = |name: &str| {
+        let mut built =
+            load(&repo_root().join("scenes").join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let world = &mut built.simulation.world;
+        let regions: Vec<Vec<u32>> = world
+            .resource::<BoundaryConditions>()
+            .regions
+            .iter()
+            .map(|r| r.nodes.clone())
+            .collect();
+        let seeded = positions(world);
+        for _ in 0..50 {
+            built.simulation.step().unwrap();
+        }
+        (regions, seeded, positions(&mut built.simulation.world))
+    };
+    let (box_regions, difference_seeded, difference) = run("plate_with_hole.ron");
+    let (group_regions, mesh_seeded, mesh) = run("plate_with_hole_mesh.ron");
+    assert_eq!(box_regions, group_regions);
+    assert!(
+        difference_seeded == mesh_seeded,
+        "the two plates seed different particles"
+    );
+    assert!(difference == mesh, "the two runs part after 50 steps");
+}
+
+#[test]
 fn the_meshed_drop_weight_beam_runs_as_its_built_in_twin() {
     let run = |name: &str| {
         let mut built =
@@ -292,4 +321,117 @@ fn the_meshed_drop_weight_beam_runs_as_its_built_in_twin() {
         "the two beams seed different particles"
     );
     assert!(prism == mesh, "the two runs part after 8 steps");
+}
+
+/// The nodes of each boundary region of `spec`, built with the plate as its body.
+fn region_nodes<D: Dim>(spec: Spec<D>) -> Vec<Vec<u32>> {
+    let built = spec
+        .system("basis/linear")
+        .system("predictor/usl")
+        .system("stress/linear_elastic")
+        .system("advection/usl")
+        .build(&fractum_systems::stock_registry())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let regions = &built
+        .simulation
+        .world
+        .resource::<BoundaryConditions>()
+        .regions;
+    regions.iter().map(|r| r.nodes.clone()).collect()
+}
+
+/// The boundary group `physical` of fixture `name`, as a fixed region.
+fn group<D: Dim>(name: &str, physical: &str) -> Boundary<D> {
+    let path = repo_root().join("tests/fixtures/meshes").join(name);
+    let raw = read_raw_mesh(&path).unwrap();
+    let facets = boundary_facets(&raw, name, physical).unwrap_or_else(|e| panic!("{e}"));
+    let (lo, hi) = facets.bounds();
+    Boundary {
+        facets: Some(Arc::new(facets)),
+        ..Boundary::new(
+            physical,
+            D::Vector::from_fn(|a| lo[a]),
+            D::Vector::from_fn(|a| hi[a]),
+            Condition::Fixed,
+        )
+    }
+}
+
+#[test]
+fn boundary_groups_hold_the_grid_nodes_along_them() {
+    // 2D: the plate's left edge is the nodes a box on x = 0 holds; the hole's rim the nodes
+    // within half a cell of the circle.
+    let h = 0.01;
+    let grid = Grid::<Two> {
+        min: DVec2::new(-0.05, -0.05),
+        spacing: h,
+        cells: [50, 30],
+        graded: None,
+    };
+    let plate = || {
+        Spec::new(grid.clone())
+            .time(TimeStep::Fixed(1e-7), End::Steps(1))
+            .material(Material::new("steel", 7800.0, 2.0e11, 0.3))
+            .body(Body::new(
+                mesh("plate_hole.msh", Some("plate"), MeshSeeding::Grid),
+                "steel",
+            ))
+    };
+    let nodes = region_nodes(
+        plate()
+            .boundary(group("plate_hole.msh", "left"))
+            .boundary(group("plate_hole.msh", "hole"))
+            .boundary(Boundary::new(
+                "box",
+                DVec2::new(0.0, 0.0),
+                DVec2::new(0.0, 0.2),
+                Condition::Fixed,
+            )),
+    );
+    assert_eq!(nodes[0], nodes[2], "the left edge against a box on x = 0");
+    assert_eq!(nodes[0].len(), 21);
+    let hole = &nodes[1];
+    assert!(hole.len() >= 20, "{} nodes on the hole's rim", hole.len());
+    for &n in hole {
+        let x = grid.node_position(n as usize);
+        let off = ((x - DVec2::new(0.2, 0.1)).length() - 0.05).abs();
+        assert!(
+            off <= 0.5 * h + 2e-6,
+            "node {n} at {x:?} is {off} from the rim"
+        );
+    }
+    // 3D: the block's bottom face is the nodes a box on z = 0 holds.
+    let grid = Grid::<Three> {
+        min: DVec3::splat(-0.05),
+        spacing: 0.025,
+        cells: [12, 12, 8],
+        graded: None,
+    };
+    let block = Spec::new(grid)
+        .time(TimeStep::Fixed(1e-7), End::Steps(1))
+        .material(Material::new("steel", 7800.0, 2.0e11, 0.3))
+        .body(Body::new(
+            mesh("block.msh", Some("block"), MeshSeeding::Grid),
+            "steel",
+        ))
+        .boundary(group("block.msh", "bottom"))
+        .boundary(Boundary::new(
+            "box",
+            DVec3::ZERO,
+            DVec3::new(0.2, 0.2, 0.0),
+            Condition::Fixed,
+        ));
+    let nodes = region_nodes(block);
+    assert_eq!(nodes[0], nodes[1]);
+    assert_eq!(nodes[0].len(), 81);
+}
+
+#[test]
+fn a_boundary_group_that_is_not_there_lists_those_that_are() {
+    let path = repo_root().join("tests/fixtures/meshes/plate_hole.msh");
+    let raw = read_raw_mesh(&path).unwrap();
+    let e = boundary_facets(&raw, "plate_hole.msh", "top").unwrap_err();
+    assert!(e.message.contains("\"left\", \"right\", \"hole\""), "{e}");
+    let e = boundary_facets(&raw, "plate_hole.msh", "plate").unwrap_err();
+    assert!(e.message.contains("a region of the body"), "{e}");
 }

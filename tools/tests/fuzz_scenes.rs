@@ -20,8 +20,9 @@ use support::{root, text};
 
 /// Small shipped scenes of every kind of pipeline (2D and 3D, USL and Newmark, LME, damage,
 /// contact, partitioning) and of shape (a boolean difference in `plate_with_hole`, an STL
-/// surface in `spinning_sphere`, a Gmsh mesh in `two_disks_mesh`).
-const SEEDS: [&str; 13] = [
+/// surface in `spinning_sphere`, Gmsh meshes and boundary groups in `two_disks_mesh` and
+/// `plate_with_hole_mesh`).
+const SEEDS: [&str; 14] = [
     "two_disks.ron",
     "two_disks_contact.ron",
     "tension_softening.ron",
@@ -35,6 +36,7 @@ const SEEDS: [&str; 13] = [
     "plate_with_hole.ron",
     "spinning_sphere.ron",
     "two_disks_mesh.ron",
+    "plate_with_hole_mesh.ron",
 ];
 
 /// Mesh files of each format a `Mesh` shape reads (Gmsh ASCII and binary, GiD), each filling

@@ -393,6 +393,15 @@ pub enum RegionSpec {
         /// Upper corner.
         max: Coords,
     },
+    /// Nodes within half a cell of a boundary group of a Gmsh mesh: a physical group of lines
+    /// (2D meshes) or surfaces (3D meshes), `Mesh(file: "geometry/beam.msh", physical:
+    /// "support")`.
+    Mesh {
+        /// The mesh file, its path relative to the scene file.
+        file: String,
+        /// The physical group's name.
+        physical: String,
+    },
 }
 
 /// A coordinate axis.

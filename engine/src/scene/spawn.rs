@@ -5,6 +5,7 @@
 
 use super::SceneError;
 use super::format::Probe;
+use super::mesh::Facet;
 use super::seed::particles_in_shape;
 use super::spec::{Body, Boundary, Built, Condition, SceneSummary, Spec};
 use crate::boundary::{BoundaryConditions, BoundaryRegion, PiecewiseLinear, Reactions};
@@ -12,7 +13,7 @@ use crate::components::{
     BodyId, ContactGroup, Damage, NodeBundle, ParticleBundle, Velocity, WaveSpeed,
 };
 use crate::connectivity::Connectivity;
-use crate::dim::{Dim, VectorOps};
+use crate::dim::{Dim, Lattice, VectorOps, lattice_range};
 use crate::health::{LeaveGrid, remove_escaped_particles};
 use crate::loads::{LoadShare, ParticleLoads, apply_loads};
 use crate::output::{OutputPlan, ProbeKind};
@@ -416,18 +417,22 @@ impl<D: Dim> Spec<D> {
     fn region(&self, r: usize, region: &Boundary<D>) -> Result<BoundaryRegion, SceneError> {
         let grid = &self.grid;
         let tol = 1e-9 * grid.spacing;
-        let nodes: Vec<u32> = (0..grid.node_count())
-            .filter(|&i| {
-                let x = grid.node_position(i);
-                (0..D::N).all(|a| x[a] >= region.min[a] - tol && x[a] <= region.max[a] + tol)
-            })
-            .map(|i| i as u32)
-            .collect();
+        let nodes: Vec<u32> = match &region.facets {
+            Some(facets) => nodes_near_facets(grid, &facets.facets),
+            None => (0..grid.node_count())
+                .filter(|&i| {
+                    let x = grid.node_position(i);
+                    (0..D::N).all(|a| x[a] >= region.min[a] - tol && x[a] <= region.max[a] + tol)
+                })
+                .map(|i| i as u32)
+                .collect(),
+        };
         if nodes.is_empty() {
-            return Err(self.source.error(
-                &format!("boundaries[{r}].nodes"),
-                "no grid node lies in this box",
-            ));
+            let what = match region.facets {
+                Some(_) => "no grid node lies within half a cell of this boundary group",
+                None => "no grid node lies in this box",
+            };
+            return Err(self.source.error(&format!("boundaries[{r}].nodes"), what));
         }
         let rest = || Some(PiecewiseLinear::constant(0.0));
         let velocity = match &region.condition {
@@ -500,6 +505,40 @@ impl<D: Dim> Spec<D> {
             frame_fields: self.output.fields.clone(),
         })
     }
+}
+
+/// The grid nodes within half a cell (the smallest width of the cells around the node) of any
+/// of `facets`, in index order: each facet looks only at the nodes of its own bounding box.
+fn nodes_near_facets<D: Dim>(grid: &Grid<D>, facets: &[Facet]) -> Vec<u32> {
+    let mut nodes = Vec::new();
+    for facet in facets {
+        let (lo, hi) = facet.bounds();
+        // The nodes of the cells holding the facet's box, and one cell more each way: half a
+        // cell of reach.
+        let reach = |a: usize, x: f64, up: bool| {
+            let x = x.clamp(grid.min[a], grid.coordinate(a, grid.cells[a]));
+            let cell = grid
+                .axis_cell(a, x)
+                .unwrap_or(if up { grid.cells[a] - 1 } else { 0 });
+            if up {
+                (cell + 2).min(grid.cells[a])
+            } else {
+                cell.saturating_sub(1)
+            }
+        };
+        let first = D::Cell::from_fn(|a| reach(a, lo[a], false));
+        let end = D::Cell::from_fn(|a| reach(a, hi[a], true) + 1);
+        for node in lattice_range(first, end) {
+            let x = grid.lattice_position(node);
+            let half = 0.5 * grid.smallest_width_near(x);
+            if facet.distance(x.to_3d().into()) <= half {
+                nodes.push(grid.node_index(node) as u32);
+            }
+        }
+    }
+    nodes.sort_unstable();
+    nodes.dedup();
+    nodes
 }
 
 fn spawn_nodes<D: Dim>(world: &mut World, grid: &Grid<D>, templates: &TemplateSet) {

@@ -275,6 +275,9 @@ pub struct Boundary<D: Dim> {
     pub min: D::Vector,
     /// Upper corner of the box.
     pub max: D::Vector,
+    /// When the region is a mesh's boundary group: its facets, and the region is the nodes
+    /// within half a cell of them (inside the box, which is then the facets' bounding box).
+    pub facets: Option<std::sync::Arc<super::mesh::BoundaryFacets>>,
     /// What is held.
     pub condition: Condition,
 }
@@ -512,6 +515,7 @@ impl<D: Dim> Boundary<D> {
             name: name.to_string(),
             min,
             max,
+            facets: None,
             condition,
         }
     }

@@ -6,7 +6,9 @@
 
 use super::file_error::FileError;
 use super::format::*;
-use super::mesh::{Mesh, MeshSeeding, check_physical, read_raw_mesh};
+use super::mesh::{
+    BoundaryFacets, Facet, Mesh, MeshSeeding, boundary_facets, check_physical, read_raw_mesh,
+};
 use super::shape::Shape;
 use super::spec::{Body, Boundary, Condition, InitialVelocity, Load, Output, PipelineEntry, Spec};
 use super::surface::{Surface, read_surface};
@@ -445,6 +447,37 @@ impl<D: Dim> Reader<D> {
         Mesh::from_raw(raw, file, physical, seeding).map_err(|e| at("file", e))
     }
 
+    /// The boundary group `physical` of the mesh in `file`, for the region at `field`.
+    fn boundary_facets(
+        &self,
+        field: &str,
+        file: &str,
+        physical: &str,
+    ) -> Result<BoundaryFacets, SceneError> {
+        let path = self.geometry_path(file);
+        let at = |f: &str, e: FileError| {
+            self.error(
+                &format!("{field}.{f}"),
+                format!("mesh `{}`: {e}", path.display()),
+            )
+        };
+        let raw = read_raw_mesh(&path).map_err(|e| at("file", e))?;
+        let facets = boundary_facets(&raw, file, physical).map_err(|e| at("physical", e))?;
+        let of_2d_mesh = matches!(facets.facets[0], Facet::Segment(_));
+        if of_2d_mesh != (D::N == 2) {
+            let mesh = if of_2d_mesh { "2D" } else { "3D" };
+            return Err(self.error(
+                &format!("{field}.file"),
+                format!(
+                    "a boundary of a {mesh} mesh in a {} scene; the mesh must be of the scene's \
+                     dimension",
+                    D::NAME
+                ),
+            ));
+        }
+        Ok(facets)
+    }
+
     /// The surface in `file` (relative to the scene file's folder), read and checked.
     fn surface(&self, field: &str, file: &str) -> Result<Surface, SceneError> {
         let path = self.geometry_path(file);
@@ -616,7 +649,6 @@ impl<D: Dim> Reader<D> {
 
     fn boundary(&self, r: usize, spec: &BoundarySpec) -> Result<Boundary<D>, SceneError> {
         let field = |f: &str| format!("boundaries[{r}].{f}");
-        let RegionSpec::Box { min, max } = &spec.nodes;
         let condition = match &spec.condition {
             ConditionSpec::Fixed => Condition::Fixed,
             ConditionSpec::Roller { normal } => Condition::Roller {
@@ -632,10 +664,24 @@ impl<D: Dim> Reader<D> {
                 Condition::Velocity([x.clone(), y.clone(), z.clone()])
             }
         };
+        let (min, max, facets) = match &spec.nodes {
+            RegionSpec::Box { min, max } => (
+                self.vector(&field("nodes.min"), min)?,
+                self.vector(&field("nodes.max"), max)?,
+                None,
+            ),
+            RegionSpec::Mesh { file, physical } => {
+                let facets = self.boundary_facets(&field("nodes"), file, physical)?;
+                let (lo, hi) = facets.bounds();
+                let corner = |x: DVec3| D::Vector::from_fn(|a| x[a]);
+                (corner(lo), corner(hi), Some(std::sync::Arc::new(facets)))
+            }
+        };
         Ok(Boundary {
             name: spec.name.clone(),
-            min: self.vector(&field("nodes.min"), min)?,
-            max: self.vector(&field("nodes.max"), max)?,
+            min,
+            max,
+            facets,
             condition,
         })
     }

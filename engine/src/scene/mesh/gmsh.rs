@@ -504,7 +504,12 @@ fn read_elements(
                     tag: element,
                     place,
                 }),
-                None => mesh.lower += 1,
+                None => {
+                    if count == 2 {
+                        mesh.lines.push(([refs[0], refs[1]], entity));
+                    }
+                    mesh.lower += 1;
+                }
             }
         }
     }

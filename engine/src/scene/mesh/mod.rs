@@ -10,10 +10,12 @@
 //! block-structured text (and Gmsh's binary twin of it), and no maintained Rust crate reads
 //! Gmsh 4.1's binary form.
 
+mod boundary;
 mod element;
 mod gid;
 mod gmsh;
 
+pub use boundary::{BoundaryFacets, Facet, boundary_facets};
 pub use element::ElementKind;
 
 use super::file_error::{FileError, fail};
@@ -74,8 +76,10 @@ pub struct RawMesh {
     entities: Vec<Vec<i32>>,
     /// `(dimension, tag, name)` of each named physical group.
     physical_names: Vec<(usize, i32, String)>,
-    /// Element dimensions that the file held but bodies do not use (lines, points), with how
-    /// many; kept so that a file of only those is reported as such.
+    /// Two-node lines (the boundaries of 2D meshes) and the entity of each.
+    lines: Vec<([u32; 2], u32)>,
+    /// Lines and points the file held, which bodies do not use; counted so that a file of only
+    /// those is reported as such.
     lower: usize,
 }
 
