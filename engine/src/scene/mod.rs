@@ -216,7 +216,7 @@ mod tests {
         let e = parse("Square(min: (0.0, 0.0), max: (1.0, 0.5))").unwrap_err();
         assert_eq!(
             e.message,
-            "unknown variant `Square`; expected one of `Box`, `Rectangle`"
+            "unknown variant `Square`; expected one of `Box`, `Rectangle`, `Mesh`"
         );
     }
 
