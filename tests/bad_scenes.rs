@@ -66,6 +66,9 @@ fn corpus_covers_the_mistakes_users_make() {
         "mesh_inverted_element",
         "mesh_unknown_physical",
         "mesh_unknown_boundary_group",
+        "points_missing_volume",
+        "points_nan_coordinate",
+        "points_duplicate_position",
     ] {
         assert!(
             names.iter().any(|n| n == required),

@@ -21,8 +21,8 @@ use support::{root, text};
 /// Small shipped scenes of every kind of pipeline (2D and 3D, USL and Newmark, LME, damage,
 /// contact, partitioning) and of shape (a boolean difference in `plate_with_hole`, an STL
 /// surface in `spinning_sphere`, Gmsh meshes and boundary groups in `two_disks_mesh` and
-/// `plate_with_hole_mesh`).
-const SEEDS: [&str; 14] = [
+/// `plate_with_hole_mesh`, a particle file in `two_disks_points`).
+const SEEDS: [&str; 15] = [
     "two_disks.ron",
     "two_disks_contact.ron",
     "tension_softening.ron",
@@ -37,22 +37,25 @@ const SEEDS: [&str; 14] = [
     "spinning_sphere.ron",
     "two_disks_mesh.ron",
     "plate_with_hole_mesh.ron",
+    "two_disks_points.ron",
 ];
 
 /// Mesh files of each format a `Mesh` shape reads (Gmsh ASCII and binary, GiD), each filling
-/// part of the unit square, mutated under [`MESH_SCENE`].
-const MESH_SEEDS: [&str; 3] = [
+/// part of the unit square, and a particle file, mutated under [`MESH_SCENE`].
+const MESH_SEEDS: [&str; 4] = [
     "scenes/geometry/two_disks.msh",
     "tests/fixtures/meshes/disk_binary.msh",
     "tests/fixtures/meshes/nl-partsol/MPM_Mesh.msh",
+    "scenes/geometry/two_disks_particles.csv",
 ];
 
-/// A small 2D scene whose one body is the mutated mesh `fuzzed.msh`, seeded as `SEEDING`.
+/// A small 2D scene whose one body is the mutated file: `SHAPE` is `Mesh(file: "fuzzed.msh",
+/// seeding: ..)` or `Points("fuzzed.csv")`.
 const MESH_SCENE: &str = r#"(
     time: (step: Fixed(1.0e-3), end: Steps(5)),
     grid: (min: (0.0, 0.0), max: (1.0, 1.0), spacing: 0.05),
     materials: {"elastic": (density: 1000.0, youngs_modulus: 1000.0, poisson_ratio: 0.3)},
-    bodies: [(shape: Mesh(file: "fuzzed.msh", seeding: SEEDING), material: "elastic", particles_per_cell: 1)],
+    bodies: [(shape: SHAPE, material: "elastic", particles_per_cell: 1)],
     pipeline: [
         (system: "basis/linear"),
         (system: "predictor/usl"),
@@ -423,7 +426,7 @@ proptest! {
     })]
 
     #[test]
-    fn mutated_meshes_are_refused_with_a_place_or_run_cleanly(
+    fn mutated_meshes_and_particle_files_are_refused_with_a_place_or_run_cleanly(
         seed in 0..MESH_SEEDS.len(),
         elements in any::<bool>(),
         mutations in prop::collection::vec((any::<u8>(), any::<usize>(), any::<usize>()), 1..3),
@@ -434,9 +437,15 @@ proptest! {
         }
         let dir = std::env::temp_dir().join(format!("fractum-fuzz-mesh-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join("fuzzed.msh"), &mesh).unwrap();
         let seeding = if elements { "Elements" } else { "Grid" };
-        let outcome = try_scene(&dir, &MESH_SCENE.replace("SEEDING", seeding));
+        let shape = if MESH_SEEDS[seed].ends_with(".csv") {
+            std::fs::write(dir.join("fuzzed.csv"), &mesh).unwrap();
+            "Points(\"fuzzed.csv\")".to_string()
+        } else {
+            std::fs::write(dir.join("fuzzed.msh"), &mesh).unwrap();
+            format!("Mesh(file: \"fuzzed.msh\", seeding: {seeding})")
+        };
+        let outcome = try_scene(&dir, &MESH_SCENE.replace("SHAPE", &shape));
         log(MESH_SEEDS[seed], &outcome);
         if outcome.is_ok() {
             let _ = std::fs::remove_dir_all(&dir);

@@ -177,6 +177,18 @@ impl<D: Dim> Spec<D> {
         Ok(())
     }
 
+    /// Refuses a point set where a shape must have an inside (a crack, a load region).
+    fn check_has_inside(&self, field: &str, shape: &Shape) -> Result<(), SceneError> {
+        if shape.holds_points() {
+            return Err(self.source.error(
+                field,
+                "a point set has no inside, so it cannot mark a crack or a region; use a shape \
+                 or a mesh",
+            ));
+        }
+        Ok(())
+    }
+
     fn check_bodies(&self) -> Result<(), SceneError> {
         if self.bodies.is_empty() {
             return Err(self.source.error("bodies", "expected at least one body"));
@@ -207,13 +219,13 @@ impl<D: Dim> Spec<D> {
             }
             if let Some(path) = body.shape.misplaced_element_seeding() {
                 return Err(self.source.error(
-                    &format!("{}{path}.seeding", field("shape")),
-                    "a mesh seeded by `Elements` places the body's particles, so it must be the \
-                     body's shape or the first operand of an Intersection or Difference; \
-                     elsewhere write `seeding: Grid`",
+                    &format!("{}{path}", field("shape")),
+                    "a point set, or a mesh seeded by `Elements`, places the body's particles, \
+                     so it must be the body's shape or the first operand of an Intersection or \
+                     Difference (a mesh elsewhere takes `seeding: Grid`)",
                 ));
             }
-            if body.shape.seeds_itself() {
+            if body.shape.seeds_itself() && body.shape.point_set().is_none() {
                 if !(1..=2).contains(&body.particles_per_cell) {
                     return Err(self.source.error(
                         &field("particles_per_cell"),
@@ -239,11 +251,13 @@ impl<D: Dim> Spec<D> {
             self.check_inside_grid(&field("shape"), &body.shape)?;
             for (k, crack) in body.cracks.iter().enumerate() {
                 self.check_shape(&field(&format!("cracks[{k}]")), crack)?;
+                self.check_has_inside(&field(&format!("cracks[{k}]")), crack)?;
             }
             for (k, load) in body.loads.iter().enumerate() {
                 let at = |f: &str| field(&format!("loads[{k}].{f}"));
                 if let Some(region) = &load.region {
                     self.check_shape(&at("region"), region)?;
+                    self.check_has_inside(&at("region"), region)?;
                 }
                 if !load.total.is_finite() {
                     return Err(self

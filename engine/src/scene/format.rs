@@ -311,6 +311,10 @@ pub enum ShapeSpec {
         #[serde(default)]
         seeding: MeshSeeding,
     },
+    /// 2D or 3D: the particles of a CSV file, one per row with its position and volume (and
+    /// optionally its velocity, damage and material), its path relative to the scene file:
+    /// `Points("geometry/rock.csv")`.
+    Points(String),
     /// Every point of any of the shapes (at least two, of the scene's dimension):
     /// `Union([Rectangle(..), Disk(..)])`.
     Union(Vec<ShapeSpec>),

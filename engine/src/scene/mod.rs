@@ -17,6 +17,7 @@ mod format;
 pub mod mesh;
 mod overlap;
 mod pipeline;
+pub mod points;
 mod seed;
 mod shape;
 mod spawn;

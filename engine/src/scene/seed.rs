@@ -75,10 +75,16 @@ pub fn particles_in_shape<D: Dim>(
     thickness: f64,
 ) -> Vec<(D::Vector, f64)> {
     if shape.seeds_itself() {
+        // A point file's volumes are the particles' own; a mesh's are areas in 2D.
+        let scale = if shape.point_set().is_some() {
+            1.0
+        } else {
+            thickness
+        };
         return shape
             .own_particles(per_direction)
             .into_iter()
-            .map(|(x, v)| (D::Vector::from_fn(|a| x[a]), v * thickness))
+            .map(|(x, v)| (D::Vector::from_fn(|a| x[a]), v * scale))
             .collect();
     }
     if placement == Placement::Rings {

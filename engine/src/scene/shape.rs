@@ -70,6 +70,9 @@ pub enum Shape {
     /// 2D or 3D: the elements of a mesh read from a Gmsh or GiD file, with how a body made of
     /// it is seeded.
     Mesh(std::sync::Arc<super::mesh::Mesh>),
+    /// 2D or 3D: particles read from a file, each with its own volume. A point set bounds no
+    /// region: no point is inside it.
+    Points(std::sync::Arc<super::points::PointSet>),
     /// Every point of any of the shapes.
     Union(Vec<Shape>),
     /// The points common to all the shapes.
@@ -177,6 +180,7 @@ impl Shape {
                 .map_or(Dimension::Two, |first| first.dimension()),
             Shape::Difference(base, _) => base.dimension(),
             Shape::Mesh(mesh) if mesh.dimension() == 2 => Dimension::Two,
+            Shape::Points(points) if points.dimension() == 2 => Dimension::Two,
             _ => Dimension::Three,
         }
     }
@@ -187,20 +191,27 @@ impl Shape {
     pub fn seeds_itself(&self) -> bool {
         match self {
             Shape::Mesh(mesh) => mesh.seeding == super::mesh::MeshSeeding::Elements,
+            Shape::Points(_) => true,
             Shape::Intersection(shapes) => shapes.first().is_some_and(Shape::seeds_itself),
             Shape::Difference(base, _) => base.seeds_itself(),
             _ => false,
         }
     }
 
-    /// The path below the shape's own field of a mesh seeded by `Elements` that is not where
-    /// [`Self::seeds_itself`] looks for one (inside a union, or as a later operand), if any:
-    /// its particles would be silently ignored.
+    /// The path below the shape's own field of a point set, or of a mesh's `seeding:
+    /// Elements`, that is not where [`Self::seeds_itself`] looks for one (inside a union, or
+    /// as a later operand), if any: its particles would be silently ignored.
     pub fn misplaced_element_seeding(&self) -> Option<String> {
-        let elements = |s: &Shape| matches!(s, Shape::Mesh(mesh) if mesh.seeding == super::mesh::MeshSeeding::Elements);
-        fn find(s: &Shape, elements: &dyn Fn(&Shape) -> bool) -> Option<String> {
-            if elements(s) {
-                return Some(String::new());
+        let elements = |s: &Shape| match s {
+            Shape::Mesh(mesh) if mesh.seeding == super::mesh::MeshSeeding::Elements => {
+                Some(".seeding")
+            }
+            Shape::Points(_) => Some(""),
+            _ => None,
+        };
+        fn find(s: &Shape, elements: &dyn Fn(&Shape) -> Option<&'static str>) -> Option<String> {
+            if let Some(field) = elements(s) {
+                return Some(field.to_string());
             }
             s.operands()
                 .into_iter()
@@ -230,6 +241,7 @@ impl Shape {
             Shape::Mesh(mesh) if self.seeds_itself() => {
                 mesh.quadrature_points(order).unwrap_or_default()
             }
+            Shape::Points(points) => points.particles(),
             Shape::Intersection(shapes) if self.seeds_itself() => {
                 let mut points = shapes[0].own_particles(order);
                 points.retain(|p| shapes[1..].iter().all(|s| s.contains(p.0)));
@@ -242,6 +254,22 @@ impl Shape {
             }
             _ => Vec::new(),
         }
+    }
+
+    /// The point set whose particles the shape places, if it places a file's: alone, or as
+    /// the first operand of an intersection or difference.
+    pub fn point_set(&self) -> Option<&super::points::PointSet> {
+        match self {
+            Shape::Points(points) => Some(points),
+            Shape::Intersection(shapes) => shapes.first().and_then(Shape::point_set),
+            Shape::Difference(base, _) => base.point_set(),
+            _ => None,
+        }
+    }
+
+    /// Whether a point set is anywhere in the shape.
+    pub fn holds_points(&self) -> bool {
+        matches!(self, Shape::Points(_)) || self.operands().iter().any(|s| s.holds_points())
     }
 
     /// Whether the shape is a union, intersection or difference of others.
@@ -282,6 +310,7 @@ impl Shape {
             Shape::Prism { .. } => "Prism",
             Shape::Surface(_) => "Surface",
             Shape::Mesh(_) => "Mesh",
+            Shape::Points(_) => "Points",
             Shape::Union(_) => "Union",
             Shape::Intersection(_) => "Intersection",
             Shape::Difference(..) => "Difference",
@@ -325,6 +354,8 @@ impl Shape {
             Shape::Surface(_) => true,
             // Checked element by element when read.
             Shape::Mesh(_) => true,
+            // Checked row by row when read.
+            Shape::Points(_) => true,
             // Operands are checked one by one, each at its own field path.
             Shape::Union(shapes) | Shape::Intersection(shapes) => shapes.len() >= 2,
             Shape::Difference(..) => true,
@@ -344,6 +375,7 @@ impl Shape {
             }
             Shape::Surface(_) => "a closed triangle surface",
             Shape::Mesh(_) => "a mesh of valid elements",
+            Shape::Points(_) => "a set of particles",
             Shape::Union(_) => "a union of at least two shapes: `Union([shape, shape, ...])`",
             Shape::Intersection(_) => {
                 "an intersection of at least two shapes: `Intersection([shape, shape, ...])`"
@@ -382,6 +414,7 @@ impl Shape {
             } => x[*axis] >= *min && x[*axis] <= *max && in_polygon(vertices, across(x, *axis)),
             Shape::Surface(surface) => surface.contains(x),
             Shape::Mesh(mesh) => mesh.contains(x),
+            Shape::Points(_) => false,
             Shape::Union(shapes) => shapes.iter().any(|s| s.contains(x)),
             Shape::Intersection(shapes) => shapes.iter().all(|s| s.contains(x)),
             Shape::Difference(base, removed) => base.contains(x) && !removed.contains(x),
@@ -425,6 +458,7 @@ impl Shape {
             }
             Shape::Surface(surface) => surface.bounds(),
             Shape::Mesh(mesh) => mesh.bounds(),
+            Shape::Points(points) => points.bounds(),
             Shape::Union(shapes) => shapes.iter().map(Shape::bounds).fold(
                 (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
                 |(lo, hi), (a, b)| (lo.min(a), hi.max(b)),

@@ -359,13 +359,42 @@ impl<D: Dim> Spec<D> {
         if (*next_id as usize).saturating_add(seeded.len()) > u32::MAX as usize {
             return Err(self.source.error("bodies", "more than 2^32 particles"));
         }
-        let m = &self.materials[material];
-        let (density, wave_speed) = (m.density, m.wave_speed());
-        if let Some(&(x, volume)) = seeded.iter().find(|&&(x, volume)| {
-            let v = body.velocity.at(x);
-            !(v.is_finite() && (0.5 * density * volume * v.dot(v)).is_finite())
+        // What a point file gives of each particle overrides the body's defaults.
+        let points = body.shape.point_set();
+        let point_materials: Vec<usize> = match points {
+            Some(set) => set
+                .material_names()
+                .iter()
+                .map(|name| self.material_index(name, &format!("bodies[{b}].shape")))
+                .collect::<Result<_, _>>()?,
+            None => Vec::new(),
+        };
+        let initial = |x: D::Vector| {
+            let given = points.and_then(|set| set.attributes(x.to_3d().into()));
+            let material = given
+                .and_then(|g| g.material)
+                .and_then(|name| points?.material_names().iter().position(|n| n == name))
+                .map_or(material, |k| point_materials[k]);
+            let velocity = given
+                .and_then(|g| g.velocity)
+                .map_or_else(|| body.velocity.at(x), |v| D::Vector::from_fn(|a| v[a]));
+            let cracked = body
+                .cracks
+                .iter()
+                .any(|crack| crack.contains(x.to_3d().into()));
+            let damage = if cracked {
+                1.0
+            } else {
+                given.and_then(|g| g.damage).unwrap_or(0.0)
+            };
+            (material, velocity, damage)
+        };
+        if let Some((x, volume, v, density)) = seeded.iter().find_map(|&(x, volume)| {
+            let (material, v, _) = initial(x);
+            let density = self.materials[material].density;
+            let finite = v.is_finite() && (0.5 * density * volume * v.dot(v)).is_finite();
+            (!finite).then_some((x, volume, v, density))
         }) {
-            let v = body.velocity.at(x);
             return Err(self.source.error(
                 &format!("bodies[{b}].velocity"),
                 format!(
@@ -380,24 +409,20 @@ impl<D: Dim> Spec<D> {
         Ok(seeded
             .iter()
             .map(|&(x, volume)| {
+                let (material, velocity, damage) = initial(x);
+                let m = &self.materials[material];
                 let mut p = ParticleBundle::<D>::new(
                     *next_id,
                     x,
-                    density * volume,
+                    m.density * volume,
                     volume,
                     material as u16,
                 );
                 *next_id += 1;
-                p.velocity = Velocity(body.velocity.at(x));
+                p.velocity = Velocity(velocity);
                 p.body = BodyId(b as u16);
-                p.wave_speed = WaveSpeed(wave_speed);
-                if body
-                    .cracks
-                    .iter()
-                    .any(|crack| crack.contains(x.to_3d().into()))
-                {
-                    p.damage = Damage(1.0);
-                }
+                p.wave_speed = WaveSpeed(m.wave_speed());
+                p.damage = Damage(damage);
                 p.group = ContactGroup(body.contact_group);
                 p
             })

@@ -9,6 +9,7 @@ use super::format::*;
 use super::mesh::{
     BoundaryFacets, Facet, Mesh, MeshSeeding, boundary_facets, check_physical, read_raw_mesh,
 };
+use super::points::read_points;
 use super::shape::Shape;
 use super::spec::{Body, Boundary, Condition, InitialVelocity, Load, Output, PipelineEntry, Spec};
 use super::surface::{Surface, read_surface};
@@ -407,6 +408,17 @@ impl<D: Dim> Reader<D> {
                 physical.as_deref(),
                 *seeding,
             )?)),
+            ShapeSpec::Points(file) => {
+                let path = self.geometry_path(file);
+                Shape::Points(std::sync::Arc::new(read_points(&path, file).map_err(
+                    |e| {
+                        self.error(
+                            &format!("{field}.0"),
+                            format!("points `{}`: {e}", path.display()),
+                        )
+                    },
+                )?))
+            }
             ShapeSpec::Union(shapes) => Shape::Union(self.operands(field, shapes)?),
             ShapeSpec::Intersection(shapes) => Shape::Intersection(self.operands(field, shapes)?),
             ShapeSpec::Difference(base, removed) => Shape::Difference(
@@ -510,7 +522,8 @@ impl<D: Dim> Reader<D> {
             ShapeSpec::Union(_)
             | ShapeSpec::Intersection(_)
             | ShapeSpec::Difference(..)
-            | ShapeSpec::Mesh { .. } => None,
+            | ShapeSpec::Mesh { .. }
+            | ShapeSpec::Points(_) => None,
             _ => Some(false),
         };
         if two.is_some_and(|two| two != (D::N == 2)) {

@@ -1,0 +1,126 @@
+//! Bodies from particle files (`Points("file.csv")`): the particles, volumes and what each row
+//! gives (velocity, damage, material) reach the world unchanged.
+
+use bevy_ecs::query::With;
+use fractum_engine::components::{
+    Damage, InitialVolume, Mass, MaterialId, Particle, Position, Velocity,
+};
+use fractum_engine::prelude::*;
+use fractum_engine::scene::points::read_points;
+use fractum_engine::scene::{Body, Shape, Spec};
+use fractum_engine::simulation::{End, TimeStep};
+use fractum_suite::{load, repo_root, temp_dir};
+use glam::DVec2;
+use std::sync::Arc;
+
+/// Position, velocity and volume of every particle, in entity order.
+fn state(world: &mut bevy_ecs::world::World) -> Vec<(DVec2, DVec2, f64)> {
+    let mut query =
+        world.query_filtered::<(&Position<Two>, &Velocity<Two>, &InitialVolume), With<Particle>>();
+    query
+        .iter(world)
+        .map(|(x, v, vol)| (x.0, v.0, vol.0))
+        .collect()
+}
+
+#[test]
+fn a_particle_file_runs_as_the_mesh_it_was_written_from() {
+    let run = |name: &str| {
+        let mut built =
+            load(&repo_root().join("scenes").join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let seeded = state(&mut built.simulation.world);
+        for _ in 0..20 {
+            built.simulation.step().unwrap();
+        }
+        (seeded, state(&mut built.simulation.world))
+    };
+    let (mesh_seeded, mesh) = run("two_disks_mesh.ron");
+    let (points_seeded, points) = run("two_disks_points.ron");
+    assert_eq!(points_seeded.len(), 1014);
+    assert!(
+        mesh_seeded == points_seeded,
+        "the two scenes seed different particles"
+    );
+    assert!(mesh == points, "the two runs part after 20 steps");
+}
+
+/// A 2D scene over the unit square whose one body is `shape`, of material "soft" by default.
+fn world_of(shape: Shape) -> bevy_ecs::world::World {
+    let grid = Grid::<Two> {
+        min: DVec2::ZERO,
+        spacing: 0.1,
+        cells: [10, 10],
+        graded: None,
+    };
+    let built = Spec::new(grid)
+        .time(TimeStep::Fixed(1e-5), End::Steps(1))
+        .material(Material::new("soft", 1000.0, 1.0e6, 0.3))
+        .material(Material::new("hard", 3000.0, 1.0e8, 0.2))
+        .body(Body::new(shape, "soft"))
+        .system("basis/linear")
+        .system("predictor/usl")
+        .system("stress/linear_elastic")
+        .system("advection/usl")
+        .build(&fractum_systems::stock_registry())
+        .unwrap_or_else(|e| panic!("{e}"));
+    built.simulation.world
+}
+
+/// The point set of CSV `text`, written to a folder of its own named `name`.
+fn points(name: &str, text: &str) -> Shape {
+    let dir = temp_dir(name);
+    let path = dir.join("p.csv");
+    std::fs::write(&path, text).unwrap();
+    Shape::Points(Arc::new(read_points(&path, "p.csv").unwrap()))
+}
+
+#[test]
+fn each_row_gives_its_particle_s_volume_velocity_damage_and_material() {
+    let shape = points(
+        "attributes",
+        "x,y,volume,vx,vy,damage,material\n\
+         0.25,0.25,2e-3,1,0,0,soft\n\
+         0.75,0.25,1e-3,0,-2,0.5,hard\n\
+         0.55,0.75,4e-3,0,0,1,soft\n",
+    );
+    let mut world = world_of(shape);
+    let mut query = world.query_filtered::<(
+        &Position<Two>,
+        &Velocity<Two>,
+        &Mass,
+        &Damage,
+        &MaterialId,
+    ), With<Particle>>();
+    let mut rows: Vec<_> = query
+        .iter(&world)
+        .map(|(x, v, m, d, id)| (x.0, v.0, m.0, d.0, id.0))
+        .collect();
+    rows.sort_by(|a, b| a.0.x.total_cmp(&b.0.x));
+    assert_eq!(
+        rows,
+        vec![
+            (DVec2::new(0.25, 0.25), DVec2::new(1.0, 0.0), 2.0, 0.0, 0),
+            (DVec2::new(0.55, 0.75), DVec2::ZERO, 4.0, 1.0, 0),
+            (DVec2::new(0.75, 0.25), DVec2::new(0.0, -2.0), 3.0, 0.5, 1),
+        ]
+    );
+}
+
+#[test]
+fn a_point_set_is_cropped_by_an_intersection() {
+    let cropped = Shape::Intersection(vec![
+        points(
+            "cropped",
+            "x,y,volume\n0.25,0.25,1e-3\n0.75,0.25,1e-3\n0.75,0.75,1e-3\n",
+        ),
+        Shape::Rectangle {
+            min: DVec2::new(0.5, 0.0),
+            max: DVec2::new(1.0, 1.0),
+        },
+    ]);
+    let mut world = world_of(cropped);
+    let mut query = world.query_filtered::<&Position<Two>, With<Particle>>();
+    let mut kept: Vec<DVec2> = query.iter(&world).map(|x| x.0).collect();
+    kept.sort_by(|a, b| a.y.total_cmp(&b.y));
+    assert_eq!(kept, vec![DVec2::new(0.75, 0.25), DVec2::new(0.75, 0.75)]);
+}
