@@ -12,7 +12,7 @@ use fractum_engine::scene::{
     Body, Boundary, Built, Condition, InitialVelocity, Placement, Shape, Spec, particles_in_shape,
 };
 use fractum_engine::simulation::{End, TimeStep};
-use fractum_suite::{load, repo_root};
+use fractum_suite::{repo_root, seeded_and_stepped};
 use glam::{DVec2, DVec3};
 use std::f64::consts::PI;
 use std::sync::Arc;
@@ -276,25 +276,21 @@ fn state3(world: &mut bevy_ecs::world::World) -> Vec<(DVec3, DVec3)> {
 
 #[test]
 fn the_meshed_plate_with_its_end_groups_runs_as_its_built_in_twin() {
-    let run = |name: &str| {
-        let mut built =
-            load(&repo_root().join("scenes").join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
-        let world = &mut built.simulation.world;
+    let look = |world: &mut bevy_ecs::world::World| {
         let regions: Vec<Vec<u32>> = world
             .resource::<BoundaryConditions>()
             .regions
             .iter()
             .map(|r| r.nodes.clone())
             .collect();
-        let seeded = positions(world);
-        for _ in 0..50 {
-            built.simulation.step().unwrap();
-        }
-        (regions, seeded, positions(&mut built.simulation.world))
+        (regions, positions(world))
     };
-    let (box_regions, difference_seeded, difference) = run("plate_with_hole.ron");
-    let (group_regions, mesh_seeded, mesh) = run("plate_with_hole_mesh.ron");
-    assert_eq!(box_regions, group_regions);
+    let (difference_seeded, difference) = seeded_and_stepped("plate_with_hole.ron", 50, look);
+    let (mesh_seeded, mesh) = seeded_and_stepped("plate_with_hole_mesh.ron", 50, look);
+    assert_eq!(
+        difference_seeded.0, mesh_seeded.0,
+        "the end regions hold other nodes"
+    );
     assert!(
         difference_seeded == mesh_seeded,
         "the two plates seed different particles"
@@ -304,17 +300,8 @@ fn the_meshed_plate_with_its_end_groups_runs_as_its_built_in_twin() {
 
 #[test]
 fn the_meshed_drop_weight_beam_runs_as_its_built_in_twin() {
-    let run = |name: &str| {
-        let mut built =
-            load(&repo_root().join("scenes").join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
-        let seeded = state3(&mut built.simulation.world);
-        for _ in 0..8 {
-            built.simulation.step().unwrap();
-        }
-        (seeded, state3(&mut built.simulation.world))
-    };
-    let (prism_seeded, prism) = run("drop_weight_3d.ron");
-    let (mesh_seeded, mesh) = run("drop_weight_3d_mesh.ron");
+    let (prism_seeded, prism) = seeded_and_stepped("drop_weight_3d.ron", 8, state3);
+    let (mesh_seeded, mesh) = seeded_and_stepped("drop_weight_3d_mesh.ron", 8, state3);
     assert_eq!(prism_seeded.len(), 41_200);
     assert!(
         prism_seeded == mesh_seeded,

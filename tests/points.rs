@@ -9,7 +9,7 @@ use fractum_engine::prelude::*;
 use fractum_engine::scene::points::read_points;
 use fractum_engine::scene::{Body, Shape, Spec};
 use fractum_engine::simulation::{End, TimeStep};
-use fractum_suite::{load, repo_root, temp_dir};
+use fractum_suite::{seeded_and_stepped, temp_dir};
 use glam::DVec2;
 use std::sync::Arc;
 
@@ -25,17 +25,8 @@ fn state(world: &mut bevy_ecs::world::World) -> Vec<(DVec2, DVec2, f64)> {
 
 #[test]
 fn a_particle_file_runs_as_the_mesh_it_was_written_from() {
-    let run = |name: &str| {
-        let mut built =
-            load(&repo_root().join("scenes").join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
-        let seeded = state(&mut built.simulation.world);
-        for _ in 0..20 {
-            built.simulation.step().unwrap();
-        }
-        (seeded, state(&mut built.simulation.world))
-    };
-    let (mesh_seeded, mesh) = run("two_disks_mesh.ron");
-    let (points_seeded, points) = run("two_disks_points.ron");
+    let (mesh_seeded, mesh) = seeded_and_stepped("two_disks_mesh.ron", 20, state);
+    let (points_seeded, points) = seeded_and_stepped("two_disks_points.ron", 20, state);
     assert_eq!(points_seeded.len(), 1014);
     assert!(
         mesh_seeded == points_seeded,

@@ -25,6 +25,26 @@ pub fn load(path: &Path) -> Result<Built, SceneError> {
     build_simulation(&file, &fractum_systems::stock_registry())
 }
 
+/// Builds the shipped scene `scenes/{name}` and steps it `steps` times; gives what `look` sees
+/// of its world before the first step and after the last. Twin scenes (a shape and its
+/// imported copy) are compared this way.
+pub fn seeded_and_stepped<T>(
+    name: &str,
+    steps: usize,
+    look: impl Fn(&mut bevy_ecs::world::World) -> T,
+) -> (T, T) {
+    let mut built =
+        load(&repo_root().join("scenes").join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let seeded = look(&mut built.simulation.world);
+    for _ in 0..steps {
+        built
+            .simulation
+            .step()
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+    }
+    (seeded, look(&mut built.simulation.world))
+}
+
 /// A fresh, empty temporary folder for one test.
 pub fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("fractum-test-{}-{name}", std::process::id()));

@@ -22,6 +22,21 @@ impl std::fmt::Display for FileError {
 
 impl std::error::Error for FileError {}
 
+/// The file's bytes as text, or an error at the line of the first byte that is not UTF-8.
+pub(crate) fn text_of(bytes: &[u8]) -> Result<&str, FileError> {
+    std::str::from_utf8(bytes).map_err(|e| {
+        let line = bytes[..e.valid_up_to()]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count()
+            + 1;
+        fail(
+            format!("line {line}"),
+            "expected text; found bytes that are not UTF-8",
+        )
+    })
+}
+
 /// A [`FileError`] at `place`.
 pub(crate) fn fail(place: impl Into<String>, message: impl Into<String>) -> FileError {
     FileError {

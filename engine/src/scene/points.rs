@@ -7,7 +7,7 @@
 //! and other columns are ignored. A missing volume is an error, never guessed. Lines starting
 //! with `#` are comments. Errors name the line and the column.
 
-use super::file_error::{FileError, fail};
+use super::file_error::{FileError, fail, text_of};
 use glam::DVec3;
 use std::collections::HashMap;
 use std::path::Path;
@@ -125,17 +125,7 @@ pub fn read_points(path: &Path, file: &str) -> Result<PointSet, FileError> {
         return Err(fail("", "expected a .csv file, by its extension"));
     }
     let bytes = std::fs::read(path).map_err(|e| fail("", format!("cannot read it: {e}")))?;
-    let text = std::str::from_utf8(&bytes).map_err(|e| {
-        let line = bytes[..e.valid_up_to()]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count()
-            + 1;
-        fail(
-            format!("line {line}"),
-            "expected text; found bytes that are not UTF-8",
-        )
-    })?;
+    let text = text_of(&bytes)?;
     parse_csv(text, file)
 }
 

@@ -7,7 +7,8 @@
 use super::file_error::FileError;
 use super::format::*;
 use super::mesh::{
-    BoundaryFacets, Facet, Mesh, MeshSeeding, boundary_facets, check_physical, read_raw_mesh,
+    BoundaryFacets, Facet, Mesh, MeshSeeding, RawMesh, boundary_facets, check_physical,
+    read_raw_mesh,
 };
 use super::points::read_points;
 use super::shape::Shape;
@@ -436,6 +437,25 @@ impl<D: Dim> Reader<D> {
         }
     }
 
+    /// The mesh in `file` as read, and how to word an error about its field `f` (below
+    /// `field`): `mesh `path`: place: what`.
+    fn raw_mesh(
+        &self,
+        field: &str,
+        file: &str,
+    ) -> Result<(RawMesh, impl Fn(&str, FileError) -> SceneError + '_), SceneError> {
+        let path = self.geometry_path(file);
+        let field = field.to_string();
+        let at = move |f: &str, e: FileError| {
+            self.error(
+                &format!("{field}.{f}"),
+                format!("mesh `{}`: {e}", path.display()),
+            )
+        };
+        let raw = read_raw_mesh(&self.geometry_path(file)).map_err(|e| at("file", e))?;
+        Ok((raw, at))
+    }
+
     /// The region `physical` of the mesh in `file`, read and checked; errors about the group's
     /// name point at `physical`, others at `file`.
     fn mesh(
@@ -445,14 +465,7 @@ impl<D: Dim> Reader<D> {
         physical: Option<&str>,
         seeding: MeshSeeding,
     ) -> Result<Mesh, SceneError> {
-        let path = self.geometry_path(file);
-        let at = |f: &str, e: FileError| {
-            self.error(
-                &format!("{field}.{f}"),
-                format!("mesh `{}`: {e}", path.display()),
-            )
-        };
-        let raw = read_raw_mesh(&path).map_err(|e| at("file", e))?;
+        let (raw, at) = self.raw_mesh(field, file)?;
         if let Some(name) = physical {
             check_physical(&raw, name).map_err(|e| at("physical", e))?;
         }
@@ -466,14 +479,7 @@ impl<D: Dim> Reader<D> {
         file: &str,
         physical: &str,
     ) -> Result<BoundaryFacets, SceneError> {
-        let path = self.geometry_path(file);
-        let at = |f: &str, e: FileError| {
-            self.error(
-                &format!("{field}.{f}"),
-                format!("mesh `{}`: {e}", path.display()),
-            )
-        };
-        let raw = read_raw_mesh(&path).map_err(|e| at("file", e))?;
+        let (raw, at) = self.raw_mesh(field, file)?;
         let facets = boundary_facets(&raw, file, physical).map_err(|e| at("physical", e))?;
         let of_2d_mesh = matches!(facets.facets[0], Facet::Segment(_));
         if of_2d_mesh != (D::N == 2) {

@@ -4,7 +4,7 @@
 //! name the line.
 
 use super::{ElementKind, Place, RawElement, RawMesh};
-use crate::scene::file_error::{FileError, fail};
+use crate::scene::file_error::{FileError, fail, text_of};
 use glam::DVec3;
 use std::collections::HashMap;
 
@@ -81,17 +81,7 @@ fn header(line: &str, at: usize) -> Result<Header, FileError> {
 
 /// Parses a whole GiD ASCII mesh.
 pub(super) fn parse(bytes: &[u8]) -> Result<RawMesh, FileError> {
-    let text = std::str::from_utf8(bytes).map_err(|e| {
-        let line = bytes[..e.valid_up_to()]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count()
-            + 1;
-        fail(
-            format!("line {line}"),
-            "expected text; found bytes that are not UTF-8",
-        )
-    })?;
+    let text = text_of(bytes)?;
     let mut mesh = RawMesh::default();
     let mut ids: HashMap<u64, u32> = HashMap::new();
     let mut lines = text.lines().enumerate().map(|(k, l)| (k + 1, l.trim()));
