@@ -69,6 +69,8 @@ fn corpus_covers_the_mistakes_users_make() {
         "points_missing_volume",
         "points_nan_coordinate",
         "points_duplicate_position",
+        "points_vtu_appended",
+        "points_vtu_missing_volume",
     ] {
         assert!(
             names.iter().any(|n| n == required),

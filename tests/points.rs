@@ -1,5 +1,7 @@
-//! Bodies from particle files (`Points("file.csv")`): the particles, volumes and what each row
-//! gives (velocity, damage, material) reach the world unchanged.
+//! Bodies from particle files (`Points("file.csv")`, `Points("file.vtu")`): the particles,
+//! volumes and what each row gives (velocity, damage, material) reach the world unchanged. The
+//! VTU fixtures were written by meshio (`tests/fixtures/points/make_points.py`) and by Fractum
+//! (frame 0 of `fractum run scenes/two_disks_points.ron --steps 1`).
 
 use bevy_ecs::query::With;
 use fractum_engine::components::{
@@ -9,7 +11,7 @@ use fractum_engine::prelude::*;
 use fractum_engine::scene::points::read_points;
 use fractum_engine::scene::{Body, Shape, Spec};
 use fractum_engine::simulation::{End, TimeStep};
-use fractum_suite::{seeded_and_stepped, temp_dir};
+use fractum_suite::{repo_root, seeded_and_stepped, temp_dir};
 use glam::DVec2;
 use std::sync::Arc;
 
@@ -114,4 +116,30 @@ fn a_point_set_is_cropped_by_an_intersection() {
     let mut kept: Vec<DVec2> = query.iter(&world).map(|x| x.0).collect();
     kept.sort_by(|a, b| a.y.total_cmp(&b.y));
     assert_eq!(kept, vec![DVec2::new(0.75, 0.25), DVec2::new(0.75, 0.75)]);
+}
+
+#[test]
+fn vtu_files_from_meshio_and_from_fractum_give_the_csv_s_particles() {
+    let read = |path: &str| {
+        let path = repo_root().join(path);
+        read_points(&path, "file").unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+    };
+    let csv = read("scenes/geometry/two_disks_particles.csv");
+    for vtu in ["two_disks_meshio.vtu", "two_disks_frame.vtu"] {
+        let set = read(&format!("tests/fixtures/points/{vtu}"));
+        assert_eq!(set.dimension(), 2, "{vtu}");
+        assert!(set.particles() == csv.particles(), "{vtu}: other particles");
+        for (x, _) in csv.particles() {
+            let (ours, theirs) = (set.attributes(x).unwrap(), csv.attributes(x).unwrap());
+            assert_eq!(ours.velocity, theirs.velocity, "{vtu} at {x}");
+        }
+    }
+    // Fractum's frame carries each particle's material index and damage too.
+    let frame = read("tests/fixtures/points/two_disks_frame.vtu");
+    let first = frame.attributes(csv.particles()[0].0).unwrap();
+    assert_eq!((first.material, first.damage), (Some("0"), Some(0.0)));
+    let mut world = world_of(Shape::Points(Arc::new(frame)));
+    let mut query = world.query_filtered::<&MaterialId, With<Particle>>();
+    assert!(query.iter(&world).all(|m| m.0 == 0));
+    assert_eq!(query.iter(&world).count(), 1014);
 }

@@ -41,16 +41,18 @@ const SEEDS: [&str; 15] = [
 ];
 
 /// Mesh files of each format a `Mesh` shape reads (Gmsh ASCII and binary, GiD), each filling
-/// part of the unit square, and a particle file, mutated under [`MESH_SCENE`].
-const MESH_SEEDS: [&str; 4] = [
+/// part of the unit square, and particle files (CSV, meshio's VTU), mutated under
+/// [`MESH_SCENE`].
+const MESH_SEEDS: [&str; 5] = [
     "scenes/geometry/two_disks.msh",
     "tests/fixtures/meshes/disk_binary.msh",
     "tests/fixtures/meshes/nl-partsol/MPM_Mesh.msh",
     "scenes/geometry/two_disks_particles.csv",
+    "tests/fixtures/points/two_disks_meshio.vtu",
 ];
 
 /// A small 2D scene whose one body is the mutated file: `SHAPE` is `Mesh(file: "fuzzed.msh",
-/// seeding: ..)` or `Points("fuzzed.csv")`.
+/// seeding: ..)` or `Points("fuzzed.csv")` (or `.vtu`).
 const MESH_SCENE: &str = r#"(
     time: (step: Fixed(1.0e-3), end: Steps(5)),
     grid: (min: (0.0, 0.0), max: (1.0, 1.0), spacing: 0.05),
@@ -438,9 +440,10 @@ proptest! {
         let dir = std::env::temp_dir().join(format!("fractum-fuzz-mesh-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let seeding = if elements { "Elements" } else { "Grid" };
-        let shape = if MESH_SEEDS[seed].ends_with(".csv") {
-            std::fs::write(dir.join("fuzzed.csv"), &mesh).unwrap();
-            "Points(\"fuzzed.csv\")".to_string()
+        let extension = MESH_SEEDS[seed].rsplit('.').next().unwrap_or_default();
+        let shape = if extension != "msh" {
+            std::fs::write(dir.join(format!("fuzzed.{extension}")), &mesh).unwrap();
+            format!("Points(\"fuzzed.{extension}\")")
         } else {
             std::fs::write(dir.join("fuzzed.msh"), &mesh).unwrap();
             format!("Mesh(file: \"fuzzed.msh\", seeding: {seeding})")

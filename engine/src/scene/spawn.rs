@@ -365,7 +365,7 @@ impl<D: Dim> Spec<D> {
             Some(set) => set
                 .material_names()
                 .iter()
-                .map(|name| self.material_index(name, &format!("bodies[{b}].shape")))
+                .map(|name| self.point_material(set, name, &format!("bodies[{b}].shape")))
                 .collect::<Result<_, _>>()?,
             None => Vec::new(),
         };
@@ -427,6 +427,30 @@ impl<D: Dim> Spec<D> {
                 p
             })
             .collect())
+    }
+
+    /// The scene's material a point file's `material` value names: a name (CSV) or an index
+    /// into the scene's materials (VTU, as Fractum's frames write it).
+    fn point_material(
+        &self,
+        set: &super::points::PointSet,
+        name: &str,
+        field: &str,
+    ) -> Result<usize, SceneError> {
+        if !set.materials_by_index() {
+            return self.material_index(name, field);
+        }
+        match name.parse::<usize>() {
+            Ok(k) if k < self.materials.len() => Ok(k),
+            _ => Err(self.source.error(
+                field,
+                format!(
+                    "the point file's `material` holds {name}; expected an index of the scene's \
+                     materials, 0 to {}",
+                    self.materials.len() - 1
+                ),
+            )),
+        }
     }
 
     fn boundary_conditions(&self) -> Result<BoundaryConditions, SceneError> {
