@@ -64,7 +64,9 @@ fn points(name: &str, text: &str) -> Shape {
     let dir = temp_dir(name);
     let path = dir.join("p.csv");
     std::fs::write(&path, text).unwrap();
-    Shape::Points(Arc::new(read_points(&path, "p.csv").unwrap()))
+    let set = read_points(&path, "p.csv").unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    Shape::Points(Arc::new(set))
 }
 
 #[test]
