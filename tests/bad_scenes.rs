@@ -71,6 +71,12 @@ fn corpus_covers_the_mistakes_users_make() {
         "points_duplicate_position",
         "points_vtu_appended",
         "points_vtu_missing_volume",
+        "image_no_voxel_in_any_phase",
+        "image_truncated",
+        "image_colour",
+        "image_pages_differ",
+        "image_missing_slice",
+        "image_overlapping_windows",
     ] {
         assert!(
             names.iter().any(|n| n == required),

@@ -41,18 +41,21 @@ const SEEDS: [&str; 15] = [
 ];
 
 /// Mesh files of each format a `Mesh` shape reads (Gmsh ASCII and binary, GiD), each filling
-/// part of the unit square, and particle files (CSV, meshio's VTU), mutated under
-/// [`MESH_SCENE`].
-const MESH_SEEDS: [&str; 5] = [
+/// part of the unit square, particle files (CSV, meshio's VTU) and images (PNG, TIFF), mutated
+/// under [`MESH_SCENE`].
+const MESH_SEEDS: [&str; 7] = [
     "scenes/geometry/two_disks.msh",
     "tests/fixtures/meshes/disk_binary.msh",
     "tests/fixtures/meshes/nl-partsol/MPM_Mesh.msh",
     "scenes/geometry/two_disks_particles.csv",
     "tests/fixtures/points/two_disks_meshio.vtu",
+    "tests/fixtures/images/disk.png",
+    "tests/fixtures/images/disk_16bit.tif",
 ];
 
 /// A small 2D scene whose one body is the mutated file: `SHAPE` is `Mesh(file: "fuzzed.msh",
-/// seeding: ..)` or `Points("fuzzed.csv")` (or `.vtu`).
+/// seeding: ..)`, `Points("fuzzed.csv")` (or `.vtu`) or `Image(file: "fuzzed.png", ..)` (or
+/// `.tif`).
 const MESH_SCENE: &str = r#"(
     time: (step: Fixed(1.0e-3), end: Steps(5)),
     grid: (min: (0.0, 0.0), max: (1.0, 1.0), spacing: 0.05),
@@ -441,7 +444,13 @@ proptest! {
         std::fs::create_dir_all(&dir).unwrap();
         let seeding = if elements { "Elements" } else { "Grid" };
         let extension = MESH_SEEDS[seed].rsplit('.').next().unwrap_or_default();
-        let shape = if extension != "msh" {
+        let shape = if extension == "png" || extension == "tif" {
+            std::fs::write(dir.join(format!("fuzzed.{extension}")), &mesh).unwrap();
+            format!(
+                "Image(file: \"fuzzed.{extension}\", voxel_size: 0.025, phases: [(grey_min: 100, \
+                 grey_max: 70000)])"
+            )
+        } else if extension != "msh" {
             std::fs::write(dir.join(format!("fuzzed.{extension}")), &mesh).unwrap();
             format!("Points(\"fuzzed.{extension}\")")
         } else {

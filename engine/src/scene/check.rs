@@ -153,11 +153,11 @@ impl<D: Dim> Spec<D> {
         if shape.dimension() != D::DIMENSION {
             let allowed = match D::N {
                 2 => {
-                    "Rectangle, Disk, Polygon, Mesh (of triangles and quadrilaterals) and their Union, \
+                    "Rectangle, Disk, Polygon, Mesh (of triangles and quadrilaterals), Points, Image (a picture) and their Union, \
                      Intersection, Difference"
                 }
                 _ => {
-                    "Box, Sphere, Cylinder, Prism, Surface, Mesh (of tetrahedra and hexahedra) and their \
+                    "Box, Sphere, Cylinder, Prism, Surface, Mesh (of tetrahedra and hexahedra), Points, Image (a stack) and their \
                      Union, Intersection, Difference"
                 }
             };
@@ -220,12 +220,23 @@ impl<D: Dim> Spec<D> {
             if let Some(path) = body.shape.misplaced_element_seeding() {
                 return Err(self.source.error(
                     &format!("{}{path}", field("shape")),
-                    "a point set, or a mesh seeded by `Elements`, places the body's particles, \
-                     so it must be the body's shape or the first operand of an Intersection or \
-                     Difference (a mesh elsewhere takes `seeding: Grid`)",
+                    "a point set, an image, or a mesh seeded by `Elements`, places the body's \
+                     particles, so it must be the body's shape or the first operand of an \
+                     Intersection or Difference (a mesh elsewhere takes `seeding: Grid`; an \
+                     image may crop as a later operand)",
                 ));
             }
-            if body.shape.seeds_itself() && body.shape.point_set().is_none() {
+            if let Some(image) = body.shape.image() {
+                let path = body.shape.image_path();
+                for (k, phase) in image.phases().iter().enumerate() {
+                    if let Some(name) = &phase.material {
+                        let at = format!("{}{path}.phases[{k}].material", field("shape"));
+                        self.material_index(name, &at)?;
+                    }
+                }
+            }
+            let elements = body.shape.point_set().is_none() && body.shape.image().is_none();
+            if body.shape.seeds_itself() && elements {
                 if !(1..=2).contains(&body.particles_per_cell) {
                     return Err(self.source.error(
                         &field("particles_per_cell"),

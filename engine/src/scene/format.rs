@@ -315,6 +315,26 @@ pub enum ShapeSpec {
     /// optionally its velocity, damage and material), its path relative to the scene file:
     /// `Points("geometry/rock.csv")`.
     Points(String),
+    /// 2D or 3D: the voxels of a greyscale image whose grey values fall in the phases'
+    /// windows: a PNG or TIFF picture (2D), or a stack (3D) as a multi-page TIFF or numbered
+    /// slices (`"ct/rock_###.png"`, a run of `#` for the zero-padded slice number), its path
+    /// relative to the scene file. Columns run along x, rows along y (the top row highest),
+    /// slices along z, from `origin`.
+    Image {
+        /// The picture, the multi-page TIFF, or the numbered slices' pattern.
+        file: String,
+        /// The width of a voxel along x and y (and z, unless `slice_spacing` says otherwise).
+        voxel_size: f64,
+        /// The distance between slices of a stack, when it differs from `voxel_size`.
+        #[serde(default)]
+        slice_spacing: Option<f64>,
+        /// The outer corner of the bottom-left voxel of the first slice (the origin when left
+        /// out).
+        #[serde(default)]
+        origin: Option<Coords>,
+        /// Grey windows, each a phase of the body: `[(grey_min: 0, grey_max: 90), ..]`.
+        phases: Vec<PhaseSpec>,
+    },
     /// Every point of any of the shapes (at least two, of the scene's dimension):
     /// `Union([Rectangle(..), Disk(..)])`.
     Union(Vec<ShapeSpec>),
@@ -323,6 +343,20 @@ pub enum ShapeSpec {
     /// The points of the first shape outside the second: `Difference(Rectangle(..), Disk(..))`,
     /// a plate with a hole.
     Difference(Box<ShapeSpec>, Box<ShapeSpec>),
+}
+
+/// A phase of an image: the voxels whose grey value lies in `[grey_min, grey_max]` (the file's
+/// raw sample values, 0 to 255 for an 8-bit image).
+#[derive(Debug, Deserialize, Clone, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PhaseSpec {
+    /// The lowest grey value of the phase.
+    pub grey_min: f64,
+    /// The highest grey value of the phase (included).
+    pub grey_max: f64,
+    /// The material of the phase's particles (the body's when left out).
+    #[serde(default)]
+    pub material: Option<String>,
 }
 
 /// Placement of particles inside each grid cell.

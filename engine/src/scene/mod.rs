@@ -14,6 +14,7 @@
 mod check;
 mod file_error;
 mod format;
+pub mod image;
 pub mod mesh;
 mod overlap;
 mod pipeline;

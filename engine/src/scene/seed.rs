@@ -62,8 +62,10 @@ pub fn rings_in_disk(
 /// indices (first axis fastest), `per_direction` points along each axis of every cell.
 /// In 2D the volumes are for the out-of-plane `thickness`.
 ///
-/// A mesh seeded by `Elements` gives its elements' quadrature points instead, of the rule of
-/// order `per_direction` (see [`Shape::own_particles`]).
+/// A shape that places its own particles gives them instead (see [`Shape::own_particles`]):
+/// a mesh seeded by `Elements` its elements' quadrature points of the rule of order
+/// `per_direction`, a point set its file's particles, an image its voxels, each seeded like a
+/// cell.
 ///
 /// Returns an empty list when `placement` does not support `per_direction` points (checked by
 /// the scene validation before seeding).
@@ -81,8 +83,10 @@ pub fn particles_in_shape<D: Dim>(
         } else {
             thickness
         };
+        // An image's voxels are seeded as the grid's cells are.
+        let voxel_rule = cell_points(placement, per_direction).unwrap_or_default();
         return shape
-            .own_particles(per_direction)
+            .own_particles(per_direction, &voxel_rule)
             .into_iter()
             .map(|(x, v)| (D::Vector::from_fn(|a| x[a]), v * scale))
             .collect();

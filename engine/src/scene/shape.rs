@@ -73,6 +73,9 @@ pub enum Shape {
     /// 2D or 3D: particles read from a file, each with its own volume. A point set bounds no
     /// region: no point is inside it.
     Points(std::sync::Arc<super::points::PointSet>),
+    /// 2D or 3D: the voxels of a picture or a stack whose grey values fall in the phases'
+    /// windows, each voxel with its phase.
+    Image(std::sync::Arc<super::image::VoxelImage>),
     /// Every point of any of the shapes.
     Union(Vec<Shape>),
     /// The points common to all the shapes.
@@ -181,6 +184,7 @@ impl Shape {
             Shape::Difference(base, _) => base.dimension(),
             Shape::Mesh(mesh) if mesh.dimension() == 2 => Dimension::Two,
             Shape::Points(points) if points.dimension() == 2 => Dimension::Two,
+            Shape::Image(image) if image.dimension() == 2 => Dimension::Two,
             _ => Dimension::Three,
         }
     }
@@ -191,7 +195,7 @@ impl Shape {
     pub fn seeds_itself(&self) -> bool {
         match self {
             Shape::Mesh(mesh) => mesh.seeding == super::mesh::MeshSeeding::Elements,
-            Shape::Points(_) => true,
+            Shape::Points(_) | Shape::Image(_) => true,
             Shape::Intersection(shapes) => shapes.first().is_some_and(Shape::seeds_itself),
             Shape::Difference(base, _) => base.seeds_itself(),
             _ => false,
@@ -200,7 +204,9 @@ impl Shape {
 
     /// The path below the shape's own field of a point set, or of a mesh's `seeding:
     /// Elements`, that is not where [`Self::seeds_itself`] looks for one (inside a union, or
-    /// as a later operand), if any: its particles would be silently ignored.
+    /// as a later operand), if any: its particles would be silently ignored. An image inside a
+    /// union counts too (its voxels would give way to the grid's lattice); as a later operand
+    /// of an intersection or difference it only crops, by its voxels.
     pub fn misplaced_element_seeding(&self) -> Option<String> {
         let elements = |s: &Shape| match s {
             Shape::Mesh(mesh) if mesh.seeding == super::mesh::MeshSeeding::Elements => {
@@ -228,27 +234,35 @@ impl Shape {
                     find(o, &elements).map(|p| format!("{}{p}", self.operand_path(k + 1)))
                 })
             }
-            Shape::Union(_) => find(self, &elements),
+            Shape::Union(_) => find(self, &|s: &Shape| match s {
+                Shape::Image(_) => Some(""),
+                _ => elements(s),
+            }),
             _ => None,
         }
     }
 
     /// The particles of a shape that [seeds itself](Self::seeds_itself): the mesh's
-    /// quadrature points of `order`, less those outside the intersection's other operands or
-    /// inside the difference's removed shape. Empty for other shapes or orders.
-    pub fn own_particles(&self, order: u32) -> Vec<(DVec3, f64)> {
+    /// quadrature points of `order`, a point file's particles, or an image's voxels each
+    /// seeded by the tensor-product rule `voxel_rule` (see [`VoxelImage::particles`]), less
+    /// those outside the intersection's other operands or inside the difference's removed
+    /// shape. Empty for other shapes or orders.
+    ///
+    /// [`VoxelImage::particles`]: super::image::VoxelImage::particles
+    pub fn own_particles(&self, order: u32, voxel_rule: &[(f64, f64)]) -> Vec<(DVec3, f64)> {
         match self {
             Shape::Mesh(mesh) if self.seeds_itself() => {
                 mesh.quadrature_points(order).unwrap_or_default()
             }
             Shape::Points(points) => points.particles(),
+            Shape::Image(image) => image.particles(voxel_rule),
             Shape::Intersection(shapes) if self.seeds_itself() => {
-                let mut points = shapes[0].own_particles(order);
+                let mut points = shapes[0].own_particles(order, voxel_rule);
                 points.retain(|p| shapes[1..].iter().all(|s| s.contains(p.0)));
                 points
             }
             Shape::Difference(base, removed) if self.seeds_itself() => {
-                let mut points = base.own_particles(order);
+                let mut points = base.own_particles(order, voxel_rule);
                 points.retain(|p| !removed.contains(p.0));
                 points
             }
@@ -264,6 +278,27 @@ impl Shape {
             Shape::Intersection(shapes) => shapes.first().and_then(Shape::point_set),
             Shape::Difference(base, _) => base.point_set(),
             _ => None,
+        }
+    }
+
+    /// The image whose voxels the shape seeds, if it seeds an image's: alone, or as the first
+    /// operand of an intersection or difference.
+    pub fn image(&self) -> Option<&super::image::VoxelImage> {
+        match self {
+            Shape::Image(image) => Some(image),
+            Shape::Intersection(shapes) => shapes.first().and_then(Shape::image),
+            Shape::Difference(base, _) => base.image(),
+            _ => None,
+        }
+    }
+
+    /// Where [`Self::image`]'s image sits below the shape's own field: empty for the shape
+    /// itself, `.0[0].0` for an intersection's first operand that is a difference, …
+    pub fn image_path(&self) -> String {
+        match self {
+            Shape::Intersection(shapes) => format!(".0[0]{}", shapes[0].image_path()),
+            Shape::Difference(base, _) => format!(".0{}", base.image_path()),
+            _ => String::new(),
         }
     }
 
@@ -311,6 +346,7 @@ impl Shape {
             Shape::Surface(_) => "Surface",
             Shape::Mesh(_) => "Mesh",
             Shape::Points(_) => "Points",
+            Shape::Image(_) => "Image",
             Shape::Union(_) => "Union",
             Shape::Intersection(_) => "Intersection",
             Shape::Difference(..) => "Difference",
@@ -356,6 +392,9 @@ impl Shape {
             Shape::Mesh(_) => true,
             // Checked row by row when read.
             Shape::Points(_) => true,
+            // Its phases are checked before it is read, and it is read only if it holds a
+            // voxel of some phase.
+            Shape::Image(_) => true,
             // Operands are checked one by one, each at its own field path.
             Shape::Union(shapes) | Shape::Intersection(shapes) => shapes.len() >= 2,
             Shape::Difference(..) => true,
@@ -376,6 +415,7 @@ impl Shape {
             Shape::Surface(_) => "a closed triangle surface",
             Shape::Mesh(_) => "a mesh of valid elements",
             Shape::Points(_) => "a set of particles",
+            Shape::Image(_) => "an image with voxels in its phases",
             Shape::Union(_) => "a union of at least two shapes: `Union([shape, shape, ...])`",
             Shape::Intersection(_) => {
                 "an intersection of at least two shapes: `Intersection([shape, shape, ...])`"
@@ -415,6 +455,7 @@ impl Shape {
             Shape::Surface(surface) => surface.contains(x),
             Shape::Mesh(mesh) => mesh.contains(x),
             Shape::Points(_) => false,
+            Shape::Image(image) => image.contains(x),
             Shape::Union(shapes) => shapes.iter().any(|s| s.contains(x)),
             Shape::Intersection(shapes) => shapes.iter().all(|s| s.contains(x)),
             Shape::Difference(base, removed) => base.contains(x) && !removed.contains(x),
@@ -459,6 +500,7 @@ impl Shape {
             Shape::Surface(surface) => surface.bounds(),
             Shape::Mesh(mesh) => mesh.bounds(),
             Shape::Points(points) => points.bounds(),
+            Shape::Image(image) => image.bounds(),
             Shape::Union(shapes) => shapes.iter().map(Shape::bounds).fold(
                 (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
                 |(lo, hi), (a, b)| (lo.min(a), hi.max(b)),

@@ -369,12 +369,28 @@ impl<D: Dim> Spec<D> {
                 .collect::<Result<_, _>>()?,
             None => Vec::new(),
         };
+        // An image's phases may name their own materials.
+        let image = body.shape.image();
+        let phase_materials: Vec<usize> = match image {
+            Some(image) => image
+                .phases()
+                .iter()
+                .map(|p| match &p.material {
+                    Some(name) => self.material_index(name, &format!("bodies[{b}].shape")),
+                    None => Ok(material),
+                })
+                .collect::<Result<_, _>>()?,
+            None => Vec::new(),
+        };
         let initial = |x: D::Vector| {
             let given = points.and_then(|set| set.attributes(x.to_3d().into()));
             let material = given
                 .and_then(|g| g.material)
                 .and_then(|name| points?.material_names().iter().position(|n| n == name))
                 .map_or(material, |k| point_materials[k]);
+            let material = image
+                .and_then(|image| image.phase_at(x.to_3d().into()))
+                .map_or(material, |k| phase_materials[k]);
             let velocity = given
                 .and_then(|g| g.velocity)
                 .map_or_else(|| body.velocity.at(x), |v| D::Vector::from_fn(|a| v[a]));

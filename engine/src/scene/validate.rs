@@ -6,6 +6,7 @@
 
 use super::file_error::FileError;
 use super::format::*;
+use super::image::{Phase, VoxelFrame, VoxelImage, phase_problem, read_image};
 use super::mesh::{
     BoundaryFacets, Facet, Mesh, MeshSeeding, RawMesh, boundary_facets, check_physical,
     read_raw_mesh,
@@ -420,6 +421,20 @@ impl<D: Dim> Reader<D> {
                     },
                 )?))
             }
+            ShapeSpec::Image {
+                file,
+                voxel_size,
+                slice_spacing,
+                origin,
+                phases,
+            } => Shape::Image(std::sync::Arc::new(self.image(
+                field,
+                file,
+                *voxel_size,
+                *slice_spacing,
+                origin.as_ref(),
+                phases,
+            )?)),
             ShapeSpec::Union(shapes) => Shape::Union(self.operands(field, shapes)?),
             ShapeSpec::Intersection(shapes) => Shape::Intersection(self.operands(field, shapes)?),
             ShapeSpec::Difference(base, removed) => Shape::Difference(
@@ -427,6 +442,70 @@ impl<D: Dim> Reader<D> {
                 Box::new(self.shape_of_dimension(&at("1"), removed)?),
             ),
         })
+    }
+
+    /// The image in `file`, read after its frame and phases are checked: errors about those
+    /// point at their fields, errors in the file at `file`.
+    fn image(
+        &self,
+        field: &str,
+        file: &str,
+        voxel_size: f64,
+        slice_spacing: Option<f64>,
+        origin: Option<&Coords>,
+        phases: &[PhaseSpec],
+    ) -> Result<VoxelImage, SceneError> {
+        let at = |f: &str| format!("{field}.{f}");
+        let positive = |value: f64, name: &str| {
+            if value.is_finite() && value > 0.0 {
+                Ok(value)
+            } else {
+                Err(self.error(
+                    &at(name),
+                    format!("`{name}` is {value}; expected a positive length"),
+                ))
+            }
+        };
+        let size = positive(voxel_size, "voxel_size")?;
+        let depth = match slice_spacing {
+            Some(s) => positive(s, "slice_spacing")?,
+            None => size,
+        };
+        let origin = match origin {
+            Some(coords) => {
+                let v = self.vector(&at("origin"), coords)?.to_3d();
+                if !v.iter().all(|c| c.is_finite()) {
+                    return Err(self.error(&at("origin"), "expected finite coordinates"));
+                }
+                DVec3::from(v)
+            }
+            None => DVec3::ZERO,
+        };
+        let phases: Vec<Phase> = phases
+            .iter()
+            .map(|p| Phase {
+                grey_min: p.grey_min,
+                grey_max: p.grey_max,
+                material: p.material.clone(),
+            })
+            .collect();
+        if let Some((k, message)) = phase_problem(&phases) {
+            return Err(self.error(&format!("{field}.phases[{k}]"), message));
+        }
+        let path = self.geometry_path(file);
+        let frame = VoxelFrame {
+            origin,
+            spacing: DVec3::new(size, size, depth),
+        };
+        let image = read_image(&path, file, frame, &phases)
+            .map_err(|e| self.error(&at("file"), format!("image `{}`: {e}", path.display())))?;
+        if slice_spacing.is_some() && image.dimension() == 2 {
+            return Err(self.error(
+                &at("slice_spacing"),
+                "a slice spacing is for stacks; this image is a single picture",
+            ));
+        }
+        Ok(image)
     }
 
     /// Where a geometry file the scene names lies: relative paths from the scene file's folder.
@@ -529,19 +608,20 @@ impl<D: Dim> Reader<D> {
             | ShapeSpec::Intersection(_)
             | ShapeSpec::Difference(..)
             | ShapeSpec::Mesh { .. }
-            | ShapeSpec::Points(_) => None,
+            | ShapeSpec::Points(_)
+            | ShapeSpec::Image { .. } => None,
             _ => Some(false),
         };
         if two.is_some_and(|two| two != (D::N == 2)) {
             let (kind, allowed) = match D::N {
                 2 => (
                     "a 3D shape",
-                    "Rectangle, Disk, Polygon, Mesh (of triangles and quadrilaterals) and their Union, \
+                    "Rectangle, Disk, Polygon, Mesh (of triangles and quadrilaterals), Points, Image (a picture) and their Union, \
                      Intersection, Difference",
                 ),
                 _ => (
                     "a 2D shape",
-                    "Box, Sphere, Cylinder, Prism, Surface, Mesh (of tetrahedra and hexahedra) and their \
+                    "Box, Sphere, Cylinder, Prism, Surface, Mesh (of tetrahedra and hexahedra), Points, Image (a stack) and their \
                      Union, Intersection, Difference",
                 ),
             };
