@@ -107,6 +107,39 @@ fn memory_and_materials(world: &fractum_engine::prelude::World, out: &mut String
     }
 }
 
+/// For each body, its particle count of each material it holds (`1234 steel`), in material
+/// order: an image's phases or a particle file's materials make one body of several.
+fn body_material_counts(world: &mut fractum_engine::prelude::World) -> Vec<Vec<String>> {
+    use fractum_engine::components::{BodyId, MaterialId, Particle};
+    let names: Vec<String> = world
+        .get_resource::<Materials>()
+        .map(|m| m.0.iter().map(|m| m.name.clone()).collect())
+        .unwrap_or_default();
+    let mut counts: Vec<Vec<usize>> = Vec::new();
+    let mut query =
+        world.query_filtered::<(&BodyId, &MaterialId), fractum_engine::prelude::With<Particle>>();
+    for (body, material) in query.iter(world) {
+        let (b, m) = (usize::from(body.0), usize::from(material.0));
+        if counts.len() <= b {
+            counts.resize(b + 1, Vec::new());
+        }
+        if counts[b].len() <= m {
+            counts[b].resize(m + 1, 0);
+        }
+        counts[b][m] += 1;
+    }
+    counts
+        .into_iter()
+        .map(|per| {
+            per.iter()
+                .enumerate()
+                .filter(|(_, n)| **n > 0)
+                .map(|(m, n)| format!("{n} {}", names.get(m).map_or("?", String::as_str)))
+                .collect()
+        })
+        .collect()
+}
+
 /// The `fractum check` summary of a valid scene.
 pub fn check_report(built: &mut Built) -> String {
     let summary = built.summary.clone();
@@ -132,10 +165,15 @@ pub fn check_report(built: &mut Built) -> String {
     let grid = with_dim!(dimension, D => grid_line::<D>(built));
     let sim = &mut built.simulation;
     let _ = writeln!(out, "grid       {grid}");
+    let by_material = body_material_counts(&mut sim.world);
     let counts: Vec<String> = summary
         .bodies
         .iter()
-        .map(|(name, n)| format!("{name}: {n}"))
+        .enumerate()
+        .map(|(b, (name, n))| match by_material.get(b) {
+            Some(split) if split.len() > 1 => format!("{name}: {n} = {}", split.join(" + ")),
+            _ => format!("{name}: {n}"),
+        })
         .collect();
     let _ = writeln!(
         out,

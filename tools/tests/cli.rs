@@ -31,6 +31,19 @@ fn check_summarises_a_valid_scene() {
 }
 
 #[test]
+fn check_splits_a_body_of_several_materials_by_material() {
+    // The picture's two grey windows make one body of epoxy and steel: 2 × 2 particles in each
+    // of 3 200 pixels, 208 of them steel.
+    let out = fractum(&["check", "scenes/stiff_inclusion_image.ron"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let summary = text(&out.stdout);
+    assert!(
+        summary.contains("particles  12800 (specimen: 12800 = 11968 epoxy + 832 steel)"),
+        "{summary}"
+    );
+}
+
+#[test]
 fn check_gives_a_graded_grid_its_range_of_cell_widths() {
     let out = fractum(&["check", "scenes/bar_vibration_graded.ron"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
