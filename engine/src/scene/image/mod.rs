@@ -52,8 +52,10 @@ pub struct VoxelImage {
     size: [usize; 3],
     three_d: bool,
     frame: VoxelFrame,
-    /// 0 for a voxel in no phase, else 1 + its phase; column fastest, rows from the bottom.
-    labels: Vec<u8>,
+    /// Per slice, 0 for a voxel in no phase, else 1 + its phase; column fastest, rows from the
+    /// bottom. Slice by slice, so that a stack never needs one allocation of its full size
+    /// (nor the copies of growing one).
+    labels: Vec<Box<[u8]>>,
     phases: Vec<Phase>,
     /// Voxels per phase.
     counts: Vec<usize>,
@@ -144,14 +146,14 @@ pub fn read_image(
     let three_d = read_slices(path, &mut |slice, page: GreyPage| {
         let [w, h] = [page.width, page.height];
         image.size = [w, h, slice + 1];
-        image.labels.reserve(w * h);
+        let mut labels = Vec::with_capacity(w * h);
         for j in 0..h {
             // Rows are stored from the top; y grows upwards.
             let row = &page.samples[(h - 1 - j) * w..(h - j) * w];
             for (i, &g) in row.iter().enumerate() {
                 grey = (grey.0.min(g), grey.1.max(g));
                 let label = label_of(phases, g);
-                image.labels.push(label);
+                labels.push(label);
                 if label > 0 {
                     image.counts[label as usize - 1] += 1;
                     for (a, n) in [i, j, slice].into_iter().enumerate() {
@@ -161,6 +163,7 @@ pub fn read_image(
                 }
             }
         }
+        image.labels.push(labels.into_boxed_slice());
         Ok(())
     })?;
     image.three_d = three_d;
@@ -237,16 +240,15 @@ impl VoxelImage {
 
     /// The phase of the voxel holding `x` (z ignored for a picture), if it is in one.
     pub fn phase_at(&self, x: DVec3) -> Option<usize> {
-        let axes = self.dimension();
-        let mut index = 0;
-        for a in (0..axes).rev() {
-            let n = ((x[a] - self.frame.origin[a]) / self.frame.spacing[a]).floor();
-            if !(n >= 0.0 && n < self.size[a] as f64) {
+        let mut n = [0; 3];
+        for a in 0..self.dimension() {
+            let k = ((x[a] - self.frame.origin[a]) / self.frame.spacing[a]).floor();
+            if !(k >= 0.0 && k < self.size[a] as f64) {
                 return None;
             }
-            index = index * self.size[a] + n as usize;
+            n[a] = k as usize;
         }
-        match self.labels[index] {
+        match self.labels[n[2]][n[0] + self.size[0] * n[1]] {
             0 => None,
             label => Some(label as usize - 1),
         }
@@ -268,9 +270,12 @@ impl VoxelImage {
         let per_voxel = points.len().pow(axes as u32);
         let mut out = Vec::with_capacity(voxels * per_voxel);
         let share = self.voxel_volume() / (1usize << axes) as f64;
-        let [w, h, _] = self.size;
-        for (index, _) in self.labels.iter().enumerate().filter(|(_, l)| **l > 0) {
-            let n = [index % w, index / w % h, index / (w * h)];
+        let w = self.size[0];
+        let voxels = self.labels.iter().enumerate().flat_map(|(slice, labels)| {
+            let filled = labels.iter().enumerate().filter(|(_, l)| **l > 0);
+            filled.map(move |(index, _)| [index % w, index / w, slice])
+        });
+        for n in voxels {
             let corner = DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64);
             let centre = origin + (corner + DVec3::splat(0.5)) * s;
             for k in 0..per_voxel {
