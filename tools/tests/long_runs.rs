@@ -522,6 +522,38 @@ fn scenes_that_cannot_fit_in_memory_are_refused_before_anything_is_allocated() {
 }
 
 #[test]
+fn an_image_s_particles_are_counted_by_its_voxels_before_any_is_seeded() {
+    // Cells 8 pixels wide and 8 × 8 particles per pixel: the image seeds 3 200 × 64 = 204 800
+    // particles, 50 times what its box's cells would hold at 64 per cell.
+    let dir = temp("image-memory");
+    let picture = root().join("scenes/geometry/stiff_inclusion.png");
+    let scene = edited_scene(
+        &dir,
+        "stiff_inclusion_image.ron",
+        &[
+            ("\"geometry/stiff_inclusion.png\"", &format!("{:?}", picture)),
+            (
+                "max: (0.205, 0.1), spacing: 0.0025",
+                "max: (0.22, 0.1), spacing: 0.02",
+            ),
+            ("particles_per_cell: 2", "particles_per_cell: 8"),
+        ],
+    );
+    let out = command(&["check", scene.to_str().unwrap()])
+        .env("FRACTUM_MEMORY_LIMIT", "2e7")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out.stdout));
+    let error = text(&out.stderr);
+    assert!(
+        error.contains("`bodies[0].particles_per_cell`")
+            && error.contains("up to 204800 particles of bodies[0]"),
+        "{error}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn a_scene_saved_with_a_byte_order_mark_reads_as_without() {
     let dir = temp("bom");
     let path = dir.join("bom.ron");

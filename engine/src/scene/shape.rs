@@ -270,6 +270,19 @@ impl Shape {
         }
     }
 
+    /// At most how many particles a shape that places its own seeds with `per_direction`
+    /// points per direction, where its own particles are not bounded by its box's cells: a
+    /// point file's rows, an image's voxels in a phase times the points of each. `None` for
+    /// other shapes.
+    pub fn own_particle_bound(&self, per_direction: u32) -> Option<f64> {
+        if let Some(set) = self.point_set() {
+            return Some(set.len() as f64);
+        }
+        let image = self.image()?;
+        let voxels = image.voxel_counts().iter().sum::<usize>() as f64;
+        Some(voxels * f64::from(per_direction).powi(image.dimension() as i32))
+    }
+
     /// The point set whose particles the shape places, if it places a file's: alone, or as
     /// the first operand of an intersection or difference.
     pub fn point_set(&self) -> Option<&super::points::PointSet> {

@@ -36,7 +36,10 @@ impl<D: Dim> Spec<D> {
                     (extent / self.grid.spacing).ceil() + 1.0
                 })
                 .product();
-            let particles = cells * f64::from(body.particles_per_cell).powi(D::N as i32);
+            let particles = body
+                .shape
+                .own_particle_bound(body.particles_per_cell)
+                .unwrap_or(cells * f64::from(body.particles_per_cell).powi(D::N as i32));
             if particles > largest_body.1 {
                 largest_body = (b, particles);
             }

@@ -1,11 +1,12 @@
 //! The CSV form of a particle file: a header line naming the columns, then one particle per
 //! line. Columns are found by their header names, in any order, case and surrounding spaces
 //! ignored: `x`, `y` (and `z` in 3D) and `volume` are required; `vx`, `vy`, `vz` (or
-//! `velocity_x`, ...), `damage` and `material` (a material's name in the scene) are optional,
+//! `velocity_x`, ...), `damage`, `strength_scale` and `material` (a material's name in the
+//! scene) are optional,
 //! and other columns are ignored. Lines starting with `#` are comments. Errors name the line
 //! and the column.
 
-use super::{PlaceKind, PointSet};
+use super::{OptionalColumns, PlaceKind, PointAttributes, PointSet};
 use crate::scene::file_error::{FileError, fail};
 use glam::DVec3;
 
@@ -15,6 +16,7 @@ struct Columns {
     volume: usize,
     velocity: [Option<usize>; 3],
     damage: Option<usize>,
+    strength_scale: Option<usize>,
     material: Option<usize>,
     count: usize,
 }
@@ -63,6 +65,7 @@ fn columns(header: &str) -> Result<Columns, FileError> {
         volume,
         velocity,
         damage: find(&["damage"]),
+        strength_scale: find(&["strength_scale"]),
         material: find(&["material"]),
         count: names.len(),
     })
@@ -82,14 +85,13 @@ pub fn parse_csv(text: &str, file: &str) -> Result<PointSet, FileError> {
         ));
     };
     let c = columns(header)?;
-    let mut set = PointSet::empty(
-        file,
-        c.position[2].is_some(),
-        c.velocity[0].is_some(),
-        c.damage.is_some(),
-        c.material.is_some(),
-        PlaceKind::Line,
-    );
+    let columns = OptionalColumns {
+        velocity: c.velocity[0].is_some(),
+        damage: c.damage.is_some(),
+        strength_scale: c.strength_scale.is_some(),
+        material: c.material.is_some(),
+    };
+    let mut set = PointSet::empty(file, c.position[2].is_some(), columns, PlaceKind::Line);
     for (line, row) in rows {
         read_row(&mut set, &c, line, row)?;
     }
@@ -128,12 +130,14 @@ fn read_row(set: &mut PointSet, c: &Columns, line: usize, row: &str) -> Result<(
         Some(_) => Some(vector(&c.velocity, ["vx", "vy", "vz"])?),
         None => None,
     };
-    let damage = match c.damage {
-        Some(column) => Some(number(column, "damage")?),
-        None => None,
+    let optional = |column: Option<usize>, name: &str| column.map(|k| number(k, name)).transpose();
+    let given = PointAttributes {
+        velocity,
+        damage: optional(c.damage, "damage")?,
+        strength_scale: optional(c.strength_scale, "strength_scale")?,
+        material: c.material.map(|column| fields[column].trim_matches('"')),
     };
-    let material = c.material.map(|column| fields[column].trim_matches('"'));
-    set.push(line as u32, x, volume, velocity, damage, material)
+    set.push(line as u32, x, volume, given)
 }
 
 #[cfg(test)]

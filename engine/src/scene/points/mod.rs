@@ -3,9 +3,11 @@
 //! MPM code, a sampled scan, a frame of an earlier run).
 //!
 //! Positions and volumes are required, a missing volume is an error and never guessed;
-//! velocity, damage and material are optional and override the body's. Every particle is
-//! checked as it is added (finite values, a positive volume, damage from 0 to 1, no two
-//! particles at one position), and errors name its line (CSV) or its point number (VTU).
+//! velocity, damage and material are optional and override the body's, and a strength scale
+//! multiplies the tensile strength the pipeline's damage law gives the particle. Every particle
+//! is checked as it is added (finite values, a positive volume and strength scale, damage from
+//! 0 to 1, no two particles at one position), and errors name its line (CSV) or its point
+//! number (VTU).
 
 mod csv;
 mod vtu;
@@ -36,6 +38,7 @@ pub struct PointSet {
     volumes: Vec<f64>,
     velocities: Option<Vec<DVec3>>,
     damage: Option<Vec<f64>>,
+    strength_scale: Option<Vec<f64>>,
     /// Per point, an index into `material_names`.
     materials: Option<Vec<u16>>,
     material_names: Vec<String>,
@@ -56,13 +59,24 @@ impl PartialEq for PointSet {
     }
 }
 
+/// Which of the optional values a file gives, for every point alike.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct OptionalColumns {
+    pub velocity: bool,
+    pub damage: bool,
+    pub strength_scale: bool,
+    pub material: bool,
+}
+
 /// What the file gives of one point, beyond its position and volume.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PointAttributes<'a> {
     /// Velocity, when the file has one.
     pub velocity: Option<DVec3>,
     /// Initial damage, when the file has it.
     pub damage: Option<f64>,
+    /// The factor on the particle's tensile strength, when the file has one.
+    pub strength_scale: Option<f64>,
     /// The material's name (CSV) or its index in the scene's materials, as text (VTU), when
     /// the file has a `material` column.
     pub material: Option<&'a str>,
@@ -91,18 +105,17 @@ impl PointSet {
     pub(crate) fn empty(
         file: &str,
         three_d: bool,
-        velocity: bool,
-        damage: bool,
-        material: bool,
+        columns: OptionalColumns,
         place_kind: PlaceKind,
     ) -> Self {
         PointSet {
             file: file.to_string(),
             positions: Vec::new(),
             volumes: Vec::new(),
-            velocities: velocity.then(Vec::new),
-            damage: damage.then(Vec::new),
-            materials: material.then(Vec::new),
+            velocities: columns.velocity.then(Vec::new),
+            damage: columns.damage.then(Vec::new),
+            strength_scale: columns.strength_scale.then(Vec::new),
+            materials: columns.material.then(Vec::new),
             material_names: Vec::new(),
             places: Vec::new(),
             place_kind,
@@ -127,10 +140,14 @@ impl PointSet {
         at: u32,
         x: DVec3,
         volume: f64,
-        velocity: Option<DVec3>,
-        damage: Option<f64>,
-        material: Option<&str>,
+        given: PointAttributes<'_>,
     ) -> Result<(), FileError> {
+        let PointAttributes {
+            velocity,
+            damage,
+            strength_scale,
+            material,
+        } = given;
         let error = |message: String| Err(fail(self.place(at), message));
         for (value, name) in [(x.x, "x"), (x.y, "y"), (x.z, "z"), (volume, "volume")] {
             if !value.is_finite() {
@@ -150,6 +167,13 @@ impl PointSet {
         {
             return error(format!("`damage` is {d}; expected 0 to 1"));
         }
+        if let Some(s) = strength_scale
+            && !(s.is_finite() && s > 0.0)
+        {
+            return error(format!(
+                "`strength_scale` is {s}; expected a positive factor on the strength"
+            ));
+        }
         if let Some(first) = self.by_position.get(&key(x)) {
             let first = self.place(self.places[*first as usize]);
             return error(format!(
@@ -163,6 +187,9 @@ impl PointSet {
         }
         if let (Some(all), Some(d)) = (&mut self.damage, damage) {
             all.push(d);
+        }
+        if let (Some(all), Some(s)) = (&mut self.strength_scale, strength_scale) {
+            all.push(s);
         }
         if let (Some(all), Some(name)) = (&mut self.materials, material) {
             let index = match self.material_names.iter().position(|n| n == name) {
@@ -218,6 +245,11 @@ impl PointSet {
         &self.material_names
     }
 
+    /// Whether the file gives each particle a strength scale.
+    pub fn has_strength_scale(&self) -> bool {
+        self.strength_scale.is_some()
+    }
+
     /// Whether the `material` column holds indices into the scene's materials (as Fractum's
     /// frames write them) rather than names.
     pub fn materials_by_index(&self) -> bool {
@@ -230,6 +262,7 @@ impl PointSet {
         Some(PointAttributes {
             velocity: self.velocities.as_ref().map(|v| v[k]),
             damage: self.damage.as_ref().map(|d| d[k]),
+            strength_scale: self.strength_scale.as_ref().map(|s| s[k]),
             material: self
                 .materials
                 .as_ref()

@@ -1,13 +1,13 @@
 //! The VTU form of a particle file: a VTK XML `UnstructuredGrid` (or `PolyData`) whose points
 //! are the particles, as meshio, ParaView and Fractum's own frames write it. The point data
-//! named `volume` are required; `velocity` (3 components), `damage` and `material` (an index
-//! into the scene's materials, as Fractum writes it) are optional. Arrays may be ASCII or
+//! named `volume` are required; `velocity` (3 components), `damage`, `strength_scale` and
+//! `material` (an index into the scene's materials, as Fractum writes it) are optional. Arrays may be ASCII or
 //! inline base64 (`format="binary"`), with `UInt32` or `UInt64` headers and, optionally, VTK's
 //! zlib compression; every piece of the file is read. Data appended after the XML (raw or
 //! base64) are refused with how to re-save the file. The file is scanned tag by tag for these
 //! elements only: no XML crate is needed for a format this regular.
 
-use super::{PlaceKind, PointSet};
+use super::{OptionalColumns, PlaceKind, PointAttributes, PointSet};
 use crate::scene::file_error::{FileError, fail};
 use base64::Engine as _;
 use base64::engine::general_purpose::STANDARD as BASE64;
@@ -346,17 +346,17 @@ pub fn parse_vtu(text: &str, file: &str) -> Result<PointSet, FileError> {
             ));
         }
         let damage = optional("damage")?;
+        let strength_scale = optional("strength_scale")?;
         let materials = optional("material")?;
         let three_d = coordinates.chunks_exact(3).any(|c| c[2] != 0.0);
         let set = set.get_or_insert_with(|| {
-            PointSet::empty(
-                file,
-                three_d,
-                velocities.is_some(),
-                damage.is_some(),
-                materials.is_some(),
-                PlaceKind::Point,
-            )
+            let columns = OptionalColumns {
+                velocity: velocities.is_some(),
+                damage: damage.is_some(),
+                strength_scale: strength_scale.is_some(),
+                material: materials.is_some(),
+            };
+            PointSet::empty(file, three_d, columns, PlaceKind::Point)
         });
         set.three_d |= three_d;
         for k in 0..count {
@@ -365,13 +365,17 @@ pub fn parse_vtu(text: &str, file: &str) -> Result<PointSet, FileError> {
                 .as_ref()
                 .map(|v| DVec3::new(v[3 * k], v[3 * k + 1], v[3 * k + 2]));
             let material = materials.as_ref().map(|m| format!("{}", m[k]));
+            let given = PointAttributes {
+                velocity,
+                damage: damage.as_ref().map(|d| d[k]),
+                strength_scale: strength_scale.as_ref().map(|s| s[k]),
+                material: material.as_deref(),
+            };
             set.push(
                 first_point + k as u32,
                 DVec3::new(c[0], c[1], c[2]),
                 volumes[k],
-                velocity,
-                damage.as_ref().map(|d| d[k]),
-                material.as_deref(),
+                given,
             )?;
         }
         first_point += count as u32;
