@@ -5,11 +5,11 @@
 
 use bevy_ecs::query::With;
 use fractum_engine::components::{
-    Damage, InitialVolume, Mass, MaterialId, Particle, Position, Velocity,
+    Damage, InitialVolume, Mass, MaterialId, Particle, Position, Strength, Velocity,
 };
 use fractum_engine::prelude::*;
 use fractum_engine::scene::points::read_points;
-use fractum_engine::scene::{Body, Shape, Spec};
+use fractum_engine::scene::{Body, Built, SceneError, SceneFile, Shape, Spec, build_simulation};
 use fractum_engine::simulation::{End, TimeStep};
 use fractum_suite::{repo_root, seeded_and_stepped, temp_dir};
 use glam::DVec2;
@@ -144,4 +144,81 @@ fn vtu_files_from_meshio_and_from_fractum_give_the_csv_s_particles() {
     let mut query = world.query_filtered::<&MaterialId, With<Particle>>();
     assert!(query.iter(&world).all(|m| m.0 == 0));
     assert_eq!(query.iter(&world).count(), 1014);
+}
+
+/// A 2D scene over the unit square whose one body is the particle file `csv` (written beside
+/// it), with the damage law `damage` (a pipeline entry, or empty for none).
+fn scene_with_points(name: &str, csv: &str, damage: &str) -> Result<Built, SceneError> {
+    let dir = temp_dir(name);
+    std::fs::write(dir.join("p.csv"), csv).unwrap();
+    let text = format!(
+        r#"(
+    time: (step: Fixed(1.0e-5), end: Steps(1)),
+    grid: (min: (0.0, 0.0), max: (1.0, 1.0), spacing: 0.1),
+    materials: {{"rock": (density: 1000.0, youngs_modulus: 1.0e6, poisson_ratio: 0.2)}},
+    bodies: [(shape: Points("p.csv"), material: "rock")],
+    pipeline: [
+        (system: "basis/linear"),
+        (system: "predictor/usl"),
+        (system: "stress/neo_hookean"),
+        {damage}
+        (system: "advection/usl"),
+    ],
+)"#
+    );
+    let scene = dir.join("scene.ron");
+    let file = SceneFile::parse(&scene.to_string_lossy(), text).unwrap();
+    let built = build_simulation(&file, &fractum_systems::stock_registry());
+    std::fs::remove_dir_all(&dir).unwrap();
+    built
+}
+
+const SCALED: &str = "x,y,volume,strength_scale\n\
+                      0.25,0.25,1e-3,1\n\
+                      0.75,0.25,1e-3,0.5\n\
+                      0.55,0.75,1e-3,2.5\n";
+
+/// Each particle's strength, in order of x, for `law` over the particle file `csv`.
+fn strengths(csv: &str, law: &str) -> Vec<f64> {
+    let mut built = scene_with_points("scaled", csv, law).unwrap_or_else(|e| panic!("{e}"));
+    let world = &mut built.simulation.world;
+    let mut query = world.query::<(&Position<Two>, &Strength)>();
+    let mut all: Vec<(f64, f64)> = query.iter(world).map(|(x, s)| (x.0.x, s.0)).collect();
+    all.sort_by(|a, b| a.0.total_cmp(&b.0));
+    all.into_iter().map(|(_, s)| s).collect()
+}
+
+#[test]
+fn a_strength_scale_column_multiplies_the_strength_the_damage_law_gives() {
+    let unit = SCALED.replace(",0.5\n", ",1\n").replace(",2.5\n", ",1\n");
+    // In order of x: the scales 1, 2.5 (x = 0.55) and 0.5 (x = 0.75).
+    let scales = [1.0, 2.5, 0.5];
+    let plain = r#"(system: "damage/time_to_failure", params: (tensile_strength: 100.0, crack_speed: 200.0)),"#;
+    assert_eq!(strengths(SCALED, plain), scales.map(|s| 100.0 * s));
+    // A Weibull draw per particle, then the particle's scale.
+    let weibull = r#"(system: "damage/time_to_failure", params: (tensile_strength: 100.0, crack_speed: 200.0, weibull: (modulus: 6.0, reference_volume: 1e-3, seed: 7, thickness: 1.0))),"#;
+    let drawn = strengths(&unit, weibull);
+    assert!(drawn.iter().any(|&s| s != 100.0), "{drawn:?}");
+    let expected: Vec<f64> = drawn.iter().zip(scales).map(|(s, k)| s * k).collect();
+    assert_eq!(strengths(SCALED, weibull), expected);
+}
+
+#[test]
+fn strength_scales_that_no_damage_law_reads_are_refused() {
+    let error = match scene_with_points("unread", SCALED, "") {
+        Ok(_) => panic!("strength scales without a strength law were accepted"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        error.contains("`bodies[0].shape`")
+            && error
+                .contains("no damage law of the pipeline gives its particles a tensile strength"),
+        "{error}"
+    );
+    let bad = "x,y,volume,strength_scale\n0.25,0.25,1e-3,0\n";
+    let error = match scene_with_points("zero", bad, "") {
+        Ok(_) => panic!("a zero strength scale was accepted"),
+        Err(e) => e.to_string(),
+    };
+    assert!(error.contains("line 2: `strength_scale` is 0"), "{error}");
 }

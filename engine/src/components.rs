@@ -187,6 +187,13 @@ pub struct Damage(pub f64);
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Strength(pub f64);
 
+/// A factor on a particle's tensile strength, given per particle by a particle file's
+/// `strength_scale` column (as GEOS's particle files give it): the damage laws that give each
+/// particle a [`Strength`] multiply it by this factor. Only particles whose file gives one
+/// carry it.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StrengthScale(pub f64);
+
 /// Largest crack opening `w` (m) a cracking particle has reached, for damage laws with a
 /// cohesive crack band (eigensoftening). Written to the frames as `crack_opening` when the
 /// pipeline has it.

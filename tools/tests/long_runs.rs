@@ -531,7 +531,10 @@ fn an_image_s_particles_are_counted_by_its_voxels_before_any_is_seeded() {
         &dir,
         "stiff_inclusion_image.ron",
         &[
-            ("\"geometry/stiff_inclusion.png\"", &format!("{:?}", picture)),
+            (
+                "\"geometry/stiff_inclusion.png\"",
+                &format!("{:?}", picture),
+            ),
             (
                 "max: (0.205, 0.1), spacing: 0.0025",
                 "max: (0.22, 0.1), spacing: 0.02",

@@ -50,6 +50,7 @@ impl<D: Dim> Spec<D> {
             pipeline,
         } = self.spawn_and_install(registry)?;
         self.check_checkpoint_keys(&world)?;
+        self.check_strength_scales(&mut world)?;
         self.check_frame_fields(&world)?;
         output.system_columns = world
             .get_resource::<SeriesColumns>()
@@ -272,7 +273,13 @@ impl<D: Dim> Spec<D> {
             let mut bundles = self.body_particles(b, body, &mut next_id)?;
             self.share_loads(b, body, &mut bundles, &mut loads)?;
             counts.push(bundles.len());
-            templates.spawn(world, bundles);
+            let scales = strength_scales(body, &bundles);
+            let entities = templates.spawn(world, bundles);
+            for (k, scale) in scales {
+                world
+                    .entity_mut(entities[k])
+                    .insert(crate::components::StrengthScale(scale));
+            }
         }
         world.insert_resource(loads);
         Ok(counts)
@@ -604,6 +611,22 @@ fn nodes_near_facets<D: Dim>(grid: &Grid<D>, facets: &[Facet]) -> Vec<u32> {
     nodes.sort_unstable();
     nodes.dedup();
     nodes
+}
+
+/// The strength scale a point file gives each of `bundles`, by index, when it has a
+/// `strength_scale` column.
+fn strength_scales<D: Dim>(body: &Body<D>, bundles: &[ParticleBundle<D>]) -> Vec<(usize, f64)> {
+    let Some(set) = body.shape.point_set().filter(|s| s.has_strength_scale()) else {
+        return Vec::new();
+    };
+    bundles
+        .iter()
+        .enumerate()
+        .filter_map(|(k, p)| {
+            let given = set.attributes(p.position.0.to_3d().into())?;
+            Some((k, given.strength_scale?))
+        })
+        .collect()
 }
 
 fn spawn_nodes<D: Dim>(world: &mut World, grid: &Grid<D>, templates: &TemplateSet) {

@@ -171,3 +171,28 @@ impl<D: Dim> Spec<D> {
         ))
     }
 }
+
+impl<D: Dim> Spec<D> {
+    /// Refuses strength scales that nothing reads: a particle file gave them, but no damage law
+    /// of the pipeline gives the particles a finite tensile strength to scale.
+    pub(super) fn check_strength_scales(&self, world: &mut World) -> Result<(), SceneError> {
+        use crate::components::{BodyId, ParticleId, Strength, StrengthScale};
+        let mut query = world.query::<(&StrengthScale, &BodyId, &ParticleId, Option<&Strength>)>();
+        let unread = query
+            .iter(world)
+            .find(|(_, _, _, strength)| !strength.is_some_and(|s| s.0.is_finite()));
+        let Some((_, body, id, _)) = unread else {
+            return Ok(());
+        };
+        Err(self.source.error(
+            &format!("bodies[{}].shape", body.0),
+            format!(
+                "the particle file gives strength scales, but no damage law of the pipeline \
+                 gives its particles a tensile strength to scale (particle {} has none); use \
+                 a law with per-particle strengths (damage/rankine, damage/time_to_failure) \
+                 for the body's material, or drop the `strength_scale` column",
+                id.0
+            ),
+        ))
+    }
+}

@@ -31,11 +31,13 @@
 //!   ([`degraded_energy`]), so `strain_energy` in `series.csv` is recoverable energy.
 //! - Strength: `tensile_strength` for every particle of the entry's materials, or, with the
 //!   `weibull` option, a per-particle strength drawn by eq. (25) (`damage::weibull`). Either
-//!   way each particle carries it as a [`Strength`] component, written to the frames.
+//!   way each particle carries it as a [`Strength`] component, written to the frames, times
+//!   the [`StrengthScale`] a particle file gave the particle, if any.
 
 use super::spectral_split::spectral_degraded;
 use super::weibull::{Weibull, WeibullOption};
 use crate::transfer::DamageInStress;
+use fractum_engine::components::StrengthScale;
 use fractum_engine::prelude::*;
 use serde::Deserialize;
 
@@ -205,8 +207,9 @@ pub fn require_stress_degrading_pipeline(
 }
 
 /// Checks `tensile_strength` and the `weibull` option, and gives every particle of the entry's
-/// materials its [`Strength`] (the others get an infinite one unless another entry gave them
-/// theirs). Returns the strengths given, in no particular order.
+/// materials its [`Strength`], times its [`StrengthScale`] when a particle file gave it one
+/// (the others get an infinite one unless another entry gave them theirs). Returns the
+/// strengths given, in no particular order.
 pub fn install_strength(
     installer: &mut Installer,
     params: &Params,
@@ -253,6 +256,8 @@ pub fn install_strength(
             }
             None => tensile_strength,
         };
+        // A particle file's strength scale multiplies what the law gives.
+        let strength = strength * particle.get::<StrengthScale>().map_or(1.0, |s| s.0);
         given.push((material, strength));
         Some(Strength(strength))
     });
