@@ -4,10 +4,13 @@
 //! and tifffile (`make_images.py` beside them).
 
 use bevy_ecs::query::With;
-use fractum_engine::components::{InitialVolume, MaterialId, Particle, Position};
+use fractum_engine::components::{Damage, InitialVolume, MaterialId, Particle, Position};
 use fractum_engine::prelude::*;
 use fractum_engine::scene::image::{Phase, VoxelFrame, VoxelImage, read_image};
-use fractum_engine::scene::{Placement, SceneFile, Shape, build_simulation, particles_in_shape};
+use fractum_engine::scene::{
+    Body, Placement, SceneFile, Shape, Spec, build_simulation, particles_in_shape,
+};
+use fractum_engine::simulation::{End, TimeStep};
 use fractum_suite::repo_root;
 use glam::{DVec2, DVec3};
 use std::f64::consts::PI;
@@ -220,4 +223,60 @@ fn a_two_phase_picture_seeds_the_plate_and_inclusion_of_its_built_in_twin() {
         seeded == particles(&mut built_in.simulation.world),
         "the picture's particles or materials differ from the plate's and the disk's"
     );
+}
+
+#[test]
+fn an_image_marks_cracks_and_crops_by_its_voxels() {
+    let disk = Shape::Image(Arc::new(read("disk.png", &[window(100.0, 255.0)])));
+    let square = Shape::Rectangle {
+        min: DVec2::ZERO,
+        max: DVec2::ONE,
+    };
+    // As a later operand it only removes: the square's lattice less the disk's 448 pixels.
+    let holed = Shape::Difference(Box::new(square.clone()), Box::new(disk.clone()));
+    let seeded = particles_in_shape(&holed, &grid2(), 1, Placement::Uniform, 1.0);
+    assert_eq!(seeded.len(), 40 * 40 - 448);
+    // As a crack, it fails the particles in its voxels.
+    let mut body = Body::new(square, "rock");
+    body.particles_per_cell = 1;
+    body.cracks = vec![disk];
+    let built = Spec::new(grid2())
+        .time(TimeStep::Fixed(1e-6), End::Steps(1))
+        .material(Material::new("rock", 2000.0, 1.0e9, 0.25))
+        .body(body)
+        .system("basis/linear")
+        .system("predictor/usl")
+        .system("stress/linear_elastic")
+        .system("advection/usl")
+        .build(&fractum_systems::stock_registry())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut world = built.simulation.world;
+    let mut query = world.query_filtered::<&Damage, With<Particle>>();
+    let failed = query.iter(&world).filter(|d| d.0 == 1.0).count();
+    assert_eq!(failed, 448);
+}
+
+#[test]
+fn origin_and_slice_spacing_place_the_voxels() {
+    let path = repo_root().join("tests/fixtures/images/orientation_stack.tif");
+    let frame = VoxelFrame {
+        origin: DVec3::new(1.0, -2.0, 0.5),
+        spacing: DVec3::new(0.1, 0.1, 0.3),
+    };
+    let stack = read_image(&path, "orientation_stack.tif", frame, &[window(0.0, 255.0)]).unwrap();
+    let (lo, hi) = stack.bounds();
+    assert_eq!(lo, DVec3::new(1.0, -2.0, 0.5));
+    assert!(
+        (hi - DVec3::new(1.4, -1.7, 1.1)).abs().max_element() < 1e-12,
+        "{hi}"
+    );
+    assert_eq!(stack.voxel_volume(), 0.1 * 0.1 * 0.3);
+    let shape = Shape::Image(Arc::new(stack));
+    let rule = [(0.0, 2.0)];
+    let particles = shape.own_particles(1, &rule);
+    assert_eq!(particles.len(), 24);
+    // The first voxel's centre, then the next along x.
+    assert!((particles[0].0 - DVec3::new(1.05, -1.95, 0.65)).length() < 1e-12);
+    assert!((particles[1].0 - DVec3::new(1.15, -1.95, 0.65)).length() < 1e-12);
+    assert!((particles[23].0 - DVec3::new(1.35, -1.75, 0.95)).length() < 1e-12);
 }
