@@ -11,7 +11,7 @@ use fractum_engine::scene::{
     Body, Placement, SceneFile, Shape, Spec, build_simulation, particles_in_shape,
 };
 use fractum_engine::simulation::{End, TimeStep};
-use fractum_suite::repo_root;
+use fractum_suite::{build_elastic, repo_root};
 use glam::{DVec2, DVec3};
 use std::f64::consts::PI;
 use std::sync::Arc;
@@ -83,6 +83,30 @@ fn a_disk_reads_alike_from_png_and_from_1_bit_16_bit_and_float_tiff() {
         let error = area / (PI * 0.09) - 1.0;
         assert!(error.abs() < 0.01, "area {area}: {error:+e} from πr²");
     }
+}
+
+#[test]
+fn a_plate_with_a_hole_reads_as_the_difference_of_a_square_and_a_disk() {
+    let picture = Shape::Image(Arc::new(read(
+        "plate_with_hole.png",
+        &[window(128.0, 255.0)],
+    )));
+    let plate = Shape::Difference(
+        Box::new(Shape::Rectangle {
+            min: DVec2::ZERO,
+            max: DVec2::ONE,
+        }),
+        Box::new(Shape::Disk {
+            center: DVec2::splat(0.5),
+            radius: 0.2,
+        }),
+    );
+    let seeded = particles_in_shape(&picture, &grid2(), 1, Placement::Uniform, 1.0);
+    let lattice = particles_in_shape(&plate, &grid2(), 1, Placement::Uniform, 1.0);
+    assert!(seeded == lattice, "the particles differ from the plate's");
+    let area = total(&seeded);
+    let error = area / (1.0 - PI * 0.04) - 1.0;
+    assert!(error.abs() < 0.01, "area {area}: {error:+e} from 1 − πr²");
 }
 
 #[test]
@@ -240,16 +264,12 @@ fn an_image_marks_cracks_and_crops_by_its_voxels() {
     let mut body = Body::new(square, "rock");
     body.particles_per_cell = 1;
     body.cracks = vec![disk];
-    let built = Spec::new(grid2())
-        .time(TimeStep::Fixed(1e-6), End::Steps(1))
-        .material(Material::new("rock", 2000.0, 1.0e9, 0.25))
-        .body(body)
-        .system("basis/linear")
-        .system("predictor/usl")
-        .system("stress/linear_elastic")
-        .system("advection/usl")
-        .build(&fractum_systems::stock_registry())
-        .unwrap_or_else(|e| panic!("{e}"));
+    let built = build_elastic(
+        Spec::new(grid2())
+            .time(TimeStep::Fixed(1e-6), End::Steps(1))
+            .material(Material::new("rock", 2000.0, 1.0e9, 0.25))
+            .body(body),
+    );
     let mut world = built.simulation.world;
     let mut query = world.query_filtered::<&Damage, With<Particle>>();
     let failed = query.iter(&world).filter(|d| d.0 == 1.0).count();

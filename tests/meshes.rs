@@ -12,7 +12,7 @@ use fractum_engine::scene::{
     Body, Boundary, Built, Condition, InitialVelocity, Placement, Shape, Spec, particles_in_shape,
 };
 use fractum_engine::simulation::{End, TimeStep};
-use fractum_suite::{repo_root, seeded_and_stepped};
+use fractum_suite::{build_elastic, repo_root, seeded_and_stepped};
 use glam::{DVec2, DVec3};
 use std::f64::consts::PI;
 use std::sync::Arc;
@@ -312,13 +312,7 @@ fn the_meshed_drop_weight_beam_runs_as_its_built_in_twin() {
 
 /// The nodes of each boundary region of `spec`, built with the plate as its body.
 fn region_nodes<D: Dim>(spec: Spec<D>) -> Vec<Vec<u32>> {
-    let built = spec
-        .system("basis/linear")
-        .system("predictor/usl")
-        .system("stress/linear_elastic")
-        .system("advection/usl")
-        .build(&fractum_systems::stock_registry())
-        .unwrap_or_else(|e| panic!("{e}"));
+    let built = build_elastic(spec);
     let regions = &built
         .simulation
         .world

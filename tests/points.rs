@@ -11,7 +11,7 @@ use fractum_engine::prelude::*;
 use fractum_engine::scene::points::read_points;
 use fractum_engine::scene::{Body, Built, SceneError, SceneFile, Shape, Spec, build_simulation};
 use fractum_engine::simulation::{End, TimeStep};
-use fractum_suite::{repo_root, seeded_and_stepped, temp_dir};
+use fractum_suite::{build_elastic, repo_root, seeded_and_stepped, temp_dir};
 use glam::DVec2;
 use std::sync::Arc;
 
@@ -45,17 +45,13 @@ fn world_of(shape: Shape) -> bevy_ecs::world::World {
         cells: [10, 10],
         graded: None,
     };
-    let built = Spec::new(grid)
-        .time(TimeStep::Fixed(1e-5), End::Steps(1))
-        .material(Material::new("soft", 1000.0, 1.0e6, 0.3))
-        .material(Material::new("hard", 3000.0, 1.0e8, 0.2))
-        .body(Body::new(shape, "soft"))
-        .system("basis/linear")
-        .system("predictor/usl")
-        .system("stress/linear_elastic")
-        .system("advection/usl")
-        .build(&fractum_systems::stock_registry())
-        .unwrap_or_else(|e| panic!("{e}"));
+    let built = build_elastic(
+        Spec::new(grid)
+            .time(TimeStep::Fixed(1e-5), End::Steps(1))
+            .material(Material::new("soft", 1000.0, 1.0e6, 0.3))
+            .material(Material::new("hard", 3000.0, 1.0e8, 0.2))
+            .body(Body::new(shape, "soft")),
+    );
     built.simulation.world
 }
 

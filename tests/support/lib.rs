@@ -1,6 +1,7 @@
 //! Shared helpers for the integration tests in `tests/`.
 
-use fractum_engine::scene::{Built, SceneError, SceneFile, build_simulation};
+use fractum_engine::dim::Dim;
+use fractum_engine::scene::{Built, SceneError, SceneFile, Spec, build_simulation};
 use std::path::{Path, PathBuf};
 
 /// The workspace root.
@@ -52,4 +53,15 @@ pub fn temp_dir(name: &str) -> PathBuf {
     std::fs::create_dir_all(&dir)
         .unwrap_or_else(|e| panic!("cannot create {}: {e}", dir.display()));
     dir
+}
+
+/// Builds `spec` with the plainest pipeline, linear basis, USL and linear elasticity, for tests
+/// about what a scene seeds rather than how it moves.
+pub fn build_elastic<D: Dim>(spec: Spec<D>) -> Built {
+    spec.system("basis/linear")
+        .system("predictor/usl")
+        .system("stress/linear_elastic")
+        .system("advection/usl")
+        .build(&fractum_systems::stock_registry())
+        .unwrap_or_else(|e| panic!("{e}"))
 }
