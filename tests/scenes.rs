@@ -4,9 +4,13 @@
 //! loads them; the others keep the default zlib and Fractum's reader loads them. VTK's own
 //! reader takes both encodings in `tests/vtk_reader.rs`.
 
+use bevy_ecs::prelude::{Entity, With};
+use fractum_engine::components::Particle;
 use fractum_engine::output::{FrameCompression, base_columns, read_particle_frame};
 use fractum_engine::registry::templates::SPAWN_BATCH;
 use fractum_engine::run::run;
+use fractum_engine::scene::budget::MemoryUse;
+use fractum_engine::scene::{Built, SceneFile, estimate_memory};
 use fractum_engine::simulation::End;
 use fractum_suite::{load, ron_files, temp_dir};
 
@@ -51,6 +55,39 @@ fn assert_no_emptied_table_is_kept(world: &bevy_ecs::world::World, name: &str) {
     );
 }
 
+/// The memory estimate from counts (`fractum check --estimate`, nothing spawned) counts the
+/// particles the build spawned, is the estimate the build passed, and gives each particle at
+/// least the bytes of every component the built particles carry.
+fn assert_estimate_counts_what_was_built(path: &std::path::Path, built: &mut Built, name: &str) {
+    let file = SceneFile::read(path).unwrap();
+    let estimate = estimate_memory(&file, &fractum_systems::stock_registry())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let counts: Vec<usize> = estimate.bodies.iter().map(|(_, n)| *n).collect();
+    assert_eq!(counts, built.body_particles, "{name}");
+    let used = built.simulation.world.resource::<MemoryUse>();
+    assert_eq!(estimate.estimate.total(), used.needed, "{name}");
+    let world = &mut built.simulation.world;
+    let first = world
+        .query_filtered::<Entity, With<Particle>>()
+        .iter(world)
+        .next()
+        .unwrap();
+    let components = world.components();
+    let carried: usize = world
+        .entity(first)
+        .archetype()
+        .components()
+        .iter()
+        .map(|&id| components.get_info(id).unwrap().layout().size())
+        .sum();
+    let particles = counts.iter().sum::<usize>() as f64;
+    let per_particle = estimate.estimate.parts[1].1 / particles;
+    assert!(
+        per_particle >= carried as f64,
+        "{name}: {per_particle} bytes estimated per particle, {carried} carried"
+    );
+}
+
 #[test]
 fn every_shipped_scene_runs_a_few_steps() {
     let scenes = ron_files("scenes");
@@ -60,6 +97,7 @@ fn every_shipped_scene_runs_a_few_steps() {
         let mut built = load(&path).unwrap_or_else(|e| panic!("{e}"));
         let particles = built.simulation.particle_count();
         assert_no_emptied_table_is_kept(&built.simulation.world, &name);
+        assert_estimate_counts_what_was_built(&path, &mut built, &name);
         built.simulation.set_end(End::Steps(5));
         let mut plan = built.output.clone();
         plan.vtu_every = 5;

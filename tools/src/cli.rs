@@ -47,6 +47,12 @@ pub enum Command {
     Check {
         /// Scene file (.ron).
         scene: PathBuf,
+        /// Only estimate the memory, from counts: validate the scene, seed its bodies and
+        /// install its pipeline on a sample of particles, spawn nothing else, and print the
+        /// estimate part by part against what this process may use (its memory limits
+        /// included). Exits 2 when it does not fit.
+        #[arg(long)]
+        estimate: bool,
     },
     /// List every registered system with its stage, summary and parameters.
     Systems,

@@ -45,7 +45,7 @@ pub use reports::{check_report, energy_warning, summary_report, systems_report};
 use clap::Parser;
 use fractum_engine::dim::Dimension;
 use fractum_engine::registry::Registry;
-use fractum_engine::scene::{Built, SceneError, SceneFile, build_simulation};
+use fractum_engine::scene::{Built, SceneError, SceneFile, build_simulation, estimate_memory};
 use std::ffi::OsString;
 use std::path::Path;
 
@@ -148,7 +148,24 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             };
             commands::snapshot::snapshot_command(&frame, &options, output)
         }
-        Command::Check { scene } => match load(&scene, registry) {
+        Command::Check {
+            scene,
+            estimate: true,
+        } => match SceneFile::read(&scene).and_then(|file| estimate_memory(&file, registry)) {
+            Ok(estimate) => {
+                out!("{}", reports::estimate_report(&estimate));
+                if estimate.refusal.is_some() {
+                    EXIT_BAD_SCENE
+                } else {
+                    0
+                }
+            }
+            Err(e) => report_scene_error(&e),
+        },
+        Command::Check {
+            scene,
+            estimate: false,
+        } => match load(&scene, registry) {
             Ok((_, mut built)) => {
                 out!("{}", check_report(&mut built));
                 0

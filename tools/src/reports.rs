@@ -83,15 +83,11 @@ fn grid_line<D: Dim>(built: &mut Built) -> String {
 fn memory_and_materials(world: &fractum_engine::prelude::World, out: &mut String) {
     if let Some(memory) = world.get_resource::<fractum_engine::scene::budget::MemoryUse>() {
         use fractum_engine::scene::budget::describe_bytes;
-        let available = if memory.available.is_finite() {
-            format!("{} available", describe_bytes(memory.available))
-        } else {
-            "available memory unknown".to_string()
-        };
         let _ = writeln!(
             out,
-            "memory     about {} estimated, {available}",
-            describe_bytes(memory.needed)
+            "memory     about {} estimated, {}",
+            describe_bytes(memory.needed),
+            memory.available.describe()
         );
     }
     for m in &world.resource::<Materials>().0 {
@@ -265,4 +261,44 @@ pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
         s.frames,
         out_dir.display()
     )
+}
+
+/// The `fractum check --estimate` report: the scene's counts and its memory estimate part by
+/// part, against what the process may use.
+pub fn estimate_report(estimate: &fractum_engine::scene::Estimate) -> String {
+    use fractum_engine::scene::budget::describe_bytes;
+    let mut out = String::new();
+    let _ = writeln!(out, "scene      {}", estimate.source);
+    let _ = writeln!(out, "grid       {} nodes", estimate.nodes);
+    let bodies: Vec<String> = estimate
+        .bodies
+        .iter()
+        .map(|(name, n)| format!("{name}: {n}"))
+        .collect();
+    let total: usize = estimate.bodies.iter().map(|(_, n)| n).sum();
+    let _ = writeln!(out, "particles  {total} ({})", bodies.join(", "));
+    let _ = writeln!(out, "memory, from counts (nothing spawned):");
+    for (what, bytes) in &estimate.estimate.parts {
+        let _ = writeln!(out, "  {:>10}  {what}", describe_bytes(*bytes));
+    }
+    let parts: f64 = estimate.estimate.parts.iter().map(|(_, b)| b).sum();
+    let _ = writeln!(
+        out,
+        "  {:>10}  working buffers of a step ({} x the above)",
+        describe_bytes(estimate.estimate.working * parts),
+        estimate.estimate.working
+    );
+    let _ = writeln!(
+        out,
+        "  {:>10}  in all; {}",
+        describe_bytes(estimate.estimate.total()),
+        estimate.available.describe()
+    );
+    match &estimate.refusal {
+        None => out.push_str("fits\n"),
+        Some(refusal) => {
+            let _ = writeln!(out, "does not fit: {refusal}");
+        }
+    }
+    out
 }

@@ -521,6 +521,79 @@ fn scenes_that_cannot_fit_in_memory_are_refused_before_anything_is_allocated() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A 3D GIMP scene of 753 571 nodes and 200 000 particles: about 1.9 GiB by its estimate,
+/// more than half a gigabyte to spawn.
+const GIMP_BLOCK: &str = r#"(
+    title: "GIMP block",
+    units: SI,
+    time: (step: Cfl(0.4), end: Steps(1)),
+    grid: (min: (0.0, 0.0, 0.0), max: (0.9, 0.9, 0.9), spacing: 0.01),
+    materials: { "stiff": (density: 1000.0, youngs_modulus: 2.0e7, poisson_ratio: 0.25) },
+    bodies: [(shape: Box(min: (0.2, 0.2, 0.2), max: (0.7, 0.7, 0.3)), material: "stiff")],
+    pipeline: [
+        (system: "basis/gimp"),
+        (system: "predictor/newmark"),
+        (system: "stress/linear_elastic"),
+        (system: "corrector/newmark"),
+        (system: "advection/newmark"),
+    ],
+)"#;
+
+/// `fractum ARGS` under an address-space limit of `kib` KiB (`ulimit -v`, as batch systems
+/// set it).
+fn under_address_space_limit(kib: u64, args: &[&str]) -> Command {
+    let mut command = Command::new("sh");
+    command
+        .arg("-c")
+        .arg(format!("ulimit -v {kib} && exec \"$0\" \"$@\""))
+        .arg(env!("CARGO_BIN_EXE_fractum"))
+        .args(args)
+        .current_dir(root());
+    command
+}
+
+#[test]
+fn an_address_space_limit_refuses_a_scene_instead_of_aborting_and_check_estimate_spawns_nothing() {
+    let dir = temp("address-space");
+    let scene = dir.join("gimp_block.ron");
+    std::fs::write(&scene, GIMP_BLOCK).unwrap();
+    let scene = scene.to_str().unwrap();
+    // About 586 MiB of address space: the estimate is held against it, not against the
+    // machine's free memory, and the scene is refused before anything is spawned.
+    let out = under_address_space_limit(600_000, &["check", scene])
+        .output()
+        .unwrap();
+    let error = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{error}");
+    assert!(
+        error.contains("the scene needs about 1.9 GiB")
+            && error.contains("address-space limit (ulimit -v)"),
+        "{error}"
+    );
+    // `check --estimate` with the limit to check against raised past the scene: it reports the
+    // estimate from counts within the same 586 MiB, which spawning the scene would exceed.
+    let out = under_address_space_limit(600_000, &["check", "--estimate", scene])
+        .env("FRACTUM_MEMORY_LIMIT", "1e12")
+        .output()
+        .unwrap();
+    let report = text(&out.stdout);
+    assert!(out.status.success(), "{}{report}", text(&out.stderr));
+    assert!(
+        report.contains("particles  200000")
+            && report.contains("basis/gimp: a support of about 27 nodes per particle")
+            && report.contains("1.9 GiB  in all")
+            && report.ends_with("fits\n"),
+        "{report}"
+    );
+    // Against the limit itself it does not fit, and says so with exit 1.
+    let out = under_address_space_limit(600_000, &["check", "--estimate", scene])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(text(&out.stdout).contains("does not fit"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn an_image_s_particles_are_counted_by_its_voxels_before_any_is_seeded() {
     // Cells 8 pixels wide and 8 × 8 particles per pixel: the image seeds 3 200 × 64 = 204 800

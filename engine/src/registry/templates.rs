@@ -6,16 +6,18 @@
 //! world whose particles already exist (they read them: contact groups, seeded damage). Spawned
 //! with their bundle alone and given the installers' components afterwards, a million particles
 //! left the spawned bundle's table behind, full size and resident for the whole run (about 400
-//! bytes per particle, and 100 more per node, with DFG + contact). A scene is therefore built
-//! twice (`scene::spawn`): the first build records here what each installer gives
-//! ([`crate::registry::Installer::add_particle_component`] and its kin), the second spawns the
-//! entities a few thousand at a time and gives each the recorded components at once, so the
-//! spawned table never holds more than one batch; the installers then run again and write their
+//! bytes per particle, and 100 more per node, with DFG + contact). The pipeline is therefore
+//! installed twice (`scene::spawn`): first on a world with no node and a sample of particles,
+//! which records here what each installer gives
+//! ([`crate::registry::Installer::add_particle_component`] and its kin) and how many bytes
+//! that adds to each entity (for the memory estimate); then the entities
+//! are spawned a few thousand at a time, each given the recorded components at once, so the
+//! spawned table never holds more than one batch, and the installers run again and write their
 //! values into components the entities already have, in place.
 //!
 //! The value recorded for a type is the first one an installer gave, which is the value an
-//! entity ends with whenever no installer sets it explicitly (`registry/pending.rs`), so both
-//! builds end in the same state.
+//! entity ends with whenever no installer sets it explicitly (`registry/pending.rs`): spawned
+//! with it or given it by the install, an entity ends in the same state.
 
 use bevy_ecs::bundle::{Bundle, NoBundleEffect};
 use bevy_ecs::prelude::{Component, Entity, Resource, World};
@@ -47,6 +49,7 @@ impl<C: Component + Clone> Template for Value<C> {
 #[derive(Default)]
 pub struct TemplateSet {
     templates: Vec<(TypeId, Box<dyn Template>)>,
+    bytes: usize,
 }
 
 impl TemplateSet {
@@ -59,7 +62,13 @@ impl TemplateSet {
         {
             self.templates
                 .push((TypeId::of::<C>(), Box::new(Value(value.clone()))));
+            self.bytes += std::mem::size_of::<C>();
         }
+    }
+
+    /// The bytes the recorded components add to each entity.
+    pub fn bytes(&self) -> usize {
+        self.bytes
     }
 
     /// Whether no component is recorded.
@@ -101,7 +110,8 @@ impl TemplateSet {
     }
 }
 
-/// What the installers gave particles and nodes, recorded by the first build of a scene.
+/// What the installers gave particles and nodes, recorded by the install on a sample of
+/// particles.
 #[derive(Resource, Default)]
 pub struct ComponentTemplates {
     /// Components of every particle.

@@ -12,6 +12,7 @@
 //! from a file turns that path into a place in the text.
 
 mod check;
+mod estimate;
 mod file_error;
 mod format;
 pub mod image;
@@ -29,6 +30,7 @@ mod world_checks;
 
 pub use crate::budget;
 pub use crate::text::{Location, SceneError, locate, parse_fragment, scene_text};
+pub use estimate::Estimate;
 pub use file_error::FileError;
 pub use format::*;
 pub use seed::{cell_points, particles_in_shape};
@@ -163,6 +165,12 @@ impl Source {
 /// its grid gives.
 pub fn build_simulation(file: &SceneFile, registry: &Registry) -> Result<Built, SceneError> {
     with_dim!(file.dimension()?, D => Spec::<D>::from_file(file)?.build(registry))
+}
+
+/// Validates `file` and estimates the memory its simulation needs from counts, spawning
+/// nothing ([`Spec::estimate`]).
+pub fn estimate_memory(file: &SceneFile, registry: &Registry) -> Result<Estimate, SceneError> {
+    with_dim!(file.dimension()?, D => Spec::<D>::from_file(file)?.estimate(registry))
 }
 
 #[cfg(test)]

@@ -26,6 +26,12 @@ use crate::stage::{Stage, StageCheck, StepSet};
 use bevy_ecs::prelude::World;
 use bevy_ecs::schedule::IntoScheduleConfigs;
 
+/// A body's seeds: each particle's position and volume.
+pub(super) type Seeds<D> = Vec<(<D as Dim>::Vector, f64)>;
+
+/// What a seeded particle starts with: its material index, velocity and damage.
+type SeedState<D> = (usize, <D as Dim>::Vector, f64);
+
 /// A scene's world with its pipeline installed, before the engine's own systems.
 struct Installed {
     world: World,
@@ -37,18 +43,24 @@ struct Installed {
 
 impl<D: Dim> Spec<D> {
     /// Checks the spec, builds the world and the step schedule with systems from `registry`,
-    /// and checks what only the built world can tell.
+    /// and checks what only the built world can tell. The memory the scene needs is estimated
+    /// from counts (the grid, the seeds, what the pipeline gives each entity and declares)
+    /// before any entity is spawned.
     pub fn build(self, registry: &Registry) -> Result<Built, SceneError> {
         self.check()?;
         let available = super::budget::available_memory();
-        self.check_memory_before_spawning(available)?;
+        self.check_memory_before_seeding(available)?;
+        let seeds = self.seed_bodies()?;
+        let probe = self.probe_pipeline(registry, &seeds)?;
+        let memory = self.check_memory_from_counts(&seeds, &probe, available)?;
         let Installed {
             mut world,
             mut schedule,
             body_particles,
             mut output,
             pipeline,
-        } = self.spawn_and_install(registry)?;
+        } = self.spawn_and_install(registry, seeds, &probe.templates)?;
+        world.insert_resource(memory);
         self.check_checkpoint_keys(&world)?;
         self.check_strength_scales(&mut world)?;
         self.check_frame_fields(&world)?;
@@ -57,7 +69,6 @@ impl<D: Dim> Spec<D> {
             .map(SeriesColumns::published)
             .unwrap_or_default();
         self.check_stable_step(&mut world)?;
-        self.check_memory_after_install(&mut world, available)?;
         self.add_engine_systems(&mut schedule, &mut world, &pipeline);
         let simulation =
             Simulation::new::<D>(world, schedule, self.time_step, self.end).map_err(|e| {
@@ -112,34 +123,20 @@ impl<D: Dim> Spec<D> {
         Ok(())
     }
 
-    /// The world with the pipeline installed. Where the installers give particles or nodes
-    /// components of their own, the world is built a second time with every entity spawned
-    /// with them (`registry/templates.rs` says why), the first world dropped before the second
-    /// is spawned.
-    fn spawn_and_install(&self, registry: &Registry) -> Result<Installed, SceneError> {
-        let mut installed =
-            self.spawn_and_install_with(registry, &ComponentTemplates::default())?;
-        let templates = installed
-            .world
-            .remove_resource::<ComponentTemplates>()
-            .unwrap_or_default();
-        if !templates.is_empty() {
-            drop(installed);
-            installed = self.spawn_and_install_with(registry, &templates)?;
-            installed.world.remove_resource::<ComponentTemplates>();
-        }
-        crate::registry::pending::insert_pending_components(&mut installed.world);
-        Ok(installed)
-    }
-
-    fn spawn_and_install_with(
+    /// The world with the pipeline installed, each entity spawned with the components the
+    /// pipeline gives it (`templates`, recorded by [`Spec::probe_pipeline`]; why:
+    /// `registry/templates.rs`), each body's particles from its `seeds`.
+    fn spawn_and_install(
         &self,
         registry: &Registry,
+        seeds: Vec<Seeds<D>>,
         templates: &ComponentTemplates,
     ) -> Result<Installed, SceneError> {
-        let (mut world, body_particles, output) = self.spawn_world(templates)?;
+        let (mut world, body_particles, output) = self.spawn_world(templates, seeds)?;
         let mut schedule = step_schedule();
         let pipeline = self.install_pipeline(registry, &mut schedule, &mut world)?;
+        world.remove_resource::<ComponentTemplates>();
+        crate::registry::pending::insert_pending_components(&mut world);
         Ok(Installed {
             world,
             schedule,
@@ -150,20 +147,32 @@ impl<D: Dim> Spec<D> {
     }
 
     /// The world before the pipeline: the engine's resources, the nodes and the bodies'
-    /// particles, each spawned with the components of `templates`. Returns it with each
-    /// body's particle count and the output plan.
+    /// particles from their seeds, each spawned with the components of `templates`. Returns it
+    /// with each body's particle count and the output plan.
     fn spawn_world(
         &self,
         templates: &ComponentTemplates,
+        seeds: Vec<Seeds<D>>,
     ) -> Result<(World, Vec<usize>, OutputPlan), SceneError> {
         let mut world = World::new();
+        spawn_nodes(&mut world, &self.grid, &templates.nodes);
+        let (body_particles, loads) = self.spawn_bodies(&mut world, &templates.particles, seeds)?;
+        self.insert_scene_resources(&mut world, loads)?;
+        let output = self.output_plan(&mut world)?;
+        Ok((world, body_particles, output))
+    }
+
+    /// The resources every world of the scene has, its particles' `loads` among them.
+    pub(super) fn insert_scene_resources(
+        &self,
+        world: &mut World,
+        loads: ParticleLoads<D>,
+    ) -> Result<(), SceneError> {
+        let boundaries = self.boundary_conditions()?;
         world.insert_resource(self.grid.clone());
         world.insert_resource(D::DIMENSION);
         world.insert_resource(Thickness(self.thickness));
-        spawn_nodes(&mut world, &self.grid, &templates.nodes);
-        let body_particles = self.spawn_bodies(&mut world, &templates.particles)?;
-        let boundaries = self.boundary_conditions()?;
-        let output = self.output_plan(&mut world)?;
+        world.insert_resource(loads);
         world.insert_resource(Materials(self.materials.clone()));
         world.insert_resource(BodyForce::<D>(self.body_force));
         world.insert_resource(Reactions::<D>(vec![
@@ -174,8 +183,8 @@ impl<D: Dim> Spec<D> {
         world.insert_resource(SimClock::default());
         world.insert_resource(self.on_leave_grid);
         world.init_resource::<Connectivity<D>>();
-        crate::checkpoint::carry_engine_state::<D>(&mut world);
-        Ok((world, body_particles, output))
+        crate::checkpoint::carry_engine_state::<D>(world);
+        Ok(())
     }
 
     /// Refuses a pipeline in which two systems carry different state under one checkpoint key.
@@ -261,16 +270,48 @@ impl<D: Dim> Spec<D> {
         }
     }
 
+    /// Each body's seeds (position, volume), overlaps with other bodies resolved, in body
+    /// order.
+    pub(super) fn seed_bodies(&self) -> Result<Vec<Seeds<D>>, SceneError> {
+        self.bodies
+            .iter()
+            .enumerate()
+            .map(|(b, body)| self.seed_body(b, body))
+            .collect()
+    }
+
+    fn seed_body(&self, b: usize, body: &Body<D>) -> Result<Vec<(D::Vector, f64)>, SceneError> {
+        let seeded = particles_in_shape(
+            &body.shape,
+            &self.grid,
+            body.particles_per_cell,
+            body.placement,
+            self.thickness,
+        );
+        let seeded = self.resolve_overlaps(b, seeded)?;
+        if seeded.is_empty() {
+            return Err(self.source.error(
+                &format!("bodies[{b}].shape"),
+                "no particle falls inside this shape; make it larger than a cell or use more \
+                 particles per cell",
+            ));
+        }
+        Ok(seeded)
+    }
+
+    /// Spawns each body's particles from its seeds; returns each body's count and the
+    /// particles' shares of the loads.
     fn spawn_bodies(
         &self,
         world: &mut World,
         templates: &TemplateSet,
-    ) -> Result<Vec<usize>, SceneError> {
+        seeds: Vec<Seeds<D>>,
+    ) -> Result<(Vec<usize>, ParticleLoads<D>), SceneError> {
         let mut counts = Vec::new();
         let mut next_id: u32 = 0;
         let mut loads = ParticleLoads::<D>::default();
-        for (b, body) in self.bodies.iter().enumerate() {
-            let mut bundles = self.body_particles(b, body, &mut next_id)?;
+        for ((b, body), seeded) in self.bodies.iter().enumerate().zip(seeds) {
+            let mut bundles = self.body_particles(b, body, seeded, &mut next_id)?;
             self.share_loads(b, body, &mut bundles, &mut loads)?;
             counts.push(bundles.len());
             let scales = strength_scales(body, &bundles);
@@ -281,8 +322,7 @@ impl<D: Dim> Spec<D> {
                     .insert(crate::components::StrengthScale(scale));
             }
         }
-        world.insert_resource(loads);
-        Ok(counts)
+        Ok((counts, loads))
     }
 
     /// Gives each particle of `body` its share of the first of the body's loads that covers it.
@@ -341,31 +381,14 @@ impl<D: Dim> Spec<D> {
         Ok(())
     }
 
-    fn body_particles(
-        &self,
+    /// What a particle of `body` seeded at `x` starts with: its material index, velocity and
+    /// damage, from the body, its point file's attributes, its image's phases and its cracks.
+    pub(super) fn seed_state<'a>(
+        &'a self,
         b: usize,
-        body: &Body<D>,
-        next_id: &mut u32,
-    ) -> Result<Vec<ParticleBundle<D>>, SceneError> {
+        body: &'a Body<D>,
+    ) -> Result<impl Fn(D::Vector) -> SeedState<D> + 'a, SceneError> {
         let material = self.material_index(&body.material, &format!("bodies[{b}].material"))?;
-        let seeded = particles_in_shape(
-            &body.shape,
-            &self.grid,
-            body.particles_per_cell,
-            body.placement,
-            self.thickness,
-        );
-        let seeded = self.resolve_overlaps(b, seeded)?;
-        if seeded.is_empty() {
-            return Err(self.source.error(
-                &format!("bodies[{b}].shape"),
-                "no particle falls inside this shape; make it larger than a cell or use more \
-                 particles per cell",
-            ));
-        }
-        if (*next_id as usize).saturating_add(seeded.len()) > u32::MAX as usize {
-            return Err(self.source.error("bodies", "more than 2^32 particles"));
-        }
         // What a point file gives of each particle overrides the body's defaults.
         let points = body.shape.point_set();
         let point_materials: Vec<usize> = match points {
@@ -389,7 +412,7 @@ impl<D: Dim> Spec<D> {
                 .collect::<Result<_, _>>()?,
             None => Vec::new(),
         };
-        let initial = |x: D::Vector| {
+        Ok(move |x: D::Vector| {
             let given = points.and_then(|set| set.attributes(x.to_3d().into()));
             let material = given
                 .and_then(|g| g.material)
@@ -411,7 +434,20 @@ impl<D: Dim> Spec<D> {
                 given.and_then(|g| g.damage).unwrap_or(0.0)
             };
             (material, velocity, damage)
-        };
+        })
+    }
+
+    pub(super) fn body_particles(
+        &self,
+        b: usize,
+        body: &Body<D>,
+        seeded: Vec<(D::Vector, f64)>,
+        next_id: &mut u32,
+    ) -> Result<Vec<ParticleBundle<D>>, SceneError> {
+        if (*next_id as usize).saturating_add(seeded.len()) > u32::MAX as usize {
+            return Err(self.source.error("bodies", "more than 2^32 particles"));
+        }
+        let initial = self.seed_state(b, body)?;
         if let Some((x, volume, v, density)) = seeded.iter().find_map(|&(x, volume)| {
             let (material, v, _) = initial(x);
             let density = self.materials[material].density;

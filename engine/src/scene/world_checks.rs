@@ -1,8 +1,9 @@
-//! The checks of a scene that need its world: memory before spawning and after install, and a
-//! fixed step against the stable limit of the particles as spawned.
+//! The checks of a scene around its world: memory before seeding (a bound from the bodies'
+//! boxes) and before spawning (from counts), a fixed step against the stable limit of the
+//! particles as spawned, strength scales that something reads.
 
 use super::SceneError;
-use super::budget::{self, MemoryEstimate, ParticleMemory};
+use super::budget::{self, MemoryEstimate};
 use super::spec::Spec;
 use crate::dim::{Dim, VectorOps};
 use crate::resources::TimeStepLimit;
@@ -14,10 +15,14 @@ use bevy_ecs::prelude::World;
 pub const MAX_STEPS: f64 = 1e10;
 
 impl<D: Dim> Spec<D> {
-    /// Refuses a grid or bodies that cannot fit in `available` bytes before any is made: the
-    /// nodes, and each body's particles bounded by its bounding box's cells (at the smallest
-    /// cell width) times the particles per cell.
-    pub(super) fn check_memory_before_spawning(&self, available: f64) -> Result<(), SceneError> {
+    /// Refuses a grid or bodies that cannot fit in `available` before any particle is seeded:
+    /// the nodes, and each body's particles bounded by its bounding box's cells (at the
+    /// smallest cell width) times the particles per cell. A cheap bound, so that a mistaken
+    /// spacing is refused before its seeds fill the memory.
+    pub(super) fn check_memory_before_seeding(
+        &self,
+        available: budget::Available,
+    ) -> Result<(), SceneError> {
         let nodes = (0..D::N)
             .map(|a| (self.grid.cells[a] + 1) as f64)
             .product::<f64>();
@@ -62,50 +67,6 @@ impl<D: Dim> Spec<D> {
                 };
                 Err(self.source.error(&field, message))
             }
-        }
-    }
-
-    /// Refuses a scene whose particles, with the storage each installed system declared per
-    /// particle (a basis's support, a neighbour search's lists), cannot fit in `available`
-    /// bytes; checked before the first step allocates that storage.
-    pub(super) fn check_memory_after_install(
-        &self,
-        world: &mut World,
-        available: f64,
-    ) -> Result<(), SceneError> {
-        let particles = world
-            .query_filtered::<(), bevy_ecs::query::With<crate::components::Particle>>()
-            .iter(world)
-            .count() as f64;
-        let nodes = self.grid.node_count() as f64;
-        let mut estimate = MemoryEstimate::default();
-        estimate.add(
-            format!("{} grid nodes", budget::describe_count(nodes)),
-            nodes * budget::node_bytes::<D>(),
-        );
-        estimate.add(
-            format!("{} particles", budget::describe_count(particles)),
-            particles * budget::particle_bytes::<D>(),
-        );
-        let mut largest = ("pipeline".to_string(), 0.0);
-        if let Some(declared) = world.get_resource::<ParticleMemory>() {
-            for (field, what, bytes) in &declared.0 {
-                estimate.add(what.clone(), particles * bytes);
-                if particles * bytes > largest.1 {
-                    largest = (field.clone(), particles * bytes);
-                }
-            }
-        }
-        estimate.working = budget::WORKING_BUFFERS;
-        match estimate.refusal(available) {
-            None => {
-                world.insert_resource(budget::MemoryUse {
-                    needed: estimate.total(),
-                    available,
-                });
-                Ok(())
-            }
-            Some(message) => Err(self.source.error(&largest.0, message)),
         }
     }
 

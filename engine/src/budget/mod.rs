@@ -2,11 +2,17 @@
 //! machine has. A scene that cannot fit is refused as a scene error naming the estimate, its
 //! largest part and the memory available, instead of aborting in an allocation later.
 //!
-//! Two checks: before the nodes and particles are made (grid cells, and an upper bound on
-//! each body's particles from its bounding box), and after the pipeline is installed, when the
-//! particle count is known and each system has declared its per-particle storage (a basis its
-//! support, a neighbour search its lists) with
-//! [`crate::registry::Installer::declare_particle_memory`].
+//! The estimate is made from counts before any node or particle is spawned: the grid's nodes,
+//! each body's seeded particles, and what the pipeline, installed first on a world with no
+//! node and a sample of particles, gives each particle and node (its components) and declares
+//! per particle (a basis its support, a neighbour search its lists) with
+//! [`crate::registry::Installer::declare_particle_memory`]. It is held against what the process
+//! may use ([`process_available`]): the machine's available memory, the process's own limits
+//! and its memory cgroup's, whichever is least.
+
+mod limits;
+
+pub use limits::{Available, MemoryBound, cgroup_headroom, process_available};
 
 use crate::components::{NodeBundle, ParticleBundle};
 use crate::dim::Dim;
@@ -46,8 +52,8 @@ pub fn describe_count(count: f64) -> String {
 pub struct MemoryUse {
     /// Estimated bytes.
     pub needed: f64,
-    /// Bytes available when the scene was built.
-    pub available: f64,
+    /// What the process could use when the scene was built, and what bounded it.
+    pub available: Available,
 }
 
 /// The parts of an estimate: what, and bytes.
@@ -71,10 +77,10 @@ impl MemoryEstimate {
         (1.0 + self.working) * self.parts.iter().map(|(_, b)| b).sum::<f64>()
     }
 
-    /// `None` when the estimate fits in `available` bytes, else the message refusing it.
-    pub fn refusal(&self, available: f64) -> Option<String> {
+    /// `None` when the estimate fits in `available`, else the message refusing it.
+    pub fn refusal(&self, available: Available) -> Option<String> {
         let total = self.total();
-        if total.is_finite() && total <= available {
+        if total.is_finite() && total <= available.bytes {
             return None;
         }
         let largest = self
@@ -85,12 +91,13 @@ impl MemoryEstimate {
                 format!("; its largest part is {what}: {}", describe_bytes(*bytes))
             });
         Some(format!(
-            "the scene needs about {} of memory{largest}, and {} is available; use fewer \
+            "the scene needs about {} of memory{largest}, and {} is available ({}); use fewer \
              particles or cells, or a smaller support (the estimate can be off by a factor of \
              two or more either way: {MEMORY_LIMIT_VARIABLE}=<bytes> sets the memory to check \
              against)",
             describe_bytes(total),
-            describe_bytes(available)
+            describe_bytes(available.bytes),
+            available.bound.describe()
         ))
     }
 }
@@ -121,9 +128,18 @@ pub fn cells_in_ball(dimensions: usize, radius: f64) -> f64 {
     }
 }
 
+/// The mean particles per cell of a scene's seeds, for a world installed without particles
+/// (the memory estimate's probe): [`particles_per_cell`] reads it there.
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+pub struct SeedDensity(pub f64);
+
 /// The mean number of particles per cell of the smallest width in `world` as built (total
-/// particle volume against the count), for estimating neighbour lists.
+/// particle volume against the count), for estimating neighbour lists; [`SeedDensity`] where
+/// the world has it.
 pub fn particles_per_cell<D: Dim>(world: &mut bevy_ecs::world::World) -> f64 {
+    if let Some(density) = world.get_resource::<SeedDensity>() {
+        return density.0;
+    }
     use crate::components::{Particle, Volume};
     use bevy_ecs::query::With;
     let spacing = world.resource::<crate::resources::Grid<D>>().spacing;
@@ -144,27 +160,20 @@ pub fn particles_per_cell<D: Dim>(world: &mut bevy_ecs::world::World) -> f64 {
     spacing.powi(D::N as i32) * thickness / (volume / count)
 }
 
-/// Memory the run may use (bytes): [`MEMORY_LIMIT_VARIABLE`] when set, else the memory the
-/// kernel reports available (`MemAvailable` of `/proc/meminfo`); infinite where neither can
-/// be read, so nothing is refused on a guess.
-pub fn available_memory() -> f64 {
-    if let Some(limit) = std::env::var(MEMORY_LIMIT_VARIABLE)
+/// Memory the run may use: [`MEMORY_LIMIT_VARIABLE`] when set, else what the process may use
+/// ([`process_available`]); infinite where nothing can be read, so nothing is refused on a
+/// guess.
+pub fn available_memory() -> Available {
+    match std::env::var(MEMORY_LIMIT_VARIABLE)
         .ok()
         .and_then(|v| v.trim().parse::<f64>().ok())
     {
-        return limit;
+        Some(bytes) => Available {
+            bytes,
+            bound: MemoryBound::Variable,
+        },
+        None => process_available(),
     }
-    std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|text| mem_available(&text))
-        .unwrap_or(f64::INFINITY)
-}
-
-/// `MemAvailable` of a `/proc/meminfo` text, in bytes.
-fn mem_available(meminfo: &str) -> Option<f64> {
-    let line = meminfo.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024.0)
 }
 
 /// Bytes as a person reads them: `3.2 GiB`.
@@ -190,24 +199,28 @@ mod tests {
     use super::*;
 
     #[test]
-    fn meminfo_is_read_in_bytes() {
-        let text = "MemTotal:       24000000 kB\nMemFree:  100 kB\nMemAvailable:   2048 kB\n";
-        assert_eq!(mem_available(text), Some(2048.0 * 1024.0));
-        assert_eq!(mem_available("MemTotal: 1 kB\n"), None);
-    }
-
-    #[test]
     fn an_estimate_above_the_available_memory_is_refused_naming_its_largest_part() {
         let mut estimate = MemoryEstimate::default();
         estimate.add("grid nodes", 3.0 * 1024.0 * 1024.0 * 1024.0);
         estimate.add("particles", 1024.0);
-        assert_eq!(estimate.refusal(4.0 * 1024.0 * 1024.0 * 1024.0), None);
-        let message = estimate.refusal(1024.0 * 1024.0 * 1024.0).unwrap();
+        let bytes = |bytes| Available {
+            bytes,
+            bound: MemoryBound::AddressSpace,
+        };
+        assert_eq!(
+            estimate.refusal(bytes(4.0 * 1024.0 * 1024.0 * 1024.0)),
+            None
+        );
+        let message = estimate.refusal(bytes(1024.0 * 1024.0 * 1024.0)).unwrap();
         assert!(message.contains("about 3.0 GiB"), "{message}");
         assert!(message.contains("grid nodes: 3.0 GiB"), "{message}");
         assert!(message.contains("1.0 GiB is available"), "{message}");
+        assert!(
+            message.contains("address-space limit (ulimit -v)"),
+            "{message}"
+        );
         estimate.add("overflow", f64::INFINITY);
-        assert!(estimate.refusal(f64::INFINITY).is_some());
+        assert!(estimate.refusal(Available::UNKNOWN).is_some());
         assert_eq!(describe_bytes(1e30), "1.000e30 B");
     }
 }

@@ -1,0 +1,217 @@
+//! A scene's memory from counts, before anything is spawned: the bodies' seeds, and what the
+//! pipeline gives each entity and declares per particle, read off an install on a world with
+//! no node and a sample of particles. `build` holds it against what the process may use
+//! before spawning; `fractum check --estimate` prints it ([`Spec::estimate`]).
+
+use super::SceneError;
+use super::budget::{self, MemoryEstimate};
+use super::spawn::Seeds;
+use super::spec::{Body, Spec};
+use crate::dim::Dim;
+use crate::loads::ParticleLoads;
+use crate::registry::Registry;
+use crate::registry::templates::ComponentTemplates;
+use crate::simulation::step_schedule;
+use bevy_ecs::prelude::World;
+
+/// What a pipeline installed on a sample of particles tells of the scene's memory.
+pub(super) struct PipelineProbe {
+    /// The components it gives every particle and node.
+    pub(super) templates: ComponentTemplates,
+    /// The storage it declares per particle.
+    pub(super) declared: budget::ParticleMemory,
+}
+
+/// A scene's memory estimate from counts, before anything is spawned
+/// ([`Spec::estimate`]).
+#[derive(Clone, Debug)]
+pub struct Estimate {
+    /// The scene's name.
+    pub source: String,
+    /// Grid nodes.
+    pub nodes: usize,
+    /// Each body's name and seeded particle count.
+    pub bodies: Vec<(String, usize)>,
+    /// The estimate's parts.
+    pub estimate: budget::MemoryEstimate,
+    /// What the process may use.
+    pub available: budget::Available,
+    /// The refusal, where the estimate does not fit.
+    pub refusal: Option<String>,
+}
+
+impl<D: Dim> Spec<D> {
+    /// The memory estimate of the scene, from counts alone (nothing is spawned), with what
+    /// the process may use: `fractum check --estimate` prints it. Fails on what fails a
+    /// build before spawning (a bad spec, a body with no particle, an install error), and on
+    /// a scene too large to seed.
+    pub fn estimate(self, registry: &Registry) -> Result<Estimate, SceneError> {
+        self.check()?;
+        let available = super::budget::available_memory();
+        self.check_memory_before_seeding(available)?;
+        let seeds = self.seed_bodies()?;
+        let probe = self.probe_pipeline(registry, &seeds)?;
+        let estimate = self.estimate_from_counts(&seeds, &probe);
+        Ok(Estimate {
+            source: self.source.name().to_string(),
+            nodes: self.grid.node_count(),
+            bodies: self
+                .bodies
+                .iter()
+                .zip(&seeds)
+                .enumerate()
+                .map(|(b, (body, seeded))| {
+                    (
+                        body.name.clone().unwrap_or(format!("body {b}")),
+                        seeded.len(),
+                    )
+                })
+                .collect(),
+            refusal: estimate.refusal(available),
+            estimate,
+            available,
+        })
+    }
+
+    /// The pipeline installed on a world with the scene's resources, no node and a sample of
+    /// particles ([`Spec::sample_seeds`]): what it gives every particle and node, and the
+    /// storage it declares per particle. Installers read a mean particles-per-cell from all
+    /// the seeds ([`budget::SeedDensity`]).
+    pub(super) fn probe_pipeline(
+        &self,
+        registry: &Registry,
+        seeds: &[Seeds<D>],
+    ) -> Result<PipelineProbe, SceneError> {
+        let mut world = World::new();
+        let mut next_id = 0;
+        for ((b, body), seeded) in self.bodies.iter().enumerate().zip(seeds) {
+            let sample = self.sample_seeds(b, body, seeded)?;
+            world.spawn_batch(self.body_particles(b, body, sample, &mut next_id)?);
+        }
+        self.insert_scene_resources(&mut world, ParticleLoads::<D>::default())?;
+        world.insert_resource(self.seed_density(seeds));
+        let mut schedule = step_schedule();
+        self.install_pipeline(registry, &mut schedule, &mut world)?;
+        Ok(PipelineProbe {
+            templates: world
+                .remove_resource::<ComponentTemplates>()
+                .unwrap_or_default(),
+            declared: world
+                .remove_resource::<budget::ParticleMemory>()
+                .unwrap_or_default(),
+        })
+    }
+
+    /// The mean number of particles per cell of the smallest width over every seed.
+    pub(super) fn seed_density(&self, seeds: &[Seeds<D>]) -> budget::SeedDensity {
+        let (count, volume) = seeds
+            .iter()
+            .flatten()
+            .fold((0.0, 0.0), |(n, v), &(_, vol)| (n + 1.0, v + vol));
+        let cell = self.grid.spacing.powi(D::N as i32) * self.thickness_factor();
+        budget::SeedDensity(if count == 0.0 || volume <= 0.0 {
+            0.0
+        } else {
+            cell / (volume / count)
+        })
+    }
+
+    /// A 2D scene's thickness (seeded volumes carry it), 1 in 3D.
+    pub(super) fn thickness_factor(&self) -> f64 {
+        if D::N == 2 { self.thickness } else { 1.0 }
+    }
+
+    /// The seeds of `body` a pipeline's install sees in the memory estimate's probe: the first
+    /// of each material, undamaged and damaged, so that what installers check of the
+    /// particles (their contact groups, materials, seeded damage) holds as in the real build.
+    pub(super) fn sample_seeds(
+        &self,
+        b: usize,
+        body: &Body<D>,
+        seeded: &[(D::Vector, f64)],
+    ) -> Result<Vec<(D::Vector, f64)>, SceneError> {
+        let state = self.seed_state(b, body)?;
+        let mut kinds: Vec<(usize, bool)> = Vec::new();
+        let mut sample = Vec::new();
+        for &(x, volume) in seeded {
+            let (material, _, damage) = state(x);
+            let kind = (material, damage > 0.0);
+            if !kinds.contains(&kind) {
+                kinds.push(kind);
+                sample.push((x, volume));
+            }
+        }
+        Ok(sample)
+    }
+
+    /// The memory the scene will need, from counts: its nodes and seeded particles, each with
+    /// the engine's bundle and the components the pipeline gives it, the storage the pipeline
+    /// declared per particle, and the working buffers of a step.
+    pub(super) fn estimate_from_counts(
+        &self,
+        seeds: &[Seeds<D>],
+        probe: &PipelineProbe,
+    ) -> MemoryEstimate {
+        let particles = seeds.iter().map(Vec::len).sum::<usize>() as f64;
+        let nodes = self.grid.node_count() as f64;
+        let mut estimate = MemoryEstimate::default();
+        estimate.add(
+            format!("{} grid nodes", budget::describe_count(nodes)),
+            nodes * (budget::node_bytes::<D>() + probe.templates.nodes.bytes() as f64),
+        );
+        estimate.add(
+            format!("{} particles", budget::describe_count(particles)),
+            particles * (budget::particle_bytes::<D>() + probe.templates.particles.bytes() as f64),
+        );
+        for (_, what, bytes) in &probe.declared.0 {
+            estimate.add(what.clone(), particles * bytes);
+        }
+        estimate.working = budget::WORKING_BUFFERS;
+        estimate
+    }
+
+    /// Refuses a scene whose estimate from counts ([`Spec::estimate_from_counts`]) cannot fit
+    /// in `available`, naming the field of its largest part; checked before anything is
+    /// spawned. Returns what `fractum check` prints.
+    pub(super) fn check_memory_from_counts(
+        &self,
+        seeds: &[Seeds<D>],
+        probe: &PipelineProbe,
+        available: budget::Available,
+    ) -> Result<budget::MemoryUse, SceneError> {
+        let estimate = self.estimate_from_counts(seeds, probe);
+        let Some(message) = estimate.refusal(available) else {
+            return Ok(budget::MemoryUse {
+                needed: estimate.total(),
+                available,
+            });
+        };
+        let particles = seeds.iter().map(Vec::len).sum::<usize>() as f64;
+        let declared = probe
+            .declared
+            .0
+            .iter()
+            .map(|(field, _, bytes)| (field.clone(), particles * bytes));
+        let mut largest = (
+            "grid.spacing".to_string(),
+            estimate.parts.first().map_or(0.0, |p| p.1),
+        );
+        let heaviest_body = seeds
+            .iter()
+            .enumerate()
+            .max_by_key(|(_, s)| s.len())
+            .map(|(b, _)| b);
+        if let (Some(b), Some(part)) = (heaviest_body, estimate.parts.get(1)) {
+            largest = largest_of(largest, (format!("bodies[{b}].particles_per_cell"), part.1));
+        }
+        for part in declared {
+            largest = largest_of(largest, part);
+        }
+        Err(self.source.error(&largest.0, message))
+    }
+}
+
+/// The larger part, the first on a tie.
+fn largest_of(a: (String, f64), b: (String, f64)) -> (String, f64) {
+    if b.1 > a.1 { b } else { a }
+}
