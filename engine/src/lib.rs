@@ -14,6 +14,7 @@ pub mod boundary;
 pub mod budget;
 pub mod capability;
 pub mod checkpoint;
+pub mod communicator;
 pub mod components;
 pub mod connectivity;
 pub mod diagnostics;

@@ -33,6 +33,7 @@ pub mod crack;
 pub mod crossing;
 pub mod fragments;
 pub mod plot;
+pub mod ranks;
 pub mod remedy;
 pub mod reports;
 pub mod running;
@@ -172,6 +173,11 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             }
             Err(e) => report_scene_error(&e),
         },
+        Command::Run { .. } | Command::Resume { .. }
+            if let Some(code) = ranks::refuse_several_ranks() =>
+        {
+            code
+        }
         Command::Run {
             scene,
             out,

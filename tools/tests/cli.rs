@@ -313,3 +313,49 @@ fn a_run_whose_partition_never_split_says_so() {
     assert!(!cracked.contains("no node was split"), "{cracked}");
     let _ = std::fs::remove_dir_all(&base);
 }
+
+/// `fractum run` as rank `rank` of `size` by an Open MPI launcher's environment.
+fn run_as_rank(rank: usize, size: usize, out_dir: &std::path::Path) -> std::process::Output {
+    command(&[
+        "run",
+        "scenes/block_compression.ron",
+        "--out",
+        out_dir.to_str().unwrap(),
+        "--steps",
+        "2",
+        "--quiet",
+    ])
+    .env("OMPI_COMM_WORLD_RANK", rank.to_string())
+    .env("OMPI_COMM_WORLD_SIZE", size.to_string())
+    .output()
+    .unwrap()
+}
+
+#[test]
+fn a_run_started_as_several_ranks_is_refused_once_and_one_rank_runs() {
+    let out_dir = std::env::temp_dir().join(format!("fractum-cli-ranks-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out_dir);
+    let first = run_as_rank(0, 3, &out_dir);
+    assert_eq!(first.status.code(), Some(2));
+    let error = text(&first.stderr);
+    assert!(
+        error.contains("started as 3 ranks (mpirun -np 3)")
+            && error.contains("does not yet decompose a scene over ranks")
+            && error.contains("--threads N"),
+        "{error}"
+    );
+    // The other ranks end with the same code and say nothing, so the message is printed once.
+    let second = run_as_rank(1, 3, &out_dir);
+    assert_eq!(second.status.code(), Some(2));
+    assert!(second.stderr.is_empty(), "{}", text(&second.stderr));
+    assert!(
+        !out_dir.exists(),
+        "a refused run wrote {}",
+        out_dir.display()
+    );
+    // One rank is a plain run.
+    let alone = run_as_rank(0, 1, &out_dir);
+    assert!(alone.status.success(), "{}", text(&alone.stderr));
+    assert!(out_dir.join("series.csv").exists());
+    let _ = std::fs::remove_dir_all(&out_dir);
+}
