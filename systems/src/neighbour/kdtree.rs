@@ -27,11 +27,11 @@ pub const REGISTRATION: Registration = Registration {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed = parse_params(params)?;
+    // The candidates within ε(1 + skin), and the neighbours within ε.
     super::declare_lists(
         installer,
         "neighbour/kdtree",
-        parsed.c_epsilon * (1.0 + parsed.skin),
-        2.0,
+        &[parsed.c_epsilon * (1.0 + parsed.skin), parsed.c_epsilon],
     );
     installer.insert_resource(parsed);
     installer.init_resource::<Neighbourhoods>();

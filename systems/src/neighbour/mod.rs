@@ -58,18 +58,25 @@ pub fn parse_params(params: &Params) -> Result<NeighbourParams, SceneError> {
     Ok(parsed)
 }
 
-/// Declares a neighbour search's lists for the scene's memory estimate: the particles within
-/// `reach` cells of each (at the scene's mean particles per cell), `lists` of them kept.
-pub fn declare_lists(installer: &mut Installer, name: &str, reach: f64, lists: f64) {
+/// Declares a neighbour search's lists for the scene's memory estimate: one list per entry of
+/// `reaches`, of the particles within that many cells of each, and an anchor position per
+/// particle. A list's length is the volume of a ball half a cell wider than its reach at the
+/// scene's mean particles per cell: the margin covers a graded grid, where the mean
+/// particles per cell of the smallest width undercounts the fine zone's.
+pub fn declare_lists(installer: &mut Installer, name: &str, reaches: &[f64]) {
     let d = installer.dimension().count();
-    let neighbours =
-        fractum_engine::scene::budget::cells_in_ball(d, reach) * installer.particles_per_cell();
+    let per_cell = installer.particles_per_cell();
+    let counts: Vec<f64> = reaches
+        .iter()
+        .map(|&reach| fractum_engine::scene::budget::ball_volume(d, reach + 0.5) * per_cell)
+        .collect();
+    let widest = counts.iter().copied().fold(0.0, f64::max);
     installer.declare_particle_memory(
         format!(
             "{name}: about {} neighbours per particle",
-            fractum_engine::scene::budget::describe_count(neighbours)
+            fractum_engine::scene::budget::describe_count(widest)
         ),
-        4.0 * lists * neighbours + (8 * d) as f64,
+        4.0 * counts.iter().sum::<f64>() + (8 * d) as f64,
     );
 }
 

@@ -35,7 +35,12 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         ));
     }
     let parsed = parse_params(params)?;
-    super::declare_lists(installer, "neighbour/node_linked", parsed.c_epsilon, 1.0);
+    // Linked through nodes, a particle's neighbours lie up to a cell beyond ε.
+    super::declare_lists(
+        installer,
+        "neighbour/node_linked",
+        &[parsed.c_epsilon + 0.5],
+    );
     installer.insert_resource(parsed);
     installer.init_resource::<Neighbourhoods>();
     with_dim!(installer.dimension(), D => installer.add_systems(node_linked_neighbours::<D>));

@@ -169,7 +169,13 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     let radius_cells = parsed
         .radius
         .map_or((dimensions as f64).sqrt(), |r| r / spacing);
-    crate::neighbour::declare_lists(installer, "partition/dfg", radius_cells * (1.0 + SKIN), 1.0);
+    // Its lists are not measured against this bound: half a cell more margin keeps the
+    // bound it had (a ball one cell wider than the reach).
+    crate::neighbour::declare_lists(
+        installer,
+        "partition/dfg",
+        &[radius_cells * (1.0 + SKIN) + 0.5],
+    );
     installer.insert_resource(parsed);
     install_field_assignment(installer)?;
     installer.add_node_component(NodeFieldDamage::default());
