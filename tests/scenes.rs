@@ -60,7 +60,7 @@ fn assert_no_emptied_table_is_kept(world: &bevy_ecs::world::World, name: &str) {
 /// least the bytes of every component the built particles carry.
 fn assert_estimate_counts_what_was_built(path: &std::path::Path, built: &mut Built, name: &str) {
     let file = SceneFile::read(path).unwrap();
-    let estimate = estimate_memory(&file, &fractum_systems::stock_registry())
+    let estimate = estimate_memory(&file, &fractum_systems::stock_registry(), None)
         .unwrap_or_else(|e| panic!("{e}"));
     let counts: Vec<usize> = estimate.bodies.iter().map(|(_, n)| *n).collect();
     assert_eq!(counts, built.body_particles, "{name}");

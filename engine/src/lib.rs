@@ -17,6 +17,7 @@ pub mod checkpoint;
 pub mod communicator;
 pub mod components;
 pub mod connectivity;
+pub mod decomposition;
 pub mod diagnostics;
 pub mod dim;
 pub mod energy;

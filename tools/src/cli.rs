@@ -53,6 +53,11 @@ pub enum Command {
         /// included). Exits 2 when it does not fit.
         #[arg(long)]
         estimate: bool,
+        /// With `--estimate`: also how the scene's particles would divide over this many ranks
+        /// (slabs along the axis they spread furthest on, cut at cell faces to balance them),
+        /// and the imbalance.
+        #[arg(long, requires = "estimate", value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+        ranks: Option<u32>,
     },
     /// List every registered system with its stage, summary and parameters.
     Systems,

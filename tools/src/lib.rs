@@ -152,7 +152,10 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
         Command::Check {
             scene,
             estimate: true,
-        } => match SceneFile::read(&scene).and_then(|file| estimate_memory(&file, registry)) {
+            ranks,
+        } => match SceneFile::read(&scene)
+            .and_then(|file| estimate_memory(&file, registry, ranks.map(|r| r as usize)))
+        {
             Ok(estimate) => {
                 out!("{}", reports::estimate_report(&estimate));
                 if estimate.refusal.is_some() {
@@ -166,6 +169,7 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
         Command::Check {
             scene,
             estimate: false,
+            ..
         } => match load(&scene, registry) {
             Ok((_, mut built)) => {
                 out!("{}", check_report(&mut built));

@@ -49,6 +49,12 @@ fn point<D: Dim>(v: D::Vector) -> String {
     format!("({})", parts.join(", "))
 }
 
+/// A coordinate computed from node coordinates, to 12 significant digits (`0.007`, not
+/// `0.007000000000000006`).
+fn short(x: f64) -> String {
+    format!("{}", format!("{x:.11e}").parse::<f64>().unwrap_or(x))
+}
+
 /// The grid line of `fractum check`.
 fn grid_line<D: Dim>(built: &mut Built) -> String {
     let grid = built.simulation.world.resource::<Grid<D>>().clone();
@@ -61,8 +67,6 @@ fn grid_line<D: Dim>(built: &mut Built) -> String {
                 .iter()
                 .flat_map(|c| c.windows(2).map(|w| w[1] - w[0]))
                 .fold(0.0, f64::max);
-            // Widths are differences of node coordinates: print them to 12 significant digits.
-            let short = |x: f64| format!("{}", format!("{x:.11e}").parse::<f64>().unwrap_or(x));
             format!(
                 "graded, h = {} to {} m",
                 short(grid.spacing),
@@ -294,6 +298,9 @@ pub fn estimate_report(estimate: &fractum_engine::scene::Estimate) -> String {
         describe_bytes(estimate.estimate.total()),
         estimate.available.describe()
     );
+    if let Some(ranks) = &estimate.slabs {
+        slabs_report(ranks, &mut out);
+    }
     match &estimate.refusal {
         None => out.push_str("fits\n"),
         Some(refusal) => {
@@ -301,4 +308,33 @@ pub fn estimate_report(estimate: &fractum_engine::scene::Estimate) -> String {
         }
     }
     out
+}
+
+/// The slabs of `check --estimate --ranks N`: one line per rank and the imbalance.
+fn slabs_report(ranks: &fractum_engine::scene::RankSlabs, out: &mut String) {
+    let slabs = &ranks.slabs;
+    let axis = ["x", "y", "z"][slabs.axis.min(2)];
+    let _ = writeln!(
+        out,
+        "ranks      {} slabs along {axis}, cut at cell faces; imbalance {:.1}% (the most \
+         loaded rank over the mean)",
+        slabs.layers.len(),
+        100.0 * slabs.imbalance()
+    );
+    for (rank, ((layers, particles), (low, high))) in slabs
+        .layers
+        .iter()
+        .zip(&slabs.particles)
+        .zip(&ranks.bounds)
+        .enumerate()
+    {
+        let _ = writeln!(
+            out,
+            "  rank {rank:<4} {axis} {} to {} m (cell layers {}..{}): {particles} particles",
+            short(*low),
+            short(*high),
+            layers.start,
+            layers.end
+        );
+    }
 }

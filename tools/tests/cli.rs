@@ -359,3 +359,51 @@ fn a_run_started_as_several_ranks_is_refused_once_and_one_rank_runs() {
     assert!(out_dir.join("series.csv").exists());
     let _ = std::fs::remove_dir_all(&out_dir);
 }
+
+#[test]
+fn check_estimate_divides_a_scene_over_ranks_in_balanced_slabs() {
+    let out = fractum(&[
+        "check",
+        "--estimate",
+        "--ranks",
+        "4",
+        "scenes/kalthoff_winkler_dfg.ron",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let report = text(&out.stdout);
+    assert!(
+        report.contains("ranks      4 slabs along x, cut at cell faces; imbalance 0.8%"),
+        "{report}"
+    );
+    let owned: Vec<u64> = report
+        .lines()
+        .filter(|l| l.trim_start().starts_with("rank "))
+        .map(|l| {
+            let count = l
+                .rsplit(": ")
+                .next()
+                .unwrap()
+                .trim_end_matches(" particles");
+            count.parse().unwrap()
+        })
+        .collect();
+    assert_eq!(owned, vec![12344, 12152, 12304, 12400], "{report}");
+    assert!(report.contains("rank 1    x 0.007 to 0.038 m (cell layers 111..142)"));
+    // More ranks than cell layers: a rank must own one.
+    let out = fractum(&[
+        "check",
+        "--estimate",
+        "--ranks",
+        "500",
+        "scenes/two_disks.ron",
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        text(&out.stderr).contains("20 cell layers along the x axis, fewer than the 500 ranks"),
+        "{}",
+        text(&out.stderr)
+    );
+    // `--ranks` belongs to `--estimate`.
+    let out = fractum(&["check", "--ranks", "2", "scenes/two_disks.ron"]);
+    assert_eq!(out.status.code(), Some(2));
+}

@@ -296,6 +296,27 @@ fn log(seed: &str, outcome: &Result<Outcome, String>) {
 fn try_scene(dir: &Path, scene: &str) -> Result<Outcome, String> {
     std::fs::write(dir.join("fuzz.ron"), scene).unwrap();
     let check = fractum(&["check", "fuzz.ron"], dir);
+    // The estimate from counts takes the same input through the same checks up to spawning:
+    // it refuses with a place or reports, never panics, and passes what `check` passes.
+    let estimate = fractum(&["check", "--estimate", "fuzz.ron"], dir);
+    match (estimate.status.code(), check.status.code()) {
+        (Some(0), _) | (Some(1), Some(1)) => {}
+        (code, checked) => {
+            return Err(format!(
+                "check --estimate exited {code:?} where check exited {checked:?}: {}",
+                text(&estimate.stderr)
+            ));
+        }
+    }
+    if estimate.status.code() == Some(1)
+        && !text(&estimate.stdout).contains("does not fit")
+        && !placed(&text(&estimate.stderr), "fuzz.ron")
+    {
+        return Err(format!(
+            "check --estimate's error has no file:line:col: {}",
+            text(&estimate.stderr)
+        ));
+    }
     match check.status.code() {
         Some(0) => {}
         Some(1) => {

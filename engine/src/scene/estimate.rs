@@ -7,7 +7,8 @@ use super::SceneError;
 use super::budget::{self, MemoryEstimate};
 use super::spawn::Seeds;
 use super::spec::{Body, Spec};
-use crate::dim::Dim;
+use crate::decomposition;
+use crate::dim::{Dim, VectorOps};
 use crate::loads::ParticleLoads;
 use crate::registry::Registry;
 use crate::registry::templates::ComponentTemplates;
@@ -38,6 +39,17 @@ pub struct Estimate {
     pub available: budget::Available,
     /// The refusal, where the estimate does not fit.
     pub refusal: Option<String>,
+    /// The slabs of a distributed run, when asked for.
+    pub slabs: Option<RankSlabs>,
+}
+
+/// The slabs a distributed run would own, with their bounds.
+#[derive(Clone, Debug)]
+pub struct RankSlabs {
+    /// The cut.
+    pub slabs: decomposition::Slabs,
+    /// Each slab's lower and upper coordinate along the axis, metres.
+    pub bounds: Vec<(f64, f64)>,
 }
 
 impl<D: Dim> Spec<D> {
@@ -45,14 +57,26 @@ impl<D: Dim> Spec<D> {
     /// the process may use: `fractum check --estimate` prints it. Fails on what fails a
     /// build before spawning (a bad spec, a body with no particle, an install error), and on
     /// a scene too large to seed.
-    pub fn estimate(self, registry: &Registry) -> Result<Estimate, SceneError> {
+    ///
+    /// With `ranks`, also the slabs a distributed run of that many ranks would own
+    /// ([`crate::decomposition`]).
+    pub fn estimate(
+        self,
+        registry: &Registry,
+        ranks: Option<usize>,
+    ) -> Result<Estimate, SceneError> {
         self.check()?;
         let available = super::budget::available_memory();
         self.check_memory_before_seeding(available)?;
         let seeds = self.seed_bodies()?;
         let probe = self.probe_pipeline(registry, &seeds)?;
         let estimate = self.estimate_from_counts(&seeds, &probe);
+        let slabs = match ranks {
+            Some(ranks) => Some(self.slabs(&seeds, ranks)?),
+            None => None,
+        };
         Ok(Estimate {
+            slabs,
             source: self.source.name().to_string(),
             nodes: self.grid.node_count(),
             bodies: self
@@ -142,6 +166,42 @@ impl<D: Dim> Spec<D> {
             }
         }
         Ok(sample)
+    }
+
+    /// The slabs of `ranks` ranks: the seeds counted per cell layer along the axis on which
+    /// they spread furthest, cut by [`decomposition::cut_slabs`]; with each rank's slab
+    /// bounds in metres.
+    fn slabs(&self, seeds: &[Seeds<D>], ranks: usize) -> Result<RankSlabs, SceneError> {
+        let mut low = [f64::INFINITY; 3];
+        let mut high = [f64::NEG_INFINITY; 3];
+        for &(x, _) in seeds.iter().flatten() {
+            let x = x.to_3d();
+            for a in 0..D::N {
+                low[a] = low[a].min(x[a]);
+                high[a] = high[a].max(x[a]);
+            }
+        }
+        let extent: Vec<f64> = (0..D::N).map(|a| high[a] - low[a]).collect();
+        let axis = decomposition::longest_axis(&extent);
+        let mut per_layer = vec![0u64; self.grid.cells[axis]];
+        for &(x, _) in seeds.iter().flatten() {
+            if let Some(layer) = self.grid.axis_cell(axis, x[axis]) {
+                per_layer[layer] += 1;
+            }
+        }
+        let slabs = decomposition::cut_slabs(axis, &per_layer, ranks)
+            .map_err(|e| self.source.error("grid.spacing", e))?;
+        let bounds = slabs
+            .layers
+            .iter()
+            .map(|r| {
+                (
+                    self.grid.coordinate(axis, r.start),
+                    self.grid.coordinate(axis, r.end),
+                )
+            })
+            .collect();
+        Ok(RankSlabs { slabs, bounds })
     }
 
     /// The memory the scene will need, from counts: its nodes and seeded particles, each with

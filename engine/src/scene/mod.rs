@@ -30,7 +30,7 @@ mod world_checks;
 
 pub use crate::budget;
 pub use crate::text::{Location, SceneError, locate, parse_fragment, scene_text};
-pub use estimate::Estimate;
+pub use estimate::{Estimate, RankSlabs};
 pub use file_error::FileError;
 pub use format::*;
 pub use seed::{cell_points, particles_in_shape};
@@ -169,8 +169,13 @@ pub fn build_simulation(file: &SceneFile, registry: &Registry) -> Result<Built, 
 
 /// Validates `file` and estimates the memory its simulation needs from counts, spawning
 /// nothing ([`Spec::estimate`]).
-pub fn estimate_memory(file: &SceneFile, registry: &Registry) -> Result<Estimate, SceneError> {
-    with_dim!(file.dimension()?, D => Spec::<D>::from_file(file)?.estimate(registry))
+/// With `ranks`, also the slabs a distributed run of that many ranks would own.
+pub fn estimate_memory(
+    file: &SceneFile,
+    registry: &Registry,
+    ranks: Option<usize>,
+) -> Result<Estimate, SceneError> {
+    with_dim!(file.dimension()?, D => Spec::<D>::from_file(file)?.estimate(registry, ranks))
 }
 
 #[cfg(test)]
