@@ -4,32 +4,14 @@
 
 mod support;
 
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Output;
+use std::time::Duration;
 use support::{root, text};
 
-/// `mpirun -np ranks fractum args…` from the workspace root, ended after two minutes if it
-/// hangs.
+/// `mpirun -np ranks fractum args…` from the workspace root.
 fn mpirun(ranks: usize, args: &[&str]) -> Output {
-    let mut child = Command::new("mpirun")
-        .args(["--allow-run-as-root", "--oversubscribe", "-np"])
-        .arg(ranks.to_string())
-        .arg(env!("CARGO_BIN_EXE_fractum"))
-        .args(args)
-        .current_dir(root())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("mpirun runs (Debian: openmpi-bin)");
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > Duration::from_secs(120) {
-            child.kill().unwrap();
-            panic!("mpirun -np {ranks} fractum {args:?} hung");
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    child.wait_with_output().unwrap()
+    let fractum = env!("CARGO_BIN_EXE_fractum");
+    support::mpirun::mpirun(ranks, fractum, args, &root(), Duration::from_secs(120))
 }
 
 #[test]

@@ -3,29 +3,17 @@
 //! and equal the rank-order sum, neighbours exchange, a failure on one rank stops every rank
 //! with its message, and a panic on one ends them all instead of hanging.
 
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+#[path = "../../tests/support/mpirun.rs"]
+mod launch;
+
+use std::process::Output;
+use std::time::Duration;
 
 /// `mpirun -np ranks fractum-mpi-check args…`, ended after a minute if it hangs.
 fn mpirun(ranks: usize, args: &[&str]) -> Output {
-    let mut child = Command::new("mpirun")
-        .args(["--allow-run-as-root", "--oversubscribe", "-np"])
-        .arg(ranks.to_string())
-        .arg(env!("CARGO_BIN_EXE_fractum-mpi-check"))
-        .args(args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("mpirun runs (Debian: openmpi-bin)");
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > Duration::from_secs(60) {
-            child.kill().unwrap();
-            panic!("mpirun -np {ranks} {args:?} hung for a minute");
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    child.wait_with_output().unwrap()
+    let check = env!("CARGO_BIN_EXE_fractum-mpi-check");
+    let here = std::env::current_dir().unwrap();
+    launch::mpirun(ranks, check, args, &here, Duration::from_secs(60))
 }
 
 fn lines(output: &Output) -> Vec<String> {

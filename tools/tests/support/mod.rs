@@ -2,6 +2,8 @@
 //! run from it. Each test crate uses some of them, so the others are dead code there.
 #![allow(dead_code)]
 
+pub mod mpirun;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
