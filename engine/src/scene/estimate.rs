@@ -65,11 +65,7 @@ impl<D: Dim> Spec<D> {
         registry: &Registry,
         ranks: Option<usize>,
     ) -> Result<Estimate, SceneError> {
-        self.check()?;
-        let available = super::budget::available_memory();
-        self.check_memory_before_seeding(available)?;
-        let seeds = self.seed_bodies()?;
-        let probe = self.probe_pipeline(registry, &seeds)?;
+        let (available, seeds, probe) = self.seeded_and_probed(registry)?;
         let estimate = self.estimate_from_counts(&seeds, &probe);
         let slabs = match ranks {
             Some(ranks) => Some(self.slabs(&seeds, ranks)?),
@@ -95,6 +91,21 @@ impl<D: Dim> Spec<D> {
             estimate,
             available,
         })
+    }
+
+    /// What `build` and [`Spec::estimate`] do before anything is spawned: the spec checked,
+    /// the memory the process may use, a bound from the bodies' boxes held against it, the
+    /// bodies seeded and the pipeline probed.
+    pub(super) fn seeded_and_probed(
+        &self,
+        registry: &Registry,
+    ) -> Result<(budget::Available, Vec<Seeds<D>>, PipelineProbe), SceneError> {
+        self.check()?;
+        let available = budget::available_memory();
+        self.check_memory_before_seeding(available)?;
+        let seeds = self.seed_bodies()?;
+        let probe = self.probe_pipeline(registry, &seeds)?;
+        Ok((available, seeds, probe))
     }
 
     /// The pipeline installed on a world with the scene's resources, no node and a sample of

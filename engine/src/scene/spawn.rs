@@ -47,11 +47,7 @@ impl<D: Dim> Spec<D> {
     /// from counts (the grid, the seeds, what the pipeline gives each entity and declares)
     /// before any entity is spawned.
     pub fn build(self, registry: &Registry) -> Result<Built, SceneError> {
-        self.check()?;
-        let available = super::budget::available_memory();
-        self.check_memory_before_seeding(available)?;
-        let seeds = self.seed_bodies()?;
-        let probe = self.probe_pipeline(registry, &seeds)?;
+        let (available, seeds, probe) = self.seeded_and_probed(registry)?;
         let memory = self.check_memory_from_counts(&seeds, &probe, available)?;
         let Installed {
             mut world,
