@@ -13,6 +13,7 @@ use crate::components::{
     Node, NodeForce, NodeIndex, NodeMass, NodeVelocity, Particle, ParticleId, Position, Stress,
     Velocity, Volume,
 };
+use crate::decomposition::Ownership;
 use crate::dim::{Dim, SymOps, VectorOps};
 use crate::resources::{Grid, SimClock};
 use crate::stage::Stage;
@@ -344,11 +345,14 @@ type ParticleColumns<'a, D> = (
     &'a [Volume],
 );
 
+/// The first bad particle among those this rank owns (`owned` by row, every particle when
+/// `None`: a distributed run's ghosts near the halo's outer face compute what no rank uses).
 fn first_bad_particle<D: Dim>(
     particles: &ParticleCheckQuery<D>,
     columns: Columns,
     grid: &Grid<D>,
     outside_allowed: bool,
+    owned: Option<&[bool]>,
 ) -> Option<(Cause, String)> {
     if !columns.any_particle() {
         return None;
@@ -356,18 +360,19 @@ fn first_bad_particle<D: Dim>(
     let (ids, positions, velocities, stresses, volumes) =
         single_table(particles.contiguous_iter(), "particles")?;
     let checked = (positions, velocities, stresses, volumes);
-    if all_particles_healthy(checked, columns, grid, outside_allowed) {
+    if owned.is_none() && all_particles_healthy(checked, columns, grid, outside_allowed) {
         return None;
     }
     let (lo, hi) = (grid.min, grid.max());
     let bad = (0..ids.len()).into_par_iter().find_first(|&p| {
         let x = positions[p].0;
-        !(x.is_finite()
-            && (outside_allowed || grid.contains(x))
-            && velocities[p].0.is_finite()
-            && stresses[p].0.is_finite()
-            && volumes[p].0.is_finite()
-            && volumes[p].0 > 0.0)
+        owned.is_none_or(|o| o.get(p).copied().unwrap_or(false))
+            && !(x.is_finite()
+                && (outside_allowed || grid.contains(x))
+                && velocities[p].0.is_finite()
+                && stresses[p].0.is_finite()
+                && volumes[p].0.is_finite()
+                && volumes[p].0 > 0.0)
     })?;
     let (id, x, v) = (ids[bad].0, positions[bad].0, velocities[bad].0);
     Some(if !x.is_finite() {
@@ -440,18 +445,25 @@ fn all_nodes_finite<D: Dim>(
     })
 }
 
-fn first_bad_node<D: Dim>(nodes: &NodeCheckQuery<D>, columns: Columns) -> Option<String> {
+/// The first node with non-finite state among those this rank owns (`owned` by node index,
+/// every node when `None`).
+fn first_bad_node<D: Dim>(
+    nodes: &NodeCheckQuery<D>,
+    columns: Columns,
+    owned: Option<&[bool]>,
+) -> Option<String> {
     if !columns.contains(Columns::NODES) {
         return None;
     }
     let (indices, masses, velocities, forces) = single_table(nodes.contiguous_iter(), "nodes")?;
-    if all_nodes_finite(masses, velocities, forces) {
+    if owned.is_none() && all_nodes_finite(masses, velocities, forces) {
         return None;
     }
     let bad = (0..indices.len()).into_par_iter().find_first(|&n| {
-        !(masses[n].0.iter().all(|m| m.is_finite())
-            && velocities[n].0.iter().all(|v| v.is_finite())
-            && forces[n].0.iter().all(|f| f.is_finite()))
+        owned.is_none_or(|o| o.get(indices[n].0 as usize).copied().unwrap_or(false))
+            && !(masses[n].0.iter().all(|m| m.is_finite())
+                && velocities[n].0.iter().all(|v| v.is_finite())
+                && forces[n].0.iter().all(|f| f.is_finite()))
     })?;
     Some(format!(
         "node {} has non-finite state: mass {:?}, velocity {:?}, force {:?}",
@@ -469,19 +481,25 @@ pub fn stage_check<D: Dim>(
     Res<Grid<D>>,
     Option<Res<LeaveGrid>>,
     Option<Res<CheckPlan>>,
+    Option<Res<Ownership>>,
     ResMut<Health>,
     ParticleCheckQuery<D>,
     NodeCheckQuery<D>,
 ) {
-    move |clock, grid, policy, plan, mut health, particles, nodes| {
+    move |clock, grid, policy, plan, ownership, mut health, particles, nodes| {
         let outside_allowed = policy.is_some_and(|p| *p == LeaveGrid::Remove);
         let columns = match plan {
             Some(plan) if health.checked_everything => plan.of(stage),
             _ => Columns::ALL,
         };
         health.checked_everything = true;
-        let found = first_bad_particle(&particles, columns, &grid, outside_allowed)
-            .or_else(|| first_bad_node(&nodes, columns).map(|m| (Cause::Other, m)));
+        let owned_particles = ownership.as_ref().map(|o| o.particles.as_slice());
+        let owned_nodes = ownership.as_ref().map(|o| o.nodes.as_slice());
+        let found =
+            first_bad_particle(&particles, columns, &grid, outside_allowed, owned_particles)
+                .or_else(|| {
+                    first_bad_node(&nodes, columns, owned_nodes).map(|m| (Cause::Other, m))
+                });
         if let Some((cause, message)) = found {
             health.fail(Blowup::new(clock.step + 1, stage, message).because(cause));
         }

@@ -355,8 +355,19 @@ impl Simulation {
 
     /// Takes one step. On failure the state is left as the failing stage produced it.
     pub fn step(&mut self) -> Result<(), Blowup> {
-        // In the step's pool, whose threads share the stable-step search.
-        let dt = self.in_pool(Self::next_time_step);
+        let dt = self.planned_time_step();
+        self.step_with_time_step(dt)
+    }
+
+    /// [`Simulation::next_time_step`], searched in the step's pool, whose threads share the
+    /// stable-step search.
+    pub fn planned_time_step(&mut self) -> f64 {
+        self.in_pool(Self::next_time_step)
+    }
+
+    /// Takes one step of size `dt`: [`Simulation::step`] with the step chosen by the caller (a
+    /// distributed run's ranks take the least of their [`Simulation::planned_time_step`]s).
+    pub fn step_with_time_step(&mut self, dt: f64) -> Result<(), Blowup> {
         self.check_time_step(dt)?;
         let removed_before = self.removed_so_far();
         self.world.resource_mut::<SimClock>().dt = dt;

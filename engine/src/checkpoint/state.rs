@@ -87,6 +87,8 @@ pub enum CheckpointError {
 
 type SaveComponent = fn(&mut World, &[Entity]) -> Result<Vec<u8>, CheckpointError>;
 type LoadComponent = fn(&mut World, &[Entity], &[u8]) -> Result<(), CheckpointError>;
+type PickComponent =
+    fn(&mut World, &[Entity], &[&[u8]], &[(u32, u32)]) -> Result<(), CheckpointError>;
 type SaveResource = fn(&World) -> Result<Option<Vec<u8>>, CheckpointError>;
 type LoadResource = fn(&mut World, &[u8]) -> Result<(), CheckpointError>;
 
@@ -96,6 +98,7 @@ struct ComponentEntry {
     type_id: std::any::TypeId,
     save: SaveComponent,
     load: LoadComponent,
+    pick: PickComponent,
 }
 
 #[derive(Clone, Copy)]
@@ -134,6 +137,7 @@ impl CheckpointState {
                 type_id,
                 save: save_component::<C>,
                 load: load_component::<C>,
+                pick: pick_component::<C>,
             });
         }
     }
@@ -178,6 +182,56 @@ impl CheckpointState {
     /// Names of the carried components.
     pub fn component_names(&self) -> Vec<&'static str> {
         self.components.iter().map(|e| e.name).collect()
+    }
+
+    /// Every carried component of `particles`, each encoded as a checkpoint encodes it, in the
+    /// order the components are carried: the particles' state, to be sent to another rank of a
+    /// distributed run and put back with [`CheckpointState::load_picked`].
+    pub fn save_particles(
+        &self,
+        world: &mut World,
+        particles: &[Entity],
+    ) -> Result<Vec<Vec<u8>>, CheckpointError> {
+        self.components
+            .iter()
+            .map(|entry| (entry.save)(world, particles))
+            .collect()
+    }
+
+    /// Writes into `targets[k]` every carried component of particle `picks[k] = (b, i)`: the
+    /// `i`-th particle of `blocks[b]`, which [`CheckpointState::save_particles`] encoded (with
+    /// the same carried components). Each particle is picked at most once, and targets must
+    /// carry a component exactly where their source did.
+    pub fn load_picked(
+        &self,
+        world: &mut World,
+        targets: &[Entity],
+        blocks: &[Vec<Vec<u8>>],
+        picks: &[(u32, u32)],
+    ) -> Result<(), CheckpointError> {
+        if targets.len() != picks.len() {
+            return Err(CheckpointError::Mismatch(format!(
+                "{} particles to fill from {} picked",
+                targets.len(),
+                picks.len()
+            )));
+        }
+        for (c, entry) in self.components.iter().enumerate() {
+            let sources: Vec<&[u8]> = blocks
+                .iter()
+                .map(|block| {
+                    block.get(c).map(Vec::as_slice).ok_or_else(|| {
+                        CheckpointError::Mismatch(format!(
+                            "a block of {} components, {} carried",
+                            block.len(),
+                            self.components.len()
+                        ))
+                    })
+                })
+                .collect::<Result<_, _>>()?;
+            (entry.pick)(world, targets, &sources, picks)?;
+        }
+        Ok(())
     }
 
     /// Names of the carried resources.
@@ -239,6 +293,42 @@ fn load_component<C: Component<Mutability = bevy_ecs::component::Mutable> + Stat
                 return Err(CheckpointError::Mismatch(format!(
                     "{name}: the particles that have it differ between the checkpoint and the \
                      scene"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn pick_component<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
+    world: &mut World,
+    targets: &[Entity],
+    sources: &[&[u8]],
+    picks: &[(u32, u32)],
+) -> Result<(), CheckpointError> {
+    let name = C::KEY;
+    let mut decoded: Vec<Vec<Option<C>>> = sources
+        .iter()
+        .map(|bytes| postcard::from_bytes(bytes).map_err(codec(name)))
+        .collect::<Result<_, _>>()?;
+    for (&entity, &(block, index)) in targets.iter().zip(picks) {
+        // Each particle is picked once: its value is moved out.
+        let value = decoded
+            .get_mut(block as usize)
+            .and_then(|values| values.get_mut(index as usize))
+            .map(Option::take)
+            .ok_or_else(|| {
+                CheckpointError::Mismatch(format!(
+                    "{name}: particle {index} of block {block} was not sent"
+                ))
+            })?;
+        match (world.get_mut::<C>(entity), value) {
+            (Some(mut slot), Some(value)) => *slot = value,
+            (None, None) => {}
+            _ => {
+                return Err(CheckpointError::Mismatch(format!(
+                    "{name}: carried by the particle sent and not by the one it fills, or the \
+                     other way round"
                 )));
             }
         }

@@ -298,6 +298,36 @@ impl<'a> Installer<'a> {
             .push((field, what.into(), bytes));
     }
 
+    /// Declares the basis's support radius along an axis (m): how far from a particle the
+    /// nodes it exchanges with lie. With [`Installer::declare_grid_round_trip`] and
+    /// [`Installer::declare_particle_reach`] it sets how deep a distributed run's halo is
+    /// ([`crate::decomposition::StepReach`]).
+    pub fn declare_support_radius(&mut self, metres: f64) {
+        self.world
+            .get_resource_or_init::<crate::decomposition::StepReach>()
+            .support = Some(metres);
+    }
+
+    /// Declares that this system transfers particle values to the nodes for particles to read
+    /// back later in the step (a particle-to-grid transfer): one particle's update then reaches
+    /// the particles two support radii away.
+    pub fn declare_grid_round_trip(&mut self) {
+        self.world
+            .get_resource_or_init::<crate::decomposition::StepReach>()
+            .round_trips += 1;
+    }
+
+    /// Declares that this system makes a particle's update read other particles up to
+    /// `metres` away (a neighbourhood, a kernel), described by `what`.
+    pub fn declare_particle_reach(&mut self, what: impl Into<String>, metres: f64) {
+        let field = self.entry_field("");
+        let field = field.trim_end_matches('.').to_string();
+        self.world
+            .get_resource_or_init::<crate::decomposition::StepReach>()
+            .neighbourhoods
+            .push((format!("{field}: {}", what.into()), metres));
+    }
+
     /// The mean number of particles per cell of the smallest width, as built (for a
     /// neighbour list's [`Installer::declare_particle_memory`]).
     pub fn particles_per_cell(&mut self) -> f64 {

@@ -1,6 +1,7 @@
 //! The run loop: step to the end, writing frames and time-series rows on schedule, with
 //! checkpoints; [`resume_from`] continues a run from one.
 
+pub mod distributed;
 mod resume;
 
 pub use resume::{restore_checkpoint, resume_from, rewind_outputs};

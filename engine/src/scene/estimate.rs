@@ -21,6 +21,8 @@ pub(super) struct PipelineProbe {
     pub(super) templates: ComponentTemplates,
     /// The storage it declares per particle.
     pub(super) declared: budget::ParticleMemory,
+    /// How far a step reaches, for a distributed run's halo.
+    pub(super) reach: crate::decomposition::StepReach,
 }
 
 /// A scene's memory estimate from counts, before anything is spawned
@@ -134,6 +136,9 @@ impl<D: Dim> Spec<D> {
             declared: world
                 .remove_resource::<budget::ParticleMemory>()
                 .unwrap_or_default(),
+            reach: world
+                .remove_resource::<crate::decomposition::StepReach>()
+                .unwrap_or_default(),
         })
     }
 
@@ -182,7 +187,7 @@ impl<D: Dim> Spec<D> {
     /// The slabs of `ranks` ranks: the seeds counted per cell layer along the axis on which
     /// they spread furthest, cut by [`decomposition::cut_slabs`]; with each rank's slab
     /// bounds in metres.
-    fn slabs(&self, seeds: &[Seeds<D>], ranks: usize) -> Result<RankSlabs, SceneError> {
+    pub(super) fn slabs(&self, seeds: &[Seeds<D>], ranks: usize) -> Result<RankSlabs, SceneError> {
         let mut low = [f64::INFINITY; 3];
         let mut high = [f64::NEG_INFINITY; 3];
         for &(x, _) in seeds.iter().flatten() {

@@ -167,6 +167,16 @@ pub fn build_simulation(file: &SceneFile, registry: &Registry) -> Result<Built, 
     with_dim!(file.dimension()?, D => Spec::<D>::from_file(file)?.build(registry))
 }
 
+/// [`build_simulation`] for rank `rank` of a distributed run of `ranks` ([`Spec::build_rank`]).
+pub fn build_rank_simulation(
+    file: &SceneFile,
+    registry: &Registry,
+    rank: usize,
+    ranks: usize,
+) -> Result<Built, SceneError> {
+    with_dim!(file.dimension()?, D => Spec::<D>::from_file(file)?.build_rank(registry, rank, ranks))
+}
+
 /// Validates `file` and estimates the memory its simulation needs from counts, spawning
 /// nothing ([`Spec::estimate`]).
 /// With `ranks`, also the slabs a distributed run of that many ranks would own.

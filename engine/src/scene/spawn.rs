@@ -13,6 +13,7 @@ use crate::components::{
     BodyId, ContactGroup, Damage, NodeBundle, ParticleBundle, Velocity, WaveSpeed,
 };
 use crate::connectivity::Connectivity;
+use crate::decomposition::Ownership;
 use crate::dim::{Dim, Lattice, VectorOps, lattice_range};
 use crate::health::{LeaveGrid, remove_escaped_particles};
 use crate::loads::{LoadShare, ParticleLoads, apply_loads};
@@ -23,7 +24,7 @@ use crate::resources::{BodyForce, Grid, Materials, SimClock, Thickness};
 use crate::series::SeriesColumns;
 use crate::simulation::{Simulation, add_stage_checks, step_schedule};
 use crate::stage::{Stage, StageCheck, StepSet};
-use bevy_ecs::prelude::World;
+use bevy_ecs::prelude::{With, World};
 use bevy_ecs::schedule::IntoScheduleConfigs;
 
 /// A body's seeds: each particle's position and volume.
@@ -31,6 +32,12 @@ pub(super) type Seeds<D> = Vec<(<D as Dim>::Vector, f64)>;
 
 /// What a seeded particle starts with: its material index, velocity and damage.
 type SeedState<D> = (usize, <D as Dim>::Vector, f64);
+
+/// Which rank a world is built for, and the slabs.
+struct RankPlan {
+    rank: usize,
+    layout: crate::decomposition::Layout,
+}
 
 /// A scene's world with its pipeline installed, before the engine's own systems.
 struct Installed {
@@ -47,15 +54,44 @@ impl<D: Dim> Spec<D> {
     /// from counts (the grid, the seeds, what the pipeline gives each entity and declares)
     /// before any entity is spawned.
     pub fn build(self, registry: &Registry) -> Result<Built, SceneError> {
+        self.build_for(registry, None)
+    }
+
+    /// [`Spec::build`] for rank `rank` of a distributed run of `ranks`: the world holds the
+    /// particles of the rank's slab and its halo ([`crate::decomposition::Ownership`]), and is
+    /// stepped with [`crate::run::distributed::step`]. Every rank builds the same slabs from the
+    /// same seeds.
+    pub fn build_rank(
+        self,
+        registry: &Registry,
+        rank: usize,
+        ranks: usize,
+    ) -> Result<Built, SceneError> {
+        self.build_for(registry, Some((rank, ranks)))
+    }
+
+    fn build_for(
+        self,
+        registry: &Registry,
+        rank: Option<(usize, usize)>,
+    ) -> Result<Built, SceneError> {
         let (available, seeds, probe) = self.seeded_and_probed(registry)?;
         let memory = self.check_memory_from_counts(&seeds, &probe, available)?;
+        let plan = match rank {
+            Some((rank, ranks)) => Some(self.rank_plan(&seeds, &probe, rank, ranks)?),
+            None => None,
+        };
+        let total: usize = seeds.iter().map(Vec::len).sum();
         let Installed {
             mut world,
             mut schedule,
             body_particles,
             mut output,
             pipeline,
-        } = self.spawn_and_install(registry, seeds, &probe.templates)?;
+        } = self.spawn_and_install(registry, seeds, &probe.templates, plan.as_ref())?;
+        if let Some(plan) = plan {
+            self.distribute(&mut world, plan, total as u64, probe.templates.particles)?;
+        }
         world.insert_resource(memory);
         self.check_checkpoint_keys(&world)?;
         self.check_strength_scales(&mut world)?;
@@ -84,6 +120,104 @@ impl<D: Dim> Spec<D> {
             body_particles,
             summary,
         })
+    }
+
+    /// The slabs of `ranks` ranks, with halos as deep as the pipeline's step reaches.
+    fn rank_plan(
+        &self,
+        seeds: &[Seeds<D>],
+        probe: &super::estimate::PipelineProbe,
+        rank: usize,
+        ranks: usize,
+    ) -> Result<RankPlan, SceneError> {
+        if probe.reach.support.is_none() {
+            return Err(self.source.error(
+                "pipeline",
+                "no basis system of this pipeline declares its support radius \
+                 (Installer::declare_support_radius), so the halo a rank needs is unknown; run \
+                 it as one process",
+            ));
+        }
+        if self.on_leave_grid == LeaveGrid::Remove {
+            return Err(self.source.error(
+                "on_leave_grid",
+                "particles removed on leaving the grid cannot run on several ranks yet; use \
+                 `Stop`, or run as one process",
+            ));
+        }
+        let slabs = self.slabs(seeds, ranks)?.slabs;
+        let narrowest = (0..self.grid.cells[slabs.axis])
+            .map(|i| self.grid.cell_width(slabs.axis, i))
+            .fold(f64::INFINITY, f64::min);
+        Ok(RankPlan {
+            rank,
+            layout: crate::decomposition::Layout {
+                axis: slabs.axis,
+                slabs: slabs.layers,
+                halo: probe.reach.halo_layers(narrowest),
+            },
+        })
+    }
+
+    /// Makes `world`, built for `plan`, a rank's world: its [`Ownership`], and the particle
+    /// templates that particles arriving from other ranks are spawned with. Refuses a pipeline
+    /// that carries state from step to step outside its particles (a running total, a cached
+    /// list by particle row), which a rank cannot yet split or move with its particles.
+    fn distribute(
+        &self,
+        world: &mut World,
+        plan: RankPlan,
+        total: u64,
+        templates: TemplateSet,
+    ) -> Result<(), SceneError> {
+        let engine_state = {
+            let mut engine = World::new();
+            crate::checkpoint::carry_engine_state::<D>(&mut engine);
+            engine
+                .resource::<crate::checkpoint::CheckpointState>()
+                .resource_names()
+        };
+        let carried = world
+            .get_resource::<crate::checkpoint::CheckpointState>()
+            .map(|s| s.resource_names())
+            .unwrap_or_default();
+        if let Some(own) = carried.iter().find(|n| !engine_state.contains(n)) {
+            return Err(self.source.error(
+                "pipeline",
+                format!(
+                    "a system of this pipeline carries \"{own}\" from step to step, which a \
+                     distributed run cannot yet split between ranks; run it as one process"
+                ),
+            ));
+        }
+        let published = world
+            .get_resource::<SeriesColumns>()
+            .map(SeriesColumns::published)
+            .unwrap_or_default();
+        if let Some(column) = published.first() {
+            return Err(self.source.error(
+                "pipeline",
+                format!(
+                    "a system of this pipeline publishes the series column \"{column}\", which \
+                     a distributed run cannot yet sum over ranks; run it as one process"
+                ),
+            ));
+        }
+        let axis = plan.layout.axis;
+        let node_layers: Vec<usize> = (0..self.grid.node_count())
+            .map(|n| self.grid.node_lattice(n)[axis])
+            .collect();
+        let mut ownership = Ownership::new(plan.layout, plan.rank, total, node_layers.into_iter());
+        let mut query = world
+            .query_filtered::<&crate::components::Position<D>, With<crate::components::Particle>>();
+        let layers: Vec<usize> = query
+            .iter(world)
+            .map(|x| crate::run::distributed::layer_of::<D>(&ownership.layout, &self.grid, x.0))
+            .collect();
+        ownership.mark(layers.into_iter());
+        world.insert_resource(ownership);
+        crate::run::distributed::save_rank_templates(world, templates);
+        Ok(())
     }
 
     /// Every name in `output.fields` is an array a particle frame of this pipeline has.
@@ -127,8 +261,9 @@ impl<D: Dim> Spec<D> {
         registry: &Registry,
         seeds: Vec<Seeds<D>>,
         templates: &ComponentTemplates,
+        plan: Option<&RankPlan>,
     ) -> Result<Installed, SceneError> {
-        let (mut world, body_particles, output) = self.spawn_world(templates, seeds)?;
+        let (mut world, body_particles, output) = self.spawn_world(templates, seeds, plan)?;
         let mut schedule = step_schedule();
         let pipeline = self.install_pipeline(registry, &mut schedule, &mut world)?;
         world.remove_resource::<ComponentTemplates>();
@@ -149,10 +284,12 @@ impl<D: Dim> Spec<D> {
         &self,
         templates: &ComponentTemplates,
         seeds: Vec<Seeds<D>>,
+        plan: Option<&RankPlan>,
     ) -> Result<(World, Vec<usize>, OutputPlan), SceneError> {
         let mut world = World::new();
         spawn_nodes(&mut world, &self.grid, &templates.nodes);
-        let (body_particles, loads) = self.spawn_bodies(&mut world, &templates.particles, seeds)?;
+        let (body_particles, loads) =
+            self.spawn_bodies(&mut world, &templates.particles, seeds, plan)?;
         self.insert_scene_resources(&mut world, loads)?;
         let output = self.output_plan(&mut world)?;
         Ok((world, body_particles, output))
@@ -302,6 +439,7 @@ impl<D: Dim> Spec<D> {
         world: &mut World,
         templates: &TemplateSet,
         seeds: Vec<Seeds<D>>,
+        plan: Option<&RankPlan>,
     ) -> Result<(Vec<usize>, ParticleLoads<D>), SceneError> {
         let mut counts = Vec::new();
         let mut next_id: u32 = 0;
@@ -309,6 +447,24 @@ impl<D: Dim> Spec<D> {
         for ((b, body), seeded) in self.bodies.iter().enumerate().zip(seeds) {
             let mut bundles = self.body_particles(b, body, seeded, &mut next_id)?;
             self.share_loads(b, body, &mut bundles, &mut loads)?;
+            if let Some(plan) = plan {
+                // Ids, load shares and strengths are the whole body's; the rank keeps its own.
+                if !strength_scales(body, &bundles).is_empty() {
+                    return Err(self.source.error(
+                        &format!("bodies[{b}]"),
+                        "a body whose particle file gives `strength_scale` cannot run on \
+                         several ranks yet; run it as one process",
+                    ));
+                }
+                bundles.retain(|p| {
+                    crate::run::distributed::holds(
+                        &plan.layout,
+                        &self.grid,
+                        plan.rank,
+                        p.position.0,
+                    )
+                });
+            }
             counts.push(bundles.len());
             let scales = strength_scales(body, &bundles);
             let entities = templates.spawn(world, bundles);

@@ -51,7 +51,8 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         ));
     }
     let nodes = 3f64.powi(installer.dimension().count() as i32);
-    super::declare_support(installer, "basis/gimp", nodes, true, 0.0);
+    // A particle half a cell wide reaches one and a half cells from its centre.
+    super::declare_support(installer, "basis/gimp", (nodes, 1.5), true, 0.0);
     with_dim!(installer.dimension(), D => installer.add_systems(gimp_basis::<D>));
     Ok(())
 }

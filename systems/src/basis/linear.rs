@@ -23,7 +23,7 @@ pub const REGISTRATION: Registration = Registration {
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
     let nodes = (1 << installer.dimension().count()) as f64;
-    super::declare_support(installer, "basis/linear", nodes, true, 0.0);
+    super::declare_support(installer, "basis/linear", (nodes, 1.0), true, 0.0);
     with_dim!(installer.dimension(), D => installer.add_systems(linear_basis::<D>));
     Ok(())
 }

@@ -127,7 +127,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     super::declare_support(
         installer,
         "basis/lme",
-        nodes,
+        (nodes, reach),
         graded,
         4.0 * candidates + state + row_map,
     );

@@ -9,15 +9,24 @@ use fractum_engine::prelude::*;
 use fractum_engine::scene::budget::{connectivity_entry_bytes, describe_count};
 
 /// Declares a basis's connectivity storage, `nodes` support nodes per particle, for the
-/// scene's memory estimate. `stores_gradients`: whether each entry keeps its gradient (rows
+/// scene's memory estimate, and its support radius, `radius_cells` cell widths, for a
+/// distributed run's halo. `stores_gradients`: whether each entry keeps its gradient (rows
 /// whose gradients follow a per-row map, LME's eq. 8, count the map in `extra_bytes`).
 pub fn declare_support(
     installer: &mut Installer,
     name: &str,
-    nodes: f64,
+    (nodes, radius_cells): (f64, f64),
     stores_gradients: bool,
     extra_bytes: f64,
 ) {
+    // In the widest cell, so that no support on a graded grid reaches further.
+    let widest = with_dim!(installer.dimension(), D => {
+        let grid = installer.world().resource::<fractum_engine::resources::Grid<D>>();
+        (0..D::N)
+            .flat_map(|a| (0..grid.cells[a]).map(move |i| grid.cell_width(a, i)))
+            .fold(0.0, f64::max)
+    });
+    installer.declare_support_radius(radius_cells * widest);
     let gradient = if stores_gradients {
         0.0
     } else {

@@ -30,6 +30,8 @@ pub const REGISTRATION: Registration = Registration {
 
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
+    // The new stresses' forces to the nodes, read back by the advection.
+    installer.declare_grid_round_trip();
     with_dim!(installer.dimension(), D => installer.add_systems(newmark_corrector::<D>));
     Ok(())
 }

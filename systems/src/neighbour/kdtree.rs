@@ -33,6 +33,8 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         "neighbour/kdtree",
         &[parsed.c_epsilon * (1.0 + parsed.skin), parsed.c_epsilon],
     );
+    let h = with_dim!(installer.dimension(), D => installer.world().resource::<Grid<D>>().spacing);
+    installer.declare_particle_reach("the ε-neighbourhood", parsed.c_epsilon * h);
     installer.insert_resource(parsed);
     installer.init_resource::<Neighbourhoods>();
     with_dim!(installer.dimension(), D => {

@@ -41,6 +41,11 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         "neighbour/node_linked",
         &[parsed.c_epsilon + 0.5],
     );
+    let h = with_dim!(installer.dimension(), D => installer.world().resource::<Grid<D>>().spacing);
+    installer.declare_particle_reach(
+        "the ε-neighbourhood and a cell",
+        (parsed.c_epsilon + 1.0) * h,
+    );
     installer.insert_resource(parsed);
     installer.init_resource::<Neighbourhoods>();
     with_dim!(installer.dimension(), D => installer.add_systems(node_linked_neighbours::<D>));

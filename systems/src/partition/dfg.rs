@@ -176,6 +176,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         "partition/dfg",
         &[radius_cells * (1.0 + SKIN) + 0.5],
     );
+    installer.declare_particle_reach("the damage-gradient kernel", radius_cells * spacing);
     installer.insert_resource(parsed);
     install_field_assignment(installer)?;
     installer.add_node_component(NodeFieldDamage::default());

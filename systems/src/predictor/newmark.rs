@@ -66,6 +66,8 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         ),
     );
     installer.insert_resource(parsed);
+    // Mass and momentum to the nodes, read back by the stress.
+    installer.declare_grid_round_trip();
     installer.insert_resource(GridIntegration::PredictorCorrector {
         gamma: parsed.gamma,
     });

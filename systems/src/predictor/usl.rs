@@ -63,6 +63,8 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     )?;
     installer.insert_resource(parsed);
     installer.insert_resource(GridIntegration::UpdateStressLast);
+    // Mass, momentum and forces to the nodes, read back by the stress and the advection.
+    installer.declare_grid_round_trip();
     with_dim!(installer.dimension(), D => installer.add_systems(usl_predictor::<D>));
     Ok(())
 }

@@ -9,6 +9,10 @@
 //! count, which keeps a first distributed step's exchanges to two per rank; the imbalance this
 //! reports tells when a scene needs better.
 
+mod layout;
+
+pub use layout::{Layout, Ownership, StepReach};
+
 use std::ops::Range;
 
 /// The slabs of a scene over its ranks.

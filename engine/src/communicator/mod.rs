@@ -91,6 +91,9 @@ pub fn sum_in_rank_order(gathered: &[f64], width: usize) -> Vec<f64> {
     sums
 }
 
+mod threads;
+pub use threads::{ThreadRank, thread_ranks};
+
 /// The one-process communicator: rank 0 of 1. A gather returns the values, an exchange has no
 /// peer, and a failure is this rank's own.
 #[derive(Clone, Copy, Debug, Default)]

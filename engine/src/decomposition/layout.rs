@@ -1,0 +1,218 @@
+//! What each rank of a distributed run holds: its slab of the grid's cell layers and a halo.
+//!
+//! **What a rank holds.** The particles of its slab (it *owns* them) and copies of every
+//! particle within [`Layout::halo`] layers of the slab (*ghosts*), with every node of the grid.
+//! Each rank steps its particles, owned and ghost alike, with the scene's whole pipeline, in
+//! the order of their global ids ([`crate::run::distributed::redistribute`] keeps the rows sorted by id), so a node that
+//! an owned particle's step reads sums the same entries in the same order as the single
+//! process: an owned particle's state is the single process's, bit for bit. The halo is as
+//! deep as the step's chain of particle–grid–particle transfers and particle neighbourhoods
+//! reaches ([`StepReach`], declared by the systems' installers), plus one layer for the motion
+//! of a step and one for the cut between layers. Ghosts near the halo's outer face read nodes
+//! that miss some of their particles, so what they compute is wrong, and no rank uses it: after
+//! every step each particle's owner sends its state to every rank that holds it
+//! ([`crate::run::distributed::redistribute`]), which replaces every ghost and moves each particle that crossed into
+//! another slab to its new owner.
+//!
+//! **Why recompute rather than sum nodes across ranks.** Summing each shared node's values
+//! over ranks needs an exchange after every transfer of the step (mass and momentum, forces,
+//! each contact field), with the sum's order fixed by hand to stay bitwise; recomputing the
+//! halo needs one exchange per step and no system knows it is distributed. The price is the
+//! halo's work, which the slabs' widths bound; `fractum check --estimate --ranks N` shows it.
+//!
+//! **What a rank checks.** The health checks look at owned particles and at nodes of the
+//! slab's own layers ([`Ownership`]); the stable step is the least over ranks.
+
+use bevy_ecs::prelude::Resource;
+use std::ops::Range;
+
+/// How far one step's update of a particle reaches, particle to particle, as the pipeline's
+/// installers declare it: a distributed run's halo must be at least this deep.
+#[derive(Resource, Clone, Debug, Default, PartialEq)]
+pub struct StepReach {
+    /// The basis's support radius along an axis (m): how far a particle's nodes lie from it.
+    pub support: Option<f64>,
+    /// Particle → grid → particle round trips in a step (a transfer to the nodes that later
+    /// particles read back): each reaches twice the support.
+    pub round_trips: u32,
+    /// Other reaches (m), with the pipeline entry and what they are: a damage law's
+    /// neighbourhood, a damage gradient's kernel.
+    pub neighbourhoods: Vec<(String, f64)>,
+}
+
+impl StepReach {
+    /// The distance (m) one step's update of a particle reads from.
+    pub fn metres(&self) -> f64 {
+        2.0 * self.support.unwrap_or(0.0) * self.round_trips as f64
+            + self.neighbourhoods.iter().map(|(_, r)| r).sum::<f64>()
+    }
+
+    /// The halo in cell layers of width `h`: the reach, one layer for a step's motion (the
+    /// stable step moves no particle a whole cell) and one for the cut between layers.
+    pub fn halo_layers(&self, h: f64) -> usize {
+        (self.metres() / h).ceil() as usize + 2
+    }
+}
+
+/// The slabs of a distributed run and the depth of their halos.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Layout {
+    /// The axis the slabs are stacked along.
+    pub axis: usize,
+    /// Each rank's cell layers, in rank order, covering `0..cells`.
+    pub slabs: Vec<Range<usize>>,
+    /// Layers of ghosts on each side of a slab.
+    pub halo: usize,
+}
+
+impl Layout {
+    /// The number of cell layers along the axis.
+    pub fn cells(&self) -> usize {
+        self.slabs.last().map_or(0, |s| s.end)
+    }
+
+    /// The rank whose slab holds `layer`.
+    pub fn owner(&self, layer: usize) -> usize {
+        self.slabs
+            .partition_point(|s| s.end <= layer)
+            .min(self.slabs.len() - 1)
+    }
+
+    /// The layers rank `rank` holds particles of: its slab and the halo, within the grid.
+    pub fn held(&self, rank: usize) -> Range<usize> {
+        let slab = &self.slabs[rank];
+        slab.start.saturating_sub(self.halo)..(slab.end + self.halo).min(self.cells())
+    }
+
+    /// The ranks that hold particles of `layer`, ascending.
+    pub fn holders(&self, layer: usize) -> impl Iterator<Item = usize> + '_ {
+        (0..self.slabs.len()).filter(move |&r| self.held(r).contains(&layer))
+    }
+
+    /// The ranks `rank` exchanges particles with: those whose slab meets its held layers or
+    /// whose held layers meet its slab (the same relation seen from either side).
+    pub fn peers(&self, rank: usize) -> Vec<usize> {
+        let meets = |a: &Range<usize>, b: &Range<usize>| a.start < b.end && b.start < a.end;
+        (0..self.slabs.len())
+            .filter(|&r| {
+                r != rank
+                    && (meets(&self.held(rank), &self.slabs[r])
+                        || meets(&self.held(r), &self.slabs[rank]))
+            })
+            .collect()
+    }
+
+    /// The layer of a point whose cell along the axis is `cell` (`None` outside the grid,
+    /// `below` when under its lower face): clamped into the grid, so a particle just outside
+    /// belongs to the edge layer (the health check stops a run whose particle left the grid).
+    pub fn clamp_layer(&self, cell: Option<usize>, below: bool) -> usize {
+        match cell {
+            Some(layer) => layer,
+            None if below => 0,
+            None => self.cells() - 1,
+        }
+    }
+}
+
+/// What this rank owns: a resource of a rank's world in a distributed run. Serial worlds have
+/// none, and own everything.
+#[derive(Resource, Clone, Debug)]
+pub struct Ownership {
+    /// This rank.
+    pub rank: usize,
+    /// The slabs and halos.
+    pub layout: Layout,
+    /// Per particle row: owned here (in this rank's slab when the step began).
+    pub particles: Vec<bool>,
+    /// Per particle row: within a layer of this rank's slab when the step began, so that its
+    /// step here is exact and this rank may take it over if it ends the step in the slab.
+    pub claimable: Vec<bool>,
+    /// The particles of the whole run (every rank's owned ones).
+    pub total: u64,
+    /// Per node index: in this rank's own layers, whose values the owned particles read.
+    pub nodes: Vec<bool>,
+}
+
+impl Ownership {
+    /// The ownership of rank `rank` of a run of `total` particles, with no particle marked yet
+    /// ([`Ownership::mark`]); `node_layers` gives each node's lattice index along the axis, in
+    /// node order.
+    pub fn new(
+        layout: Layout,
+        rank: usize,
+        total: u64,
+        node_layers: impl Iterator<Item = usize>,
+    ) -> Self {
+        let slab = layout.slabs[rank].clone();
+        let nodes = node_layers
+            .map(|i| slab.start <= i && i <= slab.end)
+            .collect();
+        Self {
+            rank,
+            layout,
+            particles: Vec::new(),
+            claimable: Vec::new(),
+            total,
+            nodes,
+        }
+    }
+
+    /// Marks each particle row from the layer it is in at the start of a step.
+    pub fn mark(&mut self, layers: impl Iterator<Item = usize>) {
+        let slab = self.layout.slabs[self.rank].clone();
+        let near = slab.start.saturating_sub(1)..slab.end + 1;
+        (self.particles, self.claimable) = layers
+            .map(|layer| (slab.contains(&layer), near.contains(&layer)))
+            .unzip();
+    }
+
+    /// Whether particle row `row` is owned here.
+    pub fn owns_particle(&self, row: usize) -> bool {
+        self.particles.get(row).copied().unwrap_or(false)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn layout() -> Layout {
+        Layout {
+            axis: 0,
+            slabs: vec![0..4, 4..10, 10..12],
+            halo: 3,
+        }
+    }
+
+    #[test]
+    fn a_layer_has_one_owner_and_is_held_by_the_ranks_within_a_halo_of_it() {
+        let l = layout();
+        let owners: Vec<usize> = (0..12).map(|k| l.owner(k)).collect();
+        assert_eq!(owners, [0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 2, 2]);
+        assert_eq!(l.held(0), 0..7);
+        assert_eq!(l.held(1), 1..12);
+        assert_eq!(l.held(2), 7..12);
+        assert_eq!(l.holders(0).collect::<Vec<_>>(), [0]);
+        assert_eq!(l.holders(6).collect::<Vec<_>>(), [0, 1]);
+        assert_eq!(l.holders(8).collect::<Vec<_>>(), [1, 2]);
+        assert_eq!(l.peers(0), [1]);
+        assert_eq!(l.peers(1), [0, 2]);
+        assert_eq!(l.peers(2), [1]);
+        // A halo wider than a slab reaches past the neighbour: ranks 0 and 2 meet.
+        let wide = Layout { halo: 7, ..l };
+        assert_eq!(wide.peers(0), [1, 2]);
+        assert_eq!(wide.peers(2), [0, 1]);
+    }
+
+    #[test]
+    fn the_halo_covers_the_transfers_and_neighbourhoods_a_step_declares() {
+        let reach = StepReach {
+            support: Some(0.1),
+            round_trips: 2,
+            neighbourhoods: vec![("pipeline[4]".into(), 0.15)],
+        };
+        assert!((reach.metres() - 0.55).abs() < 1e-15);
+        // 0.55 / 0.1 = 5.5 layers, six, plus the step's motion and the cut.
+        assert_eq!(reach.halo_layers(0.1), 8);
+    }
+}

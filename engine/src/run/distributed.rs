@@ -1,0 +1,236 @@
+//! A step of a distributed run on one rank: the stable step agreed by every rank, the scene's
+//! step on the rank's particles, and then [`redistribute`]: every particle's owner sends its
+//! state to the ranks that hold it, and each rank rebuilds its particles from what it kept and
+//! received, sorted by id. What each rank holds and why: [`crate::decomposition::Ownership`].
+
+use crate::checkpoint::CheckpointState;
+use crate::communicator::{Communicator, RankFailure};
+use crate::components::{Particle, ParticleBundle, ParticleId, Position};
+use crate::decomposition::{Layout, Ownership};
+use crate::dim::{Dim, VectorOps};
+use crate::registry::templates::TemplateSet;
+use crate::resources::Grid;
+use crate::with_dim;
+use bevy_ecs::prelude::*;
+
+/// Takes one step of a distributed run on this rank: the least stable step over ranks, the
+/// step, and [`redistribute`]. Every rank calls it for the same step; a failure on any rank
+/// (a blow-up it found, an exchange it could not decode) is returned by every rank, naming the
+/// first failing one.
+pub fn step(sim: &mut crate::Simulation, comm: &dyn Communicator) -> Result<(), RankFailure> {
+    let dt = comm.min(sim.planned_time_step());
+    let stepped = sim.step_with_time_step(dt).map_err(|e| e.to_string());
+    comm.agree(stepped.err().as_deref())?;
+    let moved = with_dim!(sim.dimension(), D => redistribute::<D>(&mut sim.world, comm));
+    comm.agree(moved.err().as_deref())
+}
+
+/// The cell layer along the slabs' axis of a particle at `x`, clamped into the grid.
+pub fn layer_of<D: Dim>(layout: &Layout, grid: &Grid<D>, x: D::Vector) -> usize {
+    let coordinate = x[layout.axis];
+    let below = coordinate.is_nan() || coordinate < grid.coordinate(layout.axis, 0);
+    layout.clamp_layer(grid.axis_cell(layout.axis, coordinate), below)
+}
+
+/// The components a rank's particles are spawned with, kept for the particles that arrive from
+/// other ranks (each is spawned with them, then given its state).
+#[derive(Resource)]
+pub struct RankParticles(pub TemplateSet);
+
+/// Keeps `templates` in `world` for [`redistribute`].
+pub fn save_rank_templates(world: &mut World, templates: TemplateSet) {
+    world.insert_resource(RankParticles(templates));
+}
+
+/// One rank's particles on the wire: their ids, ascending, and their carried components as
+/// [`CheckpointState::save_particles`] encodes them.
+type Block = (Vec<u32>, Vec<Vec<u8>>);
+
+/// Rows in storage order: entity, id, position.
+fn rows<D: Dim>(world: &mut World) -> Vec<(Entity, u32, D::Vector)> {
+    let mut query = world.query_filtered::<(Entity, &ParticleId, &Position<D>), With<Particle>>();
+    query.iter(world).map(|(e, id, x)| (e, id.0, x.0)).collect()
+}
+
+fn block(
+    world: &mut World,
+    state: &CheckpointState,
+    rows: &[(Entity, u32)],
+) -> Result<Block, String> {
+    let entities: Vec<Entity> = rows.iter().map(|r| r.0).collect();
+    let components = state
+        .save_particles(world, &entities)
+        .map_err(|e| e.to_string())?;
+    Ok((rows.iter().map(|r| r.1).collect(), components))
+}
+
+/// Ends a step of a distributed run on this rank: sends the state of each particle this rank
+/// now owns to every other rank that holds its layer, and replaces this rank's particles with
+/// the ones it owns and the ones it received, in id order, each with its owner's state. Every
+/// rank calls it after the same step.
+pub fn redistribute<D: Dim>(world: &mut World, comm: &dyn Communicator) -> Result<(), String> {
+    let mut ownership = world
+        .remove_resource::<Ownership>()
+        .ok_or("a distributed step needs the rank's Ownership")?;
+    let result = exchange_and_rebuild::<D>(world, comm, &mut ownership);
+    world.insert_resource(ownership);
+    result
+}
+
+fn exchange_and_rebuild<D: Dim>(
+    world: &mut World,
+    comm: &dyn Communicator,
+    ownership: &mut Ownership,
+) -> Result<(), String> {
+    let grid = world.resource::<Grid<D>>().clone();
+    let state = world
+        .get_resource::<CheckpointState>()
+        .cloned()
+        .unwrap_or_default();
+    let layout = ownership.layout.clone();
+    let me = ownership.rank;
+    let peers = layout.peers(me);
+    let mut kept = Vec::new();
+    let mut outgoing: Vec<Vec<(Entity, u32)>> = vec![Vec::new(); peers.len()];
+    for (row, (entity, id, x)) in rows::<D>(world).into_iter().enumerate() {
+        let layer = layer_of::<D>(&layout, &grid, x);
+        // Only a particle whose step here was exact (it began near the slab) is taken over.
+        if !ownership.claimable.get(row).copied().unwrap_or(false) || layout.owner(layer) != me {
+            continue;
+        }
+        kept.push((entity, id));
+        for holder in layout.holders(layer).filter(|&h| h != me) {
+            // Every holder of a layer of this slab is a peer (`Layout::peers`).
+            if let Some(k) = peers.iter().position(|&p| p == holder) {
+                outgoing[k].push((entity, id));
+            }
+        }
+    }
+    // Every rank takes part in the sum and the exchange, whatever it found, so that none waits
+    // for another; the failures are reported after them.
+    let owned = comm.sum(&[kept.len() as f64])[0];
+    let mut failure = (owned != ownership.total as f64).then(|| {
+        format!(
+            "the ranks own {owned} particles after the step, not the run's {}: a particle moved \
+             further in one step than the halo of {} layers allows",
+            ownership.total, layout.halo
+        )
+    });
+    let mut sends = Vec::with_capacity(peers.len());
+    for (peer, rows) in peers.iter().zip(&outgoing) {
+        let encoded = block(world, &state, rows).and_then(|b| {
+            postcard::to_allocvec(&b)
+                .map_err(|e| format!("cannot encode particles for rank {peer}: {e}"))
+        });
+        sends.push((
+            *peer,
+            encoded.unwrap_or_else(|e| {
+                failure.get_or_insert(e);
+                Vec::new()
+            }),
+        ));
+    }
+    let received = comm.exchange(&sends);
+    if let Some(failure) = failure {
+        return Err(failure);
+    }
+    let mut blocks = vec![block(world, &state, &kept)?];
+    for (peer, bytes) in peers.iter().zip(received) {
+        let decoded: Block = postcard::from_bytes(&bytes)
+            .map_err(|e| format!("cannot decode the particles rank {peer} sent: {e}"))?;
+        blocks.push(decoded);
+    }
+    rebuild::<D>(world, &state, blocks)?;
+    let layers: Vec<usize> = rows::<D>(world)
+        .into_iter()
+        .map(|(_, _, x)| layer_of::<D>(&layout, &grid, x))
+        .collect();
+    ownership.mark(layers.into_iter());
+    Ok(())
+}
+
+/// Makes the world's particles exactly those of `blocks`, sorted by id.
+fn rebuild<D: Dim>(
+    world: &mut World,
+    state: &CheckpointState,
+    blocks: Vec<Block>,
+) -> Result<(), String> {
+    let mut picks: Vec<(u32, u32, u32)> = blocks
+        .iter()
+        .enumerate()
+        .flat_map(|(b, (ids, _))| {
+            ids.iter()
+                .enumerate()
+                .map(move |(i, &id)| (id, b as u32, i as u32))
+        })
+        .collect();
+    picks.sort_unstable();
+    if let Some(w) = picks.windows(2).find(|w| w[0].0 == w[1].0) {
+        return Err(format!("particle {} arrived from two ranks", w[0].0));
+    }
+    resize_particles::<D>(world, picks.len())?;
+    let entities: Vec<Entity> = rows::<D>(world).into_iter().map(|r| r.0).collect();
+    for (&entity, &(id, _, _)) in entities.iter().zip(&picks) {
+        world
+            .get_mut::<ParticleId>(entity)
+            .ok_or("a particle without an id")?
+            .0 = id;
+    }
+    let components: Vec<Vec<Vec<u8>>> = blocks.into_iter().map(|b| b.1).collect();
+    let picks: Vec<(u32, u32)> = picks.iter().map(|&(_, b, i)| (b, i)).collect();
+    state
+        .load_picked(world, &entities, &components, &picks)
+        .map_err(|e| e.to_string())
+}
+
+/// Spawns or despawns particles at the end of storage until there are `count`: the rows that
+/// stay keep their places.
+fn resize_particles<D: Dim>(world: &mut World, count: usize) -> Result<(), String> {
+    let entities: Vec<Entity> = rows::<D>(world).into_iter().map(|r| r.0).collect();
+    if count < entities.len() {
+        for &entity in entities[count..].iter().rev() {
+            world.despawn(entity);
+        }
+    } else if count > entities.len() {
+        let templates = world
+            .remove_resource::<RankParticles>()
+            .ok_or("a distributed step needs the rank's particle templates")?;
+        let fresh = ParticleBundle::<D>::new(0, D::Vector::ZERO, 0.0, 0.0, 0);
+        templates
+            .0
+            .spawn(world, vec![fresh; count - entities.len()]);
+        world.insert_resource(templates);
+    }
+    Ok(())
+}
+
+/// Each particle's carried state, encoded one particle at a time, by id: this rank's owned
+/// particles in a distributed run, every particle otherwise. What tests compare between a
+/// distributed run and the single process.
+pub fn state_of_particles<D: Dim>(
+    world: &mut World,
+) -> Result<std::collections::BTreeMap<u32, Vec<Vec<u8>>>, String> {
+    let state = world
+        .get_resource::<CheckpointState>()
+        .cloned()
+        .unwrap_or_default();
+    let owned = world
+        .get_resource::<Ownership>()
+        .map(|o| o.particles.clone());
+    let mut states = std::collections::BTreeMap::new();
+    for (row, (entity, id, _)) in rows::<D>(world).into_iter().enumerate() {
+        if owned.as_ref().is_some_and(|o| !o[row]) {
+            continue;
+        }
+        let encoded = state
+            .save_particles(world, &[entity])
+            .map_err(|e| e.to_string())?;
+        states.insert(id, encoded);
+    }
+    Ok(states)
+}
+
+/// Whether rank `rank` of `layout` holds a particle at `x` (in its slab or its halo).
+pub fn holds<D: Dim>(layout: &Layout, grid: &Grid<D>, rank: usize, x: D::Vector) -> bool {
+    layout.held(rank).contains(&layer_of::<D>(layout, grid, x))
+}

@@ -1,0 +1,142 @@
+//! A scene run as several ranks (threads of this process, `ThreadRank`) gives every particle
+//! the state the single process gives it, bit for bit, and a pipeline a rank cannot yet split
+//! is refused with its reason. The same steps under `mpirun` are `tools/tests/mpi_run.rs`.
+
+use fractum_engine::communicator::{Communicator, thread_ranks};
+use fractum_engine::dim::Two;
+use fractum_engine::run::distributed::{self, state_of_particles};
+use fractum_engine::scene::{SceneFile, build_rank_simulation, build_simulation};
+use std::collections::BTreeMap;
+
+type States = BTreeMap<u32, Vec<Vec<u8>>>;
+
+fn scene(pipeline: &str, end_steps: u64) -> String {
+    format!(
+        r#"(
+    title: "two disks",
+    units: SI,
+    time: (step: Fixed(1.0e-3), end: Steps({end_steps})),
+    grid: (min: (0.0, 0.0), max: (1.0, 1.0), spacing: 0.05),
+    materials: {{
+        "elastic": (density: 1000.0, youngs_modulus: 1000.0, poisson_ratio: 0.3),
+    }},
+    bodies: [
+        (name: "lower-left", shape: Disk(center: (0.25, 0.3), radius: 0.2), material: "elastic",
+         particles_per_cell: 2, velocity: Uniform((0.4, 0.1))),
+        (name: "upper-right", shape: Disk(center: (0.75, 0.7), radius: 0.2), material: "elastic",
+         particles_per_cell: 2, velocity: Uniform((-0.4, -0.1))),
+    ],
+    pipeline: [{pipeline}],
+)"#
+    )
+}
+
+fn parse(text: &str) -> SceneFile {
+    SceneFile::parse("two_disks.ron", text.to_string()).unwrap()
+}
+
+const USL: &str = r#"(system: "basis/linear"), (system: "predictor/usl"),
+    (system: "stress/linear_elastic"), (system: "advection/usl")"#;
+const NEWMARK_GIMP: &str = r#"(system: "basis/gimp"), (system: "predictor/newmark"),
+    (system: "stress/neo_hookean"), (system: "corrector/newmark"), (system: "advection/newmark")"#;
+
+fn serial(text: &str, steps: u64) -> States {
+    let mut built = build_simulation(&parse(text), &fractum_systems::stock_registry()).unwrap();
+    for _ in 0..steps {
+        built.simulation.step().unwrap();
+    }
+    state_of_particles::<Two>(&mut built.simulation.world).unwrap()
+}
+
+/// Each rank's owned particles after `steps`, and how many particles each rank owned over
+/// the run that were first seeded on another rank.
+fn on_ranks(text: &str, ranks: usize, steps: u64) -> Vec<(States, usize)> {
+    let threads: Vec<_> = thread_ranks(ranks)
+        .into_iter()
+        .map(|comm| {
+            let file = parse(text);
+            std::thread::spawn(move || {
+                let registry = fractum_systems::stock_registry();
+                let mut built =
+                    build_rank_simulation(&file, &registry, comm.rank(), comm.size()).unwrap();
+                let first = state_of_particles::<Two>(&mut built.simulation.world).unwrap();
+                let mut arrived = std::collections::BTreeSet::<u32>::new();
+                for _ in 0..steps {
+                    distributed::step(&mut built.simulation, &comm).unwrap();
+                    let owned = state_of_particles::<Two>(&mut built.simulation.world).unwrap();
+                    arrived.extend(owned.keys().filter(|id| !first.contains_key(id)));
+                }
+                let owned = state_of_particles::<Two>(&mut built.simulation.world).unwrap();
+                (owned, arrived.len())
+            })
+        })
+        .collect();
+    threads.into_iter().map(|t| t.join().unwrap()).collect()
+}
+
+fn assert_ranks_match_serial(pipeline: &str, steps: u64) {
+    let text = scene(pipeline, steps);
+    let reference = serial(&text, steps);
+    for ranks in 1..=4 {
+        let results = on_ranks(&text, ranks, steps);
+        let mut merged = States::new();
+        for (owned, _) in &results {
+            for (id, state) in owned {
+                assert!(
+                    merged.insert(*id, state.clone()).is_none(),
+                    "particle {id} owned twice"
+                );
+            }
+        }
+        assert_eq!(merged.len(), reference.len(), "{ranks} ranks");
+        let differing: Vec<u32> = reference
+            .iter()
+            .filter(|(id, state)| merged.get(id) != Some(state))
+            .map(|(id, _)| *id)
+            .collect();
+        assert!(
+            differing.is_empty(),
+            "{ranks} ranks: {} particles differ from the single process, the first {:?}",
+            differing.len(),
+            &differing[..differing.len().min(5)]
+        );
+        if ranks > 1 {
+            // The disks cross the slabs: particles changed hands.
+            let moved: usize = results.iter().map(|r| r.1).sum();
+            assert!(
+                moved > 50,
+                "{ranks} ranks: only {moved} particles changed rank"
+            );
+        }
+    }
+}
+
+#[test]
+fn two_disks_colliding_on_one_to_four_ranks_are_the_single_process_bit_for_bit() {
+    // 0.4 m/s each over 0.5 s: the disks cross the slab boundaries and meet.
+    assert_ranks_match_serial(USL, 500);
+}
+
+#[test]
+fn newmark_with_gimp_on_one_to_four_ranks_is_the_single_process_bit_for_bit() {
+    assert_ranks_match_serial(NEWMARK_GIMP, 300);
+}
+
+#[test]
+fn a_pipeline_whose_state_a_rank_cannot_split_is_refused_with_its_reason() {
+    let lme = r#"(system: "neighbour/kdtree", params: (c_epsilon: 2.0)), (system: "basis/lme"),
+        (system: "predictor/usl"), (system: "stress/linear_elastic"), (system: "advection/usl")"#;
+    let e = build_rank_simulation(
+        &parse(&scene(lme, 10)),
+        &fractum_systems::stock_registry(),
+        0,
+        2,
+    )
+    .err()
+    .expect("refused");
+    let message = e.to_string();
+    assert!(
+        message.contains("carries") && message.contains("run it as one process"),
+        "{message}"
+    );
+}
