@@ -177,6 +177,18 @@ impl<D: Dim> Grid<D> {
         }
     }
 
+    /// Index along axis `a` of the cell holding coordinate `x`, clamped into the grid: a point
+    /// below the grid is in the first cell, one above it (or NaN) in the last.
+    pub fn clamped_axis_cell(&self, a: usize, x: f64) -> usize {
+        self.axis_cell(a, x).unwrap_or_else(|| {
+            if x < self.coordinate(a, 0) {
+                0
+            } else {
+                self.cells[a] - 1
+            }
+        })
+    }
+
     /// Cell containing `x`, or `None` when `x` lies outside the grid box. A point exactly on
     /// the upper boundary belongs to the last cell.
     pub fn cell_of(&self, x: D::Vector) -> Option<D::Cell> {

@@ -1,8 +1,9 @@
 //! The ranks an MPI launcher (`mpirun`, `mpiexec`, `srun`) started this process as one of, and
 //! the communicator of the run.
 //!
-//! Runs are one process today: the grid is not yet decomposed over ranks. A `run` or `resume`
-//! started as one of several ranks is therefore refused before it reads its scene, by every
+//! The engine steps a scene over ranks (`fractum_engine::run::distributed`), but the run
+//! command does not yet write a distributed run's series, frames and checkpoints. A `run` or
+//! `resume` started as one of several ranks is therefore refused before it reads its scene, by every
 //! rank with the same exit code and the message printed once, by rank 0: otherwise each rank
 //! would run the whole scene into the same output folder. One rank (`mpirun -np 1`) runs as a
 //! plain process. Built with the `mpi` feature, the ranks initialise MPI and agree on the
@@ -39,9 +40,9 @@ pub fn communicator() -> Box<dyn Communicator> {
 /// Why a run of `size` ranks is refused.
 pub fn distributed_refusal(size: usize) -> String {
     format!(
-        "this run was started as {size} ranks (mpirun -np {size}), but Fractum does not yet \
-         decompose a scene over ranks: each would run the whole scene into the same output \
-         folder. Run it as one process, with `--threads N` for the cores of one machine \
+        "this run was started as {size} ranks (mpirun -np {size}), but `fractum run` does not \
+         yet write the series, frames and checkpoints of a run over ranks: each rank would run \
+         the whole scene into the same output folder. Run it as one process, with `--threads N` for the cores of one machine \
          (`fractum check --estimate SCENE` tells whether the scene fits one machine's memory)"
     )
 }

@@ -321,20 +321,29 @@ fn slabs_report(ranks: &fractum_engine::scene::RankSlabs, out: &mut String) {
         slabs.layers.len(),
         100.0 * slabs.imbalance()
     );
-    for (rank, ((layers, particles), (low, high))) in slabs
+    let _ = writeln!(
+        out,
+        "  each rank also holds the particles within {} cell layers of its slab (ghosts, as \
+         deep as a step reaches)",
+        ranks.halo
+    );
+    for (rank, (((layers, particles), (low, high)), (held, bytes))) in slabs
         .layers
         .iter()
         .zip(&slabs.particles)
         .zip(&ranks.bounds)
+        .zip(&ranks.held)
         .enumerate()
     {
         let _ = writeln!(
             out,
-            "  rank {rank:<4} {axis} {} to {} m (cell layers {}..{}): {particles} particles",
+            "  rank {rank:<4} {axis} {} to {} m (cell layers {}..{}): {particles} particles, \
+             {held} with ghosts, {}",
             short(*low),
             short(*high),
             layers.start,
-            layers.end
+            layers.end,
+            fractum_engine::budget::describe_bytes(*bytes)
         );
     }
 }

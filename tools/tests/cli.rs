@@ -340,7 +340,9 @@ fn a_run_started_as_several_ranks_is_refused_once_and_one_rank_runs() {
     let error = text(&first.stderr);
     assert!(
         error.contains("started as 3 ranks (mpirun -np 3)")
-            && error.contains("does not yet decompose a scene over ranks")
+            && error.contains(
+                "does not yet write the series, frames and checkpoints of a run over ranks"
+            )
             && error.contains("--threads N"),
         "{error}"
     );
@@ -375,19 +377,27 @@ fn check_estimate_divides_a_scene_over_ranks_in_balanced_slabs() {
         report.contains("ranks      4 slabs along x, cut at cell faces; imbalance 0.8%"),
         "{report}"
     );
-    let owned: Vec<u64> = report
+    // "…: 12344 particles, 15480 with ghosts, 76.3 MiB": owned, held.
+    let counts: Vec<(u64, u64)> = report
         .lines()
         .filter(|l| l.trim_start().starts_with("rank "))
         .map(|l| {
-            let count = l
-                .rsplit(": ")
-                .next()
-                .unwrap()
-                .trim_end_matches(" particles");
-            count.parse().unwrap()
+            let words: Vec<&str> = l.rsplit(": ").next().unwrap().split(' ').collect();
+            (words[0].parse().unwrap(), words[2].parse().unwrap())
         })
         .collect();
+    let owned: Vec<u64> = counts.iter().map(|c| c.0).collect();
     assert_eq!(owned, vec![12344, 12152, 12304, 12400], "{report}");
+    // DFG with its kernel reaches 8 layers; an inner rank holds ghosts on both sides.
+    assert!(
+        report.contains("within 8 cell layers of its slab"),
+        "{report}"
+    );
+    assert!(counts.iter().all(|(own, held)| held > own), "{report}");
+    assert!(
+        counts[1].1 - counts[1].0 > counts[0].1 - counts[0].0,
+        "{report}"
+    );
     assert!(report.contains("rank 1    x 0.007 to 0.038 m (cell layers 111..142)"));
     // More ranks than cell layers: a rank must own one.
     let out = fractum(&[

@@ -101,17 +101,6 @@ impl Layout {
             })
             .collect()
     }
-
-    /// The layer of a point whose cell along the axis is `cell` (`None` outside the grid,
-    /// `below` when under its lower face): clamped into the grid, so a particle just outside
-    /// belongs to the edge layer (the health check stops a run whose particle left the grid).
-    pub fn clamp_layer(&self, cell: Option<usize>, below: bool) -> usize {
-        match cell {
-            Some(layer) => layer,
-            None if below => 0,
-            None => self.cells() - 1,
-        }
-    }
 }
 
 /// What this rank owns: a resource of a rank's world in a distributed run. Serial worlds have

@@ -204,3 +204,9 @@ mod tests {
         assert!(world.entity(spawned[0]).get::<Flag>().is_none());
     }
 }
+
+/// The components a distributed run's particles are spawned with, kept in a rank's world for
+/// the particles that arrive from other ranks: each is spawned with them, then given its state
+/// (`run::distributed`).
+#[derive(bevy_ecs::prelude::Resource)]
+pub struct RankParticles(pub TemplateSet);

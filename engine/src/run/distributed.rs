@@ -8,7 +8,6 @@ use crate::communicator::{Communicator, RankFailure};
 use crate::components::{Particle, ParticleBundle, ParticleId, Position};
 use crate::decomposition::{Layout, Ownership};
 use crate::dim::{Dim, VectorOps};
-use crate::registry::templates::TemplateSet;
 use crate::resources::Grid;
 use crate::with_dim;
 use bevy_ecs::prelude::*;
@@ -26,20 +25,8 @@ pub fn step(sim: &mut crate::Simulation, comm: &dyn Communicator) -> Result<(), 
 }
 
 /// The cell layer along the slabs' axis of a particle at `x`, clamped into the grid.
-pub fn layer_of<D: Dim>(layout: &Layout, grid: &Grid<D>, x: D::Vector) -> usize {
-    let coordinate = x[layout.axis];
-    let below = coordinate.is_nan() || coordinate < grid.coordinate(layout.axis, 0);
-    layout.clamp_layer(grid.axis_cell(layout.axis, coordinate), below)
-}
-
-/// The components a rank's particles are spawned with, kept for the particles that arrive from
-/// other ranks (each is spawned with them, then given its state).
-#[derive(Resource)]
-pub struct RankParticles(pub TemplateSet);
-
-/// Keeps `templates` in `world` for [`redistribute`].
-pub fn save_rank_templates(world: &mut World, templates: TemplateSet) {
-    world.insert_resource(RankParticles(templates));
+fn layer_of<D: Dim>(layout: &Layout, grid: &Grid<D>, x: D::Vector) -> usize {
+    grid.clamped_axis_cell(layout.axis, x[layout.axis])
 }
 
 /// One rank's particles on the wire: their ids, ascending, and their carried components as
@@ -193,7 +180,7 @@ fn resize_particles<D: Dim>(world: &mut World, count: usize) -> Result<(), Strin
         }
     } else if count > entities.len() {
         let templates = world
-            .remove_resource::<RankParticles>()
+            .remove_resource::<crate::registry::templates::RankParticles>()
             .ok_or("a distributed step needs the rank's particle templates")?;
         let fresh = ParticleBundle::<D>::new(0, D::Vector::ZERO, 0.0, 0.0, 0);
         templates
@@ -228,9 +215,4 @@ pub fn state_of_particles<D: Dim>(
         states.insert(id, encoded);
     }
     Ok(states)
-}
-
-/// Whether rank `rank` of `layout` holds a particle at `x` (in its slab or its halo).
-pub fn holds<D: Dim>(layout: &Layout, grid: &Grid<D>, rank: usize, x: D::Vector) -> bool {
-    layout.held(rank).contains(&layer_of::<D>(layout, grid, x))
 }

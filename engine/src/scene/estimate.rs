@@ -52,6 +52,11 @@ pub struct RankSlabs {
     pub slabs: decomposition::Slabs,
     /// Each slab's lower and upper coordinate along the axis, metres.
     pub bounds: Vec<(f64, f64)>,
+    /// Cell layers of ghost particles on each side of a slab, as deep as a step reaches.
+    pub halo: usize,
+    /// Each rank's particles with its ghosts, and the bytes it needs (every node, those
+    /// particles, the pipeline's storage for them, the working buffers).
+    pub held: Vec<(u64, f64)>,
 }
 
 impl<D: Dim> Spec<D> {
@@ -70,7 +75,7 @@ impl<D: Dim> Spec<D> {
         let (available, seeds, probe) = self.seeded_and_probed(registry)?;
         let estimate = self.estimate_from_counts(&seeds, &probe);
         let slabs = match ranks {
-            Some(ranks) => Some(self.slabs(&seeds, ranks)?),
+            Some(ranks) => Some(self.rank_slabs(&seeds, &probe, ranks)?),
             None => None,
         };
         Ok(Estimate {
@@ -217,7 +222,69 @@ impl<D: Dim> Spec<D> {
                 )
             })
             .collect();
-        Ok(RankSlabs { slabs, bounds })
+        Ok(RankSlabs {
+            slabs,
+            bounds,
+            halo: 0,
+            held: Vec::new(),
+        })
+    }
+
+    /// [`Spec::slabs`] with each rank's halo, held particles and memory.
+    fn rank_slabs(
+        &self,
+        seeds: &[Seeds<D>],
+        probe: &PipelineProbe,
+        ranks: usize,
+    ) -> Result<RankSlabs, SceneError> {
+        let mut slabs = self.slabs(seeds, ranks)?;
+        let layout = self.layout(slabs.slabs.clone(), probe);
+        slabs.halo = layout.halo;
+        slabs.held = (0..ranks)
+            .map(|rank| {
+                let held = self.rank_seeds(seeds, &layout, rank);
+                let count = held.iter().map(Vec::len).sum::<usize>() as u64;
+                (count, self.estimate_from_counts(&held, probe).total())
+            })
+            .collect();
+        Ok(slabs)
+    }
+
+    /// The slabs with halos as deep as the probed pipeline's step reaches.
+    pub(super) fn layout(
+        &self,
+        slabs: decomposition::Slabs,
+        probe: &PipelineProbe,
+    ) -> decomposition::Layout {
+        let narrowest = (0..self.grid.cells[slabs.axis])
+            .map(|i| self.grid.cell_width(slabs.axis, i))
+            .fold(f64::INFINITY, f64::min);
+        decomposition::Layout {
+            axis: slabs.axis,
+            slabs: slabs.layers,
+            halo: probe.reach.halo_layers(narrowest),
+        }
+    }
+
+    /// The seeds rank `rank` of `layout` holds: those of its slab and its halo.
+    pub(super) fn rank_seeds(
+        &self,
+        seeds: &[Seeds<D>],
+        layout: &decomposition::Layout,
+        rank: usize,
+    ) -> Vec<Seeds<D>> {
+        seeds
+            .iter()
+            .map(|body| {
+                body.iter()
+                    .copied()
+                    .filter(|&(x, _)| {
+                        let layer = self.grid.clamped_axis_cell(layout.axis, x[layout.axis]);
+                        layout.held(rank).contains(&layer)
+                    })
+                    .collect()
+            })
+            .collect()
     }
 
     /// The memory the scene will need, from counts: its nodes and seeded particles, each with

@@ -39,6 +39,14 @@ struct RankPlan {
     layout: crate::decomposition::Layout,
 }
 
+impl RankPlan {
+    /// Whether the rank holds a particle at `x` (in its slab or its halo).
+    fn holds<D: Dim>(&self, grid: &Grid<D>, x: D::Vector) -> bool {
+        let layer = grid.clamped_axis_cell(self.layout.axis, x[self.layout.axis]);
+        self.layout.held(self.rank).contains(&layer)
+    }
+}
+
 /// A scene's world with its pipeline installed, before the engine's own systems.
 struct Installed {
     world: World,
@@ -76,10 +84,17 @@ impl<D: Dim> Spec<D> {
         rank: Option<(usize, usize)>,
     ) -> Result<Built, SceneError> {
         let (available, seeds, probe) = self.seeded_and_probed(registry)?;
-        let memory = self.check_memory_from_counts(&seeds, &probe, available)?;
         let plan = match rank {
             Some((rank, ranks)) => Some(self.rank_plan(&seeds, &probe, rank, ranks)?),
             None => None,
+        };
+        // A rank needs memory for what it holds, not for the whole scene.
+        let memory = match &plan {
+            Some(plan) => {
+                let held = self.rank_seeds(&seeds, &plan.layout, plan.rank);
+                self.check_memory_from_counts(&held, &probe, available)?
+            }
+            None => self.check_memory_from_counts(&seeds, &probe, available)?,
         };
         let total: usize = seeds.iter().map(Vec::len).sum();
         let Installed {
@@ -146,16 +161,9 @@ impl<D: Dim> Spec<D> {
             ));
         }
         let slabs = self.slabs(seeds, ranks)?.slabs;
-        let narrowest = (0..self.grid.cells[slabs.axis])
-            .map(|i| self.grid.cell_width(slabs.axis, i))
-            .fold(f64::INFINITY, f64::min);
         Ok(RankPlan {
             rank,
-            layout: crate::decomposition::Layout {
-                axis: slabs.axis,
-                slabs: slabs.layers,
-                halo: probe.reach.halo_layers(narrowest),
-            },
+            layout: self.layout(slabs, probe),
         })
     }
 
@@ -212,11 +220,11 @@ impl<D: Dim> Spec<D> {
             .query_filtered::<&crate::components::Position<D>, With<crate::components::Particle>>();
         let layers: Vec<usize> = query
             .iter(world)
-            .map(|x| crate::run::distributed::layer_of::<D>(&ownership.layout, &self.grid, x.0))
+            .map(|x| self.grid.clamped_axis_cell(axis, x.0[axis]))
             .collect();
         ownership.mark(layers.into_iter());
         world.insert_resource(ownership);
-        crate::run::distributed::save_rank_templates(world, templates);
+        world.insert_resource(crate::registry::templates::RankParticles(templates));
         Ok(())
     }
 
@@ -456,14 +464,7 @@ impl<D: Dim> Spec<D> {
                          several ranks yet; run it as one process",
                     ));
                 }
-                bundles.retain(|p| {
-                    crate::run::distributed::holds(
-                        &plan.layout,
-                        &self.grid,
-                        plan.rank,
-                        p.position.0,
-                    )
-                });
+                bundles.retain(|p| plan.holds(&self.grid, p.position.0));
             }
             counts.push(bundles.len());
             let scales = strength_scales(body, &bundles);
