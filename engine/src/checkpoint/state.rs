@@ -15,6 +15,22 @@ pub trait State: Serialize + DeserializeOwned + Send + Sync + 'static {
     const KEY: &'static str;
 }
 
+/// A carried resource that keeps a value per particle row (a Newton warm start, a cached
+/// neighbour list): in a distributed run, each row's value goes with its particle to the ranks
+/// that hold it ([`CheckpointState::row_resource`]). Rows are storage rows, the rows of every
+/// particle slice.
+pub trait RowState: Resource<Mutability = bevy_ecs::component::Mutable> + State {
+    /// What one row carries to another rank (`()` for a cache that is simply rebuilt).
+    type Row: Serialize + DeserializeOwned;
+
+    /// Row `row`'s value.
+    fn row(&self, row: usize) -> Self::Row;
+
+    /// Makes `rows` the rows, in order: the particles' rows after they were rebuilt. Cached
+    /// data that is not carried must be marked for rebuilding here.
+    fn set_rows(&mut self, rows: Vec<Self::Row>);
+}
+
 /// Implements [`State`] for types with explicit keys: `checkpoint_keys! { MyTotal => "my/total" }`.
 /// A generic type is written out by hand (`impl<D: Dim> State for MyState<D> { … }`).
 #[macro_export]
@@ -89,6 +105,8 @@ type SaveComponent = fn(&mut World, &[Entity]) -> Result<Vec<u8>, CheckpointErro
 type LoadComponent = fn(&mut World, &[Entity], &[u8]) -> Result<(), CheckpointError>;
 type PickComponent =
     fn(&mut World, &[Entity], &[&[u8]], &[(u32, u32)]) -> Result<(), CheckpointError>;
+type SaveRows = fn(&World, &[usize]) -> Result<Vec<u8>, CheckpointError>;
+type PickRows = fn(&mut World, &[&[u8]], &[(u32, u32)]) -> Result<(), CheckpointError>;
 type SaveResource = fn(&World) -> Result<Option<Vec<u8>>, CheckpointError>;
 type LoadResource = fn(&mut World, &[u8]) -> Result<(), CheckpointError>;
 
@@ -109,11 +127,20 @@ struct ResourceEntry {
     load: LoadResource,
 }
 
+#[derive(Clone, Copy)]
+struct RowEntry {
+    name: &'static str,
+    save: SaveRows,
+    pick: PickRows,
+}
+
 /// The components and resources a checkpoint carries (see the module header).
 #[derive(Resource, Clone, Default)]
 pub struct CheckpointState {
     components: Vec<ComponentEntry>,
     resources: Vec<ResourceEntry>,
+    /// The carried resources that keep a value per particle row.
+    rows: Vec<RowEntry>,
     /// Keys asked for by two different types (a scene with any is refused).
     collisions: Vec<&'static str>,
 }
@@ -155,6 +182,30 @@ impl CheckpointState {
         }
     }
 
+    /// Carries resource `R`, which keeps a value per particle row: in a checkpoint whole, and
+    /// in a distributed run row by row with the particles ([`RowState`]).
+    pub fn row_resource<R: RowState>(&mut self) {
+        let (name, type_id) = (R::KEY, std::any::TypeId::of::<R>());
+        if self.is_new(name, type_id) {
+            self.resources.push(ResourceEntry {
+                name,
+                type_id,
+                save: save_resource::<R>,
+                load: load_resource::<R>,
+            });
+            self.rows.push(RowEntry {
+                name,
+                save: save_rows::<R>,
+                pick: pick_rows::<R>,
+            });
+        }
+    }
+
+    /// Whether resource `name` keeps its values by particle row ([`RowState`]).
+    pub fn is_row_resource(&self, name: &str) -> bool {
+        self.rows.iter().any(|r| r.name == name)
+    }
+
     /// Whether `name` is not carried yet; a key already taken by another type is recorded as
     /// a collision.
     fn is_new(&mut self, name: &'static str, type_id: std::any::TypeId) -> bool {
@@ -184,23 +235,30 @@ impl CheckpointState {
         self.components.iter().map(|e| e.name).collect()
     }
 
-    /// Every carried component of `particles`, each encoded as a checkpoint encodes it, in the
-    /// order the components are carried: the particles' state, to be sent to another rank of a
+    /// Every carried component of `particles` (storage rows `rows`), each encoded as a
+    /// checkpoint encodes it, in the order the components are carried, then their rows of each
+    /// [`RowState`] resource: the particles' state, to be sent to another rank of a
     /// distributed run and put back with [`CheckpointState::load_picked`].
     pub fn save_particles(
         &self,
         world: &mut World,
         particles: &[Entity],
+        rows: &[usize],
     ) -> Result<Vec<Vec<u8>>, CheckpointError> {
-        self.components
-            .iter()
-            .map(|entry| (entry.save)(world, particles))
-            .collect()
+        let mut saved = Vec::with_capacity(self.components.len() + self.rows.len());
+        for entry in &self.components {
+            saved.push((entry.save)(world, particles)?);
+        }
+        for entry in &self.rows {
+            saved.push((entry.save)(world, rows)?);
+        }
+        Ok(saved)
     }
 
     /// Writes into `targets[k]` every carried component of particle `picks[k] = (b, i)`: the
     /// `i`-th particle of `blocks[b]`, which [`CheckpointState::save_particles`] encoded (with
-    /// the same carried components). Each particle is picked at most once, and targets must
+    /// the same carried components), and makes the picked rows, in order, the rows of each
+    /// [`RowState`] resource (`targets` are then the storage rows in order). Each particle is picked at most once, and targets must
     /// carry a component exactly where their source did.
     pub fn load_picked(
         &self,
@@ -216,20 +274,24 @@ impl CheckpointState {
                 picks.len()
             )));
         }
-        for (c, entry) in self.components.iter().enumerate() {
-            let sources: Vec<&[u8]> = blocks
+        let carried = self.components.len() + self.rows.len();
+        let part = |c: usize| -> Result<Vec<&[u8]>, CheckpointError> {
+            blocks
                 .iter()
-                .map(|block| {
-                    block.get(c).map(Vec::as_slice).ok_or_else(|| {
-                        CheckpointError::Mismatch(format!(
-                            "a block of {} components, {} carried",
-                            block.len(),
-                            self.components.len()
-                        ))
-                    })
+                .map(|block| match block.get(c) {
+                    Some(bytes) if block.len() == carried => Ok(bytes.as_slice()),
+                    _ => Err(CheckpointError::Mismatch(format!(
+                        "a block of {} parts, {carried} carried",
+                        block.len()
+                    ))),
                 })
-                .collect::<Result<_, _>>()?;
-            (entry.pick)(world, targets, &sources, picks)?;
+                .collect()
+        };
+        for (c, entry) in self.components.iter().enumerate() {
+            (entry.pick)(world, targets, &part(c)?, picks)?;
+        }
+        for (r, entry) in self.rows.iter().enumerate() {
+            (entry.pick)(world, &part(self.components.len() + r)?, picks)?;
         }
         Ok(())
     }
@@ -332,6 +394,51 @@ fn pick_component<C: Component<Mutability = bevy_ecs::component::Mutable> + Stat
                 )));
             }
         }
+    }
+    Ok(())
+}
+
+fn save_rows<R: RowState>(world: &World, rows: &[usize]) -> Result<Vec<u8>, CheckpointError> {
+    let values: Vec<R::Row> = match world.get_resource::<R>() {
+        Some(resource) => rows.iter().map(|&r| resource.row(r)).collect(),
+        None => Vec::new(),
+    };
+    postcard::to_allocvec(&values).map_err(codec(R::KEY))
+}
+
+fn pick_rows<R: RowState>(
+    world: &mut World,
+    sources: &[&[u8]],
+    picks: &[(u32, u32)],
+) -> Result<(), CheckpointError> {
+    let name = R::KEY;
+    if !world.contains_resource::<R>() {
+        return Ok(());
+    }
+    let mut decoded: Vec<Vec<Option<R::Row>>> = sources
+        .iter()
+        .map(|bytes| {
+            postcard::from_bytes::<Vec<R::Row>>(bytes)
+                .map(|rows| rows.into_iter().map(Some).collect())
+                .map_err(codec(name))
+        })
+        .collect::<Result<_, _>>()?;
+    let rows = picks
+        .iter()
+        .map(|&(block, index)| {
+            decoded
+                .get_mut(block as usize)
+                .and_then(|rows| rows.get_mut(index as usize))
+                .and_then(Option::take)
+                .ok_or_else(|| {
+                    CheckpointError::Mismatch(format!(
+                        "{name}: row {index} of block {block} was not sent"
+                    ))
+                })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    if let Some(mut resource) = world.get_resource_mut::<R>() {
+        resource.set_rows(rows);
     }
     Ok(())
 }

@@ -348,6 +348,16 @@ impl<'a> Installer<'a> {
         crate::checkpoint::carry_resource::<R>(self.world);
     }
 
+    /// [`Installer::init_state`] for a resource that keeps a value per particle row (a warm
+    /// start, a cached list): in a distributed run, its rows go with their particles between
+    /// ranks ([`crate::checkpoint::RowState`]).
+    pub fn init_row_state<R: crate::checkpoint::RowState + FromWorld>(&mut self) {
+        self.world.init_resource::<R>();
+        self.world
+            .get_resource_or_init::<crate::checkpoint::CheckpointState>()
+            .row_resource::<R>();
+    }
+
     /// Inserts a resource (typically the system's parsed parameters).
     pub fn insert_resource<R: Resource>(&mut self, resource: R) {
         self.world.insert_resource(resource);

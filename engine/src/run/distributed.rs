@@ -39,16 +39,18 @@ fn rows<D: Dim>(world: &mut World) -> Vec<(Entity, u32, D::Vector)> {
     query.iter(world).map(|(e, id, x)| (e, id.0, x.0)).collect()
 }
 
+/// The particles `rows` (storage row, entity, id) on the wire.
 fn block(
     world: &mut World,
     state: &CheckpointState,
-    rows: &[(Entity, u32)],
+    rows: &[(usize, Entity, u32)],
 ) -> Result<Block, String> {
-    let entities: Vec<Entity> = rows.iter().map(|r| r.0).collect();
+    let entities: Vec<Entity> = rows.iter().map(|r| r.1).collect();
+    let storage: Vec<usize> = rows.iter().map(|r| r.0).collect();
     let components = state
-        .save_particles(world, &entities)
+        .save_particles(world, &entities, &storage)
         .map_err(|e| e.to_string())?;
-    Ok((rows.iter().map(|r| r.1).collect(), components))
+    Ok((rows.iter().map(|r| r.2).collect(), components))
 }
 
 /// Ends a step of a distributed run on this rank: sends the state of each particle this rank
@@ -78,18 +80,18 @@ fn exchange_and_rebuild<D: Dim>(
     let me = ownership.rank;
     let peers = layout.peers(me);
     let mut kept = Vec::new();
-    let mut outgoing: Vec<Vec<(Entity, u32)>> = vec![Vec::new(); peers.len()];
+    let mut outgoing: Vec<Vec<(usize, Entity, u32)>> = vec![Vec::new(); peers.len()];
     for (row, (entity, id, x)) in rows::<D>(world).into_iter().enumerate() {
         let layer = layer_of::<D>(&layout, &grid, x);
         // Only a particle whose step here was exact (it began near the slab) is taken over.
         if !ownership.claimable.get(row).copied().unwrap_or(false) || layout.owner(layer) != me {
             continue;
         }
-        kept.push((entity, id));
+        kept.push((row, entity, id));
         for holder in layout.holders(layer).filter(|&h| h != me) {
             // Every holder of a layer of this slab is a peer (`Layout::peers`).
             if let Some(k) = peers.iter().position(|&p| p == holder) {
-                outgoing[k].push((entity, id));
+                outgoing[k].push((row, entity, id));
             }
         }
     }
@@ -210,7 +212,7 @@ pub fn state_of_particles<D: Dim>(
             continue;
         }
         let encoded = state
-            .save_particles(world, &[entity])
+            .save_particles(world, &[entity], &[row])
             .map_err(|e| e.to_string())?;
         states.insert(id, encoded);
     }

@@ -169,8 +169,8 @@ impl<D: Dim> Spec<D> {
 
     /// Makes `world`, built for `plan`, a rank's world: its [`Ownership`], and the particle
     /// templates that particles arriving from other ranks are spawned with. Refuses a pipeline
-    /// that carries state from step to step outside its particles (a running total, a cached
-    /// list by particle row), which a rank cannot yet split or move with its particles.
+    /// that carries state from step to step outside its particles and their rows (a running
+    /// total), which a rank cannot yet split between ranks.
     fn distribute(
         &self,
         world: &mut World,
@@ -185,11 +185,16 @@ impl<D: Dim> Spec<D> {
                 .resource::<crate::checkpoint::CheckpointState>()
                 .resource_names()
         };
-        let carried = world
+        let state = world
             .get_resource::<crate::checkpoint::CheckpointState>()
-            .map(|s| s.resource_names())
+            .cloned()
             .unwrap_or_default();
-        if let Some(own) = carried.iter().find(|n| !engine_state.contains(n)) {
+        let carried = state.resource_names();
+        // State kept by particle row travels with the particles; other state cannot yet.
+        if let Some(own) = carried
+            .iter()
+            .find(|n| !engine_state.contains(n) && !state.is_row_resource(n))
+        {
             return Err(self.source.error(
                 "pipeline",
                 format!(

@@ -133,7 +133,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     );
     installer.insert_resource(parsed);
     with_dim!(installer.dimension(), D => {
-        installer.init_state::<LmeState<D>>();
+        installer.init_row_state::<LmeState<D>>();
         installer.add_systems(lme_basis::<D>);
     });
     Ok(())
@@ -519,6 +519,48 @@ impl<D: Dim> fractum_engine::checkpoint::State for LmeState<D> {
     const KEY: &'static str = "lme/state";
 }
 
+/// One row of [`LmeState`] as it goes to another rank with its particle: the warm start (λ,
+/// its slope and where it was solved), `None` before the first solve.
+pub type LmeRow<D> = Option<(<D as Dim>::Vector, <D as Dim>::Matrix, <D as Dim>::Vector)>;
+
+// In a distributed run each particle's warm start goes with it, so that its Newton iterations
+// are the single process's; the candidate lists are rebuilt.
+impl<D: Dim> fractum_engine::checkpoint::RowState for LmeState<D> {
+    type Row = LmeRow<D>;
+
+    fn row(&self, row: usize) -> LmeRow<D> {
+        Some((
+            *self.lambda.get(row)?,
+            *self.lambda_slope.get(row)?,
+            *self.solved_at.get(row)?,
+        ))
+    }
+
+    fn set_rows(&mut self, rows: Vec<LmeRow<D>>) {
+        if rows.iter().all(Option::is_none) {
+            // Nothing solved yet: the first step sizes the state.
+            *self = Self::default();
+            return;
+        }
+        let n = rows.len();
+        let unsolved = (D::Vector::ZERO, D::Matrix::ZERO, D::Vector::ZERO);
+        (self.lambda, self.lambda_slope, self.solved_at) = (
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+        );
+        for (lambda, slope, at) in rows.into_iter().map(|r| r.unwrap_or(unsolved)) {
+            self.lambda.push(lambda);
+            self.lambda_slope.push(slope);
+            self.solved_at.push(at);
+        }
+        // An anchor at infinity is stale: every candidate list is built afresh.
+        self.anchors = vec![D::Vector::splat(f64::INFINITY); n];
+        self.candidates = vec![Vec::new(); n];
+        self.reach = vec![0.0; n];
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -527,6 +569,30 @@ mod tests {
     #[test]
     fn parameter_docs_match_the_parameters() {
         crate::param_docs::assert_defaults::<LmeParams>(&REGISTRATION);
+    }
+
+    /// A distributed run's rows carry their warm starts to their new places and rebuild the
+    /// candidate lists; an unsolved state stays unsized.
+    #[test]
+    fn warm_starts_follow_their_rows_and_candidate_lists_are_rebuilt() {
+        use fractum_engine::checkpoint::RowState;
+        let mut state = LmeState::<Two>::default();
+        assert_eq!(state.row(0), None);
+        state.resize(2);
+        state.lambda[1] = DVec2::new(1.0, 2.0);
+        state.solved_at[1] = DVec2::new(0.5, 0.5);
+        state.anchors[1] = DVec2::ZERO;
+        let (first, second) = (state.row(0), state.row(1));
+        state.set_rows(vec![second, None, first]);
+        assert_eq!(
+            state.lambda,
+            [DVec2::new(1.0, 2.0), DVec2::ZERO, DVec2::ZERO]
+        );
+        assert_eq!(state.solved_at[0], DVec2::new(0.5, 0.5));
+        assert!(state.anchors.iter().all(|a| a.x == f64::INFINITY));
+        assert_eq!(state.candidates.len(), 3);
+        state.set_rows(vec![None, None]);
+        assert!(state.lambda.is_empty());
     }
     use fractum_engine::testing::*;
 

@@ -38,7 +38,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     installer.insert_resource(parsed);
     installer.init_resource::<Neighbourhoods>();
     with_dim!(installer.dimension(), D => {
-        installer.init_state::<KdTreeCandidates<D>>();
+        installer.init_row_state::<KdTreeCandidates<D>>();
         installer.add_systems(kdtree_neighbours::<D>);
     });
     Ok(())
@@ -113,6 +113,18 @@ pub fn kdtree_neighbours<D: Spatial>(
 // The checkpoint key of this system's state (stable across builds).
 impl<D: Dim> fractum_engine::checkpoint::State for KdTreeCandidates<D> {
     const KEY: &'static str = "kdtree/candidates";
+}
+
+// In a distributed run the rows hold other particles after each step: the lists are rebuilt.
+impl<D: Dim> fractum_engine::checkpoint::RowState for KdTreeCandidates<D> {
+    type Row = ();
+
+    fn row(&self, _row: usize) {}
+
+    fn set_rows(&mut self, _rows: Vec<()>) {
+        // No anchor for any row: the next step finds the lists stale and builds them afresh.
+        self.anchors.clear();
+    }
 }
 
 #[cfg(test)]

@@ -185,7 +185,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     installer.add_particle_component(SurfaceFlag::default());
     installer.add_frame_scalar::<SurfaceFlag>("surface", |s| s.0);
     with_dim!(installer.dimension(), D => {
-        installer.init_state::<DfgNeighbours<D>>();
+        installer.init_row_state::<DfgNeighbours<D>>();
         installer.add_particle_component(DamageGradient::<D>::default());
         installer.add_frame_vector::<DamageGradient<D>>("damage_gradient", |g| g.0.to_3d());
         installer.add_systems(dfg_partition::<D>);
@@ -429,6 +429,18 @@ fractum_engine::checkpoint_keys! { SurfaceDetected => "dfg/surface_detected" }
 
 impl<D: Dim> fractum_engine::checkpoint::State for DfgNeighbours<D> {
     const KEY: &'static str = "dfg/neighbours";
+}
+
+// In a distributed run the rows hold other particles after each step: the lists are rebuilt.
+impl<D: Dim> fractum_engine::checkpoint::RowState for DfgNeighbours<D> {
+    type Row = ();
+
+    fn row(&self, _row: usize) {}
+
+    fn set_rows(&mut self, _rows: Vec<()>) {
+        // No anchor for any row: the next step finds the lists stale and builds them afresh.
+        self.anchors.clear();
+    }
 }
 
 #[cfg(test)]
