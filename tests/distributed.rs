@@ -6,9 +6,27 @@ use fractum_engine::communicator::{Communicator, thread_ranks};
 use fractum_engine::dim::Two;
 use fractum_engine::run::distributed::{self, state_of_particles};
 use fractum_engine::scene::{SceneFile, build_rank_simulation, build_simulation};
+use fractum_engine::series::SeriesColumns;
 use std::collections::BTreeMap;
 
 type States = BTreeMap<u32, Vec<Vec<u8>>>;
+
+/// The system-published series columns: each published name and its value.
+type Columns = Vec<(String, f64)>;
+
+fn columns(world: &bevy_ecs::world::World) -> Columns {
+    let Some(columns) = world.get_resource::<SeriesColumns>() else {
+        return Vec::new();
+    };
+    columns
+        .published()
+        .into_iter()
+        .map(|name| {
+            let value = columns.value(&name).unwrap();
+            (name, value)
+        })
+        .collect()
+}
 
 fn scene(pipeline: &str, end_steps: u64) -> String {
     format!(
@@ -40,17 +58,18 @@ const USL: &str = r#"(system: "basis/linear"), (system: "predictor/usl"),
 const NEWMARK_GIMP: &str = r#"(system: "basis/gimp"), (system: "predictor/newmark"),
     (system: "stress/neo_hookean"), (system: "corrector/newmark"), (system: "advection/newmark")"#;
 
-fn serial(text: &str, steps: u64) -> States {
+fn serial(text: &str, steps: u64) -> (States, Columns) {
     let mut built = build_simulation(&parse(text), &fractum_systems::stock_registry()).unwrap();
     for _ in 0..steps {
         built.simulation.step().unwrap();
     }
-    state_of_particles::<Two>(&mut built.simulation.world).unwrap()
+    let world = &mut built.simulation.world;
+    (state_of_particles::<Two>(world).unwrap(), columns(world))
 }
 
-/// Each rank's owned particles after `steps`, and how many particles each rank owned over
-/// the run that were first seeded on another rank.
-fn on_ranks(text: &str, ranks: usize, steps: u64) -> Vec<(States, usize)> {
+/// Each rank's owned particles and its series columns after `steps`, and how many particles
+/// each rank owned over the run that were first seeded on another rank.
+fn on_ranks(text: &str, ranks: usize, steps: u64) -> Vec<(States, Columns, usize)> {
     let threads: Vec<_> = thread_ranks(ranks)
         .into_iter()
         .map(|comm| {
@@ -66,21 +85,33 @@ fn on_ranks(text: &str, ranks: usize, steps: u64) -> Vec<(States, usize)> {
                     let owned = state_of_particles::<Two>(&mut built.simulation.world).unwrap();
                     arrived.extend(owned.keys().filter(|id| !first.contains_key(id)));
                 }
-                let owned = state_of_particles::<Two>(&mut built.simulation.world).unwrap();
-                (owned, arrived.len())
+                let world = &mut built.simulation.world;
+                let owned = state_of_particles::<Two>(world).unwrap();
+                (owned, columns(world), arrived.len())
             })
         })
         .collect();
     threads.into_iter().map(|t| t.join().unwrap()).collect()
 }
 
-fn assert_ranks_match_serial(pipeline: &str, steps: u64) {
+/// Runs `pipeline` on 1 to 4 ranks: every particle's state is the single process's, bit for
+/// bit; each published column, summed over ranks, is the single process's to 1e-12 of its
+/// magnitude (the ranks add their parts in another order). Returns the single process's
+/// columns.
+fn assert_ranks_match_serial(pipeline: &str, steps: u64) -> Columns {
     let text = scene(pipeline, steps);
-    let reference = serial(&text, steps);
+    let (reference, reference_columns) = serial(&text, steps);
     for ranks in 1..=4 {
         let results = on_ranks(&text, ranks, steps);
+        for (k, (name, value)) in reference_columns.iter().enumerate() {
+            let summed: f64 = results.iter().map(|r| r.1[k].1).sum();
+            assert!(
+                (summed - value).abs() <= 1e-12 * value.abs(),
+                "{ranks} ranks: {name} is {summed}, the single process's {value}"
+            );
+        }
         let mut merged = States::new();
-        for (owned, _) in &results {
+        for (owned, _, _) in &results {
             for (id, state) in owned {
                 assert!(
                     merged.insert(*id, state.clone()).is_none(),
@@ -102,13 +133,14 @@ fn assert_ranks_match_serial(pipeline: &str, steps: u64) {
         );
         if ranks > 1 {
             // The disks cross the slabs: particles changed hands.
-            let moved: usize = results.iter().map(|r| r.1).sum();
+            let moved: usize = results.iter().map(|r| r.2).sum();
             assert!(
                 moved >= 10,
                 "{ranks} ranks: only {moved} particles changed rank"
             );
         }
     }
+    reference_columns
 }
 
 #[test]
@@ -131,6 +163,21 @@ fn lme_with_neighbour_lists_on_one_to_four_ranks_is_the_single_process_bit_for_b
         (system: "stress/linear_elastic"), (system: "corrector/newmark"),
         (system: "advection/newmark")"#;
     assert_ranks_match_serial(lme, 150);
+}
+
+#[test]
+fn eigensoftening_with_lme_on_one_to_four_ranks_is_the_single_process() {
+    // The disks crack where they rebound; the damage columns are sums over owned particles.
+    let softening = r#"(system: "neighbour/kdtree", params: (c_epsilon: 2.0)),
+        (system: "basis/lme", params: (gamma: 1.8)), (system: "predictor/newmark"),
+        (system: "stress/linear_elastic"),
+        (system: "damage/eigensoftening", params: (tensile_strength: 2.0,
+            fracture_energy: 0.05, band_width: 0.1)),
+        (system: "corrector/newmark"), (system: "advection/newmark")"#;
+    let columns = assert_ranks_match_serial(softening, 450);
+    let value = |name: &str| columns.iter().find(|c| c.0 == name).unwrap().1;
+    assert!(value("damaged_particles") > 10.0, "{columns:?}");
+    assert!(value("dissipated_energy") > 0.0, "{columns:?}");
 }
 
 #[test]

@@ -21,6 +21,11 @@ pub struct SeriesColumns {
     pub values: Vec<f64>,
     /// The pipeline entry that declared each slot (`None` outside a scene, in tests).
     pub owners: Vec<Option<usize>>,
+    /// Whether each slot is a sum over the particles and nodes a rank owns
+    /// ([`crate::decomposition::Ownership`]; all of them in one process), so that a
+    /// distributed run's column is the sum of its ranks' slots.
+    #[serde(default)]
+    pub owned_sums: Vec<bool>,
 }
 
 impl SeriesColumns {
@@ -40,7 +45,16 @@ impl SeriesColumns {
         self.names.push(name.to_string());
         self.values.push(0.0);
         self.owners.push(owner);
+        self.owned_sums.push(false);
         self.names.len() - 1
+    }
+
+    /// The first column some slot of which is not a sum over owned particles and nodes: one a
+    /// distributed run cannot add up over its ranks.
+    pub fn not_summed_over_ranks(&self) -> Option<&str> {
+        (0..self.names.len())
+            .find(|&i| !self.owned_sums.get(i).copied().unwrap_or(false))
+            .map(|i| self.names[i].as_str())
     }
 
     /// The published column names: each once, in the order first declared.

@@ -390,6 +390,18 @@ impl<'a> Installer<'a> {
             .declare_for(entry, name)
     }
 
+    /// [`Installer::add_series_column`] for a column whose value is a sum over the particles
+    /// and nodes this rank owns (`Option<Res<Ownership>>` in the system; every one in a single
+    /// process), accumulated or not: a distributed run publishes the sum of its ranks' values.
+    /// A column declared with `add_series_column` keeps the pipeline to one process.
+    pub fn add_owned_sum_column(&mut self, name: &str) -> usize {
+        let slot = self.add_series_column(name);
+        let mut columns = self.world.resource_mut::<SeriesColumns>();
+        columns.owned_sums.resize(slot + 1, false);
+        columns.owned_sums[slot] = true;
+        slot
+    }
+
     /// Registers a per-particle scalar column of the VTU frames, `value` of each particle's
     /// `C` (a component this system added), e.g.
     /// `installer.add_frame_scalar::<CrackOpening>("crack_opening", |w| w.0)`. A column name

@@ -37,6 +37,8 @@ type SeedState<D> = (usize, <D as Dim>::Vector, f64);
 struct RankPlan {
     rank: usize,
     layout: crate::decomposition::Layout,
+    /// The run's particles, every rank's.
+    total: u64,
 }
 
 impl RankPlan {
@@ -96,7 +98,6 @@ impl<D: Dim> Spec<D> {
             }
             None => self.check_memory_from_counts(&seeds, &probe, available)?,
         };
-        let total: usize = seeds.iter().map(Vec::len).sum();
         let Installed {
             mut world,
             mut schedule,
@@ -104,8 +105,8 @@ impl<D: Dim> Spec<D> {
             mut output,
             pipeline,
         } = self.spawn_and_install(registry, seeds, &probe.templates, plan.as_ref())?;
-        if let Some(plan) = plan {
-            self.distribute(&mut world, plan, total as u64, probe.templates.particles)?;
+        if plan.is_some() {
+            self.distribute(&mut world, probe.templates.particles)?;
         }
         world.insert_resource(memory);
         self.check_checkpoint_keys(&world)?;
@@ -164,20 +165,15 @@ impl<D: Dim> Spec<D> {
         Ok(RankPlan {
             rank,
             layout: self.layout(slabs, probe),
+            total: seeds.iter().map(Vec::len).sum::<usize>() as u64,
         })
     }
 
-    /// Makes `world`, built for `plan`, a rank's world: its [`Ownership`], and the particle
-    /// templates that particles arriving from other ranks are spawned with. Refuses a pipeline
+    /// Makes `world`, built for a rank, a rank's world: the particle templates that particles
+    /// arriving from other ranks are spawned with. Refuses a pipeline
     /// that carries state from step to step outside its particles and their rows (a running
     /// total), which a rank cannot yet split between ranks.
-    fn distribute(
-        &self,
-        world: &mut World,
-        plan: RankPlan,
-        total: u64,
-        templates: TemplateSet,
-    ) -> Result<(), SceneError> {
+    fn distribute(&self, world: &mut World, templates: TemplateSet) -> Result<(), SceneError> {
         let engine_state = {
             let mut engine = World::new();
             crate::checkpoint::carry_engine_state::<D>(&mut engine);
@@ -203,24 +199,28 @@ impl<D: Dim> Spec<D> {
                 ),
             ));
         }
-        let published = world
+        if let Some(column) = world
             .get_resource::<SeriesColumns>()
-            .map(SeriesColumns::published)
-            .unwrap_or_default();
-        if let Some(column) = published.first() {
+            .and_then(SeriesColumns::not_summed_over_ranks)
+        {
             return Err(self.source.error(
                 "pipeline",
                 format!(
-                    "a system of this pipeline publishes the series column \"{column}\", which \
-                     a distributed run cannot yet sum over ranks; run it as one process"
+                    "a system of this pipeline publishes the series column \"{column}\" as \
+                     something other than a sum over the particles a rank owns, which a \
+                     distributed run cannot yet add up over ranks; run it as one process"
                 ),
             ));
         }
+        world.insert_resource(crate::registry::templates::RankParticles(templates));
+        Ok(())
+    }
+
+    /// What the rank of `plan` owns of the particles spawned in `world`, and of the nodes.
+    fn ownership(&self, world: &mut World, plan: &RankPlan) -> Ownership {
         let axis = plan.layout.axis;
-        let node_layers: Vec<usize> = (0..self.grid.node_count())
-            .map(|n| self.grid.node_lattice(n)[axis])
-            .collect();
-        let mut ownership = Ownership::new(plan.layout, plan.rank, total, node_layers.into_iter());
+        let node_layers = (0..self.grid.node_count()).map(|n| self.grid.node_lattice(n)[axis]);
+        let mut ownership = Ownership::new(plan.layout.clone(), plan.rank, plan.total, node_layers);
         let mut query = world
             .query_filtered::<&crate::components::Position<D>, With<crate::components::Particle>>();
         let layers: Vec<usize> = query
@@ -228,9 +228,7 @@ impl<D: Dim> Spec<D> {
             .map(|x| self.grid.clamped_axis_cell(axis, x.0[axis]))
             .collect();
         ownership.mark(layers.into_iter());
-        world.insert_resource(ownership);
-        world.insert_resource(crate::registry::templates::RankParticles(templates));
-        Ok(())
+        ownership
     }
 
     /// Every name in `output.fields` is an array a particle frame of this pipeline has.
@@ -303,6 +301,11 @@ impl<D: Dim> Spec<D> {
         spawn_nodes(&mut world, &self.grid, &templates.nodes);
         let (body_particles, loads) =
             self.spawn_bodies(&mut world, &templates.particles, seeds, plan)?;
+        if let Some(plan) = plan {
+            // Before the pipeline is installed: installers sum what the rank owns.
+            let ownership = self.ownership(&mut world, plan);
+            world.insert_resource(ownership);
+        }
         self.insert_scene_resources(&mut world, loads)?;
         let output = self.output_plan(&mut world)?;
         Ok((world, body_particles, output))

@@ -45,6 +45,7 @@
 
 use super::softening::{SofteningLaw, SofteningShape};
 use super::stress_reach::StressReach;
+use fractum_engine::decomposition::Ownership;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -197,9 +198,9 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         raw.traction,
     );
     let columns = [
-        installer.add_series_column("damaged_particles"),
-        installer.add_series_column("failed_particles"),
-        installer.add_series_column("dissipated_energy"),
+        installer.add_owned_sum_column("damaged_particles"),
+        installer.add_owned_sum_column("failed_particles"),
+        installer.add_owned_sum_column("dissipated_energy"),
     ];
     installer.insert_resource(EigensofteningParams {
         law,
@@ -411,7 +412,7 @@ impl<D: Dim> ParticleUpdate<'_, D> {
 fn write_back(
     params: &EigensofteningParams,
     updated: Vec<(f64, f64, f64)>,
-    v0: &[InitialVolume],
+    (v0, ownership): (&[InitialVolume], Option<&Ownership>),
     (damage, history, opening): (&mut [Damage], &mut [DamageHistory], &mut [CrackOpening]),
 ) -> (usize, usize, f64) {
     let law = &params.law;
@@ -420,6 +421,10 @@ fn write_back(
         damage[p].0 = chi;
         history[p].0 = onset;
         opening[p].0 = w;
+        // The columns count what this rank owns (every particle in one process).
+        if !super::counts_here(ownership, p) {
+            continue;
+        }
         if chi > 0.0 {
             damaged += 1;
             let w = match params.traction {
@@ -440,6 +445,7 @@ pub fn eigensoftening<D: Dim>(
     params: Res<EigensofteningParams>,
     neighbourhoods: Res<Neighbourhoods>,
     mut columns: ResMut<SeriesColumns>,
+    ownership: Option<Res<Ownership>>,
     mut reach: Local<StressReach<D>>,
     mut particles: ParticleQuery<D>,
 ) {
@@ -479,8 +485,12 @@ pub fn eigensoftening<D: Dim>(
         .into_par_iter()
         .map(|p| step.soften(p))
         .collect();
-    let (damaged, failed, dissipated) =
-        write_back(&params, updated, v0, (damage, history, opening));
+    let (damaged, failed, dissipated) = write_back(
+        &params,
+        updated,
+        (v0, ownership.as_deref()),
+        (damage, history, opening),
+    );
     let [d, f, e] = params.columns;
     columns.values[d] = damaged as f64;
     columns.values[f] = failed as f64;

@@ -9,19 +9,30 @@ pub mod tensile_degradation;
 pub mod time_to_failure;
 pub mod weibull;
 
+use bevy_ecs::prelude::{Entity, With};
 use bevy_ecs::world::{EntityRef, World};
-use fractum_engine::prelude::{Damage, InitialVolume, MaterialFilter, MaterialId};
+use fractum_engine::decomposition::Ownership;
+use fractum_engine::prelude::{Damage, InitialVolume, MaterialFilter, MaterialId, Particle};
 
 /// `Σ V₀ g(particle, D)` over the particles of `materials` that the scene seeds as damaged
 /// (`D > 0` before the first step): what a damage law's energy account would credit them,
-/// so that the published `dissipated_energy` can leave it out.
+/// so that the published `dissipated_energy` can leave it out. In a distributed run, over the
+/// particles this rank owns, as the published column is.
 pub fn seeded_sum(
     world: &World,
     materials: &MaterialFilter,
     per_volume: impl Fn(EntityRef, MaterialId, f64) -> f64,
 ) -> f64 {
+    let ownership = world.get_resource::<Ownership>();
+    let Some(mut particles) = world.try_query_filtered::<Entity, With<Particle>>() else {
+        return 0.0;
+    };
     let mut total = 0.0;
-    for entity in world.iter_entities() {
+    for (row, particle) in particles.iter(world).enumerate() {
+        if ownership.is_some_and(|o| !o.owns_particle(row)) {
+            continue;
+        }
+        let entity = world.entity(particle);
         let (Some(m), Some(v0), Some(d)) = (
             entity.get::<MaterialId>(),
             entity.get::<InitialVolume>(),
@@ -34,4 +45,10 @@ pub fn seeded_sum(
         }
     }
     total
+}
+
+/// Whether particle row `row` counts in this rank's sums: owned here in a distributed run,
+/// every row otherwise.
+pub fn counts_here(ownership: Option<&Ownership>, row: usize) -> bool {
+    ownership.is_none_or(|o| o.owns_particle(row))
 }
