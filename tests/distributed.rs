@@ -3,7 +3,7 @@
 //! is refused with its reason. The same steps under `mpirun` are `tools/tests/mpi_run.rs`.
 
 use fractum_engine::communicator::{Communicator, thread_ranks};
-use fractum_engine::dim::Two;
+use fractum_engine::dim::{Dim, Three, Two};
 use fractum_engine::run::distributed::{self, state_of_particles};
 use fractum_engine::scene::{SceneFile, build_rank_simulation, build_simulation};
 use fractum_engine::series::SeriesColumns;
@@ -58,18 +58,18 @@ const USL: &str = r#"(system: "basis/linear"), (system: "predictor/usl"),
 const NEWMARK_GIMP: &str = r#"(system: "basis/gimp"), (system: "predictor/newmark"),
     (system: "stress/neo_hookean"), (system: "corrector/newmark"), (system: "advection/newmark")"#;
 
-fn serial(text: &str, steps: u64) -> (States, Columns) {
+fn serial<D: Dim>(text: &str, steps: u64) -> (States, Columns) {
     let mut built = build_simulation(&parse(text), &fractum_systems::stock_registry()).unwrap();
     for _ in 0..steps {
         built.simulation.step().unwrap();
     }
     let world = &mut built.simulation.world;
-    (state_of_particles::<Two>(world).unwrap(), columns(world))
+    (state_of_particles::<D>(world).unwrap(), columns(world))
 }
 
 /// Each rank's owned particles and its series columns after `steps`, and how many particles
 /// each rank owned over the run that were first seeded on another rank.
-fn on_ranks(text: &str, ranks: usize, steps: u64) -> Vec<(States, Columns, usize)> {
+fn on_ranks<D: Dim>(text: &str, ranks: usize, steps: u64) -> Vec<(States, Columns, usize)> {
     let threads: Vec<_> = thread_ranks(ranks)
         .into_iter()
         .map(|comm| {
@@ -78,15 +78,15 @@ fn on_ranks(text: &str, ranks: usize, steps: u64) -> Vec<(States, Columns, usize
                 let registry = fractum_systems::stock_registry();
                 let mut built =
                     build_rank_simulation(&file, &registry, comm.rank(), comm.size()).unwrap();
-                let first = state_of_particles::<Two>(&mut built.simulation.world).unwrap();
+                let first = state_of_particles::<D>(&mut built.simulation.world).unwrap();
                 let mut arrived = std::collections::BTreeSet::<u32>::new();
                 for _ in 0..steps {
                     distributed::step(&mut built.simulation, &comm).unwrap();
-                    let owned = state_of_particles::<Two>(&mut built.simulation.world).unwrap();
+                    let owned = state_of_particles::<D>(&mut built.simulation.world).unwrap();
                     arrived.extend(owned.keys().filter(|id| !first.contains_key(id)));
                 }
                 let world = &mut built.simulation.world;
-                let owned = state_of_particles::<Two>(world).unwrap();
+                let owned = state_of_particles::<D>(world).unwrap();
                 (owned, columns(world), arrived.len())
             })
         })
@@ -99,10 +99,14 @@ fn on_ranks(text: &str, ranks: usize, steps: u64) -> Vec<(States, Columns, usize
 /// magnitude (the ranks add their parts in another order). Returns the single process's
 /// columns.
 fn assert_ranks_match_serial(pipeline: &str, steps: u64) -> Columns {
-    let text = scene(pipeline, steps);
-    let (reference, reference_columns) = serial(&text, steps);
+    assert_scene_ranks_match_serial::<Two>(&scene(pipeline, steps), steps)
+}
+
+/// [`assert_ranks_match_serial`] for scene `text` in dimension `D`.
+fn assert_scene_ranks_match_serial<D: Dim>(text: &str, steps: u64) -> Columns {
+    let (reference, reference_columns) = serial::<D>(text, steps);
     for ranks in 1..=4 {
-        let results = on_ranks(&text, ranks, steps);
+        let results = on_ranks::<D>(text, ranks, steps);
         for (k, (name, value)) in reference_columns.iter().enumerate() {
             let summed: f64 = results.iter().map(|r| r.1[k].1).sum();
             assert!(
@@ -178,6 +182,36 @@ fn eigensoftening_with_lme_on_one_to_four_ranks_is_the_single_process() {
     let value = |name: &str| columns.iter().find(|c| c.0 == name).unwrap().1;
     assert!(value("damaged_particles") > 10.0, "{columns:?}");
     assert!(value("dissipated_energy") > 0.0, "{columns:?}");
+}
+
+#[test]
+fn spheres_with_lme_and_eigensoftening_in_3d_on_one_to_four_ranks_are_the_single_process() {
+    // Two spheres meet head-on along x and crack at the slab boundary between them.
+    let text = r#"(
+    title: "two spheres",
+    time: (step: Fixed(1.0e-3), end: Steps(320)),
+    grid: (min: (0.0, 0.0, 0.0), max: (1.0, 0.5, 0.5), spacing: 0.05),
+    materials: {
+        "elastic": (density: 1000.0, youngs_modulus: 1000.0, poisson_ratio: 0.3),
+    },
+    bodies: [
+        (name: "left", shape: Sphere(center: (0.32, 0.25, 0.25), radius: 0.15),
+         material: "elastic", particles_per_cell: 1, velocity: Uniform((0.5, 0.0, 0.0))),
+        (name: "right", shape: Sphere(center: (0.68, 0.25, 0.25), radius: 0.15),
+         material: "elastic", particles_per_cell: 1, velocity: Uniform((-0.5, 0.0, 0.0))),
+    ],
+    pipeline: [
+        (system: "neighbour/kdtree", params: (c_epsilon: 2.0)),
+        (system: "basis/lme", params: (gamma: 1.8)), (system: "predictor/newmark"),
+        (system: "stress/linear_elastic"),
+        (system: "damage/eigensoftening", params: (tensile_strength: 2.0,
+            fracture_energy: 0.05, band_width: 0.1)),
+        (system: "corrector/newmark"), (system: "advection/newmark"),
+    ],
+)"#;
+    let columns = assert_scene_ranks_match_serial::<Three>(text, 320);
+    let value = |name: &str| columns.iter().find(|c| c.0 == name).unwrap().1;
+    assert!(value("damaged_particles") > 0.0, "{columns:?}");
 }
 
 #[test]
