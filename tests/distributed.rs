@@ -40,9 +40,9 @@ fn scene(pipeline: &str, end_steps: u64) -> String {
     }},
     bodies: [
         (name: "lower-left", shape: Disk(center: (0.25, 0.3), radius: 0.2), material: "elastic",
-         particles_per_cell: 2, velocity: Uniform((0.4, 0.1))),
+         particles_per_cell: 2, velocity: Uniform((0.4, 0.1)), contact_group: 0),
         (name: "upper-right", shape: Disk(center: (0.75, 0.7), radius: 0.2), material: "elastic",
-         particles_per_cell: 2, velocity: Uniform((-0.4, -0.1))),
+         particles_per_cell: 2, velocity: Uniform((-0.4, -0.1)), contact_group: 1),
     ],
     pipeline: [{pipeline}],
 )"#
@@ -215,10 +215,24 @@ fn spheres_with_lme_and_eigensoftening_in_3d_on_one_to_four_ranks_are_the_single
 }
 
 #[test]
+fn disks_in_frictional_contact_on_one_to_four_ranks_are_the_single_process() {
+    // Each disk its own contact group: they meet on the slab boundary, bounce and part. The
+    // contact's work is summed over the nodes each rank owns.
+    let contact = r#"(system: "basis/linear"), (system: "predictor/newmark"),
+        (system: "stress/linear_elastic"), (system: "partition/bodies"),
+        (system: "contact/frictional", params: (friction: 0.3)),
+        (system: "corrector/newmark"), (system: "advection/newmark")"#;
+    let columns = assert_ranks_match_serial(contact, 500);
+    let work = columns.iter().find(|c| c.0 == "contact_work").unwrap().1;
+    assert!(work < 0.0, "{columns:?}");
+}
+
+#[test]
 fn a_pipeline_whose_state_a_rank_cannot_split_is_refused_with_its_reason() {
     let contact = r#"(system: "basis/linear"), (system: "partition/bodies"),
-        (system: "predictor/usl"), (system: "contact/frictional", params: (friction: 0.0)),
-        (system: "stress/linear_elastic"), (system: "advection/usl")"#;
+        (system: "predictor/newmark"), (system: "stress/linear_elastic"),
+        (system: "contact/penalty", params: (friction: 0.5)),
+        (system: "corrector/newmark"), (system: "advection/newmark")"#;
     let e = build_rank_simulation(
         &parse(&scene(contact, 10)),
         &fractum_systems::stock_registry(),

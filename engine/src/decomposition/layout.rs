@@ -118,7 +118,8 @@ pub struct Ownership {
     pub claimable: Vec<bool>,
     /// The particles of the whole run (every rank's owned ones).
     pub total: u64,
-    /// Per node index: in this rank's own layers, whose values the owned particles read.
+    /// Per node index: owned here (on the lower face of one of this rank's cell layers, or
+    /// the grid's last node layer for the last rank), so that each node counts on one rank.
     pub nodes: Vec<bool>,
 }
 
@@ -133,8 +134,11 @@ impl Ownership {
         node_layers: impl Iterator<Item = usize>,
     ) -> Self {
         let slab = layout.slabs[rank].clone();
+        // Node layer `i` lies on the lower face of cell layer `i`: each node belongs to the
+        // slab of the cell layer above it, and the grid's last node layer to the last slab.
+        let last = slab.end == layout.cells();
         let nodes = node_layers
-            .map(|i| slab.start <= i && i <= slab.end)
+            .map(|i| slab.contains(&i) || (last && i == slab.end))
             .collect();
         Self {
             rank,
@@ -191,6 +195,25 @@ mod tests {
         let wide = Layout { halo: 7, ..l };
         assert_eq!(wide.peers(0), [1, 2]);
         assert_eq!(wide.peers(2), [0, 1]);
+    }
+
+    #[test]
+    fn each_node_and_particle_layer_is_owned_by_one_rank() {
+        let l = layout();
+        let owners: Vec<Vec<usize>> = (0..=12)
+            .map(|i| {
+                (0..3)
+                    .filter(|&r| Ownership::new(l.clone(), r, 0, 0..=12).nodes[i])
+                    .collect()
+            })
+            .collect();
+        assert!(owners.iter().all(|o| o.len() == 1), "{owners:?}");
+        assert_eq!(owners[4], [1]);
+        assert_eq!(owners[12], [2]);
+        let mut o = Ownership::new(l, 1, 0, 0..=12);
+        o.mark([2, 3, 4, 9, 10, 11].into_iter());
+        assert_eq!(o.particles, [false, false, true, true, false, false]);
+        assert_eq!(o.claimable, [false, true, true, true, true, false]);
     }
 
     #[test]

@@ -51,6 +51,7 @@ pub use super::frictional_law::{
 use super::frictional_law::{domain_reach, node_impulses, split_newmark_impulse};
 use crate::transfer::{ForceSources, ParticleSlices, force_contribution};
 use bevy_ecs::system::SystemParam;
+use fractum_engine::decomposition::Ownership;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 
@@ -140,7 +141,10 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     // The field assignment keeps inseparable sides of a group in one field with this D̄_min.
     installer.insert_resource(fractum_engine::fields::Separability(parsed.separability));
     installer.insert_resource(parsed);
-    let slot = installer.add_series_column("contact_work");
+    // The work at the nodes a rank owns: a distributed run adds the ranks' columns.
+    let slot = installer.add_owned_sum_column("contact_work");
+    // Normals from the particles at a node and impulses back to the particles there.
+    installer.declare_grid_round_trip();
     installer.insert_resource(ContactWorkColumn(slot));
     with_dim!(installer.dimension(), D => {
         installer.add_node_component(NodeNormal::<D>::default());
@@ -268,6 +272,9 @@ pub struct ContactStep<'a, V> {
     pub dt: f64,
     /// The body force per unit mass, for the forces of the new stress (Newmark).
     pub body_force: V,
+    /// Per node index, whether its work counts here: the nodes a rank owns in a distributed
+    /// run, every node (`None`) in one process.
+    pub owned: Option<&'a [bool]>,
 }
 
 /// The particles' positions and the scene thickness (2D), from which
@@ -343,7 +350,16 @@ pub fn apply_contact<D: Dim>(
         .map(|&i| node_contact(c, (slices, domains), &nodes, step, i))
         .collect();
     write_contact(&shared, &results, nodes, step);
-    results.iter().map(|r| r.work).sum()
+    let counts = |i: usize| {
+        step.owned
+            .is_none_or(|o| o.get(i).copied().unwrap_or(false))
+    };
+    shared
+        .iter()
+        .zip(&results)
+        .filter(|(i, _)| counts(**i))
+        .map(|(_, r)| r.work)
+        .sum()
 }
 
 /// The statistics of fields failed throughout: every pair separable.
@@ -518,6 +534,7 @@ pub struct ContactInputs<'w, D: Dim> {
     thickness: Option<Res<'w, Thickness>>,
     work_column: Res<'w, ContactWorkColumn>,
     columns: ResMut<'w, SeriesColumns>,
+    ownership: Option<Res<'w, Ownership>>,
 }
 
 /// The slot of the `contact_work` series column.
@@ -561,6 +578,7 @@ pub fn frictional_contact<D: Dim>(
         integration: *inputs.integration,
         dt: inputs.clock.dt,
         body_force: inputs.body_force.0,
+        owned: inputs.ownership.as_deref().map(|o| o.nodes.as_slice()),
     };
     let domains = ParticleDomains {
         positions: single_table(positions.contiguous_iter(), "particles").unwrap_or(&[]),
