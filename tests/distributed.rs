@@ -228,22 +228,51 @@ fn disks_in_frictional_contact_on_one_to_four_ranks_are_the_single_process() {
 }
 
 #[test]
+fn dfg_partitioned_cracks_with_contact_on_one_to_four_ranks_are_the_single_process() {
+    // Kalthoff–Winkler's pipeline on the disks: Rankine damage where they rebound, the
+    // damage-field gradients splitting the nodes of the cracks, and contact between the sides.
+    let dfg = r#"(system: "basis/linear"), (system: "predictor/newmark"),
+        (system: "stress/neo_hookean"),
+        (system: "damage/rankine", params: (tensile_strength: 20.0, fracture_energy: 0.05)),
+        (system: "partition/dfg"),
+        (system: "contact/frictional", params: (friction: 0.0, separability: 0.25)),
+        (system: "corrector/newmark"), (system: "advection/newmark")"#;
+    let columns = assert_ranks_match_serial(dfg, 500);
+    let value = |name: &str| columns.iter().find(|c| c.0 == name).unwrap().1;
+    assert!(value("failed_particles") > 0.0, "{columns:?}");
+    assert!(value("contact_work") < 0.0, "{columns:?}");
+}
+
+#[test]
 fn a_pipeline_whose_state_a_rank_cannot_split_is_refused_with_its_reason() {
-    let contact = r#"(system: "basis/linear"), (system: "partition/bodies"),
+    // Penalty contact carries a running potential; surface detection a threshold from the
+    // whole scene's largest kernel sum.
+    let penalty = r#"(system: "basis/linear"), (system: "partition/bodies"),
         (system: "predictor/newmark"), (system: "stress/linear_elastic"),
         (system: "contact/penalty", params: (friction: 0.5)),
         (system: "corrector/newmark"), (system: "advection/newmark")"#;
-    let e = build_rank_simulation(
-        &parse(&scene(contact, 10)),
-        &fractum_systems::stock_registry(),
-        0,
-        2,
-    )
-    .err()
-    .expect("refused");
-    let message = e.to_string();
-    assert!(
-        message.contains("cannot yet") && message.contains("run it as one process"),
-        "{message}"
-    );
+    let surface = r#"(system: "basis/linear"), (system: "predictor/newmark"),
+        (system: "stress/neo_hookean"), (system: "partition/dfg", params: (surface: 0.8)),
+        (system: "contact/frictional", params: (friction: 0.04)),
+        (system: "corrector/newmark"), (system: "advection/newmark")"#;
+    for (pipeline, state) in [
+        (penalty, "contact_potential"),
+        (surface, "dfg/surface_detected"),
+    ] {
+        let e = build_rank_simulation(
+            &parse(&scene(pipeline, 10)),
+            &fractum_systems::stock_registry(),
+            0,
+            2,
+        )
+        .err()
+        .expect("refused");
+        let message = e.to_string();
+        assert!(
+            message.contains(state)
+                && message.contains("cannot yet")
+                && message.contains("run it as one process"),
+            "{message}"
+        );
+    }
 }

@@ -177,9 +177,12 @@ impl<D: Dim> Spec<D> {
         let engine_state = {
             let mut engine = World::new();
             crate::checkpoint::carry_engine_state::<D>(&mut engine);
-            engine
+            let mut names = engine
                 .resource::<crate::checkpoint::CheckpointState>()
-                .resource_names()
+                .resource_names();
+            // The first step with a split node, which each rank records at the nodes it owns.
+            names.push(<crate::fields::FieldSplits as crate::checkpoint::State>::KEY);
+            names
         };
         let state = world
             .get_resource::<crate::checkpoint::CheckpointState>()

@@ -31,6 +31,7 @@ use super::tensile_degradation::{
     require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
+use fractum_engine::decomposition::Ownership;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -176,9 +177,9 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         length,
     );
     let columns = [
-        installer.add_series_column("damaged_particles"),
-        installer.add_series_column("failed_particles"),
-        installer.add_series_column("dissipated_energy"),
+        installer.add_owned_sum_column("damaged_particles"),
+        installer.add_owned_sum_column("failed_particles"),
+        installer.add_owned_sum_column("dissipated_energy"),
     ];
     installer.insert_resource(RankineParams {
         fracture_energy: raw.fracture_energy,
@@ -267,6 +268,7 @@ type ParticleQuery<'w, 's, D> = Query<
 pub fn rankine<D: Dim>(
     params: Res<RankineParams>,
     mut columns: ResMut<SeriesColumns>,
+    ownership: Option<Res<Ownership>>,
     mut particles: ParticleQuery<D>,
 ) {
     let Some((material, v0, strength, strain, deformation, mut stress, mut energy, mut damage)) =
@@ -298,12 +300,17 @@ pub fn rankine<D: Dim>(
             }
         })
         .collect();
-    let (damaged, failed) = damage_counts(material, &damage, &p.materials);
+    let (damaged, failed) = damage_counts(material, &damage, &p.materials, ownership.as_deref());
     let [cd, cf, ce] = p.columns;
     columns.values[cd] = damaged as f64;
     columns.values[cf] = failed as f64;
-    // Summed in row order, whatever the thread count.
-    columns.values[ce] = dissipated.iter().sum::<f64>() - p.initial_dissipation;
+    // Summed in row order, whatever the thread count, over the rows this rank owns.
+    let owned = |row: &usize| super::counts_here(ownership.as_deref(), *row);
+    let total: f64 = (0..dissipated.len())
+        .filter(owned)
+        .map(|row| dissipated[row])
+        .sum();
+    columns.values[ce] = total - p.initial_dissipation;
 }
 
 #[cfg(test)]

@@ -38,6 +38,7 @@ use super::spectral_split::spectral_degraded;
 use super::weibull::{Weibull, WeibullOption};
 use crate::transfer::DamageInStress;
 use fractum_engine::components::StrengthScale;
+use fractum_engine::decomposition::Ownership;
 use fractum_engine::prelude::*;
 use serde::Deserialize;
 
@@ -290,12 +291,14 @@ pub fn damage_counts(
     material: &[MaterialId],
     damage: &[Damage],
     materials: &MaterialFilter,
+    ownership: Option<&Ownership>,
 ) -> (usize, usize) {
     material
         .iter()
         .zip(damage)
-        .filter(|(m, _)| materials.applies(**m))
-        .fold((0, 0), |(damaged, failed), (_, d)| {
+        .enumerate()
+        .filter(|(row, (m, _))| materials.applies(**m) && super::counts_here(ownership, *row))
+        .fold((0, 0), |(damaged, failed), (_, (_, d))| {
             (
                 damaged + usize::from(d.0 > 0.0),
                 failed + usize::from(d.0 >= 1.0),

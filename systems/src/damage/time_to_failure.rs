@@ -25,6 +25,7 @@ use super::tensile_degradation::{
     require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
+use fractum_engine::decomposition::Ownership;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -90,8 +91,8 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     install_strength(installer, params, raw.tensile_strength, raw.weibull)?;
     let materials = installer.materials().clone();
     let columns = [
-        installer.add_series_column("damaged_particles"),
-        installer.add_series_column("failed_particles"),
+        installer.add_owned_sum_column("damaged_particles"),
+        installer.add_owned_sum_column("failed_particles"),
     ];
     installer.insert_resource(TimeToFailureParams {
         time_to_failure: length / raw.crack_speed,
@@ -133,6 +134,7 @@ pub fn time_to_failure<D: Dim>(
     clock: Res<SimClock>,
     params: Res<TimeToFailureParams>,
     mut columns: ResMut<SeriesColumns>,
+    ownership: Option<Res<Ownership>>,
     mut particles: ParticleQuery<D>,
 ) {
     let Some((material, strength, strain, deformation, mut stress, mut energy, mut damage)) =
@@ -160,7 +162,7 @@ pub fn time_to_failure<D: Dim>(
                     .apply::<D>(material[i], d.0, (stress, energy), strain, f);
             }
         });
-    let (damaged, failed) = damage_counts(material, &damage, &p.materials);
+    let (damaged, failed) = damage_counts(material, &damage, &p.materials, ownership.as_deref());
     let [cd, cf] = p.columns;
     columns.values[cd] = damaged as f64;
     columns.values[cf] = failed as f64;

@@ -180,7 +180,12 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     installer.insert_resource(parsed);
     install_field_assignment(installer)?;
     installer.add_node_component(NodeFieldDamage::default());
-    installer.init_state::<SurfaceDetected>();
+    if parsed.surface.is_some() {
+        // Whether detection has run; the threshold is a fraction of the largest kernel sum
+        // of the whole scene, which a rank of a distributed run does not see: with this state
+        // the pipeline runs as one process.
+        installer.init_state::<SurfaceDetected>();
+    }
     super::field_assignment::install_split_record(installer)?;
     installer.add_particle_component(SurfaceFlag::default());
     installer.add_frame_scalar::<SurfaceFlag>("surface", |s| s.0);
@@ -313,7 +318,8 @@ type ParticleQuery<'w, 's, D> = Query<
 /// neighbour candidates.
 #[derive(bevy_ecs::system::SystemParam)]
 pub struct DfgCarried<'w, D: Dim> {
-    detected: ResMut<'w, SurfaceDetected>,
+    /// Present when the entry detects surfaces.
+    detected: Option<ResMut<'w, SurfaceDetected>>,
     candidates: ResMut<'w, DfgNeighbours<D>>,
 }
 
@@ -336,9 +342,11 @@ pub fn dfg_partition<D: Spatial>(
     carried.candidates.refresh(positions, groups, radius);
     let neighbours = &carried.candidates.rows;
     let surface: &mut [SurfaceFlag] = &mut surface;
-    if let (Some(threshold), false) = (params.surface, carried.detected.0) {
+    if let (Some(threshold), Some(detected)) = (params.surface, carried.detected.as_mut())
+        && !detected.0
+    {
         detect_surface(positions, neighbours, bodies, radius, threshold, surface);
-        carried.detected.0 = true;
+        detected.0 = true;
     }
     let (effective, near_damage, damaged) = &mut *buffers;
     effective.clear();

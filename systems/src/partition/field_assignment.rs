@@ -149,11 +149,12 @@ pub fn install_split_record(installer: &mut Installer) -> Result<(), SceneError>
     ))
 }
 
-/// Records in [`FieldSplits`] the first step at which some node holds both sides of a contact
-/// group. Looked for only until then: afterwards the system reads one resource.
+/// Records in [`FieldSplits`] the first step at which some node (a node this rank owns, in a
+/// distributed run) holds both sides of a contact group. Looked for only until then: afterwards the system reads one resource.
 pub fn record_field_splits(
     clock: Res<SimClock>,
     mut splits: ResMut<FieldSplits>,
+    ownership: Option<Res<fractum_engine::decomposition::Ownership>>,
     nodes: Query<&NodeFields, With<Node>>,
 ) {
     if splits.first.is_some() {
@@ -162,7 +163,14 @@ pub fn record_field_splits(
     let Some(fields) = single_table(nodes.contiguous_iter(), "nodes") else {
         return;
     };
-    if fields.par_iter().any(splits_a_group) {
+    // In a distributed run, the nodes this rank owns: a run's first split is the least of
+    // its ranks'.
+    let owned = |n: usize| ownership.as_ref().is_none_or(|o| o.nodes[n]);
+    if fields
+        .par_iter()
+        .enumerate()
+        .any(|(n, f)| owned(n) && splits_a_group(f))
+    {
         splits.first = Some(clock.step + 1);
     }
 }
