@@ -65,3 +65,109 @@ pub fn refuse_several_ranks() -> Option<i32> {
     }
     Some(crate::EXIT_USAGE)
 }
+
+/// What a distributed run of a scene left after some steps, in a form ranks can add up: the
+/// owned particles, a digest of their carried state that adds over particles (so the ranks'
+/// digests add to the single process's whatever the split), and the published series
+/// columns (each rank's part). `fractum-mpi-step` prints it per rank.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepDigest {
+    /// Particles owned.
+    pub particles: u64,
+    /// The wrapping sum over owned particles of a 64-bit FNV-1a hash of the particle's id and
+    /// carried state.
+    pub digest: u64,
+    /// Each published series column and this rank's value of it.
+    pub columns: Vec<(String, f64)>,
+}
+
+/// Steps `file` `steps` times, as rank `comm.rank()` of a distributed run when `comm` is given
+/// (`fractum_engine::run::distributed`), as one process otherwise, and digests what this
+/// process owns.
+pub fn step_digest(
+    file: &fractum_engine::scene::SceneFile,
+    steps: u64,
+    comm: Option<&dyn Communicator>,
+) -> Result<StepDigest, String> {
+    use fractum_engine::scene::{build_rank_simulation, build_simulation};
+    let registry = fractum_systems::stock_registry();
+    let mut built = match comm {
+        Some(comm) => build_rank_simulation(file, &registry, comm.rank(), comm.size()),
+        None => build_simulation(file, &registry),
+    }
+    .map_err(|e| e.to_string())?;
+    let sim = &mut built.simulation;
+    for _ in 0..steps {
+        match comm {
+            Some(comm) => {
+                fractum_engine::run::distributed::step(sim, comm).map_err(|e| e.to_string())?
+            }
+            None => sim.step().map_err(|e| e.to_string())?,
+        }
+    }
+    let dimension = file.dimension().map_err(|e| e.to_string())?;
+    let states = fractum_engine::with_dim!(dimension, D =>
+        fractum_engine::run::distributed::state_of_particles::<D>(&mut sim.world))?;
+    let digest = states
+        .iter()
+        .map(|(id, parts)| {
+            fnv1a(std::iter::once(&id.to_le_bytes()[..]).chain(parts.iter().map(Vec::as_slice)))
+        })
+        .fold(0u64, u64::wrapping_add);
+    let columns = sim
+        .world
+        .get_resource::<fractum_engine::series::SeriesColumns>()
+        .map(|c| {
+            c.published()
+                .into_iter()
+                .map(|name| {
+                    let value = c.value(&name).unwrap_or(f64::NAN);
+                    (name, value)
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    Ok(StepDigest {
+        particles: states.len() as u64,
+        digest,
+        columns,
+    })
+}
+
+/// 64-bit FNV-1a over `parts`, one after another.
+fn fnv1a<'a>(parts: impl Iterator<Item = &'a [u8]>) -> u64 {
+    parts.flatten().fold(0xcbf2_9ce4_8422_2325, |hash, &byte| {
+        (hash ^ u64::from(byte)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_ranks_digests_add_up_to_the_single_process_digest() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../scenes/two_disks_contact.ron"
+        );
+        let read = || fractum_engine::scene::SceneFile::read(std::path::Path::new(path)).unwrap();
+        let serial = step_digest(&read(), 40, None).unwrap();
+        let threads: Vec<_> = fractum_engine::communicator::thread_ranks(3)
+            .into_iter()
+            .map(|comm| {
+                let file = read();
+                std::thread::spawn(move || step_digest(&file, 40, Some(&comm)).unwrap())
+            })
+            .collect();
+        let ranks: Vec<StepDigest> = threads.into_iter().map(|t| t.join().unwrap()).collect();
+        let particles: u64 = ranks.iter().map(|r| r.particles).sum();
+        let digest = ranks.iter().map(|r| r.digest).fold(0, u64::wrapping_add);
+        assert_eq!((particles, digest), (serial.particles, serial.digest));
+        assert!(
+            ranks
+                .iter()
+                .all(|r| r.particles > 0 && r.particles < particles)
+        );
+    }
+}

@@ -103,3 +103,74 @@ fn sigterm_to_mpirun_ends_a_one_rank_run_with_a_checkpoint_that_resumes() {
     assert_eq!(last, target, "the resumed run ends at step {target}");
     let _ = std::fs::remove_dir_all(&out_dir);
 }
+
+/// Particles, digest and columns summed over the `rank … of …:` lines `fractum-mpi-step`
+/// printed.
+fn added_up(stdout: &str) -> (u64, u64, Vec<(String, f64)>) {
+    let mut total = (0u64, 0u64, Vec::<(String, f64)>::new());
+    for line in stdout.lines().filter(|l| l.starts_with("rank ")) {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let field = |name: &str| words[words.iter().position(|w| *w == name).unwrap() + 1];
+        total.0 += field("particles").parse::<u64>().unwrap();
+        total.1 = total
+            .1
+            .wrapping_add(u64::from_str_radix(field("digest"), 16).unwrap());
+        let columns = words.last().unwrap().split(',').filter(|c| c.contains('='));
+        for (k, column) in columns.enumerate() {
+            let (name, value) = column.split_once('=').unwrap();
+            let value: f64 = value.parse().unwrap();
+            match total.2.get_mut(k) {
+                Some(slot) => slot.1 += value,
+                None => total.2.push((name.to_string(), value)),
+            }
+        }
+    }
+    total
+}
+
+#[test]
+fn under_mpirun_two_to_four_ranks_step_scenes_as_the_single_process_does() {
+    let program = env!("CARGO_BIN_EXE_fractum-mpi-step");
+    // Disks in frictional contact meeting across the slabs, and Kalthoff–Winkler's DFG
+    // pipeline on its 49 200 particles for a few steps.
+    for (scene, steps) in [
+        ("scenes/two_disks_contact.ron", "1800"),
+        ("scenes/kalthoff_winkler_dfg.ron", "6"),
+    ] {
+        let serial = std::process::Command::new(program)
+            .args([scene, steps, "--serial"])
+            .current_dir(root())
+            .output()
+            .unwrap();
+        assert!(serial.status.success(), "{}", text(&serial.stderr));
+        let (particles, digest, columns) = added_up(&text(&serial.stdout));
+        assert!(particles > 0);
+        for ranks in [2, 3, 4] {
+            let out = support::mpirun::mpirun(
+                ranks,
+                program,
+                &[scene, steps],
+                &root(),
+                Duration::from_secs(300),
+            );
+            assert!(out.status.success(), "{scene}: {}", text(&out.stderr));
+            let stdout = text(&out.stdout);
+            assert_eq!(
+                stdout.lines().filter(|l| l.starts_with("rank ")).count(),
+                ranks
+            );
+            let (p, d, c) = added_up(&stdout);
+            assert_eq!(
+                (p, d),
+                (particles, digest),
+                "{scene}, {ranks} ranks:\n{stdout}"
+            );
+            for ((name, serial), (_, summed)) in columns.iter().zip(&c) {
+                assert!(
+                    (summed - serial).abs() <= 1e-12 * serial.abs(),
+                    "{scene}, {ranks} ranks: {name} {summed} against {serial}"
+                );
+            }
+        }
+    }
+}
