@@ -79,6 +79,9 @@ pub struct StepDigest {
     pub digest: u64,
     /// Each published series column and this rank's value of it.
     pub columns: Vec<(String, f64)>,
+    /// How often the slabs were re-cut, and how far the most loaded rank was over the mean
+    /// after the last step (0 in one process).
+    pub rebalanced: (u64, f64),
 }
 
 /// Steps `file` `steps` times, as rank `comm.rank()` of a distributed run when `comm` is given
@@ -127,10 +130,15 @@ pub fn step_digest(
                 .collect()
         })
         .unwrap_or_default();
+    let rebalanced = sim
+        .world
+        .get_resource::<fractum_engine::decomposition::Ownership>()
+        .map_or((0, 0.0), |o| (o.rebalances, o.imbalance));
     Ok(StepDigest {
         particles: states.len() as u64,
         digest,
         columns,
+        rebalanced,
     })
 }
 

@@ -118,6 +118,13 @@ pub struct Ownership {
     pub claimable: Vec<bool>,
     /// The particles of the whole run (every rank's owned ones).
     pub total: u64,
+    /// Re-cut the slabs after a step when the most loaded rank holds more than this fraction
+    /// over the mean of its own particles (`None`: never). 0.1 unless set.
+    pub rebalance_above: Option<f64>,
+    /// How far the most loaded rank was over the mean after the last step.
+    pub imbalance: f64,
+    /// How often the slabs were re-cut.
+    pub rebalances: u64,
     /// Per node index: owned here (on the lower face of one of this rank's cell layers, or
     /// the grid's last node layer for the last rank), so that each node counts on one rank.
     pub nodes: Vec<bool>,
@@ -146,8 +153,21 @@ impl Ownership {
             particles: Vec::new(),
             claimable: Vec::new(),
             total,
+            rebalance_above: Some(0.1),
+            imbalance: 0.0,
+            rebalances: 0,
             nodes,
         }
+    }
+
+    /// Takes the slabs of `layout` (the same ranks and halo), with each node's lattice index
+    /// along the axis from `node_layers`.
+    pub fn relayout(&mut self, layout: Layout, node_layers: impl Iterator<Item = usize>) {
+        let rebalances = self.rebalances + 1;
+        let (above, total) = (self.rebalance_above, self.total);
+        *self = Self::new(layout, self.rank, total, node_layers);
+        self.rebalance_above = above;
+        self.rebalances = rebalances;
     }
 
     /// Marks each particle row from the layer it is in at the start of a step.

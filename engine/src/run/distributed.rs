@@ -78,33 +78,49 @@ fn exchange_and_rebuild<D: Dim>(
         .unwrap_or_default();
     let layout = ownership.layout.clone();
     let me = ownership.rank;
-    let peers = layout.peers(me);
-    let mut kept = Vec::new();
-    let mut outgoing: Vec<Vec<(usize, Entity, u32)>> = vec![Vec::new(); peers.len()];
+    // The particles this rank takes over: those whose step here was exact (they began near
+    // the slab) and that ended it in the slab.
+    let mut claimed = Vec::new();
+    let mut per_layer = vec![0.0; layout.cells()];
     for (row, (entity, id, x)) in rows::<D>(world).into_iter().enumerate() {
         let layer = layer_of::<D>(&layout, &grid, x);
-        // Only a particle whose step here was exact (it began near the slab) is taken over.
-        if !ownership.claimable.get(row).copied().unwrap_or(false) || layout.owner(layer) != me {
-            continue;
-        }
-        kept.push((row, entity, id));
-        for holder in layout.holders(layer).filter(|&h| h != me) {
-            // Every holder of a layer of this slab is a peer (`Layout::peers`).
-            if let Some(k) = peers.iter().position(|&p| p == holder) {
-                outgoing[k].push((row, entity, id));
-            }
+        if ownership.claimable.get(row).copied().unwrap_or(false) && layout.owner(layer) == me {
+            claimed.push((row, entity, id, layer));
+            per_layer[layer] += 1.0;
         }
     }
     // Every rank takes part in the sum and the exchange, whatever it found, so that none waits
     // for another; the failures are reported after them.
-    let owned = comm.sum(&[kept.len() as f64])[0];
-    let mut failure = (owned != ownership.total as f64).then(|| {
+    let per_layer: Vec<u64> = comm.sum(&per_layer).iter().map(|&n| n as u64).collect();
+    let owned: u64 = per_layer.iter().sum();
+    let mut failure = (owned != ownership.total).then(|| {
         format!(
             "the ranks own {owned} particles after the step, not the run's {}: a particle moved \
              further in one step than the halo of {} layers allows",
             ownership.total, layout.halo
         )
     });
+    let next = rebalanced(&layout, &per_layer, ownership.rebalance_above);
+    let (next, peers) = match next {
+        // The slabs move: any rank may hold what another owned.
+        Some(next) => {
+            let peers = (0..layout.slabs.len()).filter(|&r| r != me).collect();
+            (next, peers)
+        }
+        None => (layout.clone(), layout.peers(me)),
+    };
+    let mut kept = Vec::new();
+    let mut outgoing: Vec<Vec<(usize, Entity, u32)>> = vec![Vec::new(); peers.len()];
+    for &(row, entity, id, layer) in &claimed {
+        for holder in next.holders(layer) {
+            if holder == me {
+                kept.push((row, entity, id));
+            } else if let Some(k) = peers.iter().position(|&p| p == holder) {
+                // Every holder of a layer of this slab is a peer (`Layout::peers`).
+                outgoing[k].push((row, entity, id));
+            }
+        }
+    }
     let mut sends = Vec::with_capacity(peers.len());
     for (peer, rows) in peers.iter().zip(&outgoing) {
         let encoded = block(world, &state, rows).and_then(|b| {
@@ -130,12 +146,43 @@ fn exchange_and_rebuild<D: Dim>(
         blocks.push(decoded);
     }
     rebuild::<D>(world, &state, blocks)?;
+    if next != layout {
+        let axis = next.axis;
+        let node_layers = (0..grid.node_count()).map(|n| grid.node_lattice(n)[axis]);
+        ownership.relayout(next, node_layers);
+    }
+    ownership.imbalance =
+        crate::decomposition::imbalance(&slab_loads(&ownership.layout, &per_layer));
     let layers: Vec<usize> = rows::<D>(world)
         .into_iter()
-        .map(|(_, _, x)| layer_of::<D>(&layout, &grid, x))
+        .map(|(_, _, x)| layer_of::<D>(&ownership.layout, &grid, x))
         .collect();
     ownership.mark(layers.into_iter());
     Ok(())
+}
+
+/// Each slab's particles, from the particles per layer.
+fn slab_loads(layout: &Layout, per_layer: &[u64]) -> Vec<u64> {
+    layout
+        .slabs
+        .iter()
+        .map(|slab| per_layer[slab.clone()].iter().sum())
+        .collect()
+}
+
+/// The slabs re-cut to the particles per layer when the most loaded rank is more than
+/// `above` over the mean and the new cut is better balanced; `None` to keep them.
+fn rebalanced(layout: &Layout, per_layer: &[u64], above: Option<f64>) -> Option<Layout> {
+    let above = above?;
+    let now = crate::decomposition::imbalance(&slab_loads(layout, per_layer));
+    if now <= above {
+        return None;
+    }
+    let cut = crate::decomposition::cut_slabs(layout.axis, per_layer, layout.slabs.len()).ok()?;
+    (cut.imbalance() < now).then(|| Layout {
+        slabs: cut.layers,
+        ..layout.clone()
+    })
 }
 
 /// Makes the world's particles exactly those of `blocks`, sorted by id.

@@ -1,6 +1,7 @@
 //! `fractum-mpi-step SCENE STEPS [--serial]`: steps a scene as the ranks `mpirun` started (or
 //! as one process with `--serial`) and prints, per rank, the particles it owns, a digest of
-//! their state that adds over particles, and its part of each series column. The ranks'
+//! their state that adds over particles, how often the slabs were re-cut and the imbalance
+//! after the last step, and its part of each series column. The ranks'
 //! lines add up to the single process's when the distributed step reproduces it
 //! (`tools/tests/mpi_run.rs`). Built with the `mpi` feature.
 
@@ -36,11 +37,13 @@ fn main() {
                 .map(|(name, value)| format!("{name}={value:e}"))
                 .collect();
             println!(
-                "rank {} of {}: particles {} digest {:016x} columns {}",
+                "rank {} of {}: particles {} digest {:016x} re-cuts {} imbalance {:.3} columns {}",
                 comm.rank(),
                 comm.size(),
                 digest.particles,
                 digest.digest,
+                digest.rebalanced.0,
+                digest.rebalanced.1,
                 columns.join(",")
             );
         }
