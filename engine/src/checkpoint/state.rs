@@ -105,6 +105,8 @@ type SaveComponent = fn(&mut World, &[Entity]) -> Result<Vec<u8>, CheckpointErro
 type LoadComponent = fn(&mut World, &[Entity], &[u8]) -> Result<(), CheckpointError>;
 type PickComponent =
     fn(&mut World, &[Entity], &[&[u8]], &[(u32, u32)]) -> Result<(), CheckpointError>;
+type SaveColumn = fn(&mut World, &[usize], usize) -> Option<Result<Vec<u8>, CheckpointError>>;
+type PickColumn = fn(&mut World, &[&[u8]], &[(u32, u32)]) -> Option<Result<(), CheckpointError>>;
 type SaveRows = fn(&World, &[usize]) -> Result<Vec<u8>, CheckpointError>;
 type PickRows = fn(&mut World, &[&[u8]], &[(u32, u32)]) -> Result<(), CheckpointError>;
 type SaveResource = fn(&World) -> Result<Option<Vec<u8>>, CheckpointError>;
@@ -117,6 +119,8 @@ struct ComponentEntry {
     save: SaveComponent,
     load: LoadComponent,
     pick: PickComponent,
+    save_column: SaveColumn,
+    pick_column: PickColumn,
 }
 
 #[derive(Clone, Copy)]
@@ -165,6 +169,8 @@ impl CheckpointState {
                 save: save_component::<C>,
                 load: load_component::<C>,
                 pick: pick_component::<C>,
+                save_column: save_column::<C>,
+                pick_column: pick_column::<C>,
             });
         }
     }
@@ -180,6 +186,62 @@ impl CheckpointState {
                 load: load_resource::<R>,
             });
         }
+    }
+
+    /// Part `c` (a component, or a row resource after the components) of each of `blocks`.
+    fn block_parts<'b>(
+        &self,
+        blocks: &'b [Vec<Vec<u8>>],
+        c: usize,
+    ) -> Result<Vec<&'b [u8]>, CheckpointError> {
+        let carried = self.components.len() + self.rows.len();
+        blocks
+            .iter()
+            .map(|block| match block.get(c) {
+                Some(bytes) if block.len() == carried => Ok(bytes.as_slice()),
+                _ => Err(CheckpointError::Mismatch(format!(
+                    "a block of {} parts, {carried} carried",
+                    block.len()
+                ))),
+            })
+            .collect()
+    }
+
+    /// [`CheckpointState::load_picked`] into every particle of `world`, in storage order (the
+    /// `k`-th row gets pick `k`): component by component into each column when every particle
+    /// has the component, entity by entity otherwise. With `same_rows` (every row holds the
+    /// particle it held), the [`RowState`] resources keep their rows as they are: their cached
+    /// lists stay valid.
+    pub fn load_picked_rows(
+        &self,
+        world: &mut World,
+        blocks: &[Vec<Vec<u8>>],
+        picks: &[(u32, u32)],
+        same_rows: bool,
+    ) -> Result<(), CheckpointError> {
+        let part = |c: usize| self.block_parts(blocks, c);
+        let (targets, _) = particles_in_order(world);
+        if targets.len() != picks.len() {
+            return Err(CheckpointError::Mismatch(format!(
+                "{} particles to fill from {} picked",
+                targets.len(),
+                picks.len()
+            )));
+        }
+        for (c, entry) in self.components.iter().enumerate() {
+            let sources = part(c)?;
+            match (entry.pick_column)(world, &sources, picks) {
+                Some(done) => done?,
+                None => (entry.pick)(world, &targets, &sources, picks)?,
+            }
+        }
+        if same_rows {
+            return Ok(());
+        }
+        for (r, entry) in self.rows.iter().enumerate() {
+            (entry.pick)(world, &part(self.components.len() + r)?, picks)?;
+        }
+        Ok(())
     }
 
     /// Carries resource `R`, which keeps a value per particle row: in a checkpoint whole, and
@@ -247,7 +309,13 @@ impl CheckpointState {
     ) -> Result<Vec<Vec<u8>>, CheckpointError> {
         let mut saved = Vec::with_capacity(self.components.len() + self.rows.len());
         for entry in &self.components {
-            saved.push((entry.save)(world, particles)?);
+            // From the component's column when every particle has it, as they do in one table;
+            // entity by entity otherwise.
+            let bytes = match (entry.save_column)(world, rows, particles.len()) {
+                Some(column) => column?,
+                None => (entry.save)(world, particles)?,
+            };
+            saved.push(bytes);
         }
         for entry in &self.rows {
             saved.push((entry.save)(world, rows)?);
@@ -274,19 +342,7 @@ impl CheckpointState {
                 picks.len()
             )));
         }
-        let carried = self.components.len() + self.rows.len();
-        let part = |c: usize| -> Result<Vec<&[u8]>, CheckpointError> {
-            blocks
-                .iter()
-                .map(|block| match block.get(c) {
-                    Some(bytes) if block.len() == carried => Ok(bytes.as_slice()),
-                    _ => Err(CheckpointError::Mismatch(format!(
-                        "a block of {} parts, {carried} carried",
-                        block.len()
-                    ))),
-                })
-                .collect()
-        };
+        let part = |c: usize| self.block_parts(blocks, c);
         for (c, entry) in self.components.iter().enumerate() {
             (entry.pick)(world, targets, &part(c)?, picks)?;
         }
@@ -360,6 +416,68 @@ fn load_component<C: Component<Mutability = bevy_ecs::component::Mutable> + Stat
         }
     }
     Ok(())
+}
+
+/// `C` of particle rows `rows`, encoded as [`save_component`] encodes them, read from the
+/// particles' one table; `None` when the particles (`count` of them) are not all in one table
+/// with `C`.
+fn save_column<C: Component + State>(
+    world: &mut World,
+    rows: &[usize],
+    count: usize,
+) -> Option<Result<Vec<u8>, CheckpointError>> {
+    let mut query = world.query_filtered::<&C, With<Particle>>();
+    let mut tables = query.contiguous_iter(world).ok()?;
+    let column: &[C] = tables.next()?;
+    if tables.next().is_some() || column.len() < count {
+        return None;
+    }
+    let values: Option<Vec<Option<&C>>> = rows.iter().map(|&r| column.get(r).map(Some)).collect();
+    Some(postcard::to_allocvec(&values?).map_err(codec(C::KEY)))
+}
+
+/// [`pick_component`] into every particle row in order, through the particles' one table;
+/// `None` when they are not all in one table with `C`.
+fn pick_column<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
+    world: &mut World,
+    sources: &[&[u8]],
+    picks: &[(u32, u32)],
+) -> Option<Result<(), CheckpointError>> {
+    let name = C::KEY;
+    let count = world
+        .query_filtered::<(), With<Particle>>()
+        .iter(world)
+        .count();
+    let mut query = world.query_filtered::<&mut C, With<Particle>>();
+    let mut tables = query.contiguous_iter_mut(world).ok()?;
+    let mut column = tables.next()?;
+    if tables.next().is_some() || column.len() != count || count != picks.len() {
+        return None;
+    }
+    let decoded: Result<Vec<Vec<Option<C>>>, _> = sources
+        .iter()
+        .map(|bytes| postcard::from_bytes(bytes).map_err(codec(name)))
+        .collect();
+    let mut decoded = match decoded {
+        Ok(decoded) => decoded,
+        Err(e) => return Some(Err(e)),
+    };
+    let column: &mut [C] = &mut column;
+    for (slot, &(block, index)) in column.iter_mut().zip(picks) {
+        let value = decoded
+            .get_mut(block as usize)
+            .and_then(|values| values.get_mut(index as usize))
+            .and_then(Option::take);
+        match value {
+            Some(value) => *slot = value,
+            None => {
+                return Some(Err(CheckpointError::Mismatch(format!(
+                    "{name}: particle {index} of block {block} was not sent with it"
+                ))));
+            }
+        }
+    }
+    Some(Ok(()))
 }
 
 fn pick_component<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(

@@ -204,18 +204,19 @@ fn rebuild<D: Dim>(
     if let Some(w) = picks.windows(2).find(|w| w[0].0 == w[1].0) {
         return Err(format!("particle {} arrived from two ranks", w[0].0));
     }
+    // Mostly no particle enters or leaves a rank in a step: every row then keeps its particle,
+    // and the systems' row caches (neighbour lists) stay valid.
+    let held: Vec<u32> = rows::<D>(world).into_iter().map(|r| r.1).collect();
+    let same_rows = held.len() == picks.len() && held.iter().zip(&picks).all(|(a, b)| *a == b.0);
     resize_particles::<D>(world, picks.len())?;
-    let entities: Vec<Entity> = rows::<D>(world).into_iter().map(|r| r.0).collect();
-    for (&entity, &(id, _, _)) in entities.iter().zip(&picks) {
-        world
-            .get_mut::<ParticleId>(entity)
-            .ok_or("a particle without an id")?
-            .0 = id;
+    let mut ids = world.query_filtered::<&mut ParticleId, With<Particle>>();
+    for (mut slot, &(id, _, _)) in ids.iter_mut(world).zip(&picks) {
+        slot.0 = id;
     }
     let components: Vec<Vec<Vec<u8>>> = blocks.into_iter().map(|b| b.1).collect();
     let picks: Vec<(u32, u32)> = picks.iter().map(|&(_, b, i)| (b, i)).collect();
     state
-        .load_picked(world, &entities, &components, &picks)
+        .load_picked_rows(world, &components, &picks, same_rows)
         .map_err(|e| e.to_string())
 }
 
