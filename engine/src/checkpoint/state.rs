@@ -207,11 +207,14 @@ impl CheckpointState {
             .collect()
     }
 
-    /// [`CheckpointState::load_picked`] into every particle of `world`, in storage order (the
-    /// `k`-th row gets pick `k`): component by component into each column when every particle
-    /// has the component, entity by entity otherwise. With `same_rows` (every row holds the
-    /// particle it held), the [`RowState`] resources keep their rows as they are: their cached
-    /// lists stay valid.
+    /// Writes into every particle of `world`, in storage order, every carried component of
+    /// particle `picks[k] = (b, i)` for the `k`-th: the `i`-th particle of `blocks[b]`, which
+    /// [`CheckpointState::save_particles`] encoded (with the same carried components); and makes
+    /// the picked rows, in order, the rows of each [`RowState`] resource. Each particle is
+    /// picked at most once, and a particle carries a component exactly where its source did.
+    /// Component by component into each column when every particle has the component, entity
+    /// by entity otherwise. With `same_rows` (every row holds the particle it held), the
+    /// [`RowState`] resources keep their rows as they are: their cached lists stay valid.
     pub fn load_picked_rows(
         &self,
         world: &mut World,
@@ -247,16 +250,12 @@ impl CheckpointState {
     /// Carries resource `R`, which keeps a value per particle row: in a checkpoint whole, and
     /// in a distributed run row by row with the particles ([`RowState`]).
     pub fn row_resource<R: RowState>(&mut self) {
-        let (name, type_id) = (R::KEY, std::any::TypeId::of::<R>());
-        if self.is_new(name, type_id) {
-            self.resources.push(ResourceEntry {
-                name,
-                type_id,
-                save: save_resource::<R>,
-                load: load_resource::<R>,
-            });
+        self.resource::<R>();
+        let type_id = std::any::TypeId::of::<R>();
+        let carried = self.resources.iter().any(|e| e.type_id == type_id);
+        if carried && !self.is_row_resource(R::KEY) {
             self.rows.push(RowEntry {
-                name,
+                name: R::KEY,
                 save: save_rows::<R>,
                 pick: pick_rows::<R>,
             });
@@ -300,7 +299,7 @@ impl CheckpointState {
     /// Every carried component of `particles` (storage rows `rows`), each encoded as a
     /// checkpoint encodes it, in the order the components are carried, then their rows of each
     /// [`RowState`] resource: the particles' state, to be sent to another rank of a
-    /// distributed run and put back with [`CheckpointState::load_picked`].
+    /// distributed run and put back with [`CheckpointState::load_picked_rows`].
     pub fn save_particles(
         &self,
         world: &mut World,
@@ -321,35 +320,6 @@ impl CheckpointState {
             saved.push((entry.save)(world, rows)?);
         }
         Ok(saved)
-    }
-
-    /// Writes into `targets[k]` every carried component of particle `picks[k] = (b, i)`: the
-    /// `i`-th particle of `blocks[b]`, which [`CheckpointState::save_particles`] encoded (with
-    /// the same carried components), and makes the picked rows, in order, the rows of each
-    /// [`RowState`] resource (`targets` are then the storage rows in order). Each particle is picked at most once, and targets must
-    /// carry a component exactly where their source did.
-    pub fn load_picked(
-        &self,
-        world: &mut World,
-        targets: &[Entity],
-        blocks: &[Vec<Vec<u8>>],
-        picks: &[(u32, u32)],
-    ) -> Result<(), CheckpointError> {
-        if targets.len() != picks.len() {
-            return Err(CheckpointError::Mismatch(format!(
-                "{} particles to fill from {} picked",
-                targets.len(),
-                picks.len()
-            )));
-        }
-        let part = |c: usize| self.block_parts(blocks, c);
-        for (c, entry) in self.components.iter().enumerate() {
-            (entry.pick)(world, targets, &part(c)?, picks)?;
-        }
-        for (r, entry) in self.rows.iter().enumerate() {
-            (entry.pick)(world, &part(self.components.len() + r)?, picks)?;
-        }
-        Ok(())
     }
 
     /// Names of the carried resources.
@@ -707,4 +677,86 @@ pub fn restore(world: &mut World, saved: &WorldState) -> Result<(), CheckpointEr
         (entry.load)(world, bytes)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::components::{Position, Velocity};
+    use crate::dim::Two;
+    use crate::testing::{spawn_particle, tiny_world};
+    use glam::DVec2;
+
+    /// A resource that keeps one number per row, as a warm start does.
+    #[derive(Resource, Default, Serialize, Deserialize)]
+    struct PerRow(Vec<f64>);
+    crate::checkpoint_keys! { PerRow => "test/per_row" }
+    impl RowState for PerRow {
+        type Row = f64;
+        fn row(&self, row: usize) -> f64 {
+            self.0[row]
+        }
+        fn set_rows(&mut self, rows: Vec<f64>) {
+            self.0 = rows;
+        }
+    }
+
+    fn world_of(xs: &[f64]) -> World {
+        let mut world = tiny_world::<Two>(4, 1.0, 1e-3);
+        carry_engine_state::<Two>(&mut world);
+        world
+            .resource_mut::<CheckpointState>()
+            .row_resource::<PerRow>();
+        for &x in xs {
+            spawn_particle(&mut world, DVec2::new(x, 0.5), DVec2::new(x, 0.0), 1.0, 1.0);
+        }
+        world.insert_resource(PerRow(xs.to_vec()));
+        world
+    }
+
+    fn particles<T: Component + Copy>(world: &mut World) -> Vec<T> {
+        let mut query = world.query_filtered::<&T, With<Particle>>();
+        query.iter(world).copied().collect()
+    }
+
+    /// Particles saved from two worlds are put, picked in another order, into a third, rows
+    /// and row state alike; with `same_rows` the row state is left as it is.
+    #[test]
+    fn particles_picked_from_blocks_fill_the_rows_in_order() {
+        let state = world_of(&[]).resource::<CheckpointState>().clone();
+        let mut blocks = Vec::new();
+        for xs in [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]] {
+            let mut source = world_of(&xs);
+            let (entities, _) = particles_in_order(&mut source);
+            let saved = state.save_particles(&mut source, &entities[1..], &[1, 2]);
+            blocks.push(saved.unwrap());
+        }
+        let mut target = world_of(&[0.0, 0.0, 0.0]);
+        // Row 0 gets particle 1 of block 1 (x = 6), row 1 particle 0 of block 0 (x = 2), row 2
+        // particle 0 of block 1 (x = 5).
+        let picks = [(1, 1), (0, 0), (1, 0)];
+        state
+            .load_picked_rows(&mut target, &blocks, &picks, false)
+            .unwrap();
+        let xs: Vec<f64> = particles::<Position<Two>>(&mut target)
+            .iter()
+            .map(|p| p.0.x)
+            .collect();
+        assert_eq!(xs, [6.0, 2.0, 5.0]);
+        let vs: Vec<f64> = particles::<Velocity<Two>>(&mut target)
+            .iter()
+            .map(|v| v.0.x)
+            .collect();
+        assert_eq!(vs, [6.0, 2.0, 5.0]);
+        assert_eq!(target.resource::<PerRow>().0, [6.0, 2.0, 5.0]);
+        target.resource_mut::<PerRow>().0 = vec![9.0; 3];
+        state
+            .load_picked_rows(&mut target, &blocks, &[(0, 1), (0, 0), (1, 0)], true)
+            .unwrap();
+        assert_eq!(target.resource::<PerRow>().0, [9.0; 3]);
+        // A pick with no particle behind it is refused, not read out of bounds.
+        let missing =
+            state.load_picked_rows(&mut target, &blocks, &[(0, 5), (0, 0), (1, 0)], false);
+        assert!(missing.is_err());
+    }
 }
