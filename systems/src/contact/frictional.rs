@@ -143,8 +143,9 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     installer.insert_resource(parsed);
     // The work at the nodes a rank owns: a distributed run adds the ranks' columns.
     let slot = installer.add_owned_sum_column("contact_work");
-    // Normals from the particles at a node and impulses back to the particles there.
-    installer.declare_grid_round_trip();
+    // No reach of its own for a distributed run's halo: a node's normals come from the
+    // particles whose masses and momenta the node already sums, and its impulses go where
+    // its velocity goes.
     installer.insert_resource(ContactWorkColumn(slot));
     with_dim!(installer.dimension(), D => {
         installer.add_node_component(NodeNormal::<D>::default());
