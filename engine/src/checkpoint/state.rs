@@ -434,10 +434,7 @@ fn pick_column<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
     };
     let column: &mut [C] = &mut column;
     for (slot, &(block, index)) in column.iter_mut().zip(picks) {
-        let value = decoded
-            .get_mut(block as usize)
-            .and_then(|values| values.get_mut(index as usize))
-            .and_then(Option::take);
+        let value = picked(&mut decoded, block, index).and_then(Option::take);
         match value {
             Some(value) => *slot = value,
             None => {
@@ -463,9 +460,7 @@ fn pick_component<C: Component<Mutability = bevy_ecs::component::Mutable> + Stat
         .collect::<Result<_, _>>()?;
     for (&entity, &(block, index)) in targets.iter().zip(picks) {
         // Each particle is picked once: its value is moved out.
-        let value = decoded
-            .get_mut(block as usize)
-            .and_then(|values| values.get_mut(index as usize))
+        let value = picked(&mut decoded, block, index)
             .map(Option::take)
             .ok_or_else(|| {
                 CheckpointError::Mismatch(format!(
@@ -484,6 +479,11 @@ fn pick_component<C: Component<Mutability = bevy_ecs::component::Mutable> + Stat
         }
     }
     Ok(())
+}
+
+/// The slot of the `index`-th value of block `block`, if it was sent.
+fn picked<T>(decoded: &mut [Vec<Option<T>>], block: u32, index: u32) -> Option<&mut Option<T>> {
+    decoded.get_mut(block as usize)?.get_mut(index as usize)
 }
 
 fn save_rows<R: RowState>(world: &World, rows: &[usize]) -> Result<Vec<u8>, CheckpointError> {
@@ -514,9 +514,7 @@ fn pick_rows<R: RowState>(
     let rows = picks
         .iter()
         .map(|&(block, index)| {
-            decoded
-                .get_mut(block as usize)
-                .and_then(|rows| rows.get_mut(index as usize))
+            picked(&mut decoded, block, index)
                 .and_then(Option::take)
                 .ok_or_else(|| {
                     CheckpointError::Mismatch(format!(
