@@ -106,6 +106,10 @@ impl BoundaryRegion {
 pub struct BoundaryConditions {
     /// The regions.
     pub regions: Vec<BoundaryRegion>,
+    /// The nodes whose reactions this process measures: a rank's owned nodes in a distributed
+    /// run ([`crate::decomposition::Ownership::nodes`]), so that the ranks' reactions add up to
+    /// the run's; every node when `None`. Velocities are held at every node either way.
+    pub measured_nodes: Option<Vec<bool>>,
 }
 
 /// Reaction force of each region over the last step that measured it, in region order.
@@ -162,12 +166,18 @@ impl BoundaryConditions {
             let mut reaction = D::Vector::ZERO;
             for &node in &region.nodes {
                 let node = node as usize;
+                let measured = self
+                    .measured_nodes
+                    .as_ref()
+                    .is_none_or(|m| m.get(node).copied().unwrap_or(false));
                 for field in 0..MAX_FIELDS {
                     let mass = masses[node].0[field];
                     let v = &mut velocities[node].0[field];
                     for (c, target) in held.iter().enumerate() {
                         if let Some(target) = *target {
-                            reaction[c] += mass * (target - v[c]);
+                            if measured {
+                                reaction[c] += mass * (target - v[c]);
+                            }
                             v[c] = target;
                         }
                     }
@@ -211,6 +221,7 @@ mod tests {
                 nodes: vec![0],
                 velocity: [Some(PiecewiseLinear::constant(0.0)), None, None],
             }],
+            measured_nodes: None,
         };
         let masses = [NodeMass(slots(&[2.0])), NodeMass(slots(&[1.0]))];
         let mut velocities = [
@@ -233,6 +244,7 @@ mod tests {
                 nodes: vec![1],
                 velocity: [None, None, Some(PiecewiseLinear::constant(-1.0))],
             }],
+            measured_nodes: None,
         };
         let masses = [NodeMass(slots(&[1.0])), NodeMass(slots(&[4.0, 1.0]))];
         let v = DVec3::new(0.1, 0.2, 0.3);

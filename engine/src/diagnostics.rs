@@ -53,7 +53,13 @@ pub fn totals_of<D: Dim>(world: &mut World) -> Totals {
         &Damage,
     ), With<Particle>>();
     let (mut kinetic, mut strain, mut momentum, mut mass) = (0.0, 0.0, D::Vector::ZERO, 0.0);
-    for (m, v, w, v0, d) in query.iter(world) {
+    // A rank of a distributed run sums the particles it owns; the run adds the ranks' sums.
+    let ownership = world.get_resource::<crate::decomposition::Ownership>();
+    let counted = |row: usize| crate::decomposition::counts_here(ownership, row);
+    for (row, (m, v, w, v0, d)) in query.iter(world).enumerate() {
+        if !counted(row) {
+            continue;
+        }
         kinetic += 0.5 * m.0 * v.0.length_squared();
         let stored = w.0 * v0.0;
         strain += if damage_scales_force && d.0 > 0.0 {

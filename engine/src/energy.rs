@@ -60,12 +60,14 @@ impl EnergyAccount {
 pub const SUM_BLOCK: usize = 4096;
 
 /// `Σ m x` of the particles, per axis (zero beyond the dimension), and `Σ f · v` where the
-/// forces are given: over fixed blocks in parallel ([`SUM_BLOCK`]).
+/// forces are given: over fixed blocks in parallel ([`SUM_BLOCK`]). With `owned` (a rank of a
+/// distributed run), only the rows it marks count.
 pub fn moment_and_power<D: Dim>(
     masses: &[Mass],
     positions: &[Position<D>],
     velocities: &[Velocity<D>],
     forces: Option<&[ExternalForce<D>]>,
+    owned: Option<&[bool]>,
 ) -> ([f64; 3], f64) {
     use rayon::prelude::*;
     let count = masses.len();
@@ -75,6 +77,9 @@ pub fn moment_and_power<D: Dim>(
             let mut moment = [0.0; 3];
             let mut power = 0.0;
             for p in block * SUM_BLOCK..((block + 1) * SUM_BLOCK).min(count) {
+                if owned.is_some_and(|o| !o.get(p).copied().unwrap_or(false)) {
+                    continue;
+                }
                 for (a, s) in moment.iter_mut().enumerate().take(D::N) {
                     *s += masses[p].0 * positions[p].0[a];
                 }
@@ -98,8 +103,11 @@ pub fn moment_and_power<D: Dim>(
 /// `Σ m x` of the particles in `world`, per axis, summed as [`account_work`] sums it.
 pub fn first_moment<D: Dim>(world: &mut bevy_ecs::world::World) -> [f64; 3] {
     let mut query = world.query_filtered::<(&Mass, &Position<D>, &Velocity<D>), With<Particle>>();
+    let owned = world
+        .get_resource::<crate::decomposition::Ownership>()
+        .map(|o| o.particles.as_slice());
     crate::storage::single_table(query.contiguous_iter(world), "particles")
-        .map_or([0.0; 3], |(m, x, v)| moment_and_power(m, x, v, None).0)
+        .map_or([0.0; 3], |(m, x, v)| moment_and_power(m, x, v, None, owned).0)
 }
 
 /// The work of prescribed-velocity regions over a step from `time` to `time + dt`.
@@ -156,12 +164,16 @@ pub fn account_work<D: Dim>(
     bcs: Res<BoundaryConditions>,
     reactions: Res<Reactions<D>>,
     particles: WorkQuery<D>,
+    ownership: Option<Res<crate::decomposition::Ownership>>,
     mut account: ResMut<EnergyAccount>,
 ) {
-    // One pass over the particles for both sums.
+    // One pass over the particles for both sums. A rank of a distributed run accounts the
+    // particles it owned during the step: the ranks' moments add up to the whole run's, now
+    // and at the previous step, so the ranks' works add up to the run's.
+    let owned = ownership.as_deref().map(|o| o.particles.as_slice());
     let (moment, power) = crate::storage::single_table(particles.contiguous_iter(), "particles")
         .map_or(([0.0; 3], 0.0), |(m, x, v, f)| {
-            moment_and_power(m, x, v, Some(f))
+            moment_and_power(m, x, v, Some(f), owned)
         });
     let b = body_force.0;
     let body: f64 = (0..D::N)
@@ -299,6 +311,7 @@ mod tests {
         };
         world.insert_resource(BoundaryConditions {
             regions: vec![region],
+            measured_nodes: None,
         });
         world.insert_resource(Reactions::<Two>(vec![DVec2::new(5.0, 7.0)]));
         run_system(&mut world, account_work::<Two>);

@@ -177,17 +177,20 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             }
             Err(e) => report_scene_error(&e),
         },
-        Command::Run { .. } | Command::Resume { .. }
-            if let Some(code) = ranks::refuse_several_ranks() =>
-        {
-            code
-        }
+        Command::Resume { .. } if let Some(code) = ranks::refuse_resume_over_ranks() => code,
         Command::Run {
             scene,
             out,
             force,
             settings,
-        } => running::run_command(&scene, out, force, &settings.settings(), registry),
+        } => match ranks::several_ranks() {
+            None => running::run_command(&scene, out, force, &settings.settings(), registry),
+            Some(Ok(comm)) => {
+                let settings = settings.settings();
+                running::run_ranks(&scene, out, force, &settings, registry, comm.as_ref())
+            }
+            Some(Err(code)) => code,
+        },
         Command::Resume { out, settings } => {
             running::resume_command(&out, &settings.settings(), registry)
         }

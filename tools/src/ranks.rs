@@ -1,14 +1,13 @@
 //! The ranks an MPI launcher (`mpirun`, `mpiexec`, `srun`) started this process as one of, and
 //! the communicator of the run.
 //!
-//! The engine steps a scene over ranks (`fractum_engine::run::distributed`), but the run
-//! command does not yet write a distributed run's series, frames and checkpoints. A `run` or
-//! `resume` started as one of several ranks is therefore refused before it reads its scene, by every
-//! rank with the same exit code and the message printed once, by rank 0: otherwise each rank
-//! would run the whole scene into the same output folder. One rank (`mpirun -np 1`) runs as a
-//! plain process. Built with the `mpi` feature, the ranks initialise MPI and agree on the
-//! refusal through the communicator ([`communicator`]); without it, the launcher's
-//! environment says how many ranks there are.
+//! `fractum run` started as one of several ranks runs the scene over them
+//! ([`crate::running::run_ranks`]): built with the `mpi` feature, the ranks initialise MPI and
+//! step together through its communicator ([`communicator`]). A binary without the feature,
+//! or a `resume` (a distributed run writes no checkpoint yet), is refused before the scene is
+//! read, by every rank with the same exit code and the message printed once, by rank 0:
+//! otherwise each rank would run the whole scene into the same output folder. One rank
+//! (`mpirun -np 1`) runs as a plain process.
 
 use fractum_engine::communicator::{Communicator, Serial};
 
@@ -37,31 +36,44 @@ pub fn communicator() -> Box<dyn Communicator> {
     Box::new(Serial)
 }
 
-/// Why a run of `size` ranks is refused.
-pub fn distributed_refusal(size: usize) -> String {
-    format!(
-        "this run was started as {size} ranks (mpirun -np {size}), but `fractum run` does not \
-         yet write the series, frames and checkpoints of a run over ranks: each rank would run \
-         the whole scene into the same output folder. Run it as one process, with `--threads N` for the cores of one machine \
-         (`fractum check --estimate SCENE` tells whether the scene fits one machine's memory)"
-    )
-}
-
-/// `None` for a run of one rank or none; for several, the exit code every rank ends with, the
-/// refusal printed once by rank 0.
-pub fn refuse_several_ranks() -> Option<i32> {
-    let (_, launched) = launched_ranks()?;
+/// The communicator of a run started as several ranks; `None` for one rank or none. Where
+/// several were started but this binary cannot join them (built without the `mpi` feature),
+/// the exit code every rank ends with, the reason printed once, by rank 0.
+pub fn several_ranks() -> Option<Result<Box<dyn Communicator>, i32>> {
+    let (launched_rank, launched) = launched_ranks()?;
     if launched <= 1 {
         return None;
     }
     let communicator = communicator();
-    let (rank, size) = if communicator.size() > 1 {
-        (communicator.rank(), communicator.size())
-    } else {
-        launched_ranks().unwrap_or((0, launched))
-    };
-    if rank == 0 {
-        eprintln!("error: {}", distributed_refusal(size));
+    if communicator.size() > 1 {
+        return Some(Ok(communicator));
+    }
+    if launched_rank == 0 {
+        eprintln!(
+            "error: this run was started as {launched} ranks (mpirun -np {launched}), but this \
+             fractum was built without MPI: each rank would run the whole scene into the same \
+             output folder. Build it with `cargo build --release -p fractum-cli --features mpi` \
+             to run over ranks, or run it as one process, with `--threads N` for the cores of \
+             one machine"
+        );
+    }
+    Some(Err(crate::EXIT_USAGE))
+}
+
+/// `None` for a run of one rank or none; for several, the exit code every rank ends with, the
+/// reason printed once, by rank 0: resuming a run over ranks, whose checkpoints are not
+/// written yet.
+pub fn refuse_resume_over_ranks() -> Option<i32> {
+    let (launched_rank, launched) = launched_ranks()?;
+    if launched <= 1 {
+        return None;
+    }
+    if launched_rank == 0 {
+        eprintln!(
+            "error: this resume was started as {launched} ranks (mpirun -np {launched}), but a \
+             run over several ranks writes no checkpoint to resume from yet; resume a run of \
+             one process as one process"
+        );
     }
     Some(crate::EXIT_USAGE)
 }

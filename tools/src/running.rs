@@ -8,6 +8,7 @@
 
 use crate::{EXIT_ABANDONED, EXIT_BAD_SCENE, EXIT_BLOWUP, EXIT_INTERRUPTED, EXIT_IO};
 use crate::{EXIT_RESOURCES, EXIT_USAGE, energy_warning, load, report_scene_error, summary_report};
+use fractum_engine::communicator::Communicator;
 use fractum_engine::checkpoint::{
     CHECKPOINT_DIR, CheckpointEvery, SceneRecord, list_checkpoints, read_checkpoint,
 };
@@ -43,23 +44,41 @@ pub struct RunSettings {
 
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 static SIGNALS: AtomicU32 = AtomicU32::new(0);
+/// What the handler says on the first signal: [`SAY_CHECKPOINT`], [`SAY_OUTPUTS`] (a
+/// distributed run's rank 0) or nothing (its other ranks, which the launcher signals too).
+static SIGNAL_NOTE: AtomicU32 = AtomicU32::new(SAY_CHECKPOINT);
+const SAY_CHECKPOINT: u32 = 0;
+const SAY_OUTPUTS: u32 = 1;
+const SAY_NOTHING: u32 = 2;
 
-/// Installs the SIGINT/SIGTERM handler once per process (later calls keep the first).
-fn handle_signals() {
+/// Installs the SIGINT/SIGTERM handler once per process (later calls keep the first), saying
+/// `note` ([`SIGNAL_NOTE`]) on the first signal.
+fn handle_signals(note: u32) {
     static INSTALLED: std::sync::Once = std::sync::Once::new();
     INSTALLED.call_once(|| {
         let _ = ctrlc::set_handler(|| {
+            let say = SIGNAL_NOTE.load(Ordering::SeqCst) != SAY_NOTHING;
             if SIGNALS.fetch_add(1, Ordering::SeqCst) >= 1 {
-                eprintln!("\nsecond interrupt: exiting now");
+                if say {
+                    eprintln!("\nsecond interrupt: exiting now");
+                }
                 std::process::exit(EXIT_ABANDONED);
             }
             INTERRUPTED.store(true, Ordering::SeqCst);
-            eprintln!(
-                "\ninterrupt: finishing this step, then writing the outputs and a checkpoint \
-                 (interrupt again to exit at once)"
-            );
+            match SIGNAL_NOTE.load(Ordering::SeqCst) {
+                SAY_CHECKPOINT => eprintln!(
+                    "\ninterrupt: finishing this step, then writing the outputs and a \
+                     checkpoint (interrupt again to exit at once)"
+                ),
+                SAY_OUTPUTS => eprintln!(
+                    "\ninterrupt: every rank finishes this step, then writes its outputs \
+                     (interrupt again to exit at once)"
+                ),
+                _ => {}
+            }
         });
     });
+    SIGNAL_NOTE.store(note, Ordering::SeqCst);
     INTERRUPTED.store(false, Ordering::SeqCst);
     SIGNALS.store(0, Ordering::SeqCst);
 }
@@ -154,45 +173,127 @@ pub fn run_command(
             .to_string(),
         text: file.text,
     };
-    execute(built, &out_dir, record, None, settings)
+    execute(built, &out_dir, record, None, settings, None)
+}
+
+/// `fractum run` as one of the ranks of `comm`, which an MPI launcher started: every rank
+/// builds its part of the scene ([`fractum_engine::scene::build_rank_simulation`]) and steps
+/// it with the others; rank 0 prepares the output folder, writes the series and the frames'
+/// indexes, and says what happened. Every rank returns the same exit code where they fail
+/// together; a failure on one rank stops the others at the next point they agree.
+pub fn run_ranks(
+    scene: &Path,
+    out: Option<PathBuf>,
+    force: bool,
+    settings: &RunSettings,
+    registry: &Registry,
+    comm: &dyn Communicator,
+) -> i32 {
+    let speaks = comm.rank() == 0;
+    let refuse = |code: i32, message: &str| {
+        if speaks {
+            eprintln!("error: {message}");
+        }
+        code
+    };
+    if settings.checkpoint_every.is_some() {
+        return refuse(
+            EXIT_USAGE,
+            "a run over several ranks does not write checkpoints yet: leave out \
+             --checkpoint-every, or run as one process",
+        );
+    }
+    let built = SceneFile::read(scene).and_then(|file| {
+        let built =
+            fractum_engine::scene::build_rank_simulation(&file, registry, comm.rank(), comm.size());
+        built.map(|built| (file, built))
+    });
+    let failure = built.as_ref().err().map(ToString::to_string);
+    if let Err(failure) = comm.agree(failure.as_deref()) {
+        // A scene's error is every rank's; another failure (a rank's memory) names its rank.
+        let message = if failure.rank == 0 {
+            failure.message
+        } else {
+            failure.to_string()
+        };
+        return refuse(EXIT_BAD_SCENE, &message);
+    }
+    let Ok((file, mut built)) = built else {
+        return EXIT_BAD_SCENE;
+    };
+    // The same check on every rank, with the same outcome; rank 0 says why.
+    if let Err((code, message)) = ready_to_run(&mut built.simulation, settings, false) {
+        return refuse(code, &message);
+    }
+    let out_dir = out.unwrap_or_else(|| default_out_dir(scene));
+    let prepared = if speaks {
+        prepare_out_dir(&out_dir, force).err()
+    } else {
+        None
+    };
+    if let Err(failure) = comm.agree(prepared.as_deref()) {
+        return refuse(EXIT_IO, &failure.message);
+    }
+    let record = SceneRecord {
+        path: std::path::absolute(scene)
+            .unwrap_or_else(|_| scene.to_path_buf())
+            .display()
+            .to_string(),
+        text: file.text,
+    };
+    let mut settings = settings.clone();
+    settings.quiet |= !speaks;
+    execute(built, &out_dir, record, None, &settings, Some(comm))
 }
 
 /// Gives `sim` its threads and `--steps`, and checks that the run will take a step: all before
 /// any output is touched, so a run or resume refused here leaves the output folder as it was.
-/// `resuming`: `sim` holds a checkpoint. The exit code when refused.
+/// `resuming`: `sim` holds a checkpoint. The exit code when refused, after saying why.
 fn make_ready(
     sim: &mut fractum_engine::Simulation,
     settings: &RunSettings,
     resuming: bool,
 ) -> Result<(), i32> {
+    ready_to_run(sim, settings, resuming).map_err(|(code, message)| {
+        eprintln!("error: {message}");
+        code
+    })
+}
+
+/// [`make_ready`], with the exit code and the reason when refused, for the caller to say.
+fn ready_to_run(
+    sim: &mut fractum_engine::Simulation,
+    settings: &RunSettings,
+    resuming: bool,
+) -> Result<(), (i32, String)> {
     if let Some(n) = settings.threads
         && let Err(e) = sim.set_threads(n.max(1))
     {
-        eprintln!("error: cannot start {n} threads: {e}");
-        return Err(EXIT_RESOURCES);
+        return Err((EXIT_RESOURCES, format!("cannot start {n} threads: {e}")));
     }
     sim.set_step_cap(settings.steps);
     if sim.finished() {
         let step = sim.clock().step;
-        if sim.at_end() {
-            eprintln!(
-                "error: the run is already at the scene's end (step {step}, t = {:e} s); \
-                 nothing is left to run",
+        let message = if sim.at_end() {
+            format!(
+                "the run is already at the scene's end (step {step}, t = {:e} s); nothing is \
+                 left to run",
                 sim.clock().time
-            );
+            )
         } else {
-            eprintln!(
-                "error: the run is already at step {step}, where --steps stops it; pass a \
-                 larger --steps, or none to go on to the scene's end"
-            );
-        }
+            format!(
+                "the run is already at step {step}, where --steps stops it; pass a larger \
+                 --steps, or none to go on to the scene's end"
+            )
+        };
         // Asking to run or resume to a step the run is at already is a command-line mistake;
         // a scene that ends before it starts is the scene's.
-        return Err(if resuming || settings.steps.is_some() {
+        let code = if resuming || settings.steps.is_some() {
             EXIT_USAGE
         } else {
             EXIT_BAD_SCENE
-        });
+        };
+        return Err((code, message));
     }
     Ok(())
 }
@@ -269,6 +370,7 @@ pub fn resume_command(out_dir: &Path, settings: &RunSettings, registry: &Registr
         checkpoint.scene.clone(),
         Some(outputs),
         settings,
+        None,
     )
 }
 
@@ -278,9 +380,14 @@ fn execute(
     scene: SceneRecord,
     resume: Option<fractum_engine::run::ResumedOutputs>,
     settings: &RunSettings,
+    comm: Option<&dyn Communicator>,
 ) -> i32 {
     let sim = &mut built.simulation;
-    handle_signals();
+    handle_signals(match comm {
+        None => SAY_CHECKPOINT,
+        Some(comm) if comm.rank() == 0 => SAY_OUTPUTS,
+        Some(_) => SAY_NOTHING,
+    });
     let options = RunOptions {
         checkpoints: settings.checkpoint_every.map(|every| CheckpointPlan {
             every,
@@ -289,6 +396,7 @@ fn execute(
         scene: Some(scene),
         interrupt: Some(&INTERRUPTED),
         resume,
+        communicator: comm,
     };
     let bar = progress_bar(settings.quiet);
     let started = Instant::now();
@@ -317,7 +425,22 @@ fn execute(
         }
     });
     bar.finish_and_clear();
+    if comm.is_some_and(|c| c.rank() != 0) {
+        // Rank 0 says what happened; every rank ends with the same code where they stopped
+        // together.
+        return exit_code(&result);
+    }
     report_outcome(result, sim, &built.pipeline, out_dir)
+}
+
+/// The exit code of a run's outcome (as [`report_outcome`] returns it, without a word).
+fn exit_code(result: &Result<fractum_engine::run::RunSummary, RunError>) -> i32 {
+    match result {
+        Ok(summary) if summary.interrupted => EXIT_INTERRUPTED,
+        Ok(_) => 0,
+        Err(RunError::Blowup(..) | RunError::Rank(..)) => EXIT_BLOWUP,
+        Err(_) => EXIT_IO,
+    }
 }
 
 /// Prints what a run did, or why it stopped, and returns the exit code.
@@ -334,11 +457,18 @@ fn report_outcome(
                 outln!("checkpoint {}", path.display());
             }
             if summary.interrupted {
-                eprintln!(
-                    "interrupted at step {}; continue with `fractum resume {}`",
-                    sim.clock().step,
-                    out_dir.display()
-                );
+                match &summary.checkpoint {
+                    Some(_) => eprintln!(
+                        "interrupted at step {}; continue with `fractum resume {}`",
+                        sim.clock().step,
+                        out_dir.display()
+                    ),
+                    None => eprintln!(
+                        "interrupted at step {}; the outputs up to it are in {}",
+                        sim.clock().step,
+                        out_dir.display()
+                    ),
+                }
                 return EXIT_INTERRUPTED;
             }
             0
@@ -361,6 +491,20 @@ fn report_outcome(
                 eprintln!(
                     "the state at the start of step {} is in {}",
                     b.step,
+                    path.display()
+                );
+            }
+            EXIT_BLOWUP
+        }
+        Err(RunError::Rank(failure, last_good)) => {
+            eprintln!("error: the run stopped on {failure}");
+            eprintln!(
+                "outputs up to the last output step are in {}",
+                out_dir.display()
+            );
+            if let Some(path) = last_good {
+                eprintln!(
+                    "the state at the start of the failing step is in {}",
                     path.display()
                 );
             }

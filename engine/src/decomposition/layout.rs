@@ -185,6 +185,12 @@ impl Ownership {
     }
 }
 
+/// Whether particle row `row` counts in this process's sums (energies, momentum, a damage
+/// law's count): owned here in a distributed run (`ownership` given), every row otherwise.
+pub fn counts_here(ownership: Option<&Ownership>, row: usize) -> bool {
+    ownership.is_none_or(|o| o.owns_particle(row))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

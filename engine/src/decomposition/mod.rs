@@ -11,7 +11,7 @@
 
 mod layout;
 
-pub use layout::{Layout, Ownership, StepReach};
+pub use layout::{Layout, Ownership, StepReach, counts_here};
 
 use std::ops::Range;
 

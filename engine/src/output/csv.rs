@@ -10,7 +10,9 @@ use std::time::{Duration, Instant};
 /// Accumulates rows and keeps `path` up to date.
 #[derive(Debug)]
 pub struct SeriesWriter {
-    path: PathBuf,
+    /// `None` for a rank of a distributed run other than rank 0, which keeps the same rows but
+    /// leaves the file to rank 0.
+    path: Option<PathBuf>,
     columns: usize,
     text: String,
     last_flush: Option<Instant>,
@@ -20,7 +22,7 @@ impl SeriesWriter {
     /// A writer for `path` with these column names.
     pub fn new(path: PathBuf, columns: &[String]) -> Self {
         Self {
-            path,
+            path: Some(path),
             columns: columns.len(),
             text: columns.join(",") + "\n",
             last_flush: None,
@@ -31,11 +33,18 @@ impl SeriesWriter {
     pub fn continuing(path: PathBuf, text: String) -> Self {
         let columns = text.lines().next().map_or(0, |h| h.split(',').count());
         Self {
-            path,
+            path: Some(path),
             columns,
             text,
             last_flush: None,
         }
+    }
+
+    /// This writer keeping its rows in memory only: a rank other than rank 0 of a distributed
+    /// run, whose rows are rank 0's.
+    pub fn in_memory(mut self) -> Self {
+        self.path = None;
+        self
     }
 
     /// Appends a row (step, then the other values) and flushes if a second has passed.
@@ -59,7 +68,10 @@ impl SeriesWriter {
     /// Writes everything so far.
     pub fn flush(&mut self) -> std::io::Result<()> {
         self.last_flush = Some(Instant::now());
-        write_atomically(&self.path, self.text.as_bytes())
+        match &self.path {
+            Some(path) => write_atomically(path, self.text.as_bytes()),
+            None => Ok(()),
+        }
     }
 
     /// The CSV text so far.

@@ -73,6 +73,10 @@ fn refill_particle_frame_of<D: Dim>(world: &mut World, f: &mut ParticleFrame) {
         }
     }
     system_columns::<D>(world, f);
+    if let Some(ownership) = world.get_resource::<crate::decomposition::Ownership>() {
+        // A rank's frame is its piece of the run's: the particles it owns.
+        f.retain_rows(&ownership.particles);
+    }
     f.thickness = if D::N == 2 {
         world.get_resource::<Thickness>().map(|t| t.0)
     } else {
@@ -105,7 +109,14 @@ fn grid_frame_of<D: Dim>(world: &mut World) -> GridFrame {
         Option<&crate::components::NodeNormal<D>>,
     ), With<Node>>();
     let mut f = GridFrame::default();
+    // A rank's grid frame is its piece of the run's: the nodes it owns.
+    let owned = world
+        .get_resource::<crate::decomposition::Ownership>()
+        .map(|o| &o.nodes);
     for (index, fields, mass, velocity, normal) in query.iter(world) {
+        if owned.is_some_and(|o| !o.get(index.0 as usize).copied().unwrap_or(false)) {
+            continue;
+        }
         // Normals exist where a contact system gave nodes them; zero elsewhere.
         let normal = normal.copied().unwrap_or_default();
         if mass.0.iter().sum::<f64>() <= 0.0 {

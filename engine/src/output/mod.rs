@@ -8,6 +8,7 @@ mod csv;
 mod frames;
 mod probes;
 mod pvd;
+mod pvtu;
 mod vtu;
 mod writer;
 
@@ -15,13 +16,18 @@ pub use atomic::write_atomically;
 pub use columns::{ColumnValues, FrameColumns};
 pub use csv::SeriesWriter;
 pub use frames::{grid_frame, particle_frame, refill_particle_frame};
-pub use probes::{ForceProbeMemory, largest_energy_particle, must_be_finite, series_row};
-pub use pvd::{read_pvd, write_pvd};
-pub use vtu::{
-    ENGINE_FRAME_FIELDS, FrameCompression, GridFrame, ParticleFrame, read_particle_frame,
-    write_grid_frame, write_particle_frame,
+pub use probes::{
+    ForceProbeMemory, largest_energy_particle, must_be_finite, series_parts, series_row,
+    series_row_from,
 };
-pub use writer::{FrameWriter, WriteFailure};
+pub use pvd::{read_pvd, write_pvd};
+pub use pvtu::{piece_name, read_pvtu_pieces, write_pvtu};
+pub use vtu::{
+    ENGINE_FRAME_FIELDS, FrameCompression, GridFrame, ParticleFrame, PieceArrays,
+    read_particle_frame, write_grid_frame, write_particle_frame,
+};
+pub use writer::{FrameWriter, PieceIndex, WriteFailure};
+pub(crate) use vtu::particle_frame_file;
 
 use crate::dim::Dimension;
 

@@ -12,43 +12,79 @@ use bevy_ecs::prelude::*;
 
 /// The values of one `series.csv` row after the step column.
 pub fn series_row(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
-    with_dim!(plan.dimension, D => series_row_of::<D>(world, plan))
+    let parts = series_parts(world, plan);
+    series_row_from(world, plan, &parts)
 }
 
-/// The value of one probe, one entry per axis.
-fn probe_value<D: Dim>(
-    world: &mut World,
-    slot: usize,
-    probe: &ProbeKind,
-    totals: &Totals,
-) -> D::Vector {
-    let time = world.resource::<SimClock>().time;
-    match probe {
-        ProbeKind::Reaction { index, .. } => world
-            .resource::<Reactions<D>>()
-            .0
-            .get(*index)
-            .copied()
-            .unwrap_or_default(),
-        ProbeKind::CentreOfMassVelocity => {
-            let v = totals.centre_of_mass_velocity();
-            D::Vector::from_fn(|a| v[a])
+/// What this process adds to a series row: every quantity the row is made from that is a sum
+/// over particles, nodes or regions ([`SeriesParts`]). One process's parts make its row; in a
+/// distributed run each rank gives the part of what it owns, and the row is made from the sum
+/// of the ranks' parts ([`series_row_from`]).
+pub fn series_parts(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
+    with_dim!(plan.dimension, D => series_parts_of::<D>(world, plan))
+}
+
+/// The row made from `parts` ([`series_parts`], of this process or summed over ranks), with
+/// what is the same on every rank (time, prescribed displacements) and what the `Force` probes
+/// remember taken from `world`.
+pub fn series_row_from(world: &mut World, plan: &OutputPlan, parts: &[f64]) -> Vec<f64> {
+    with_dim!(plan.dimension, D => series_row_of::<D>(world, plan, parts))
+}
+
+/// Where each quantity lies in a row's parts ([`series_parts`]): the totals, three values for
+/// each probe, the system columns, then the energy account.
+struct SeriesParts {
+    probes: usize,
+    columns: usize,
+}
+
+impl SeriesParts {
+    /// Kinetic, strain and contact energy, momentum (3) and mass.
+    const TOTALS: usize = 7;
+
+    fn of(plan: &OutputPlan) -> Self {
+        Self {
+            probes: Self::TOTALS,
+            columns: Self::TOTALS + 3 * plan.probes.len(),
         }
+    }
+
+    fn probe(&self, slot: usize) -> usize {
+        self.probes + 3 * slot
+    }
+
+    /// External work, initial energy and the damage laws' dissipated energy.
+    fn account(&self, plan: &OutputPlan) -> usize {
+        self.columns + plan.system_columns.len()
+    }
+}
+
+/// The additive part of one probe, three values: a region's reaction, a body's momentum (of
+/// which the run makes the `Force` probe's mean force), a tracked displacement; zero for what
+/// the row takes from the totals or the clock.
+fn probe_part<D: Dim>(world: &mut World, probe: &ProbeKind) -> [f64; 3] {
+    let three = |v: D::Vector| std::array::from_fn(|a| if a < D::N { v[a] } else { 0.0 });
+    match probe {
+        ProbeKind::Reaction { index, .. } => three(
+            world
+                .resource::<Reactions<D>>()
+                .0
+                .get(*index)
+                .copied()
+                .unwrap_or_default(),
+        ),
         ProbeKind::Force { index, .. } => {
             let mut query =
                 world.query_filtered::<(&BodyId, &Mass, &Velocity<D>), With<Particle>>();
+            let ownership = world.get_resource::<crate::decomposition::Ownership>();
             let momentum = query
                 .iter(world)
-                .filter(|(b, _, _)| b.0 == *index)
-                .fold(D::Vector::ZERO, |p, (_, m, v)| p + v.0 * m.0);
-            let mut memory = world.get_resource_or_init::<ForceProbeMemory>();
-            memory
-                .mean_force(
-                    slot,
-                    time,
-                    std::array::from_fn(|a| if a < D::N { momentum[a] } else { 0.0 }),
-                )
-                .map_or(D::Vector::ZERO, |f| D::Vector::from_fn(|a| f[a]))
+                .enumerate()
+                .filter(|(row, (b, _, _))| {
+                    b.0 == *index && crate::decomposition::counts_here(ownership, *row)
+                })
+                .fold(D::Vector::ZERO, |p, (_, (_, m, v))| p + v.0 * m.0);
+            three(momentum)
         }
         ProbeKind::Track {
             particle,
@@ -64,10 +100,35 @@ fn probe_value<D: Dim>(
                 at.unwrap_or(D::Vector::splat(f64::NAN))
             };
             let moved = displacement(particle);
-            match reference {
+            three(match reference {
                 Some(_) => moved - displacement(reference),
                 None => moved,
-            }
+            })
+        }
+        ProbeKind::CentreOfMassVelocity | ProbeKind::Displacement { .. } => [0.0; 3],
+    }
+}
+
+/// The value of one probe, one entry per axis, from its part of the row ([`probe_part`]).
+fn probe_value<D: Dim>(
+    world: &mut World,
+    slot: usize,
+    probe: &ProbeKind,
+    part: [f64; 3],
+    totals: &Totals,
+) -> D::Vector {
+    let time = world.resource::<SimClock>().time;
+    match probe {
+        ProbeKind::Reaction { .. } | ProbeKind::Track { .. } => D::Vector::from_fn(|a| part[a]),
+        ProbeKind::CentreOfMassVelocity => {
+            let v = totals.centre_of_mass_velocity();
+            D::Vector::from_fn(|a| v[a])
+        }
+        ProbeKind::Force { .. } => {
+            let mut memory = world.get_resource_or_init::<ForceProbeMemory>();
+            memory
+                .mean_force(slot, time, part)
+                .map_or(D::Vector::ZERO, |f| D::Vector::from_fn(|a| f[a]))
         }
         ProbeKind::Displacement { index, .. } => {
             let region = &world.resource::<BoundaryConditions>().regions[*index];
@@ -153,18 +214,19 @@ impl ForceProbeMemory {
     }
 }
 
-fn series_row_of<D: Dim>(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
+fn series_parts_of<D: Dim>(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
     let t = totals(world);
-    let time = world.resource::<SimClock>().time;
-    let mut row = vec![time, t.kinetic_energy, t.strain_energy, t.total_energy()];
-    row.extend_from_slice(&t.momentum[..D::N]);
-    for (slot, probe) in plan.probes.iter().enumerate() {
-        let value = probe_value::<D>(world, slot, probe, &t);
-        row.extend((0..D::N).map(|a| value[a]));
+    let layout = SeriesParts::of(plan);
+    let mut parts = vec![t.kinetic_energy, t.strain_energy, t.contact_energy];
+    parts.extend(t.momentum);
+    parts.push(t.mass);
+    debug_assert_eq!(parts.len(), SeriesParts::TOTALS);
+    for probe in &plan.probes {
+        parts.extend(probe_part::<D>(world, probe));
     }
     let mut dissipated = 0.0;
     if let Some(extra) = world.get_resource::<crate::series::SeriesColumns>() {
-        row.extend(
+        parts.extend(
             plan.system_columns
                 .iter()
                 .map(|name| extra.value(name).unwrap_or(f64::NAN)),
@@ -176,6 +238,32 @@ fn series_row_of<D: Dim>(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
         .map_or((f64::NAN, f64::NAN), |a| {
             (a.external_work, a.initial_energy)
         });
+    parts.extend([work, initial, dissipated]);
+    debug_assert_eq!(parts.len(), layout.account(plan) + 3);
+    parts
+}
+
+fn series_row_of<D: Dim>(world: &mut World, plan: &OutputPlan, parts: &[f64]) -> Vec<f64> {
+    let layout = SeriesParts::of(plan);
+    let t = Totals {
+        kinetic_energy: parts[0],
+        strain_energy: parts[1],
+        contact_energy: parts[2],
+        momentum: [parts[3], parts[4], parts[5]],
+        mass: parts[6],
+    };
+    let time = world.resource::<SimClock>().time;
+    let mut row = vec![time, t.kinetic_energy, t.strain_energy, t.total_energy()];
+    row.extend_from_slice(&t.momentum[..D::N]);
+    for (slot, probe) in plan.probes.iter().enumerate() {
+        let at = layout.probe(slot);
+        let part = [parts[at], parts[at + 1], parts[at + 2]];
+        let value = probe_value::<D>(world, slot, probe, part, &t);
+        row.extend((0..D::N).map(|a| value[a]));
+    }
+    let account = layout.account(plan);
+    row.extend_from_slice(&parts[layout.columns..account]);
+    let (work, initial, dissipated) = (parts[account], parts[account + 1], parts[account + 2]);
     row.push(work);
     row.push(work - (t.total_energy() - initial) - dissipated);
     row

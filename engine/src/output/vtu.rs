@@ -108,6 +108,60 @@ impl ParticleFrame {
         self.vectors.retain(|(name, _)| keep(name));
     }
 
+    /// Keeps the particles whose entry of `keep` is true, in order (a rank's piece of a frame:
+    /// the particles it owns). Columns left empty by [`Self::keep_only`] stay empty.
+    pub fn retain_rows(&mut self, keep: &[bool]) {
+        fn retain<T>(column: &mut Vec<T>, keep: &[bool]) {
+            if column.len() == keep.len() {
+                let mut row = 0;
+                column.retain(|_| {
+                    row += 1;
+                    keep[row - 1]
+                });
+            }
+        }
+        debug_assert_eq!(keep.len(), self.position.len());
+        retain(&mut self.id, keep);
+        retain(&mut self.body, keep);
+        retain(&mut self.material, keep);
+        retain(&mut self.velocity, keep);
+        retain(&mut self.mass, keep);
+        retain(&mut self.volume, keep);
+        retain(&mut self.stress, keep);
+        retain(&mut self.damage, keep);
+        retain(&mut self.strain_energy_density, keep);
+        self.scalars.iter_mut().for_each(|(_, v)| retain(v, keep));
+        self.vectors.iter_mut().for_each(|(_, v)| retain(v, keep));
+        retain(&mut self.position, keep);
+    }
+
+    /// Appends the particles of `other`, a frame of the same arrays (another rank's piece).
+    pub fn append(&mut self, other: ParticleFrame) {
+        self.id.extend(other.id);
+        self.body.extend(other.body);
+        self.material.extend(other.material);
+        self.position.extend(other.position);
+        self.velocity.extend(other.velocity);
+        self.mass.extend(other.mass);
+        self.volume.extend(other.volume);
+        self.stress.extend(other.stress);
+        self.damage.extend(other.damage);
+        self.strain_energy_density.extend(other.strain_energy_density);
+        for (name, values) in other.scalars {
+            match self.scalars.iter_mut().find(|(n, _)| *n == name) {
+                Some((_, mine)) => mine.extend(values),
+                None => self.scalars.push((name, values)),
+            }
+        }
+        for (name, values) in other.vectors {
+            match self.vectors.iter_mut().find(|(n, _)| *n == name) {
+                Some((_, mine)) => mine.extend(values),
+                None => self.vectors.push((name, values)),
+            }
+        }
+        self.thickness = self.thickness.or(other.thickness);
+    }
+
     /// The engine columns among `fields` that this frame lacks (its file was written with a
     /// narrower `output.fields`), as an error that says how to get them; `Ok` when it has all.
     pub fn require(&self, fields: &[&str]) -> Result<(), String> {
@@ -153,6 +207,20 @@ struct Inline {
     compression: FrameCompression,
     /// Arrays must have this many tuples; an empty one is left out (`output.fields`).
     tuples: usize,
+    /// The point-data arrays written, for the `.pvtu` index of a distributed run's pieces.
+    declared: PieceArrays,
+}
+
+/// The point-data arrays of a frame file as a `.pvtu` index declares them: the scalars' and
+/// vectors' default arrays, then each array's name, VTK type and components, in file order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PieceArrays {
+    /// The array ParaView colours by at first.
+    pub scalars: String,
+    /// The array ParaView shows as vectors at first.
+    pub vectors: String,
+    /// Name, type and components of each array.
+    pub arrays: Vec<(String, String, usize)>,
 }
 
 impl Inline {
@@ -169,6 +237,11 @@ impl Inline {
             xml: String::new(),
             compression,
             tuples: n,
+            declared: PieceArrays {
+                scalars: scalars.to_string(),
+                vectors: vectors.to_string(),
+                arrays: Vec::new(),
+            },
         };
         let compressor = match compression {
             FrameCompression::None => "",
@@ -196,7 +269,7 @@ impl Inline {
 
     /// Closes the point data, writes the points and one vertex cell per point, and writes the
     /// file to `path` atomically.
-    fn finish(mut self, path: &Path, position: &[[f64; 3]]) -> std::io::Result<()> {
+    fn finish(mut self, path: &Path, position: &[[f64; 3]]) -> std::io::Result<PieceArrays> {
         let n = position.len();
         self.xml.push_str("      </PointData>\n      <Points>\n");
         self.array(
@@ -212,7 +285,8 @@ impl Inline {
         self.array(Some("types"), "UInt8", 1, vec![1u8; n]);
         self.xml
             .push_str("      </Cells>\n    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
-        write_atomically(path, self.xml.as_bytes())
+        write_atomically(path, self.xml.as_bytes())?;
+        Ok(self.declared)
     }
 
     /// A point-data array of `tuples` × `components` values, left out when the scene's
@@ -220,6 +294,7 @@ impl Inline {
     fn column(&mut self, name: &str, ty: &str, components: usize, tuples: usize, bytes: Vec<u8>) {
         if tuples == self.tuples {
             self.array(Some(name), ty, components, bytes);
+            (self.declared.arrays).push((name.to_string(), ty.to_string(), components));
         }
     }
 
@@ -412,6 +487,15 @@ impl ReadArray {
 /// writes, extra scalars and vectors by name; a column the scene's `output.fields` left out is
 /// empty, see [`ParticleFrame::require`]; a frame from elsewhere is refused with the reason).
 pub fn read_particle_frame(path: &Path) -> Result<ParticleFrame, String> {
+    if path.extension().is_some_and(|e| e == "pvtu") {
+        // A distributed run's frame: the ranks' pieces, one after another.
+        let folder = path.parent().unwrap_or(Path::new("."));
+        let mut whole = ParticleFrame::default();
+        for piece in super::pvtu::read_pvtu_pieces(path)? {
+            whole.append(read_particle_frame(&folder.join(piece))?);
+        }
+        return Ok(whole);
+    }
     let xml = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let at = |e: String| format!("{}: {e}", path.display());
     let compressed = match xml
@@ -517,6 +601,15 @@ pub fn write_grid_frame(
     frame: &GridFrame,
     compression: FrameCompression,
 ) -> std::io::Result<()> {
+    grid_frame_file(path, frame, compression).map(drop)
+}
+
+/// [`write_grid_frame`], returning the arrays written.
+pub(crate) fn grid_frame_file(
+    path: &Path,
+    frame: &GridFrame,
+    compression: FrameCompression,
+) -> std::io::Result<PieceArrays> {
     let n = frame.position.len();
     let mut out = Inline::vertices(n, compression, &[], "fields", "velocity_0");
     let index = i32_bytes(frame.index.iter().map(|&v| v as i32));
@@ -542,6 +635,15 @@ pub fn write_particle_frame(
     frame: &ParticleFrame,
     compression: FrameCompression,
 ) -> std::io::Result<()> {
+    particle_frame_file(path, frame, compression).map(drop)
+}
+
+/// [`write_particle_frame`], returning the arrays written.
+pub(crate) fn particle_frame_file(
+    path: &Path,
+    frame: &ParticleFrame,
+    compression: FrameCompression,
+) -> std::io::Result<PieceArrays> {
     let field_data: Vec<(&str, f64)> = frame
         .thickness
         .map(|t| ("thickness", t))

@@ -10,12 +10,11 @@
 //! - [`FrameWriter::wait`] returns once every file handed over is on disk, with the first
 //!   error met. A run waits before a checkpoint (which lists the frames written), when it stops
 //!   on a blow-up, and at its end, so it never ends before its files are safe.
-//! - The bytes are those of [`write_particle_frame`] and [`write_grid_frame`] called directly:
-//!   the writer only moves them off the stepping thread.
+//! - The bytes are those of [`super::write_particle_frame`] and [`super::write_grid_frame`]
+//!   called directly: the writer only moves them off the stepping thread.
 
-use super::{
-    FrameCompression, GridFrame, ParticleFrame, write_grid_frame, write_particle_frame, write_pvd,
-};
+use super::vtu::{grid_frame_file, particle_frame_file};
+use super::{FrameCompression, GridFrame, ParticleFrame, write_pvd, write_pvtu};
 use std::path::PathBuf;
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::sync::{Arc, Mutex};
@@ -24,9 +23,14 @@ use std::thread::JoinHandle;
 /// A file that could not be written, and why.
 pub type WriteFailure = (PathBuf, std::io::Error);
 
+/// The `.pvtu` index of a distributed run's frame, which the rank that writes it writes after
+/// its own piece, declaring the arrays that piece has: the index's file and the pieces'
+/// files, relative to its folder.
+pub type PieceIndex = (PathBuf, Vec<String>);
+
 enum Job {
-    Particles(PathBuf, ParticleFrame),
-    Grid(PathBuf, GridFrame),
+    Particles(PathBuf, ParticleFrame, Option<PieceIndex>),
+    Grid(PathBuf, GridFrame, Option<PieceIndex>),
     Collection(PathBuf, Vec<(f64, String)>),
     /// Answered once every job before it is done.
     Sync(SyncSender<()>),
@@ -36,20 +40,22 @@ impl Job {
     /// The file the job writes (none for a sync).
     fn path(&self) -> PathBuf {
         match self {
-            Job::Particles(path, _) | Job::Grid(path, _) | Job::Collection(path, _) => path.clone(),
+            Job::Particles(path, ..) | Job::Grid(path, ..) | Job::Collection(path, _) => {
+                path.clone()
+            }
             Job::Sync(_) => PathBuf::from("frames"),
         }
     }
 
     fn write(self, compression: FrameCompression) -> Result<(), WriteFailure> {
         let (path, result) = match self {
-            Job::Particles(path, frame) => {
-                let result = write_particle_frame(&path, &frame, compression);
-                (path, result)
+            Job::Particles(path, frame, index) => {
+                let arrays = particle_frame_file(&path, &frame, compression);
+                return with_index(path, arrays, index);
             }
-            Job::Grid(path, frame) => {
-                let result = write_grid_frame(&path, &frame, compression);
-                (path, result)
+            Job::Grid(path, frame, index) => {
+                let arrays = grid_frame_file(&path, &frame, compression);
+                return with_index(path, arrays, index);
             }
             Job::Collection(path, frames) => {
                 let result = write_pvd(&path, &frames);
@@ -61,6 +67,19 @@ impl Job {
             }
         };
         result.map_err(|e| (path, e))
+    }
+}
+
+/// After a piece written to `path` with `arrays`, writes the index of its frame, if any.
+fn with_index(
+    path: PathBuf,
+    arrays: std::io::Result<super::PieceArrays>,
+    index: Option<PieceIndex>,
+) -> Result<(), WriteFailure> {
+    let arrays = arrays.map_err(|e| (path, e))?;
+    match index {
+        Some((index, pieces)) => write_pvtu(&index, &arrays, &pieces).map_err(|e| (index, e)),
+        None => Ok(()),
     }
 }
 
@@ -90,12 +109,34 @@ impl FrameWriter {
 
     /// Hands over a particle frame for `path`.
     pub fn particles(&self, path: PathBuf, frame: ParticleFrame) -> Result<(), WriteFailure> {
-        self.submit(Job::Particles(path, frame))
+        self.submit(Job::Particles(path, frame, None))
     }
 
     /// Hands over a grid frame for `path`.
     pub fn grid(&self, path: PathBuf, frame: GridFrame) -> Result<(), WriteFailure> {
-        self.submit(Job::Grid(path, frame))
+        self.submit(Job::Grid(path, frame, None))
+    }
+
+    /// Hands over a rank's piece of a particle frame for `path`, and the frame's index when
+    /// this rank writes it.
+    pub fn particle_piece(
+        &self,
+        path: PathBuf,
+        frame: ParticleFrame,
+        index: Option<PieceIndex>,
+    ) -> Result<(), WriteFailure> {
+        self.submit(Job::Particles(path, frame, index))
+    }
+
+    /// Hands over a rank's piece of a grid frame for `path`, and the frame's index when this
+    /// rank writes it.
+    pub fn grid_piece(
+        &self,
+        path: PathBuf,
+        frame: GridFrame,
+        index: Option<PieceIndex>,
+    ) -> Result<(), WriteFailure> {
+        self.submit(Job::Grid(path, frame, index))
     }
 
     /// Hands over a `.pvd` collection of `frames` (time, file) for `path`.
@@ -185,6 +226,7 @@ fn work(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::output::write_particle_frame;
 
     fn frame(n: usize) -> ParticleFrame {
         ParticleFrame {

@@ -150,6 +150,9 @@ fn exchange_and_rebuild<D: Dim>(
         let axis = next.axis;
         let node_layers = (0..grid.node_count()).map(|n| grid.node_lattice(n)[axis]);
         ownership.relayout(next, node_layers);
+        if let Some(mut bcs) = world.get_resource_mut::<crate::boundary::BoundaryConditions>() {
+            bcs.measured_nodes = Some(ownership.nodes.clone());
+        }
     }
     ownership.imbalance =
         crate::decomposition::imbalance(&slab_loads(&ownership.layout, &per_layer));

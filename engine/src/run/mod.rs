@@ -9,11 +9,13 @@ pub use resume::{restore_checkpoint, resume_from, rewind_outputs};
 use crate::checkpoint::{
     CheckpointEvery, CheckpointOutputs, DEFAULT_KEEP, SceneRecord, write_checkpoint,
 };
+use crate::communicator::{Communicator, RankFailure};
 use crate::energy::EnergyWatch;
 use crate::health::Blowup;
 use crate::output::{
     FrameWriter, OutputPlan, SeriesWriter, WriteFailure, grid_frame, largest_energy_particle,
-    must_be_finite, particle_frame, refill_particle_frame, series_row, write_particle_frame,
+    must_be_finite, particle_frame, piece_name, refill_particle_frame, series_parts,
+    series_row_from, write_particle_frame, write_pvtu,
 };
 use crate::resources::SimClock;
 use crate::simulation::Simulation;
@@ -37,6 +39,15 @@ pub enum RunError {
     /// state at the start of the failing step too when the plan keeps it.
     #[error("the run stopped at {0}")]
     Blowup(Blowup, Option<PathBuf>),
+    /// A rank of a distributed run failed (a blow-up it found, an exchange or a file it could
+    /// not write), and every rank stopped with its message. The path is the `.pvtu` index of
+    /// the state at the start of the failing step, when the plan keeps it.
+    #[error("the run stopped on {0}")]
+    Rank(RankFailure, Option<PathBuf>),
+    /// Another rank of a distributed run could not go on (an output it could not write), and
+    /// this one stopped with it.
+    #[error("the run stopped with {0}")]
+    OtherRank(RankFailure),
     /// A checkpoint could not be made.
     #[error("cannot write a checkpoint: {0}")]
     Checkpoint(String),
@@ -121,6 +132,8 @@ fn watch_energy(sim: &mut Simulation, row: &[f64]) {
 struct Outputs<'a> {
     plan: &'a OutputPlan,
     dir: &'a Path,
+    /// The ranks of a distributed run, `None` in one process.
+    comm: Option<&'a dyn Communicator>,
     series: SeriesWriter,
     frames: Vec<(f64, String)>,
     grid_frames: Vec<(f64, String)>,
@@ -156,15 +169,28 @@ impl Outputs<'_> {
         if self.plan.vtu_every > 0 && (force || due(self.plan.vtu_every)) && fresh(self.written[1])
         {
             self.written[1] = Some(step);
-            let name = format!("frames/particles_{step:08}.vtu");
             let mut frame = sim.with_world_in_pool(particle_frame);
             if let Some(fields) = &self.plan.frame_fields {
                 frame.keep_only(fields);
             }
-            self.writer.particles(self.dir.join(&name), frame)?;
+            let name = match self.comm {
+                None => {
+                    let name = format!("frames/particles_{step:08}.vtu");
+                    self.writer.particles(self.dir.join(&name), frame)?;
+                    name
+                }
+                Some(comm) => {
+                    let (piece, index) =
+                        self.pieces(comm, &format!("particles_{step:08}"), frame.position.len());
+                    self.writer.particle_piece(piece, frame, index)?;
+                    format!("frames/particles_{step:08}.pvtu")
+                }
+            };
             self.frames.push((sim.clock().time, name));
-            let pvd = self.dir.join("particles.pvd");
-            self.writer.collection(pvd, self.frames.clone())?;
+            if self.comm.is_none_or(|c| c.rank() == 0) {
+                let pvd = self.dir.join("particles.pvd");
+                self.writer.collection(pvd, self.frames.clone())?;
+            }
             framed = true;
         }
         if self.plan.grid_every > 0
@@ -172,12 +198,25 @@ impl Outputs<'_> {
             && fresh(self.written[2])
         {
             self.written[2] = Some(step);
-            let name = format!("frames/grid_{step:08}.vtu");
             let frame = grid_frame(&mut sim.world);
-            self.writer.grid(self.dir.join(&name), frame)?;
+            let name = match self.comm {
+                None => {
+                    let name = format!("frames/grid_{step:08}.vtu");
+                    self.writer.grid(self.dir.join(&name), frame)?;
+                    name
+                }
+                Some(comm) => {
+                    let (piece, index) =
+                        self.pieces(comm, &format!("grid_{step:08}"), frame.position.len());
+                    self.writer.grid_piece(piece, frame, index)?;
+                    format!("frames/grid_{step:08}.pvtu")
+                }
+            };
             self.grid_frames.push((sim.clock().time, name));
-            let pvd = self.dir.join("grid.pvd");
-            self.writer.collection(pvd, self.grid_frames.clone())?;
+            if self.comm.is_none_or(|c| c.rank() == 0) {
+                let pvd = self.dir.join("grid.pvd");
+                self.writer.collection(pvd, self.grid_frames.clone())?;
+            }
             framed = true;
         }
         if framed {
@@ -186,8 +225,32 @@ impl Outputs<'_> {
         Ok(())
     }
 
+    /// This rank's piece of the frame `frames/{stem}.pvtu` of a distributed run, which holds
+    /// `count` points, and the index when this rank writes it: the lowest rank with points, so
+    /// that the index declares the arrays a piece with points has (every rank takes part).
+    fn pieces(
+        &self,
+        comm: &dyn Communicator,
+        stem: &str,
+        count: usize,
+    ) -> (PathBuf, Option<crate::output::PieceIndex>) {
+        let index = format!("{stem}.pvtu");
+        let pieces: Vec<String> = (0..comm.size()).map(|r| piece_name(&index, r)).collect();
+        let frames = self.dir.join("frames");
+        let piece = frames.join(&pieces[comm.rank()]);
+        let writer = index_writer(comm, count);
+        let index = (writer == comm.rank()).then(|| (frames.join(&index), pieces));
+        (piece, index)
+    }
+
     fn row(&mut self, sim: &mut Simulation, step: u64) -> Result<(), RunError> {
-        let row = series_row(&mut sim.world, self.plan);
+        // A rank's parts are sums over what it owns: the run's row is made from their sum.
+        let parts = series_parts(&mut sim.world, self.plan);
+        let parts = match self.comm {
+            Some(comm) => comm.sum(&parts),
+            None => parts,
+        };
+        let row = series_row_from(&mut sim.world, self.plan, &parts);
         // Energies and momentum of finite states can still overflow (speeds near 1e200), and a
         // probe or a system's column can still divide by a vanishing quantity: a row holding
         // either is no result. The stage checks have passed, so every particle is finite; the
@@ -227,8 +290,15 @@ impl Outputs<'_> {
     }
 }
 
-/// What a run does besides stepping: checkpoints, interruption, and continuing the outputs
-/// of an earlier run.
+/// The rank that writes the `.pvtu` index of a frame whose piece on this rank holds `count`
+/// points: the lowest rank whose piece has points, rank 0 when none has. Every rank calls it.
+fn index_writer(comm: &dyn Communicator, count: usize) -> usize {
+    let counts = comm.all_gather(&[count as f64]);
+    counts.iter().position(|&n| n > 0.0).unwrap_or(0)
+}
+
+/// What a run does besides stepping: checkpoints, interruption, continuing the outputs of an
+/// earlier run, and the ranks of a distributed run.
 #[derive(Default)]
 pub struct RunOptions<'a> {
     /// Write checkpoints on this schedule (and at the end and on interruption).
@@ -240,6 +310,12 @@ pub struct RunOptions<'a> {
     pub interrupt: Option<&'a AtomicBool>,
     /// Continue the outputs of the run a checkpoint was taken from.
     pub resume: Option<ResumedOutputs>,
+    /// Run as one rank of a distributed run, on a rank's simulation
+    /// ([`crate::scene::build_rank_simulation`]): every step agreed with the other ranks
+    /// ([`distributed::step`]), the series made from the ranks' sums and written by rank 0,
+    /// each frame one piece per rank with a `.pvtu` index, and a failure on any rank stopping
+    /// every rank. `None`: one process.
+    pub communicator: Option<&'a dyn Communicator>,
 }
 
 /// When checkpoints are written and how many are kept.
@@ -283,19 +359,40 @@ pub fn run_with(
     options: RunOptions,
     mut on_step: impl FnMut(&Simulation),
 ) -> Result<RunSummary, RunError> {
+    let comm = options.communicator;
+    if comm.is_some() && (options.checkpoints.is_some() || options.resume.is_some()) {
+        return Err(RunError::Checkpoint(
+            "a run over several ranks does not write or resume checkpoints yet; run it \
+             without them, or as one process"
+                .into(),
+        ));
+    }
     let frames_dir = out_dir.join("frames");
-    std::fs::create_dir_all(&frames_dir).map_err(io_error(&frames_dir))?;
-    remove_stale_temporaries(out_dir);
+    let made = std::fs::create_dir_all(&frames_dir).map_err(io_error(&frames_dir));
+    agreed(comm, made)?;
+    if comm.is_none_or(|c| c.rank() == 0) {
+        remove_stale_temporaries(out_dir);
+    }
     let mut options = options;
     let resumed = options.resume.is_some();
     let resume = options.resume.take();
-    let (mut outputs, mut schedule) =
-        open_outputs(sim, plan, out_dir, options.checkpoints, resume)?;
-    let particles = sim.particle_count();
+    let opened = open_outputs(sim, plan, out_dir, options.checkpoints, resume, comm);
+    let (mut outputs, mut schedule) = agreed(comm, opened)?;
+    let particles = match comm {
+        Some(comm) => comm.sum(&[owned_particles(sim) as f64])[0] as usize,
+        None => sim.particle_count(),
+    };
     let started = Instant::now();
     let first_step = sim.clock().step;
     if !resumed {
-        outputs.record(sim, true)?;
+        if let Some(comm) = comm {
+            // Each rank's watch starts from the floor of the particles it owns: the run's is
+            // their sum.
+            let mut watch = sim.world.resource_mut::<EnergyWatch>();
+            watch.scale = comm.sum(&[watch.scale])[0];
+        }
+        let first = outputs.record(sim, true);
+        agreed(comm, first)?;
     }
     let mut interrupted = false;
     let mut checkpoint = None;
@@ -305,18 +402,29 @@ pub fn run_with(
         if plan.last_good_frame {
             sim.with_world_in_pool(|world| refill_particle_frame(world, &mut last_good));
         }
-        if let Err(blowup) = sim.step() {
-            outputs.settle()?;
+        // The step the state was at: a rank whose step failed has not moved its clock, the
+        // others have.
+        let step = sim.clock().step;
+        if let Err(failure) = step_once(sim, comm) {
+            let settled = outputs.settle();
             let last_good = plan.last_good_frame.then_some(&last_good);
-            let written = write_last_good(plan, &frames_dir, sim.clock().step, last_good)?;
-            return Err(RunError::Blowup(blowup, written));
+            let written = write_last_good(plan, &frames_dir, step, last_good, comm);
+            let written = agreed(comm, settled.and(written))?;
+            return Err(failure.with_last_good(written));
         }
-        outputs.record(sim, false)?;
+        let recorded = outputs.record(sim, false);
+        agreed(comm, recorded)?;
         interrupted = options
             .interrupt
             .is_some_and(|flag| flag.load(Ordering::SeqCst));
+        if let Some(comm) = comm {
+            // A signal reaches the ranks at different steps: they stop at the first step after
+            // any of them saw it.
+            interrupted = comm.max(f64::from(u8::from(interrupted))) > 0.0;
+        }
         let last = sim.finished() || interrupted;
-        let wanted = options.checkpoints.is_some() || interrupted;
+        // A distributed run writes no checkpoint yet (refused above when asked for one).
+        let wanted = comm.is_none() && (options.checkpoints.is_some() || interrupted);
         if wanted && (schedule.due(sim.clock()) || last) {
             checkpoint = Some(checkpoint_now(
                 sim,
@@ -327,7 +435,8 @@ pub fn run_with(
             )?);
         }
         if last {
-            outputs.record(sim, true)?;
+            let recorded = outputs.record(sim, true);
+            agreed(comm, recorded)?;
         }
         on_step(sim);
         if interrupted {
@@ -335,7 +444,8 @@ pub fn run_with(
         }
     }
     // The run ends only when its files are safe.
-    outputs.settle()?;
+    let settled = outputs.settle();
+    agreed(comm, settled)?;
     let clock = sim.clock();
     Ok(RunSummary {
         steps: clock.step - first_step,
@@ -362,6 +472,52 @@ pub fn run_with(
     })
 }
 
+/// Why a step failed: a blow-up of one process, or the failure every rank agreed on.
+enum StepFailure {
+    Blowup(Blowup),
+    Rank(RankFailure),
+}
+
+impl StepFailure {
+    /// The run's error, with the state at the start of the failing step when it was written.
+    fn with_last_good(self, written: Option<PathBuf>) -> RunError {
+        match self {
+            StepFailure::Blowup(blowup) => RunError::Blowup(blowup, written),
+            StepFailure::Rank(failure) => RunError::Rank(failure, written),
+        }
+    }
+}
+
+/// One step: of the process, or of this rank with the others ([`distributed::step`]).
+fn step_once(sim: &mut Simulation, comm: Option<&dyn Communicator>) -> Result<(), StepFailure> {
+    match comm {
+        Some(comm) => distributed::step(sim, comm).map_err(StepFailure::Rank),
+        None => sim.step().map_err(StepFailure::Blowup),
+    }
+}
+
+/// `result` where every rank got through it; else this rank's own error where it failed, and
+/// on the other ranks the failure of the lowest failing rank ([`RunError::OtherRank`]);
+/// `result` itself in one process. Every rank calls it at the same point, so that no rank
+/// waits for one that has stopped.
+fn agreed<T>(comm: Option<&dyn Communicator>, result: Result<T, RunError>) -> Result<T, RunError> {
+    let Some(comm) = comm else {
+        return result;
+    };
+    let message = result.as_ref().err().map(ToString::to_string);
+    let agreement = comm.agree(message.as_deref());
+    let value = result?;
+    agreement.map_err(RunError::OtherRank)?;
+    Ok(value)
+}
+
+/// The particles this rank owns (every particle of one process).
+fn owned_particles(sim: &mut Simulation) -> usize {
+    let owned = (sim.world.get_resource::<crate::decomposition::Ownership>())
+        .map(|o| o.particles.iter().filter(|&&owned| owned).count());
+    owned.unwrap_or_else(|| sim.particle_count())
+}
+
 /// The run's outputs and checkpoint schedule: fresh, or continuing a resumed run's (whose
 /// series is written back at once).
 fn open_outputs<'a>(
@@ -370,11 +526,17 @@ fn open_outputs<'a>(
     out_dir: &'a Path,
     checkpoints: Option<CheckpointPlan>,
     resume: Option<ResumedOutputs>,
+    comm: Option<&'a dyn Communicator>,
 ) -> Result<(Outputs<'a>, CheckpointSchedule), RunError> {
+    let mut series = SeriesWriter::new(out_dir.join("series.csv"), &plan.columns());
+    if comm.is_some_and(|c| c.rank() != 0) {
+        series = series.in_memory();
+    }
     let mut outputs = Outputs {
         plan,
         dir: out_dir,
-        series: SeriesWriter::new(out_dir.join("series.csv"), &plan.columns()),
+        comm,
+        series,
         frames: Vec::new(),
         grid_frames: Vec::new(),
         written: [None; 3],
@@ -398,19 +560,35 @@ fn open_outputs<'a>(
 }
 
 /// Writes the state at the start of the failing step, when the plan kept it (every field, for
-/// the diagnosis, encoded as the plan says).
+/// the diagnosis, encoded as the plan says): in a distributed run, each rank's piece and the
+/// `.pvtu` index of them, whose path it returns.
 fn write_last_good(
     plan: &OutputPlan,
     frames_dir: &Path,
     step: u64,
     last_good: Option<&crate::output::ParticleFrame>,
+    comm: Option<&dyn Communicator>,
 ) -> Result<Option<PathBuf>, RunError> {
     let Some(frame) = last_good else {
         return Ok(None);
     };
-    let path = frames_dir.join(format!("particles_last_good_{step:08}.vtu"));
-    write_particle_frame(&path, frame, plan.compression).map_err(io_error(&path))?;
-    Ok(Some(path))
+    let stem = format!("particles_last_good_{step:08}");
+    let Some(comm) = comm else {
+        let path = frames_dir.join(format!("{stem}.vtu"));
+        write_particle_frame(&path, frame, plan.compression).map_err(io_error(&path))?;
+        return Ok(Some(path));
+    };
+    let index = format!("{stem}.pvtu");
+    let pieces: Vec<String> = (0..comm.size()).map(|r| piece_name(&index, r)).collect();
+    let writer = index_writer(comm, frame.position.len());
+    let piece = frames_dir.join(&pieces[comm.rank()]);
+    let arrays = crate::output::particle_frame_file(&piece, frame, plan.compression)
+        .map_err(io_error(&piece))?;
+    let index = frames_dir.join(index);
+    if writer == comm.rank() {
+        write_pvtu(&index, &arrays, &pieces).map_err(io_error(&index))?;
+    }
+    Ok(Some(index))
 }
 
 /// Flushes the outputs and writes a checkpoint after the current step, recording what the

@@ -161,6 +161,14 @@ impl<D: Dim> Spec<D> {
                  `Stop`, or run as one process",
             ));
         }
+        if let Some(k) = (self.output.probes.iter()).position(|p| matches!(p, Probe::Track { .. })) {
+            return Err(self.source.error(
+                &format!("output.probes[{k}]"),
+                "a Track probe follows one particle, which moves between the ranks of a \
+                 distributed run and is not followed there yet; leave the probe out, or run as \
+                 one process",
+            ));
+        }
         let slabs = self.slabs(seeds, ranks)?.slabs;
         Ok(RankPlan {
             rank,
@@ -310,6 +318,10 @@ impl<D: Dim> Spec<D> {
             world.insert_resource(ownership);
         }
         self.insert_scene_resources(&mut world, loads)?;
+        if let Some(nodes) = world.get_resource::<Ownership>().map(|o| o.nodes.clone()) {
+            // Each rank measures the reactions at the nodes it owns.
+            world.resource_mut::<BoundaryConditions>().measured_nodes = Some(nodes);
+        }
         let output = self.output_plan(&mut world)?;
         Ok((world, body_particles, output))
     }
@@ -387,10 +399,16 @@ impl<D: Dim> Spec<D> {
                 &crate::components::MaterialId,
             ), bevy_ecs::query::With<crate::components::Particle>>(
             );
+            // A rank's floor is its owned particles' part; a distributed run adds the parts.
+            let ownership = world.get_resource::<Ownership>();
             crate::energy::energy_floor(
                 query
                     .iter(world)
-                    .map(|(v, m)| (v.0, moduli.get(usize::from(m.0)).copied().unwrap_or(0.0))),
+                    .enumerate()
+                    .filter(|(row, _)| crate::decomposition::counts_here(ownership, *row))
+                    .map(|(_, (v, m))| {
+                        (v.0, moduli.get(usize::from(m.0)).copied().unwrap_or(0.0))
+                    }),
             )
         };
         world.insert_resource(crate::energy::EnergyWatch::with_floor(floor));
@@ -683,7 +701,10 @@ impl<D: Dim> Spec<D> {
             .enumerate()
             .map(|(r, region)| self.region(r, region))
             .collect::<Result<_, _>>()?;
-        Ok(BoundaryConditions { regions })
+        Ok(BoundaryConditions {
+            regions,
+            measured_nodes: None,
+        })
     }
 
     fn region(&self, r: usize, region: &Boundary<D>) -> Result<BoundaryRegion, SceneError> {

@@ -156,6 +156,7 @@ mod tests {
         world.insert_resource(BodyForce::<Two>(DVec2::new(0.0, -10.0)));
         world.insert_resource(BoundaryConditions {
             regions: vec![BoundaryRegion::fixed("corner", vec![0])],
+            measured_nodes: None,
         });
         spawn_particle(&mut world, DVec2::new(0.2, 0.2), DVec2::ZERO, 4.0, 0.1);
         let mut query = world.query::<(&NodeIndex, &mut NodeMass)>();

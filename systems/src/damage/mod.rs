@@ -47,8 +47,4 @@ pub fn seeded_sum(
     total
 }
 
-/// Whether particle row `row` counts in this rank's sums: owned here in a distributed run,
-/// every row otherwise.
-pub fn counts_here(ownership: Option<&Ownership>, row: usize) -> bool {
-    ownership.is_none_or(|o| o.owns_particle(row))
-}
+pub use fractum_engine::decomposition::counts_here;

@@ -259,6 +259,7 @@ mod tests {
         world.insert_resource(UslPredictorParams::default());
         world.insert_resource(BoundaryConditions {
             regions: vec![BoundaryRegion::fixed("centre", vec![4])],
+            measured_nodes: None,
         });
         let p = spawn_particle(&mut world, DVec2::new(0.6, 0.6), DVec2::ZERO, 1.0, 0.25);
         world.get_mut::<Stress<Two>>(p).unwrap().0 = SymTensor2 {

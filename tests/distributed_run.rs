@@ -1,0 +1,256 @@
+//! A run over several ranks (threads of this process, `ThreadRank`) through the run loop
+//! (`fractum_engine::run::run_with` with a communicator): one `series.csv`, written by rank 0,
+//! equal to the single process's to 1e-12 of each column's largest magnitude and the same bits
+//! run to run; particle frames as per-rank pieces whose `.pvtu` index reads back as the single
+//! process's frame; a blow-up on one rank stops every rank with its message; an interrupt seen
+//! by one rank stops them all after the same step. The same run under `mpirun`:
+//! `tools/tests/mpi_run.rs`.
+
+use fractum_engine::communicator::thread_ranks;
+use fractum_engine::output::{ParticleFrame, read_particle_frame, read_pvd, read_pvtu_pieces};
+use fractum_engine::run::{RunError, RunOptions, RunSummary, run_with};
+use fractum_engine::scene::{SceneFile, build_rank_simulation, build_simulation};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+/// Two disks thrown at each other, with Kalthoff–Winkler's pipeline (Rankine damage, DFG
+/// partitioning, frictional contact), gravity, a line of nodes pushed sideways through the lower
+/// disk (reactions and external work) and every probe a distributed run supports.
+fn scene(end_steps: u64, speed: f64) -> String {
+    format!(
+        r#"(
+    title: "two disks, pushed",
+    units: SI,
+    time: (step: Fixed(1.0e-3), end: Steps({end_steps})),
+    grid: (min: (0.0, 0.0), max: (1.0, 1.0), spacing: 0.05),
+    body_force: (0.0, -1.0),
+    materials: {{
+        "elastic": (density: 1000.0, youngs_modulus: 1000.0, poisson_ratio: 0.3),
+    }},
+    bodies: [
+        (name: "lower-left", shape: Disk(center: (0.25, 0.3), radius: 0.2), material: "elastic",
+         particles_per_cell: 2, velocity: Uniform(({speed}, 0.1)), contact_group: 0),
+        (name: "upper-right", shape: Disk(center: (0.75, 0.7), radius: 0.2), material: "elastic",
+         particles_per_cell: 2, velocity: Uniform((-0.4, -0.1)), contact_group: 1),
+    ],
+    boundaries: [
+        (name: "pusher", nodes: Box(min: (0.0, 0.3), max: (1.0, 0.3)),
+         condition: Velocity(x: [(0.0, 0.0), (0.2, 0.05)])),
+    ],
+    output: (vtu_every: 100, grid_every: 100, csv_every: 10,
+             probes: [CentreOfMassVelocity, Reaction("pusher"), Force("lower-left"),
+                      Displacement("pusher")]),
+    pipeline: [
+        (system: "basis/linear"), (system: "predictor/newmark"),
+        (system: "stress/neo_hookean"),
+        (system: "damage/rankine", params: (tensile_strength: 20.0, fracture_energy: 0.05)),
+        (system: "partition/dfg"),
+        (system: "contact/frictional", params: (friction: 0.0, separability: 0.25)),
+        (system: "corrector/newmark"), (system: "advection/newmark"),
+    ],
+)"#
+    )
+}
+
+fn parse(text: &str) -> SceneFile {
+    SceneFile::parse("two_disks_pushed.ron", text.to_string()).unwrap()
+}
+
+fn out_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!(
+        "fractum-distributed-run-{}-{name}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn run_serial(text: &str, dir: &Path) -> Result<RunSummary, RunError> {
+    let mut built = build_simulation(&parse(text), &fractum_systems::stock_registry()).unwrap();
+    run_with(
+        &mut built.simulation,
+        &built.output,
+        dir,
+        RunOptions::default(),
+        |_| {},
+    )
+}
+
+/// Runs `text` as `ranks` ranks into `dir`, each rank seeing `interrupt[rank]` as its signal
+/// flag; every rank's outcome, by rank.
+fn run_ranks(
+    text: &str,
+    ranks: usize,
+    dir: &Path,
+    interrupt: Vec<bool>,
+) -> Vec<Result<RunSummary, RunError>> {
+    let threads: Vec<_> = thread_ranks(ranks)
+        .into_iter()
+        .zip(interrupt)
+        .map(|(comm, interrupted)| {
+            let file = parse(text);
+            let dir = dir.to_path_buf();
+            std::thread::spawn(move || {
+                use fractum_engine::communicator::Communicator;
+                let registry = fractum_systems::stock_registry();
+                let mut built =
+                    build_rank_simulation(&file, &registry, comm.rank(), comm.size()).unwrap();
+                let flag = AtomicBool::new(interrupted);
+                let options = RunOptions {
+                    interrupt: Some(&flag),
+                    communicator: Some(&comm),
+                    ..RunOptions::default()
+                };
+                run_with(&mut built.simulation, &built.output, &dir, options, |_| {})
+            })
+        })
+        .collect();
+    threads.into_iter().map(|t| t.join().unwrap()).collect()
+}
+
+/// The header and rows of a `series.csv`.
+fn series(dir: &Path) -> (String, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(dir.join("series.csv")).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().to_string();
+    let rows = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    (header, rows)
+}
+
+/// Every value of `rows` within 1e-12 of the largest magnitude in its column of `reference`
+/// (sums over ranks add in another order than the single process's sums); the step and time
+/// columns exactly.
+fn assert_series_close(reference: &[Vec<f64>], rows: &[Vec<f64>], what: &str) {
+    assert_eq!(reference.len(), rows.len(), "{what}: rows");
+    let columns = reference[0].len();
+    for c in 0..columns {
+        let scale = reference.iter().map(|r| r[c].abs()).fold(0.0, f64::max);
+        for (k, (a, b)) in reference.iter().zip(rows).enumerate() {
+            let tolerance = if c < 2 { 0.0 } else { 1e-12 * scale };
+            assert!(
+                (a[c] - b[c]).abs() <= tolerance,
+                "{what}: row {k}, column {c}: {} against the single process's {}",
+                b[c],
+                a[c]
+            );
+        }
+    }
+}
+
+/// The frame sorted by particle id.
+fn by_id(mut frame: ParticleFrame) -> Vec<(u32, [f64; 3], [f64; 3], f64)> {
+    let mut rows: Vec<_> = (0..frame.id.len())
+        .map(|i| {
+            (
+                frame.id[i],
+                frame.position[i],
+                frame.velocity[i],
+                frame.damage[i],
+            )
+        })
+        .collect();
+    rows.sort_by_key(|r| r.0);
+    frame.id.clear();
+    rows
+}
+
+#[test]
+fn a_run_over_one_to_four_ranks_writes_the_single_process_series_and_frames() {
+    let text = scene(300, 0.4);
+    let serial_dir = out_dir("serial");
+    let serial = run_serial(&text, &serial_dir).unwrap();
+    let (header, reference) = series(&serial_dir);
+    assert_eq!(reference.len(), 31);
+    let column = |name: &str| header.split(',').position(|c| c == name).unwrap();
+    // The run exercises what the ranks add up: reactions and work at the pushed nodes, damage.
+    let last = reference.last().unwrap();
+    assert!(last[column("reaction_pusher_x")].abs() > 0.0, "{header}\n{last:?}");
+    assert!(last[column("external_work")].abs() > 0.0, "{header}\n{last:?}");
+    assert!(last[column("failed_particles")] > 0.0, "{header}\n{last:?}");
+    let serial_frame = by_id(read_particle_frame(&serial_dir.join("frames/particles_00000300.vtu")).unwrap());
+    for ranks in 1..=4 {
+        let dir = out_dir(&format!("ranks-{ranks}"));
+        let outcomes = run_ranks(&text, ranks, &dir, vec![false; ranks]);
+        for outcome in &outcomes {
+            let summary = outcome.as_ref().unwrap();
+            assert_eq!((summary.steps, summary.particles), (300, serial.particles));
+            assert_eq!(summary.frames, serial.frames);
+        }
+        let (rank_header, rows) = series(&dir);
+        assert_eq!(rank_header, header);
+        assert_series_close(&reference, &rows, &format!("{ranks} ranks"));
+        // Frames: one piece per rank behind each index, which reads back as the single
+        // process's frame (the particles' states are the single process's, bit for bit).
+        let frames = read_pvd(&dir.join("particles.pvd")).unwrap();
+        assert_eq!(frames.len(), serial.frames);
+        let (_, index) = frames.last().unwrap();
+        assert_eq!(index, "frames/particles_00000300.pvtu");
+        let pieces = read_pvtu_pieces(&dir.join(index)).unwrap();
+        assert_eq!(pieces.len(), ranks);
+        let frame = read_particle_frame(&dir.join(index)).unwrap();
+        assert_eq!(by_id(frame), serial_frame, "{ranks} ranks");
+        let grid = read_pvd(&dir.join("grid.pvd")).unwrap();
+        let grid_pieces = read_pvtu_pieces(&dir.join(&grid.last().unwrap().1)).unwrap();
+        assert_eq!(grid_pieces.len(), ranks);
+        if ranks == 3 {
+            // Each rank count repeats its own series bit for bit.
+            let again = out_dir("ranks-3-again");
+            run_ranks(&text, ranks, &again, vec![false; ranks]);
+            let read = |d: &Path| std::fs::read(d.join("series.csv")).unwrap();
+            assert_eq!(read(&again), read(&dir));
+            std::fs::remove_dir_all(&again).unwrap();
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+    std::fs::remove_dir_all(&serial_dir).unwrap();
+}
+
+#[test]
+fn a_particle_leaving_the_grid_on_one_rank_stops_every_rank_with_its_message() {
+    // The lower disk flies out through the right side: only the rank that owns the right of the
+    // grid sees it go.
+    let text = scene(400, 6.0);
+    let serial_dir = out_dir("leaving-serial");
+    let Err(RunError::Blowup(blowup, _)) = run_serial(&text, &serial_dir) else {
+        panic!("the single process did not stop");
+    };
+    let dir = out_dir("leaving-ranks");
+    let outcomes = run_ranks(&text, 3, &dir, vec![false; 3]);
+    let failures: Vec<_> = outcomes
+        .into_iter()
+        .map(|o| match o {
+            Err(RunError::Rank(failure, last_good)) => (failure, last_good),
+            other => panic!("a rank did not stop with the others: {other:?}"),
+        })
+        .collect();
+    for (failure, last_good) in &failures {
+        assert_eq!(failure, &failures[0].0);
+        assert_eq!(failure.message, blowup.to_string());
+        let index = last_good.as_ref().unwrap();
+        assert_eq!(read_pvtu_pieces(index).unwrap().len(), 3);
+    }
+    assert_eq!(failures[0].0.rank, 2, "{}", failures[0].0);
+    std::fs::remove_dir_all(&dir).unwrap();
+    std::fs::remove_dir_all(&serial_dir).unwrap();
+}
+
+#[test]
+fn an_interrupt_seen_by_one_rank_stops_every_rank_after_the_same_step() {
+    let text = scene(300, 0.4);
+    let dir = out_dir("interrupted");
+    let outcomes = run_ranks(&text, 3, &dir, vec![false, true, false]);
+    for outcome in outcomes {
+        let summary = outcome.unwrap();
+        assert!(summary.interrupted);
+        assert_eq!(summary.steps, 1);
+        assert!(summary.checkpoint.is_none());
+    }
+    // The outputs are whole: the first row, and the row and frame of the step it stopped at.
+    let (_, rows) = series(&dir);
+    assert_eq!(rows.iter().map(|r| r[0]).collect::<Vec<_>>(), [0.0, 1.0]);
+    let frames = read_pvd(&dir.join("particles.pvd")).unwrap();
+    assert_eq!(frames.len(), 2);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
