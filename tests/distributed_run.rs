@@ -3,12 +3,19 @@
 //! equal to the single process's to 1e-12 of each column's largest magnitude and the same bits
 //! run to run; particle frames as per-rank pieces whose `.pvtu` index reads back as the single
 //! process's frame; a blow-up on one rank stops every rank with its message; an interrupt seen
-//! by one rank stops them all after the same step. The same run under `mpirun`:
+//! by one rank stops them all after the same step; per-rank checkpoints with a manifest, from
+//! which the same rank count resumes bit for bit. The same run under `mpirun`:
 //! `tools/tests/mpi_run.rs`.
 
 use fractum_engine::communicator::thread_ranks;
 use fractum_engine::output::{ParticleFrame, read_particle_frame, read_pvd, read_pvtu_pieces};
-use fractum_engine::run::{RunError, RunOptions, RunSummary, run_with};
+use fractum_engine::checkpoint::{
+    CheckpointEvery, RankCheckpoint, SceneRecord, list_checkpoints, read_checkpoint,
+};
+use fractum_engine::run::distributed::restore_rank_piece;
+use fractum_engine::run::{
+    CheckpointPlan, RunError, RunOptions, RunSummary, resumed_outputs, rewind_outputs, run_with,
+};
 use fractum_engine::scene::{SceneFile, build_rank_simulation, build_simulation};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -84,6 +91,19 @@ fn run_ranks(
     dir: &Path,
     interrupt: Vec<bool>,
 ) -> Vec<Result<RunSummary, RunError>> {
+    run_ranks_with(text, ranks, dir, interrupt, None, false)
+}
+
+/// [`run_ranks`], stopping at step `cap` when given, with a checkpoint every 100 steps when
+/// `checkpoints`.
+fn run_ranks_with(
+    text: &str,
+    ranks: usize,
+    dir: &Path,
+    interrupt: Vec<bool>,
+    cap: Option<u64>,
+    checkpoints: bool,
+) -> Vec<Result<RunSummary, RunError>> {
     let threads: Vec<_> = thread_ranks(ranks)
         .into_iter()
         .zip(interrupt)
@@ -95,10 +115,19 @@ fn run_ranks(
                 let registry = fractum_systems::stock_registry();
                 let mut built =
                     build_rank_simulation(&file, &registry, comm.rank(), comm.size()).unwrap();
+                built.simulation.set_step_cap(cap);
                 let flag = AtomicBool::new(interrupted);
                 let options = RunOptions {
                     interrupt: Some(&flag),
                     communicator: Some(&comm),
+                    checkpoints: checkpoints.then_some(CheckpointPlan {
+                        every: CheckpointEvery::Steps(100),
+                        keep: 2,
+                    }),
+                    scene: Some(SceneRecord {
+                        path: "two_disks_pushed.ron".into(),
+                        text: file.text.clone(),
+                    }),
                     ..RunOptions::default()
                 };
                 run_with(&mut built.simulation, &built.output, &dir, options, |_| {})
@@ -245,12 +274,92 @@ fn an_interrupt_seen_by_one_rank_stops_every_rank_after_the_same_step() {
         let summary = outcome.unwrap();
         assert!(summary.interrupted);
         assert_eq!(summary.steps, 1);
-        assert!(summary.checkpoint.is_none());
+        assert!(summary.checkpoint.is_some());
     }
+    // And a checkpoint to resume from: the manifest and the ranks' pieces.
+    let steps: Vec<u64> = list_checkpoints(&dir).iter().map(|c| c.0).collect();
+    assert_eq!(steps, [1]);
+    let files = std::fs::read_dir(dir.join("checkpoints")).unwrap().count();
+    assert_eq!(files, 4);
     // The outputs are whole: the first row, and the row and frame of the step it stopped at.
     let (_, rows) = series(&dir);
     assert_eq!(rows.iter().map(|r| r[0]).collect::<Vec<_>>(), [0.0, 1.0]);
     let frames = read_pvd(&dir.join("particles.pvd")).unwrap();
     assert_eq!(frames.len(), 2);
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Resumes the run in `dir` as `ranks` ranks from its newest checkpoint, to its end, as
+/// `fractum resume` does under `mpirun`.
+fn resume_ranks(ranks: usize, dir: &Path) -> Vec<Result<RunSummary, RunError>> {
+    let (_, manifest_path) = list_checkpoints(dir).pop().unwrap();
+    let manifest = read_checkpoint(&manifest_path).unwrap();
+    let Some(RankCheckpoint::Manifest { ranks: saved, pieces }) = &manifest.ranks else {
+        panic!("the newest checkpoint is not a distributed run's manifest");
+    };
+    assert_eq!((*saved, pieces.len()), (ranks, ranks));
+    let threads: Vec<_> = thread_ranks(ranks)
+        .into_iter()
+        .map(|comm| {
+            use fractum_engine::communicator::Communicator;
+            let piece_path = manifest_path.with_file_name(&pieces[comm.rank()]);
+            let manifest = manifest.clone();
+            let dir = dir.to_path_buf();
+            std::thread::spawn(move || {
+                let piece = read_checkpoint(&piece_path).unwrap();
+                let file = parse(&manifest.scene.text);
+                let registry = fractum_systems::stock_registry();
+                let (rank, size) = (comm.rank(), comm.size());
+                let mut built = build_rank_simulation(&file, &registry, rank, size).unwrap();
+                restore_rank_piece(&mut built.simulation, &piece, (rank, size)).unwrap();
+                let step = built.simulation.clock().step;
+                let outputs = if rank == 0 {
+                    rewind_outputs(&dir, &manifest, step)
+                } else {
+                    resumed_outputs(&dir, &manifest, step)
+                };
+                let options = RunOptions {
+                    communicator: Some(&comm),
+                    resume: Some(outputs.unwrap()),
+                    scene: Some(manifest.scene.clone()),
+                    ..RunOptions::default()
+                };
+                run_with(&mut built.simulation, &built.output, &dir, options, |_| {})
+            })
+        })
+        .collect();
+    threads.into_iter().map(|t| t.join().unwrap()).collect()
+}
+
+#[test]
+fn a_run_over_ranks_resumes_from_its_checkpoint_on_as_many_ranks_bit_for_bit() {
+    let text = scene(300, 0.4);
+    let whole = out_dir("whole");
+    for outcome in run_ranks_with(&text, 3, &whole, vec![false; 3], None, true) {
+        outcome.unwrap();
+    }
+    let stopped = out_dir("stopped");
+    for outcome in run_ranks_with(&text, 3, &stopped, vec![false; 3], Some(150), true) {
+        assert_eq!(outcome.unwrap().steps, 150);
+    }
+    // Checkpoints at steps 100 and 150 (the end of the capped run), each a manifest and one
+    // piece per rank; an older one would have been pruned with its pieces.
+    let steps: Vec<u64> = list_checkpoints(&stopped).iter().map(|c| c.0).collect();
+    assert_eq!(steps, [100, 150]);
+    let files = std::fs::read_dir(stopped.join("checkpoints")).unwrap().count();
+    assert_eq!(files, 2 * 4);
+    for outcome in resume_ranks(3, &stopped) {
+        assert_eq!(outcome.unwrap().steps, 150);
+    }
+    let read = |d: &Path, f: &str| std::fs::read(d.join(f)).unwrap();
+    assert_eq!(
+        String::from_utf8(read(&stopped, "series.csv")).unwrap(),
+        String::from_utf8(read(&whole, "series.csv")).unwrap()
+    );
+    assert_eq!(read(&stopped, "particles.pvd"), read(&whole, "particles.pvd"));
+    let last = "frames/particles_00000300.pvtu";
+    let frame = |d: &Path| by_id(read_particle_frame(&d.join(last)).unwrap());
+    assert_eq!(frame(&stopped), frame(&whole));
+    std::fs::remove_dir_all(&whole).unwrap();
+    std::fs::remove_dir_all(&stopped).unwrap();
 }

@@ -3,10 +3,11 @@
 use super::state::{WorldState, capture};
 use serde::{Deserialize, Serialize};
 
-/// The format of checkpoint files; a file of another format is refused. Format 2: the
+/// The format of checkpoint files; a file of another format is refused. Format 3: the
 /// postcard-encoded [`CheckpointFile`], then the FNV-1a digest of those bytes (8 bytes, little
-/// endian), so that a damaged file is refused, not resumed with altered numbers.
-pub const CHECKPOINT_FORMAT: u32 = 2;
+/// endian), so that a damaged file is refused, not resumed with altered numbers. (Format 3
+/// added [`CheckpointFile::ranks`].)
+pub const CHECKPOINT_FORMAT: u32 = 3;
 
 /// Checkpoints kept by default.
 pub const DEFAULT_KEEP: usize = 3;
@@ -95,6 +96,38 @@ pub struct CheckpointFile {
     pub world: WorldState,
     /// The outputs.
     pub outputs: CheckpointOutputs,
+    /// Where the run went over several ranks: this file's part of the checkpoint.
+    pub ranks: Option<RankCheckpoint>,
+}
+
+/// The parts of the checkpoint of a run over several ranks. Each rank writes its own state
+/// ([`RankCheckpoint::Piece`], `checkpoint_<step>.rank<r>.bin`); once every rank has, rank 0
+/// writes the manifest ([`RankCheckpoint::Manifest`], `checkpoint_<step>.bin`, the name
+/// [`list_checkpoints`] finds), with the outputs and an empty world.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum RankCheckpoint {
+    /// The checkpoint's pieces, one per rank in rank order, as file names in its folder.
+    Manifest {
+        /// The ranks of the run.
+        ranks: usize,
+        /// Each rank's piece.
+        pieces: Vec<String>,
+    },
+    /// One rank's state.
+    Piece {
+        /// The rank.
+        rank: usize,
+        /// The ranks of the run.
+        ranks: usize,
+        /// What the rank held and owned ([`crate::decomposition::Ownership`]), postcard-encoded.
+        ownership: Vec<u8>,
+    },
+}
+
+/// The file name of rank `rank`'s piece of the checkpoint after `step` (not matched by
+/// [`list_checkpoints`], which lists the manifests).
+pub fn rank_checkpoint_name(step: u64, rank: usize) -> String {
+    format!("checkpoint_{step:012}.rank{rank}.bin")
 }
 
 fn fnv1a(bytes: &[u8]) -> u64 {
@@ -170,31 +203,133 @@ pub fn write_checkpoint(
     outputs: CheckpointOutputs,
     keep: usize,
 ) -> Result<std::path::PathBuf, WriteError> {
-    let file = CheckpointFile {
+    let world = capture(&mut sim.world).map_err(|e| WriteError::Encode(e.to_string()))?;
+    let file = checkpoint_file(sim, scene, outputs, world, None);
+    let path = checkpoint_path(out_dir, &checkpoint_name(sim.clock().step))?;
+    write_sealed(&path, &file)?;
+    prune_checkpoints(out_dir, keep);
+    Ok(path)
+}
+
+/// Writes this rank's piece of the checkpoint of a run over `ranks` ranks after the current
+/// step, with what it owns (`ownership`). Returns its path. The run writes the manifest
+/// ([`write_rank_manifest`]) once every rank has written its piece.
+pub fn write_rank_piece(
+    sim: &mut crate::Simulation,
+    out_dir: &std::path::Path,
+    scene: &SceneRecord,
+    outputs: CheckpointOutputs,
+    (rank, ranks): (usize, usize),
+) -> Result<std::path::PathBuf, WriteError> {
+    let ownership = sim
+        .world
+        .get_resource::<crate::decomposition::Ownership>()
+        .ok_or_else(|| WriteError::Encode("a rank's checkpoint needs its Ownership".into()))?;
+    let ownership =
+        postcard::to_allocvec(ownership).map_err(|e| WriteError::Encode(e.to_string()))?;
+    let piece = RankCheckpoint::Piece {
+        rank,
+        ranks,
+        ownership,
+    };
+    let world = capture(&mut sim.world).map_err(|e| WriteError::Encode(e.to_string()))?;
+    let file = checkpoint_file(sim, scene, outputs, world, Some(piece));
+    let path = checkpoint_path(out_dir, &rank_checkpoint_name(sim.clock().step, rank))?;
+    write_sealed(&path, &file)?;
+    Ok(path)
+}
+
+/// Writes the manifest of the checkpoint of a run over `ranks` ranks after the current step,
+/// once every rank has written its piece ([`write_rank_piece`]), and deletes all but the newest
+/// `keep` checkpoints with their pieces. Returns its path.
+pub fn write_rank_manifest(
+    sim: &crate::Simulation,
+    out_dir: &std::path::Path,
+    scene: &SceneRecord,
+    outputs: CheckpointOutputs,
+    ranks: usize,
+    keep: usize,
+) -> Result<std::path::PathBuf, WriteError> {
+    let step = sim.clock().step;
+    let manifest = RankCheckpoint::Manifest {
+        ranks,
+        pieces: (0..ranks).map(|r| rank_checkpoint_name(step, r)).collect(),
+    };
+    let file = checkpoint_file(sim, scene, outputs, WorldState::default(), Some(manifest));
+    let path = checkpoint_path(out_dir, &checkpoint_name(step))?;
+    write_sealed(&path, &file)?;
+    prune_checkpoints(out_dir, keep);
+    Ok(path)
+}
+
+/// A checkpoint of `sim` with `world` as its state.
+fn checkpoint_file(
+    sim: &crate::Simulation,
+    scene: &SceneRecord,
+    outputs: CheckpointOutputs,
+    world: WorldState,
+    ranks: Option<RankCheckpoint>,
+) -> CheckpointFile {
+    CheckpointFile {
         format: CHECKPOINT_FORMAT,
         version: env!("CARGO_PKG_VERSION").to_string(),
         binary: binary_identity(),
         scene: scene.clone(),
         end: sim.end(),
         time_compensation: sim.time_compensation(),
-        world: capture(&mut sim.world).map_err(|e| WriteError::Encode(e.to_string()))?,
+        world,
         outputs,
-    };
-    let bytes =
-        sealed(postcard::to_allocvec(&file).map_err(|e| WriteError::Encode(e.to_string()))?);
-    let dir = out_dir.join(CHECKPOINT_DIR);
-    let io = |path: &std::path::Path| {
-        let path = path.to_path_buf();
-        move |source| WriteError::Io { path, source }
-    };
-    std::fs::create_dir_all(&dir).map_err(io(&dir))?;
-    let path = dir.join(checkpoint_name(sim.clock().step));
-    crate::output::write_atomically(&path, &bytes).map_err(io(&path))?;
-    let all = list_checkpoints(out_dir);
-    for (_, old) in all.iter().take(all.len().saturating_sub(keep.max(1))) {
-        let _ = std::fs::remove_file(old);
+        ranks,
     }
-    Ok(path)
+}
+
+/// `out_dir/checkpoints/name`, the folder made.
+fn checkpoint_path(
+    out_dir: &std::path::Path,
+    name: &str,
+) -> Result<std::path::PathBuf, WriteError> {
+    let dir = out_dir.join(CHECKPOINT_DIR);
+    std::fs::create_dir_all(&dir).map_err(|source| WriteError::Io {
+        path: dir.clone(),
+        source,
+    })?;
+    Ok(dir.join(name))
+}
+
+/// Writes `file`, sealed with its digest, to `path` atomically.
+fn write_sealed(path: &std::path::Path, file: &CheckpointFile) -> Result<(), WriteError> {
+    let bytes =
+        sealed(postcard::to_allocvec(file).map_err(|e| WriteError::Encode(e.to_string()))?);
+    crate::output::write_atomically(path, &bytes).map_err(|source| WriteError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Deletes all but the newest `keep` checkpoints in `out_dir`, and the ranks' pieces of those
+/// deleted.
+fn prune_checkpoints(out_dir: &std::path::Path, keep: usize) {
+    let all = list_checkpoints(out_dir);
+    let stale: Vec<u64> = (all.iter().take(all.len().saturating_sub(keep.max(1))))
+        .map(|(step, old)| {
+            let _ = std::fs::remove_file(old);
+            *step
+        })
+        .collect();
+    let Ok(entries) = std::fs::read_dir(out_dir.join(CHECKPOINT_DIR)) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let piece_of = name
+            .to_string_lossy()
+            .strip_prefix("checkpoint_")
+            .and_then(|rest| rest.split_once(".rank"))
+            .and_then(|(step, _)| step.parse::<u64>().ok());
+        if piece_of.is_some_and(|step| stale.contains(&step)) {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
 }
 
 /// `payload` followed by its digest.
@@ -283,6 +418,7 @@ mod tests {
                 grid_frames: Vec::new(),
                 next_checkpoint_time: None,
             },
+            ranks: None,
         }
     }
 

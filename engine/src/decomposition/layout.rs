@@ -55,7 +55,7 @@ impl StepReach {
 }
 
 /// The slabs of a distributed run and the depth of their halos.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Layout {
     /// The axis the slabs are stacked along.
     pub axis: usize,
@@ -104,8 +104,8 @@ impl Layout {
 }
 
 /// What this rank owns: a resource of a rank's world in a distributed run. Serial worlds have
-/// none, and own everything.
-#[derive(Resource, Clone, Debug)]
+/// none, and own everything. A rank's checkpoint carries it.
+#[derive(Resource, Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Ownership {
     /// This rank.
     pub rank: usize,

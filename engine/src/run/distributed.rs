@@ -269,3 +269,45 @@ pub fn state_of_particles<D: Dim>(
     }
     Ok(states)
 }
+
+/// Puts this rank's piece of the checkpoint of a distributed run ([`RankCheckpoint::Piece`])
+/// into `sim`, a rank's simulation freshly built from the checkpoint's scene for the same rank
+/// of as many ranks: the particles the rank held then (rows spawned or despawned at the end of
+/// its table and given their ids), what it owned, and every carried component and resource.
+/// The outputs are not touched.
+pub fn restore_rank_piece(
+    sim: &mut crate::Simulation,
+    file: &crate::checkpoint::CheckpointFile,
+    (rank, ranks): (usize, usize),
+) -> Result<(), String> {
+    use crate::checkpoint::RankCheckpoint;
+    let Some(RankCheckpoint::Piece {
+        rank: saved_rank,
+        ranks: saved_ranks,
+        ownership,
+    }) = &file.ranks
+    else {
+        return Err("this file is not a rank's piece of a checkpoint".into());
+    };
+    if (*saved_rank, *saved_ranks) != (rank, ranks) {
+        return Err(format!(
+            "this is the piece of rank {saved_rank} of {saved_ranks}, not of rank {rank} of \
+             {ranks}"
+        ));
+    }
+    let ownership: Ownership = postcard::from_bytes(ownership)
+        .map_err(|e| format!("the piece's ownership cannot be read: {e}"))?;
+    let dimension = sim.dimension();
+    let world = &mut sim.world;
+    let count = file.world.particles.len();
+    with_dim!(dimension, D => resize_particles::<D>(world, count))?;
+    let mut ids = world.query_filtered::<&mut ParticleId, With<Particle>>();
+    for (mut slot, &id) in ids.iter_mut(world).zip(&file.world.particles) {
+        slot.0 = id;
+    }
+    if let Some(mut bcs) = world.get_resource_mut::<crate::boundary::BoundaryConditions>() {
+        bcs.measured_nodes = Some(ownership.nodes.clone());
+    }
+    world.insert_resource(ownership);
+    super::restore_checkpoint(sim, file)
+}

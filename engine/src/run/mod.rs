@@ -4,10 +4,11 @@
 pub mod distributed;
 mod resume;
 
-pub use resume::{restore_checkpoint, resume_from, rewind_outputs};
+pub use resume::{restore_checkpoint, resume_from, resumed_outputs, rewind_outputs};
 
 use crate::checkpoint::{
     CheckpointEvery, CheckpointOutputs, DEFAULT_KEEP, SceneRecord, write_checkpoint,
+    write_rank_manifest, write_rank_piece,
 };
 use crate::communicator::{Communicator, RankFailure};
 use crate::energy::EnergyWatch;
@@ -360,13 +361,6 @@ pub fn run_with(
     mut on_step: impl FnMut(&Simulation),
 ) -> Result<RunSummary, RunError> {
     let comm = options.communicator;
-    if comm.is_some() && (options.checkpoints.is_some() || options.resume.is_some()) {
-        return Err(RunError::Checkpoint(
-            "a run over several ranks does not write or resume checkpoints yet; run it \
-             without them, or as one process"
-                .into(),
-        ));
-    }
     let frames_dir = out_dir.join("frames");
     let made = std::fs::create_dir_all(&frames_dir).map_err(io_error(&frames_dir));
     agreed(comm, made)?;
@@ -423,8 +417,7 @@ pub fn run_with(
             interrupted = comm.max(f64::from(u8::from(interrupted))) > 0.0;
         }
         let last = sim.finished() || interrupted;
-        // A distributed run writes no checkpoint yet (refused above when asked for one).
-        let wanted = comm.is_none() && (options.checkpoints.is_some() || interrupted);
+        let wanted = options.checkpoints.is_some() || interrupted;
         if wanted && (schedule.due(sim.clock()) || last) {
             checkpoint = Some(checkpoint_now(
                 sim,
@@ -548,6 +541,9 @@ fn open_outputs<'a>(
     let mut schedule = CheckpointSchedule::new(checkpoints, sim.clock().time);
     if let Some(earlier) = resume {
         outputs.series = SeriesWriter::continuing(out_dir.join("series.csv"), earlier.series);
+        if comm.is_some_and(|c| c.rank() != 0) {
+            outputs.series = outputs.series.in_memory();
+        }
         outputs.frames = earlier.frames;
         outputs.grid_frames = earlier.grid_frames;
         outputs.written = [Some(sim.clock().step); 3];
@@ -600,11 +596,14 @@ fn checkpoint_now(
     outputs: &mut Outputs,
     schedule: &CheckpointSchedule,
 ) -> Result<PathBuf, RunError> {
+    let comm = options.communicator;
     let scene = options.scene.as_ref().ok_or_else(|| {
         RunError::Checkpoint("a checkpoint needs the scene's text (RunOptions::scene)".into())
-    })?;
-    // The checkpoint lists the frames written: they must be on disk first.
-    outputs.settle()?;
+    });
+    let scene = agreed(comm, scene)?;
+    // The checkpoint lists the frames written: they must be on disk first, on every rank.
+    let settled = outputs.settle();
+    agreed(comm, settled)?;
     let saved = CheckpointOutputs {
         series_bytes: outputs.series.text().len() as u64,
         frames: outputs.frames.clone(),
@@ -612,7 +611,20 @@ fn checkpoint_now(
         next_checkpoint_time: schedule.next_time,
     };
     let keep = options.checkpoints.map_or(DEFAULT_KEEP, |c| c.keep);
-    Ok(write_checkpoint(sim, out_dir, scene, saved, keep)?)
+    let Some(comm) = comm else {
+        return Ok(write_checkpoint(sim, out_dir, scene, saved, keep)?);
+    };
+    // Each rank its piece; once all are on disk, rank 0 the manifest that names them, so that
+    // a manifest on disk always has its pieces.
+    let (rank, ranks) = (comm.rank(), comm.size());
+    let piece = write_rank_piece(sim, out_dir, scene, saved.clone(), (rank, ranks));
+    let piece = agreed(Some(comm), piece.map_err(RunError::from))?;
+    let manifest = if rank == 0 {
+        write_rank_manifest(sim, out_dir, scene, saved, ranks, keep).map_err(RunError::from)
+    } else {
+        Ok(piece)
+    };
+    agreed(Some(comm), manifest)
 }
 
 /// When the next checkpoint is due.

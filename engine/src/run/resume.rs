@@ -37,6 +37,29 @@ pub fn rewind_outputs(
     file: &CheckpointFile,
     step: u64,
 ) -> Result<ResumedOutputs, String> {
+    let resumed = resumed_outputs(out_dir, file, step)?;
+    remove_later_frames(out_dir, file);
+    for (collection, frames) in [
+        ("particles.pvd", &file.outputs.frames),
+        ("grid.pvd", &file.outputs.grid_frames),
+    ] {
+        if !frames.is_empty() {
+            let path = out_dir.join(collection);
+            crate::output::write_pvd(&path, frames)
+                .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        }
+    }
+    Ok(resumed)
+}
+
+/// The outputs in `out_dir` as checkpoint `file`, taken after `step`, recorded them, for
+/// [`super::run_with`] to continue, without touching a file: what every rank of a resumed
+/// distributed run needs, where rank 0 alone winds the files back ([`rewind_outputs`]).
+pub fn resumed_outputs(
+    out_dir: &std::path::Path,
+    file: &CheckpointFile,
+    step: u64,
+) -> Result<ResumedOutputs, String> {
     let series_path = out_dir.join("series.csv");
     let mut series = std::fs::read_to_string(&series_path)
         .map_err(|e| format!("cannot read {}: {e}", series_path.display()))?;
@@ -50,6 +73,17 @@ pub fn rewind_outputs(
         ));
     }
     series.truncate(kept);
+    Ok(ResumedOutputs {
+        series,
+        frames: file.outputs.frames.clone(),
+        grid_frames: file.outputs.grid_frames.clone(),
+        next_checkpoint_time: file.outputs.next_checkpoint_time,
+    })
+}
+
+/// Deletes the frame files the checkpoint does not list: frames (`.vtu`) and the indexes
+/// (`.pvtu`) of a distributed run's frames with their pieces (`<index stem>_<rank>.vtu`).
+fn remove_later_frames(out_dir: &std::path::Path, file: &CheckpointFile) {
     let listed: std::collections::HashSet<&str> = file
         .outputs
         .frames
@@ -57,28 +91,24 @@ pub fn rewind_outputs(
         .chain(&file.outputs.grid_frames)
         .map(|(_, f)| f.as_str())
         .collect();
-    if let Ok(entries) = std::fs::read_dir(out_dir.join("frames")) {
-        for entry in entries.flatten() {
-            let name = format!("frames/{}", entry.file_name().to_string_lossy());
-            if name.ends_with(".vtu") && !listed.contains(name.as_str()) {
-                let _ = std::fs::remove_file(entry.path());
-            }
+    let kept = |name: &str| {
+        if listed.contains(name) {
+            return true;
+        }
+        // A piece of a listed index.
+        let stem = name.strip_suffix(".vtu").unwrap_or(name);
+        stem.rsplit_once('_').is_some_and(|(index, rank)| {
+            rank.parse::<usize>().is_ok() && listed.contains(format!("{index}.pvtu").as_str())
+        })
+    };
+    let Ok(entries) = std::fs::read_dir(out_dir.join("frames")) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let name = format!("frames/{}", entry.file_name().to_string_lossy());
+        let frame = name.ends_with(".vtu") || name.ends_with(".pvtu");
+        if frame && !kept(&name) {
+            let _ = std::fs::remove_file(entry.path());
         }
     }
-    for (collection, frames) in [
-        ("particles.pvd", &file.outputs.frames),
-        ("grid.pvd", &file.outputs.grid_frames),
-    ] {
-        if !frames.is_empty() {
-            let path = out_dir.join(collection);
-            crate::output::write_pvd(&path, frames)
-                .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-        }
-    }
-    Ok(ResumedOutputs {
-        series,
-        frames: file.outputs.frames.clone(),
-        grid_frames: file.outputs.grid_frames.clone(),
-        next_checkpoint_time: file.outputs.next_checkpoint_time,
-    })
 }
