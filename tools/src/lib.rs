@@ -177,7 +177,6 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             }
             Err(e) => report_scene_error(&e),
         },
-        Command::Resume { .. } if let Some(code) = ranks::refuse_resume_over_ranks() => code,
         Command::Run {
             scene,
             out,
@@ -191,9 +190,13 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             }
             Some(Err(code)) => code,
         },
-        Command::Resume { out, settings } => {
-            running::resume_command(&out, &settings.settings(), registry)
-        }
+        Command::Resume { out, settings } => match ranks::several_ranks() {
+            None => running::resume_command(&out, &settings.settings(), registry),
+            Some(Ok(comm)) => {
+                running::resume_ranks(&out, &settings.settings(), registry, comm.as_ref())
+            }
+            Some(Err(code)) => code,
+        },
     }
 }
 

@@ -1,13 +1,13 @@
 //! The ranks an MPI launcher (`mpirun`, `mpiexec`, `srun`) started this process as one of, and
 //! the communicator of the run.
 //!
-//! `fractum run` started as one of several ranks runs the scene over them
-//! ([`crate::running::run_ranks`]): built with the `mpi` feature, the ranks initialise MPI and
-//! step together through its communicator ([`communicator`]). A binary without the feature,
-//! or a `resume` (a distributed run writes no checkpoint yet), is refused before the scene is
-//! read, by every rank with the same exit code and the message printed once, by rank 0:
-//! otherwise each rank would run the whole scene into the same output folder. One rank
-//! (`mpirun -np 1`) runs as a plain process.
+//! `fractum run` and `fractum resume` started as one of several ranks run the scene over them
+//! ([`crate::running::run_ranks`], [`crate::running::resume_ranks`]): built with the `mpi`
+//! feature, the ranks initialise MPI and step together through its communicator
+//! ([`communicator`]). A binary without the feature is refused before the scene is read, by
+//! every rank with the same exit code and the message printed once, by rank 0: otherwise each
+//! rank would run the whole scene into the same output folder. One rank (`mpirun -np 1`) runs
+//! as a plain process.
 
 use fractum_engine::communicator::{Communicator, Serial};
 
@@ -58,24 +58,6 @@ pub fn several_ranks() -> Option<Result<Box<dyn Communicator>, i32>> {
         );
     }
     Some(Err(crate::EXIT_USAGE))
-}
-
-/// `None` for a run of one rank or none; for several, the exit code every rank ends with, the
-/// reason printed once, by rank 0: resuming a run over ranks, whose checkpoints are not
-/// written yet.
-pub fn refuse_resume_over_ranks() -> Option<i32> {
-    let (launched_rank, launched) = launched_ranks()?;
-    if launched <= 1 {
-        return None;
-    }
-    if launched_rank == 0 {
-        eprintln!(
-            "error: this resume was started as {launched} ranks (mpirun -np {launched}), but a \
-             run over several ranks writes no checkpoint to resume from yet; resume a run of \
-             one process as one process"
-        );
-    }
-    Some(crate::EXIT_USAGE)
 }
 
 /// What a distributed run of a scene left after some steps, in a form ranks can add up: the

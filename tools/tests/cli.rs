@@ -340,9 +340,8 @@ fn a_run_started_as_several_ranks_is_refused_once_and_one_rank_runs() {
     let error = text(&first.stderr);
     assert!(
         error.contains("started as 3 ranks (mpirun -np 3)")
-            && error.contains(
-                "does not yet write the series, frames and checkpoints of a run over ranks"
-            )
+            && error.contains("built without MPI")
+            && error.contains("--features mpi")
             && error.contains("--threads N"),
         "{error}"
     );
