@@ -63,6 +63,31 @@ fn parse(text: &str) -> SceneFile {
     SceneFile::parse("two_disks_pushed.ron", text.to_string()).unwrap()
 }
 
+/// Two spheres meeting along x, cracking where they meet (LME, eigensoftening), in 3D.
+const SPHERES: &str = r#"(
+    title: "two spheres",
+    time: (step: Fixed(1.0e-3), end: Steps(320)),
+    grid: (min: (0.0, 0.0, 0.0), max: (1.0, 0.5, 0.5), spacing: 0.05),
+    materials: {
+        "elastic": (density: 1000.0, youngs_modulus: 1000.0, poisson_ratio: 0.3),
+    },
+    bodies: [
+        (name: "left", shape: Sphere(center: (0.32, 0.25, 0.25), radius: 0.15),
+         material: "elastic", particles_per_cell: 1, velocity: Uniform((0.8, 0.0, 0.0))),
+        (name: "right", shape: Sphere(center: (0.68, 0.25, 0.25), radius: 0.15),
+         material: "elastic", particles_per_cell: 1, velocity: Uniform((-0.2, 0.0, 0.0))),
+    ],
+    output: (csv_every: 10, vtu_every: 160, probes: [Force("left")]),
+    pipeline: [
+        (system: "neighbour/kdtree", params: (c_epsilon: 2.0)),
+        (system: "basis/lme", params: (gamma: 1.8)), (system: "predictor/newmark"),
+        (system: "stress/linear_elastic"),
+        (system: "damage/eigensoftening", params: (tensile_strength: 2.0,
+            fracture_energy: 0.05, band_width: 0.1)),
+        (system: "corrector/newmark"), (system: "advection/newmark"),
+    ],
+)"#;
+
 fn out_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!(
         "fractum-distributed-run-{}-{name}",
@@ -148,19 +173,51 @@ fn series(dir: &Path) -> (String, Vec<Vec<f64>>) {
     (header, rows)
 }
 
-/// Every value of `rows` within 1e-12 of the largest magnitude in its column of `reference`
-/// (sums over ranks add in another order than the single process's sums); the step and time
-/// columns exactly.
-fn assert_series_close(reference: &[Vec<f64>], rows: &[Vec<f64>], what: &str) {
+/// Every value of `rows` within 1e-12 of its column's scale in `reference` (sums over ranks add
+/// in another order than the single process's sums); the step and time columns exactly. A
+/// column's scale is its largest magnitude, of every axis for a vector's component (a force
+/// along the impact is the scale of the force across it); where a column is a sum whose terms
+/// cancel, the terms' scale: the energy residual's is the largest total energy or work; the
+/// momentum's (of bodies moving against each other, a sum that cancels to round-off) is
+/// `Σ m|v| ≤ √(2MK)`, with `mass` M and the largest kinetic energy K, and the centre-of-mass
+/// velocity's `√(2K/M)`.
+fn assert_series_close(
+    header: &str,
+    reference: &[Vec<f64>],
+    rows: &[Vec<f64>],
+    mass: f64,
+    what: &str,
+) {
     assert_eq!(reference.len(), rows.len(), "{what}: rows");
-    let columns = reference[0].len();
-    for c in 0..columns {
-        let scale = reference.iter().map(|r| r[c].abs()).fold(0.0, f64::max);
+    let names: Vec<&str> = header.split(',').collect();
+    let at = |name: &str| names.iter().position(|n| *n == name).unwrap();
+    let largest = |c: usize| reference.iter().map(|r| r[c].abs()).fold(0.0, f64::max);
+    let (total, work) = (at("total_energy"), at("external_work"));
+    let energy = largest(total).max(largest(work));
+    let kinetic = largest(at("kinetic_energy"));
+    // The columns of a vector: those with the same stem before `_x`, `_y`, `_z`.
+    let stem = |name: &str| {
+        let axis = ["_x", "_y", "_z"].iter().find(|a| name.ends_with(*a));
+        axis.map_or(name.to_string(), |a| name[..name.len() - a.len()].to_string())
+    };
+    let vector = |c: usize| {
+        (0..names.len())
+            .filter(|&k| stem(names[k]) == stem(names[c]))
+            .map(largest)
+            .fold(0.0, f64::max)
+    };
+    for (c, name) in names.iter().enumerate() {
+        let scale = match *name {
+            "energy_residual" => energy,
+            n if n.starts_with("momentum_") => (2.0 * mass * kinetic).sqrt(),
+            n if n.starts_with("com_velocity_") => (2.0 * kinetic / mass).sqrt(),
+            _ => vector(c),
+        };
         for (k, (a, b)) in reference.iter().zip(rows).enumerate() {
             let tolerance = if c < 2 { 0.0 } else { 1e-12 * scale };
             assert!(
                 (a[c] - b[c]).abs() <= tolerance,
-                "{what}: row {k}, column {c}: {} against the single process's {}",
+                "{what}: row {k}, {name}: {} against the single process's {}",
                 b[c],
                 a[c]
             );
@@ -185,48 +242,43 @@ fn by_id(mut frame: ParticleFrame) -> Vec<(u32, [f64; 3], [f64; 3], f64)> {
     rows
 }
 
-#[test]
-fn a_run_over_one_to_four_ranks_writes_the_single_process_series_and_frames() {
-    let text = scene(300, 0.4);
-    let serial_dir = out_dir("serial");
-    let serial = run_serial(&text, &serial_dir).unwrap();
+/// Runs `text` (`steps` steps, a particle frame at the end) as one process and on 1 to 4
+/// ranks: the ranks' series is the single process's ([`assert_series_close`]) and the same
+/// bits run to run, and their last frame, read back from its pieces, the single process's.
+/// Returns the single process's header and rows.
+fn assert_run_matches_serial(name: &str, text: &str, steps: u64) -> (String, Vec<Vec<f64>>) {
+    let serial_dir = out_dir(&format!("{name}-serial"));
+    let serial = run_serial(text, &serial_dir).unwrap();
     let (header, reference) = series(&serial_dir);
-    assert_eq!(reference.len(), 31);
-    let column = |name: &str| header.split(',').position(|c| c == name).unwrap();
-    // The run exercises what the ranks add up: reactions and work at the pushed nodes, damage.
-    let last = reference.last().unwrap();
-    assert!(last[column("reaction_pusher_x")].abs() > 0.0, "{header}\n{last:?}");
-    assert!(last[column("external_work")].abs() > 0.0, "{header}\n{last:?}");
-    assert!(last[column("failed_particles")] > 0.0, "{header}\n{last:?}");
-    let serial_frame = by_id(read_particle_frame(&serial_dir.join("frames/particles_00000300.vtu")).unwrap());
+    let last = format!("frames/particles_{steps:08}");
+    let serial_frame = read_particle_frame(&serial_dir.join(format!("{last}.vtu"))).unwrap();
+    let mass: f64 = serial_frame.mass.iter().sum();
     for ranks in 1..=4 {
-        let dir = out_dir(&format!("ranks-{ranks}"));
-        let outcomes = run_ranks(&text, ranks, &dir, vec![false; ranks]);
+        let dir = out_dir(&format!("{name}-ranks-{ranks}"));
+        let outcomes = run_ranks(text, ranks, &dir, vec![false; ranks]);
         for outcome in &outcomes {
             let summary = outcome.as_ref().unwrap();
-            assert_eq!((summary.steps, summary.particles), (300, serial.particles));
+            assert_eq!((summary.steps, summary.particles), (steps, serial.particles));
             assert_eq!(summary.frames, serial.frames);
         }
         let (rank_header, rows) = series(&dir);
         assert_eq!(rank_header, header);
-        assert_series_close(&reference, &rows, &format!("{ranks} ranks"));
+        let what = format!("{name}, {ranks} ranks");
+        assert_series_close(&header, &reference, &rows, mass, &what);
         // Frames: one piece per rank behind each index, which reads back as the single
         // process's frame (the particles' states are the single process's, bit for bit).
         let frames = read_pvd(&dir.join("particles.pvd")).unwrap();
         assert_eq!(frames.len(), serial.frames);
         let (_, index) = frames.last().unwrap();
-        assert_eq!(index, "frames/particles_00000300.pvtu");
+        assert_eq!(index, &format!("{last}.pvtu"));
         let pieces = read_pvtu_pieces(&dir.join(index)).unwrap();
         assert_eq!(pieces.len(), ranks);
         let frame = read_particle_frame(&dir.join(index)).unwrap();
-        assert_eq!(by_id(frame), serial_frame, "{ranks} ranks");
-        let grid = read_pvd(&dir.join("grid.pvd")).unwrap();
-        let grid_pieces = read_pvtu_pieces(&dir.join(&grid.last().unwrap().1)).unwrap();
-        assert_eq!(grid_pieces.len(), ranks);
+        assert_eq!(by_id(frame), by_id(serial_frame.clone()), "{ranks} ranks");
         if ranks == 3 {
             // Each rank count repeats its own series bit for bit.
-            let again = out_dir("ranks-3-again");
-            run_ranks(&text, ranks, &again, vec![false; ranks]);
+            let again = out_dir(&format!("{name}-ranks-3-again"));
+            run_ranks(text, ranks, &again, vec![false; ranks]);
             let read = |d: &Path| std::fs::read(d.join("series.csv")).unwrap();
             assert_eq!(read(&again), read(&dir));
             std::fs::remove_dir_all(&again).unwrap();
@@ -234,6 +286,40 @@ fn a_run_over_one_to_four_ranks_writes_the_single_process_series_and_frames() {
         std::fs::remove_dir_all(&dir).unwrap();
     }
     std::fs::remove_dir_all(&serial_dir).unwrap();
+    (header, reference)
+}
+
+#[test]
+fn a_run_over_one_to_four_ranks_writes_the_single_process_series_and_frames() {
+    let (header, reference) = assert_run_matches_serial("disks", &scene(300, 0.4), 300);
+    assert_eq!(reference.len(), 31);
+    let column = |name: &str| header.split(',').position(|c| c == name).unwrap();
+    // The run exercises what the ranks add up: reactions and work at the pushed nodes, damage,
+    // and the grid frames' pieces.
+    let last = reference.last().unwrap();
+    assert!(last[column("reaction_pusher_x")].abs() > 0.0, "{header}\n{last:?}");
+    assert!(last[column("external_work")].abs() > 0.0, "{header}\n{last:?}");
+    assert!(last[column("failed_particles")] > 0.0, "{header}\n{last:?}");
+}
+
+#[test]
+fn a_3d_run_with_lme_and_eigensoftening_over_ranks_writes_the_single_process_series() {
+    let (header, reference) = assert_run_matches_serial("spheres", SPHERES, 320);
+    let column = |name: &str| header.split(',').position(|c| c == name).unwrap();
+    let last = reference.last().unwrap();
+    assert!(last[column("damaged_particles")] > 0.0, "{header}\n{last:?}");
+    assert!(last[column("force_left_x")] != 0.0, "{header}\n{last:?}");
+}
+
+#[test]
+fn kalthoff_winkler_over_ranks_writes_the_single_process_series() {
+    // The shipped plate (49 200 particles) for a short window, a frame at its end.
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kalthoff_winkler_dfg.ron");
+    let shipped = std::fs::read_to_string(path).unwrap();
+    let text = (shipped.replace("end: Time(90.0e-6)", "end: Steps(20)"))
+        .replace("vtu_every: 40", "vtu_every: 20");
+    assert_eq!(text.len() + 4, shipped.len(), "the plate's time and output lines changed");
+    assert_run_matches_serial("kalthoff", &text, 20);
 }
 
 #[test]
