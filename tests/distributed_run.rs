@@ -7,11 +7,11 @@
 //! which the same rank count resumes bit for bit. The same run under `mpirun`:
 //! `tools/tests/mpi_run.rs`.
 
-use fractum_engine::communicator::thread_ranks;
-use fractum_engine::output::{ParticleFrame, read_particle_frame, read_pvd, read_pvtu_pieces};
 use fractum_engine::checkpoint::{
     CheckpointEvery, RankCheckpoint, SceneRecord, list_checkpoints, read_checkpoint,
 };
+use fractum_engine::communicator::thread_ranks;
+use fractum_engine::output::{ParticleFrame, read_particle_frame, read_pvd, read_pvtu_pieces};
 use fractum_engine::run::distributed::restore_rank_piece;
 use fractum_engine::run::{
     CheckpointPlan, RunError, RunOptions, RunSummary, resumed_outputs, rewind_outputs, run_with,
@@ -198,7 +198,9 @@ fn assert_series_close(
     // The columns of a vector: those with the same stem before `_x`, `_y`, `_z`.
     let stem = |name: &str| {
         let axis = ["_x", "_y", "_z"].iter().find(|a| name.ends_with(*a));
-        axis.map_or(name.to_string(), |a| name[..name.len() - a.len()].to_string())
+        axis.map_or(name.to_string(), |a| {
+            name[..name.len() - a.len()].to_string()
+        })
     };
     let vector = |c: usize| {
         (0..names.len())
@@ -258,7 +260,10 @@ fn assert_run_matches_serial(name: &str, text: &str, steps: u64) -> (String, Vec
         let outcomes = run_ranks(text, ranks, &dir, vec![false; ranks]);
         for outcome in &outcomes {
             let summary = outcome.as_ref().unwrap();
-            assert_eq!((summary.steps, summary.particles), (steps, serial.particles));
+            assert_eq!(
+                (summary.steps, summary.particles),
+                (steps, serial.particles)
+            );
             assert_eq!(summary.frames, serial.frames);
         }
         let (rank_header, rows) = series(&dir);
@@ -297,8 +302,14 @@ fn a_run_over_one_to_four_ranks_writes_the_single_process_series_and_frames() {
     // The run exercises what the ranks add up: reactions and work at the pushed nodes, damage,
     // and the grid frames' pieces.
     let last = reference.last().unwrap();
-    assert!(last[column("reaction_pusher_x")].abs() > 0.0, "{header}\n{last:?}");
-    assert!(last[column("external_work")].abs() > 0.0, "{header}\n{last:?}");
+    assert!(
+        last[column("reaction_pusher_x")].abs() > 0.0,
+        "{header}\n{last:?}"
+    );
+    assert!(
+        last[column("external_work")].abs() > 0.0,
+        "{header}\n{last:?}"
+    );
     assert!(last[column("failed_particles")] > 0.0, "{header}\n{last:?}");
 }
 
@@ -307,18 +318,28 @@ fn a_3d_run_with_lme_and_eigensoftening_over_ranks_writes_the_single_process_ser
     let (header, reference) = assert_run_matches_serial("spheres", SPHERES, 320);
     let column = |name: &str| header.split(',').position(|c| c == name).unwrap();
     let last = reference.last().unwrap();
-    assert!(last[column("damaged_particles")] > 0.0, "{header}\n{last:?}");
+    assert!(
+        last[column("damaged_particles")] > 0.0,
+        "{header}\n{last:?}"
+    );
     assert!(last[column("force_left_x")] != 0.0, "{header}\n{last:?}");
 }
 
 #[test]
 fn kalthoff_winkler_over_ranks_writes_the_single_process_series() {
     // The shipped plate (49 200 particles) for a short window, a frame at its end.
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kalthoff_winkler_dfg.ron");
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/kalthoff_winkler_dfg.ron"
+    );
     let shipped = std::fs::read_to_string(path).unwrap();
     let text = (shipped.replace("end: Time(90.0e-6)", "end: Steps(20)"))
         .replace("vtu_every: 40", "vtu_every: 20");
-    assert_eq!(text.len() + 4, shipped.len(), "the plate's time and output lines changed");
+    assert_eq!(
+        text.len() + 4,
+        shipped.len(),
+        "the plate's time and output lines changed"
+    );
     assert_run_matches_serial("kalthoff", &text, 20);
 }
 
@@ -380,7 +401,11 @@ fn an_interrupt_seen_by_one_rank_stops_every_rank_after_the_same_step() {
 fn resume_ranks(ranks: usize, dir: &Path) -> Vec<Result<RunSummary, RunError>> {
     let (_, manifest_path) = list_checkpoints(dir).pop().unwrap();
     let manifest = read_checkpoint(&manifest_path).unwrap();
-    let Some(RankCheckpoint::Manifest { ranks: saved, pieces }) = &manifest.ranks else {
+    let Some(RankCheckpoint::Manifest {
+        ranks: saved,
+        pieces,
+    }) = &manifest.ranks
+    else {
         panic!("the newest checkpoint is not a distributed run's manifest");
     };
     assert_eq!((*saved, pieces.len()), (ranks, ranks));
@@ -432,7 +457,9 @@ fn a_run_over_ranks_resumes_from_its_checkpoint_on_as_many_ranks_bit_for_bit() {
     // piece per rank; an older one would have been pruned with its pieces.
     let steps: Vec<u64> = list_checkpoints(&stopped).iter().map(|c| c.0).collect();
     assert_eq!(steps, [100, 150]);
-    let files = std::fs::read_dir(stopped.join("checkpoints")).unwrap().count();
+    let files = std::fs::read_dir(stopped.join("checkpoints"))
+        .unwrap()
+        .count();
     assert_eq!(files, 2 * 4);
     for outcome in resume_ranks(3, &stopped) {
         assert_eq!(outcome.unwrap().steps, 150);
@@ -442,7 +469,10 @@ fn a_run_over_ranks_resumes_from_its_checkpoint_on_as_many_ranks_bit_for_bit() {
         String::from_utf8(read(&stopped, "series.csv")).unwrap(),
         String::from_utf8(read(&whole, "series.csv")).unwrap()
     );
-    assert_eq!(read(&stopped, "particles.pvd"), read(&whole, "particles.pvd"));
+    assert_eq!(
+        read(&stopped, "particles.pvd"),
+        read(&whole, "particles.pvd")
+    );
     let last = "frames/particles_00000300.pvtu";
     let frame = |d: &Path| by_id(read_particle_frame(&d.join(last)).unwrap());
     assert_eq!(frame(&stopped), frame(&whole));

@@ -107,7 +107,9 @@ pub fn first_moment<D: Dim>(world: &mut bevy_ecs::world::World) -> [f64; 3] {
         .get_resource::<crate::decomposition::Ownership>()
         .map(|o| o.particles.as_slice());
     crate::storage::single_table(query.contiguous_iter(world), "particles")
-        .map_or([0.0; 3], |(m, x, v)| moment_and_power(m, x, v, None, owned).0)
+        .map_or([0.0; 3], |(m, x, v)| {
+            moment_and_power(m, x, v, None, owned).0
+        })
 }
 
 /// The work of prescribed-velocity regions over a step from `time` to `time + dt`.

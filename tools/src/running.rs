@@ -8,11 +8,11 @@
 
 use crate::{EXIT_ABANDONED, EXIT_BAD_SCENE, EXIT_BLOWUP, EXIT_INTERRUPTED, EXIT_IO};
 use crate::{EXIT_RESOURCES, EXIT_USAGE, energy_warning, load, report_scene_error, summary_report};
-use fractum_engine::communicator::Communicator;
 use fractum_engine::checkpoint::{
-    CHECKPOINT_DIR, CheckpointEvery, CheckpointFile, RankCheckpoint, SceneRecord,
-    list_checkpoints, read_checkpoint,
+    CHECKPOINT_DIR, CheckpointEvery, CheckpointFile, RankCheckpoint, SceneRecord, list_checkpoints,
+    read_checkpoint,
 };
+use fractum_engine::communicator::Communicator;
 use fractum_engine::energy::EnergyWatch;
 use fractum_engine::registry::Registry;
 use fractum_engine::run::{
@@ -326,7 +326,10 @@ fn same_ranks(path: &Path, out_dir: &Path, saved: usize, ranks: usize) -> Result
     let how = if saved == 1 {
         format!("as one process: `fractum resume {}`", out_dir.display())
     } else {
-        format!("as {saved} ranks: `mpirun -np {saved} fractum resume {}`", out_dir.display())
+        format!(
+            "as {saved} ranks: `mpirun -np {saved} fractum resume {}`",
+            out_dir.display()
+        )
     };
     Err(format!(
         "{} is the checkpoint of a run over {saved} rank{}, and this resume has {ranks}: each \
@@ -488,16 +491,22 @@ fn restore_rank(
     let (path, manifest) = newest_checkpoint(out_dir)?;
     same_ranks(&path, out_dir, checkpoint_ranks(&manifest), ranks).map_err(|e| (EXIT_USAGE, e))?;
     let Some(RankCheckpoint::Manifest { pieces, .. }) = &manifest.ranks else {
-        return Err((EXIT_IO, format!("{} is not a checkpoint manifest", path.display())));
+        return Err((
+            EXIT_IO,
+            format!("{} is not a checkpoint manifest", path.display()),
+        ));
     };
     let piece_path = path.with_file_name(&pieces[rank]);
     let piece = read_checkpoint(&piece_path).map_err(|e| (EXIT_IO, e))?;
     let file = checkpoint_scene(&manifest, &path, speaks)?;
-    let mut built =
-        fractum_engine::scene::build_rank_simulation(&file, registry, rank, ranks)
-            .map_err(|e| (EXIT_BAD_SCENE, e.to_string()))?;
-    fractum_engine::run::distributed::restore_rank_piece(&mut built.simulation, &piece, (rank, ranks))
-        .map_err(|e| (EXIT_IO, format!("{}: {e}", piece_path.display())))?;
+    let mut built = fractum_engine::scene::build_rank_simulation(&file, registry, rank, ranks)
+        .map_err(|e| (EXIT_BAD_SCENE, e.to_string()))?;
+    fractum_engine::run::distributed::restore_rank_piece(
+        &mut built.simulation,
+        &piece,
+        (rank, ranks),
+    )
+    .map_err(|e| (EXIT_IO, format!("{}: {e}", piece_path.display())))?;
     ready_to_run(&mut built.simulation, settings, true)?;
     Ok((manifest, path, built))
 }

@@ -43,7 +43,17 @@ fn under_mpirun_three_ranks_run_and_resume_a_scene_as_the_single_process_does() 
     let run = |dir: &std::path::Path, steps: &str| {
         let dir = dir.to_str().unwrap().to_string();
         let scene = "scenes/two_disks_contact.ron";
-        let args = ["run", scene, "--out", &dir, "--steps", steps, "--quiet", "--threads", "1"];
+        let args = [
+            "run",
+            scene,
+            "--out",
+            &dir,
+            "--steps",
+            steps,
+            "--quiet",
+            "--threads",
+            "1",
+        ];
         args.map(String::from)
     };
     // The disks meet at about step 1600, across the slabs.
@@ -81,12 +91,31 @@ fn under_mpirun_three_ranks_run_and_resume_a_scene_as_the_single_process_does() 
     );
     let dir = ranks_dir.to_str().unwrap();
     // Another rank count, or one process, is refused with the reason, said once.
-    for (ranks, words) in [(2, "run over 3 ranks, and this resume has 2"), (1, "mpirun -np 3")] {
+    for (ranks, words) in [
+        (2, "run over 3 ranks, and this resume has 2"),
+        (1, "mpirun -np 3"),
+    ] {
         let refused = mpirun(ranks, &["resume", dir, "--quiet"]);
         assert_eq!(refused.status.code(), Some(2), "{}", text(&refused.stderr));
-        assert_eq!(text(&refused.stderr).matches(words).count(), 1, "{}", text(&refused.stderr));
+        assert_eq!(
+            text(&refused.stderr).matches(words).count(),
+            1,
+            "{}",
+            text(&refused.stderr)
+        );
     }
-    let resumed = mpirun(3, &["resume", dir, "--steps", "1700", "--quiet", "--threads", "1"]);
+    let resumed = mpirun(
+        3,
+        &[
+            "resume",
+            dir,
+            "--steps",
+            "1700",
+            "--quiet",
+            "--threads",
+            "1",
+        ],
+    );
     assert!(resumed.status.success(), "{}", text(&resumed.stderr));
     // One series, equal to the single process's to 1e-12 of each column's scale (the ranks'
     // sums add in another order); step and time exactly. A column's scale is its largest
@@ -109,13 +138,20 @@ fn under_mpirun_three_ranks_run_and_resume_a_scene_as_the_single_process_does() 
         let tolerance = if c < 2 { 0.0 } else { 1e-12 * scale };
         for (a, b) in reference.iter().zip(&rows) {
             let name = names[c];
-            assert!((a[c] - b[c]).abs() <= tolerance, "{name}: {} against {}", b[c], a[c]);
+            assert!(
+                (a[c] - b[c]).abs() <= tolerance,
+                "{name}: {} against {}",
+                b[c],
+                a[c]
+            );
         }
     }
     // The last frame: three pieces behind its index, the single process's particles.
     let index = ranks_dir.join("frames/particles_00001700.pvtu");
     assert_eq!(
-        fractum_engine::output::read_pvtu_pieces(&index).unwrap().len(),
+        fractum_engine::output::read_pvtu_pieces(&index)
+            .unwrap()
+            .len(),
         3
     );
     let whole = positions(&serial_dir.join("frames/particles_00001700.vtu"));
@@ -127,10 +163,8 @@ fn under_mpirun_three_ranks_run_and_resume_a_scene_as_the_single_process_does() 
 /// SIGTERM once steps are under way, and resumes the run three steps further from the
 /// checkpoint every rank wrote on the way out.
 fn sigterm_ends_the_ranks_with_a_checkpoint_that_resumes(ranks: usize) {
-    let out_dir = std::env::temp_dir().join(format!(
-        "fractum-mpi-term-{ranks}-{}",
-        std::process::id()
-    ));
+    let out_dir =
+        std::env::temp_dir().join(format!("fractum-mpi-term-{ranks}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out_dir);
     let mut child = std::process::Command::new("mpirun")
         .args(["--allow-run-as-root", "--oversubscribe", "-np"])
@@ -167,11 +201,19 @@ fn sigterm_ends_the_ranks_with_a_checkpoint_that_resumes(ranks: usize) {
     assert_eq!(error.matches("interrupted at step").count(), 1, "{error}");
     let manifests = fractum_engine::checkpoint::list_checkpoints(&out_dir);
     assert_eq!(manifests.len(), 1, "{error}");
-    let files = std::fs::read_dir(out_dir.join("checkpoints")).unwrap().count();
+    let files = std::fs::read_dir(out_dir.join("checkpoints"))
+        .unwrap()
+        .count();
     // The manifest and one piece per rank, or one file of one process.
     assert_eq!(files, if ranks == 1 { 1 } else { 1 + ranks }, "{error}");
     let target = (manifests[0].0 + 3).to_string();
-    let args = ["resume", out_dir.to_str().unwrap(), "--steps", &target, "--quiet"];
+    let args = [
+        "resume",
+        out_dir.to_str().unwrap(),
+        "--steps",
+        &target,
+        "--quiet",
+    ];
     let resumed = mpirun(ranks, &args);
     assert!(resumed.status.success(), "{}", text(&resumed.stderr));
     let series = std::fs::read_to_string(out_dir.join("series.csv")).unwrap();

@@ -298,8 +298,7 @@ fn checkpoint_path(
 
 /// Writes `file`, sealed with its digest, to `path` atomically.
 fn write_sealed(path: &std::path::Path, file: &CheckpointFile) -> Result<(), WriteError> {
-    let bytes =
-        sealed(postcard::to_allocvec(file).map_err(|e| WriteError::Encode(e.to_string()))?);
+    let bytes = sealed(postcard::to_allocvec(file).map_err(|e| WriteError::Encode(e.to_string()))?);
     crate::output::write_atomically(path, &bytes).map_err(|source| WriteError::Io {
         path: path.to_path_buf(),
         source,

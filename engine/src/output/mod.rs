@@ -22,12 +22,12 @@ pub use probes::{
 };
 pub use pvd::{read_pvd, write_pvd};
 pub use pvtu::{piece_name, read_pvtu_pieces, write_pvtu};
+pub(crate) use vtu::particle_frame_file;
 pub use vtu::{
     ENGINE_FRAME_FIELDS, FrameCompression, GridFrame, ParticleFrame, PieceArrays,
     read_particle_frame, write_grid_frame, write_particle_frame,
 };
 pub use writer::{FrameWriter, PieceIndex, WriteFailure};
-pub(crate) use vtu::particle_frame_file;
 
 use crate::dim::Dimension;
 

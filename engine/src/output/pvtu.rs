@@ -82,9 +82,11 @@ mod tests {
         write_pvtu(&path, &arrays, &pieces).unwrap();
         assert_eq!(read_pvtu_pieces(&path).unwrap(), pieces);
         let xml = std::fs::read_to_string(&path).unwrap();
-        assert!(xml.contains(
-            "<PDataArray type=\"Float64\" Name=\"velocity\" NumberOfComponents=\"3\"/>"
-        ));
+        assert!(
+            xml.contains(
+                "<PDataArray type=\"Float64\" Name=\"velocity\" NumberOfComponents=\"3\"/>"
+            )
+        );
         assert!(xml.contains("<PPointData Scalars=\"damage\" Vectors=\"velocity\">"));
         std::fs::remove_dir_all(&dir).unwrap();
     }

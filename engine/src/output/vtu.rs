@@ -146,7 +146,8 @@ impl ParticleFrame {
         self.volume.extend(other.volume);
         self.stress.extend(other.stress);
         self.damage.extend(other.damage);
-        self.strain_energy_density.extend(other.strain_energy_density);
+        self.strain_energy_density
+            .extend(other.strain_energy_density);
         for (name, values) in other.scalars {
             match self.scalars.iter_mut().find(|(n, _)| *n == name) {
                 Some((_, mine)) => mine.extend(values),

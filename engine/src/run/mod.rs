@@ -439,6 +439,15 @@ pub fn run_with(
     // The run ends only when its files are safe.
     let settled = outputs.settle();
     agreed(comm, settled)?;
+    let split_here = sim
+        .world
+        .get_resource::<crate::fields::FieldSplits>()
+        .map(|s| s.first.is_some());
+    // Each rank records the splits at the nodes it owns: the run split where any rank did.
+    let split = split_here.map(|here| match comm {
+        Some(comm) => comm.max(f64::from(u8::from(here))) > 0.0,
+        None => here,
+    });
     let clock = sim.clock();
     Ok(RunSummary {
         steps: clock.step - first_step,
@@ -457,10 +466,7 @@ pub fn run_with(
             .get_resource::<EnergyWatch>()
             .and_then(|w| w.worst),
         interrupted,
-        never_split: sim
-            .world
-            .get_resource::<crate::fields::FieldSplits>()
-            .is_some_and(|s| s.first.is_none()),
+        never_split: split == Some(false),
         checkpoint,
     })
 }

@@ -161,7 +161,8 @@ impl<D: Dim> Spec<D> {
                  `Stop`, or run as one process",
             ));
         }
-        if let Some(k) = (self.output.probes.iter()).position(|p| matches!(p, Probe::Track { .. })) {
+        if let Some(k) = (self.output.probes.iter()).position(|p| matches!(p, Probe::Track { .. }))
+        {
             return Err(self.source.error(
                 &format!("output.probes[{k}]"),
                 "a Track probe follows one particle, which moves between the ranks of a \
@@ -406,9 +407,7 @@ impl<D: Dim> Spec<D> {
                     .iter(world)
                     .enumerate()
                     .filter(|(row, _)| crate::decomposition::counts_here(ownership, *row))
-                    .map(|(_, (v, m))| {
-                        (v.0, moduli.get(usize::from(m.0)).copied().unwrap_or(0.0))
-                    }),
+                    .map(|(_, (v, m))| (v.0, moduli.get(usize::from(m.0)).copied().unwrap_or(0.0))),
             )
         };
         world.insert_resource(crate::energy::EnergyWatch::with_floor(floor));
