@@ -17,9 +17,10 @@ pub fn series_row(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
 }
 
 /// What this process adds to a series row: every quantity the row is made from that is a sum
-/// over particles, nodes or regions ([`SeriesParts`]). One process's parts make its row; in a
-/// distributed run each rank gives the part of what it owns, and the row is made from the sum
-/// of the ranks' parts ([`series_row_from`]).
+/// over particles, nodes or regions (the totals, three values per probe, the system columns and
+/// the energy account). One process's parts make its row; in a distributed run each rank gives
+/// the part of what it owns, and the row is made from the sum of the ranks' parts
+/// ([`series_row_from`]).
 pub fn series_parts(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
     with_dim!(plan.dimension, D => series_parts_of::<D>(world, plan))
 }

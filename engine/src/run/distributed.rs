@@ -270,7 +270,7 @@ pub fn state_of_particles<D: Dim>(
     Ok(states)
 }
 
-/// Puts this rank's piece of the checkpoint of a distributed run ([`RankCheckpoint::Piece`])
+/// Puts this rank's piece of the checkpoint of a distributed run ([`crate::checkpoint::RankCheckpoint::Piece`])
 /// into `sim`, a rank's simulation freshly built from the checkpoint's scene for the same rank
 /// of as many ranks: the particles the rank held then (rows spawned or despawned at the end of
 /// its table and given their ids), what it owned, and every carried component and resource.
