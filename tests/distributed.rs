@@ -255,19 +255,19 @@ fn dfg_partitioned_cracks_with_contact_on_one_to_four_ranks_are_the_single_proce
 
 #[test]
 fn a_pipeline_whose_state_a_rank_cannot_split_is_refused_with_its_reason() {
-    // Penalty contact carries a running potential; surface detection a threshold from the
-    // whole scene's largest kernel sum.
+    // Penalty contact carries a running potential; eigenerosion the energy its failures
+    // released.
     let penalty = r#"(system: "basis/linear"), (system: "partition/bodies"),
         (system: "predictor/newmark"), (system: "stress/linear_elastic"),
         (system: "contact/penalty", params: (friction: 0.5)),
         (system: "corrector/newmark"), (system: "advection/newmark")"#;
-    let surface = r#"(system: "basis/linear"), (system: "predictor/newmark"),
-        (system: "stress/neo_hookean"), (system: "partition/dfg", params: (surface: 0.8)),
-        (system: "contact/frictional", params: (friction: 0.04)),
+    let erosion = r#"(system: "neighbour/kdtree"), (system: "basis/linear"),
+        (system: "predictor/newmark"), (system: "stress/linear_elastic"),
+        (system: "damage/eigenerosion", params: (fracture_energy: 1.0)),
         (system: "corrector/newmark"), (system: "advection/newmark")"#;
     for (pipeline, state) in [
         (penalty, "contact_potential"),
-        (surface, "dfg/surface_detected"),
+        (erosion, "eigenerosion/state"),
     ] {
         let e = build_rank_simulation(
             &parse(&scene(pipeline, 10)),

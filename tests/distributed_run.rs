@@ -88,6 +88,16 @@ const SPHERES: &str = r#"(
     ],
 )"#;
 
+/// The shipped scene at `path` with each `(text, replacement)` made, each text found once.
+fn shipped_scene_with(path: &str, edits: &[(&str, &str)]) -> String {
+    let mut text = std::fs::read_to_string(path).unwrap();
+    for (from, to) in edits {
+        assert_eq!(text.matches(from).count(), 1, "{path} no longer has {from}");
+        text = text.replace(from, to);
+    }
+    text
+}
+
 fn out_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!(
         "fractum-distributed-run-{}-{name}",
@@ -332,15 +342,44 @@ fn kalthoff_winkler_over_ranks_writes_the_single_process_series() {
         env!("CARGO_MANIFEST_DIR"),
         "/scenes/kalthoff_winkler_dfg.ron"
     );
-    let shipped = std::fs::read_to_string(path).unwrap();
-    let text = (shipped.replace("end: Time(90.0e-6)", "end: Steps(20)"))
-        .replace("vtu_every: 40", "vtu_every: 20");
-    assert_eq!(
-        text.len() + 4,
-        shipped.len(),
-        "the plate's time and output lines changed"
+    let text = shipped_scene_with(
+        path,
+        &[
+            ("end: Time(90.0e-6)", "end: Steps(20)"),
+            ("vtu_every: 40", "vtu_every: 20"),
+        ],
     );
     assert_run_matches_serial("kalthoff", &text, 20);
+}
+
+#[test]
+fn the_billet_with_surface_detection_and_self_contact_over_ranks_writes_the_single_process_series()
+{
+    // The shipped billet under its platen for the first 200 steps: the surfaces detected from
+    // the whole scene's largest kernel sum, agreed over ranks; Track probes on particles that
+    // may be owned by different ranks.
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/billet_self_contact.ron"
+    );
+    let text = shipped_scene_with(
+        path,
+        &[
+            ("end: Time(2.0e-6)", "end: Steps(200)"),
+            ("vtu_every: 200", "vtu_every: 100"),
+        ],
+    );
+    let (header, reference) = assert_run_matches_serial("billet", &text, 200);
+    let column = |name: &str| header.split(',').position(|c| c == name).unwrap();
+    let last = reference.last().unwrap();
+    assert!(
+        last[column("track_slip_x")].is_finite(),
+        "{header}\n{last:?}"
+    );
+    assert!(
+        last[column("reaction_mid-plane_y")] != 0.0,
+        "{header}\n{last:?}"
+    );
 }
 
 #[test]

@@ -145,6 +145,8 @@ pub struct CheckpointState {
     resources: Vec<ResourceEntry>,
     /// The carried resources that keep a value per particle row.
     rows: Vec<RowEntry>,
+    /// The carried resources every rank of a distributed run holds alike.
+    shared: Vec<&'static str>,
     /// Keys asked for by two different types (a scene with any is refused).
     collisions: Vec<&'static str>,
 }
@@ -260,6 +262,21 @@ impl CheckpointState {
                 pick: pick_rows::<R>,
             });
         }
+    }
+
+    /// Carries resource `R` as one whose value every rank of a distributed run holds alike: a
+    /// flag every rank sets at the same step, a value agreed over ranks. Each rank's checkpoint
+    /// piece holds its copy.
+    pub fn shared_resource<R: Resource + State>(&mut self) {
+        self.resource::<R>();
+        if !self.shared.contains(&R::KEY) {
+            self.shared.push(R::KEY);
+        }
+    }
+
+    /// Whether resource `name` is held alike by every rank ([`Self::shared_resource`]).
+    pub fn is_shared_resource(&self, name: &str) -> bool {
+        self.shared.contains(&name)
     }
 
     /// Whether resource `name` keeps its values by particle row ([`RowState`]).

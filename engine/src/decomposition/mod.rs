@@ -13,6 +13,30 @@ mod layout;
 
 pub use layout::{Layout, Ownership, StepReach, counts_here};
 
+use bevy_ecs::prelude::{Resource, World};
+
+/// A value of the whole scene that a system needs and a rank cannot find alone, such as the
+/// largest of a quantity over every particle: before each step for which `wanted` holds (the
+/// same on every rank), a distributed run takes each rank's `local` maximum over what it owns,
+/// and gives the greatest over ranks to every rank's world with `apply`
+/// ([`crate::run::distributed::step`]). One process never calls them: its system finds the
+/// value over its own particles.
+#[derive(Clone, Copy)]
+pub struct RankMaximum {
+    /// What the value is (one entry per name).
+    pub name: &'static str,
+    /// Whether the value is wanted before the coming step.
+    pub wanted: fn(&World) -> bool,
+    /// This rank's maximum over the particles or nodes it owns.
+    pub local: fn(&mut World) -> f64,
+    /// Gives the world the run's maximum.
+    pub apply: fn(&mut World, f64),
+}
+
+/// The [`RankMaximum`]s the pipeline asked for (`Installer::add_rank_maximum`).
+#[derive(Resource, Clone, Default)]
+pub struct RankMaxima(pub Vec<RankMaximum>);
+
 use std::ops::Range;
 
 /// The slabs of a scene over its ranks.

@@ -101,11 +101,12 @@ pub enum ProbeKind {
     Track {
         /// Column name.
         name: String,
-        /// The particle and its position at the start (x, y, z; unused axes zero); `None`
-        /// when the body has no particle.
-        particle: Option<(bevy_ecs::entity::Entity, [f64; 3])>,
+        /// The particle's id and its position at the start (x, y, z; unused axes zero);
+        /// `None` when the body has no particle. By id, not entity: a distributed run moves
+        /// particles between ranks and rows.
+        particle: Option<(u32, [f64; 3])>,
         /// The particle whose displacement is subtracted, when the probe is relative.
-        reference: Option<(bevy_ecs::entity::Entity, [f64; 3])>,
+        reference: Option<(u32, [f64; 3])>,
     },
 }
 

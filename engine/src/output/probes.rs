@@ -32,8 +32,8 @@ pub fn series_row_from(world: &mut World, plan: &OutputPlan, parts: &[f64]) -> V
     with_dim!(plan.dimension, D => series_row_of::<D>(world, plan, parts))
 }
 
-/// Where each quantity lies in a row's parts ([`series_parts`]): the totals, three values for
-/// each probe, the system columns, then the energy account.
+/// Where each quantity lies in a row's parts ([`series_parts`]): the totals,
+/// [`SeriesParts::PROBE`] values for each probe, the system columns, then the energy account.
 struct SeriesParts {
     probes: usize,
     columns: usize,
@@ -42,16 +42,19 @@ struct SeriesParts {
 impl SeriesParts {
     /// Kinetic, strain and contact energy, momentum (3) and mass.
     const TOTALS: usize = 7;
+    /// A probe's three values, and for a `Track` probe how many of its particle and of its
+    /// reference particle were found here (a particle is owned by one rank).
+    const PROBE: usize = 5;
 
     fn of(plan: &OutputPlan) -> Self {
         Self {
             probes: Self::TOTALS,
-            columns: Self::TOTALS + 3 * plan.probes.len(),
+            columns: Self::TOTALS + Self::PROBE * plan.probes.len(),
         }
     }
 
     fn probe(&self, slot: usize) -> usize {
-        self.probes + 3 * slot
+        self.probes + Self::PROBE * slot
     }
 
     /// External work, initial energy and the damage laws' dissipated energy.
@@ -60,11 +63,14 @@ impl SeriesParts {
     }
 }
 
-/// The additive part of one probe, three values: a region's reaction, a body's momentum (of
-/// which the run makes the `Force` probe's mean force), a tracked displacement; zero for what
-/// the row takes from the totals or the clock.
-fn probe_part<D: Dim>(world: &mut World, probe: &ProbeKind) -> [f64; 3] {
-    let three = |v: D::Vector| std::array::from_fn(|a| if a < D::N { v[a] } else { 0.0 });
+/// The additive part of one probe ([`SeriesParts::PROBE`] values): a region's reaction, a
+/// body's momentum (of which the run makes the `Force` probe's mean force), a tracked
+/// displacement with the counts of its particles found here; zero for what the row takes from
+/// the totals or the clock.
+fn probe_part<D: Dim>(world: &mut World, probe: &ProbeKind) -> [f64; SeriesParts::PROBE] {
+    let three = |v: D::Vector| -> [f64; SeriesParts::PROBE] {
+        std::array::from_fn(|a| if a < D::N { v[a] } else { 0.0 })
+    };
     match probe {
         ProbeKind::Reaction { index, .. } => three(
             world
@@ -92,21 +98,42 @@ fn probe_part<D: Dim>(world: &mut World, probe: &ProbeKind) -> [f64; 3] {
             reference,
             ..
         } => {
-            let displacement = |tracked: &Option<(Entity, [f64; 3])>| -> D::Vector {
-                let at = tracked.and_then(|(p, origin)| {
-                    world
-                        .get::<Position<D>>(p)
-                        .map(|x| D::Vector::from_fn(|a| x.0[a] - origin[a]))
-                });
-                at.unwrap_or(D::Vector::splat(f64::NAN))
+            let (moved, found) = tracked_displacement::<D>(world, particle);
+            let mut part = match reference {
+                Some(_) => {
+                    let (base, base_found) = tracked_displacement::<D>(world, reference);
+                    let mut part = three(moved - base);
+                    part[4] = base_found;
+                    part
+                }
+                None => three(moved),
             };
-            let moved = displacement(particle);
-            three(match reference {
-                Some(_) => moved - displacement(reference),
-                None => moved,
-            })
+            part[3] = found;
+            part
         }
-        ProbeKind::CentreOfMassVelocity | ProbeKind::Displacement { .. } => [0.0; 3],
+        ProbeKind::CentreOfMassVelocity | ProbeKind::Displacement { .. } => [0.0; 5],
+    }
+}
+
+/// The displacement since the start of the particle `tracked` (id and start position) where
+/// this process owns it, and 1; zero and 0 where it does not (another rank owns it, or it was
+/// removed).
+fn tracked_displacement<D: Dim>(
+    world: &mut World,
+    tracked: &Option<(u32, [f64; 3])>,
+) -> (D::Vector, f64) {
+    let Some((id, origin)) = *tracked else {
+        return (D::Vector::ZERO, 0.0);
+    };
+    let mut query = world.query_filtered::<(&ParticleId, &Position<D>), With<Particle>>();
+    let ownership = world.get_resource::<crate::decomposition::Ownership>();
+    let found = query
+        .iter(world)
+        .enumerate()
+        .find(|(row, (p, _))| p.0 == id && crate::decomposition::counts_here(ownership, *row));
+    match found {
+        Some((_, (_, x))) => (D::Vector::from_fn(|a| x.0[a] - origin[a]), 1.0),
+        None => (D::Vector::ZERO, 0.0),
     }
 }
 
@@ -115,12 +142,17 @@ fn probe_value<D: Dim>(
     world: &mut World,
     slot: usize,
     probe: &ProbeKind,
-    part: [f64; 3],
+    part: [f64; SeriesParts::PROBE],
     totals: &Totals,
 ) -> D::Vector {
     let time = world.resource::<SimClock>().time;
     match probe {
-        ProbeKind::Reaction { .. } | ProbeKind::Track { .. } => D::Vector::from_fn(|a| part[a]),
+        ProbeKind::Reaction { .. } => D::Vector::from_fn(|a| part[a]),
+        // Each particle is owned once; one not found (removed) is no displacement.
+        ProbeKind::Track { reference, .. } => {
+            let found = part[3] == 1.0 && (reference.is_none() || part[4] == 1.0);
+            D::Vector::from_fn(|a| if found { part[a] } else { f64::NAN })
+        }
         ProbeKind::CentreOfMassVelocity => {
             let v = totals.centre_of_mass_velocity();
             D::Vector::from_fn(|a| v[a])
@@ -128,7 +160,7 @@ fn probe_value<D: Dim>(
         ProbeKind::Force { .. } => {
             let mut memory = world.get_resource_or_init::<ForceProbeMemory>();
             memory
-                .mean_force(slot, time, part)
+                .mean_force(slot, time, [part[0], part[1], part[2]])
                 .map_or(D::Vector::ZERO, |f| D::Vector::from_fn(|a| f[a]))
         }
         ProbeKind::Displacement { index, .. } => {
@@ -258,7 +290,7 @@ fn series_row_of<D: Dim>(world: &mut World, plan: &OutputPlan, parts: &[f64]) ->
     row.extend_from_slice(&t.momentum[..D::N]);
     for (slot, probe) in plan.probes.iter().enumerate() {
         let at = layout.probe(slot);
-        let part = [parts[at], parts[at + 1], parts[at + 2]];
+        let part = std::array::from_fn(|k| parts[at + k]);
         let value = probe_value::<D>(world, slot, probe, part, &t);
         row.extend((0..D::N).map(|a| value[a]));
     }

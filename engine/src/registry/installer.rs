@@ -358,6 +358,31 @@ impl<'a> Installer<'a> {
             .row_resource::<R>();
     }
 
+    /// [`Installer::init_state`] for a resource whose value every rank of a distributed run
+    /// holds alike (a flag every rank sets at the same step, or a value agreed over ranks with
+    /// [`Installer::add_rank_maximum`]): unlike other carried state, it lets the pipeline run
+    /// over ranks.
+    pub fn init_shared_state<R: Resource + FromWorld + crate::checkpoint::State>(&mut self) {
+        self.world.init_resource::<R>();
+        self.world
+            .get_resource_or_init::<crate::checkpoint::CheckpointState>()
+            .shared_resource::<R>();
+    }
+
+    /// Asks a distributed run for a value of the whole scene before a step: each rank's
+    /// maximum over what it owns, the greatest over ranks given to every rank
+    /// ([`crate::decomposition::RankMaximum`]). A system that needs, say, the largest of a
+    /// quantity over every particle reads it from what `apply` stored, where one process
+    /// finds it itself.
+    pub fn add_rank_maximum(&mut self, maximum: crate::decomposition::RankMaximum) {
+        let mut maxima = self
+            .world
+            .get_resource_or_init::<crate::decomposition::RankMaxima>();
+        if !maxima.0.iter().any(|m| m.name == maximum.name) {
+            maxima.0.push(maximum);
+        }
+    }
+
     /// Inserts a resource (typically the system's parsed parameters).
     pub fn insert_resource<R: Resource>(&mut self, resource: R) {
         self.world.insert_resource(resource);

@@ -17,11 +17,26 @@ use bevy_ecs::prelude::*;
 /// (a blow-up it found, an exchange it could not decode) is returned by every rank, naming the
 /// first failing one.
 pub fn step(sim: &mut crate::Simulation, comm: &dyn Communicator) -> Result<(), RankFailure> {
+    agree_maxima(&mut sim.world, comm);
     let dt = comm.min(sim.planned_time_step());
     let stepped = sim.step_with_time_step(dt).map_err(|e| e.to_string());
     comm.agree(stepped.err().as_deref())?;
     let moved = with_dim!(sim.dimension(), D => redistribute::<D>(&mut sim.world, comm));
     comm.agree(moved.err().as_deref())
+}
+
+/// Gives the world each scene-wide maximum the pipeline wants before this step
+/// ([`crate::decomposition::RankMaximum`]): the greatest of the ranks' own.
+fn agree_maxima(world: &mut World, comm: &dyn Communicator) {
+    let Some(maxima) = world.get_resource::<crate::decomposition::RankMaxima>() else {
+        return;
+    };
+    for maximum in maxima.0.clone() {
+        if (maximum.wanted)(world) {
+            let local = (maximum.local)(world);
+            (maximum.apply)(world, comm.max(local));
+        }
+    }
 }
 
 /// The cell layer along the slabs' axis of a particle at `x`, clamped into the grid.

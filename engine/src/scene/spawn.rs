@@ -33,6 +33,9 @@ pub(super) type Seeds<D> = Vec<(<D as Dim>::Vector, f64)>;
 /// What a seeded particle starts with: its material index, velocity and damage.
 type SeedState<D> = (usize, <D as Dim>::Vector, f64);
 
+/// The particle a `Track` probe follows: its id and its position at the start (x, y, z).
+type TrackedParticle = Option<(u32, [f64; 3])>;
+
 /// Which rank a world is built for, and the slabs.
 struct RankPlan {
     rank: usize,
@@ -161,15 +164,6 @@ impl<D: Dim> Spec<D> {
                  `Stop`, or run as one process",
             ));
         }
-        if let Some(k) = (self.output.probes.iter()).position(|p| matches!(p, Probe::Track { .. }))
-        {
-            return Err(self.source.error(
-                &format!("output.probes[{k}]"),
-                "a Track probe follows one particle, which moves between the ranks of a \
-                 distributed run and is not followed there yet; leave the probe out, or run as \
-                 one process",
-            ));
-        }
         let slabs = self.slabs(seeds, ranks)?.slabs;
         Ok(RankPlan {
             rank,
@@ -199,10 +193,9 @@ impl<D: Dim> Spec<D> {
             .unwrap_or_default();
         let carried = state.resource_names();
         // State kept by particle row travels with the particles; other state cannot yet.
-        if let Some(own) = carried
-            .iter()
-            .find(|n| !engine_state.contains(n) && !state.is_row_resource(n))
-        {
+        if let Some(own) = carried.iter().find(|n| {
+            !engine_state.contains(n) && !state.is_row_resource(n) && !state.is_shared_resource(n)
+        }) {
             return Err(self.source.error(
                 "pipeline",
                 format!(
@@ -311,6 +304,8 @@ impl<D: Dim> Spec<D> {
     ) -> Result<(World, Vec<usize>, OutputPlan), SceneError> {
         let mut world = World::new();
         spawn_nodes(&mut world, &self.grid, &templates.nodes);
+        // From every seed: a rank's world holds only some of the particles.
+        let tracked = self.tracked_particles(&seeds)?;
         let (body_particles, loads) =
             self.spawn_bodies(&mut world, &templates.particles, seeds, plan)?;
         if let Some(plan) = plan {
@@ -323,7 +318,7 @@ impl<D: Dim> Spec<D> {
             // Each rank measures the reactions at the nodes it owns.
             world.resource_mut::<BoundaryConditions>().measured_nodes = Some(nodes);
         }
-        let output = self.output_plan(&mut world)?;
+        let output = self.output_plan(tracked)?;
         Ok((world, body_particles, output))
     }
 
@@ -746,7 +741,55 @@ impl<D: Dim> Spec<D> {
         })
     }
 
-    fn output_plan(&self, world: &mut World) -> Result<OutputPlan, SceneError> {
+    /// For each probe, the particle a `Track` probe follows and the one it is relative to, from
+    /// the seeds of every body: the particle nearest its point, by id (particles take ids in
+    /// seed order), the lowest id of the nearest on a tie.
+    fn tracked_particles(
+        &self,
+        seeds: &[Seeds<D>],
+    ) -> Result<Vec<[TrackedParticle; 2]>, SceneError> {
+        let first_ids: Vec<u32> = seeds
+            .iter()
+            .scan(0u32, |next, body| {
+                let first = *next;
+                *next = next.saturating_add(body.len() as u32);
+                Some(first)
+            })
+            .collect();
+        let nearest = |body: usize, at: D::Vector| -> TrackedParticle {
+            let found = seeds[body]
+                .iter()
+                .enumerate()
+                .map(|(k, (x, _))| (k, *x, (*x - at).length()))
+                .min_by(|a, b| a.2.total_cmp(&b.2).then(a.0.cmp(&b.0)));
+            found.map(|(k, x, _)| {
+                let start = std::array::from_fn(|a| if a < D::N { x[a] } else { 0.0 });
+                (first_ids[body] + k as u32, start)
+            })
+        };
+        let mut tracked = Vec::new();
+        for (k, probe) in self.output.probes.iter().enumerate() {
+            tracked.push(match probe {
+                Probe::Track {
+                    body,
+                    at,
+                    relative_to,
+                    ..
+                } => {
+                    let at = D::Vector::from_fn(|a| at.0[a]);
+                    let reference = match relative_to {
+                        Some(other) => nearest(self.body_index(other, k)?, at),
+                        None => None,
+                    };
+                    [nearest(self.body_index(body, k)?, at), reference]
+                }
+                _ => [None, None],
+            });
+        }
+        Ok(tracked)
+    }
+
+    fn output_plan(&self, tracked: Vec<[TrackedParticle; 2]>) -> Result<OutputPlan, SceneError> {
         let mut probes = Vec::new();
         for (k, probe) in self.output.probes.iter().enumerate() {
             probes.push(match probe {
@@ -763,23 +806,11 @@ impl<D: Dim> Spec<D> {
                     name: name.clone(),
                     index: self.region_index(name, k)?,
                 },
-                Probe::Track {
-                    name,
-                    body,
-                    at,
-                    relative_to,
-                } => {
-                    let at = D::Vector::from_fn(|a| at.0[a]);
-                    let body = self.body_index(body, k)? as u16;
-                    let reference = match relative_to {
-                        Some(other) => {
-                            nearest_particle::<D>(world, self.body_index(other, k)? as u16, at)
-                        }
-                        None => None,
-                    };
+                Probe::Track { name, .. } => {
+                    let [particle, reference] = tracked[k];
                     ProbeKind::Track {
                         name: name.clone(),
-                        particle: nearest_particle::<D>(world, body, at),
+                        particle,
                         reference,
                     }
                 }
@@ -854,30 +885,6 @@ fn spawn_nodes<D: Dim>(world: &mut World, grid: &Grid<D>, templates: &TemplateSe
         .map(|i| NodeBundle::new(i as u32, grid.node_position(i)))
         .collect();
     templates.spawn(world, nodes);
-}
-
-/// The particle of `body` that is nearest `at` (the lowest entity on a tie) and its position.
-fn nearest_particle<D: Dim>(
-    world: &mut World,
-    body: u16,
-    at: D::Vector,
-) -> Option<(bevy_ecs::entity::Entity, [f64; 3])> {
-    world
-        .query::<(
-            bevy_ecs::entity::Entity,
-            &crate::components::BodyId,
-            &crate::components::Position<D>,
-        )>()
-        .iter(world)
-        .filter(|(_, b, _)| b.0 == body)
-        .map(|(e, _, x)| (e, x.0, (x.0 - at).length()))
-        .min_by(|a, b| a.2.total_cmp(&b.2).then(a.0.cmp(&b.0)))
-        .map(|(e, x, _)| {
-            (
-                e,
-                std::array::from_fn(|a| if a < D::N { x[a] } else { 0.0 }),
-            )
-        })
 }
 
 fn describe_condition<D: Dim>(condition: &Condition) -> String {

@@ -15,7 +15,8 @@
 //!     the particle's own body, so two bodies of one group that touch at the start (grains in
 //!     contact but not bonded, a billet under a platen) have their touching faces flagged: the
 //!     "paint in" §2.4 asks for at such faces, done by the scene's bodies. A solid meant to be
-//!     one piece is one body;
+//!     one piece is one body. In a distributed run the ranks agree on `max S` before the first
+//!     step (`SceneLargestKernelSum`), each rank's the largest over the particles it owns;
 //!   - the separability statistics of eq. 21 for each field of each node (mass-weighted mean
 //!     and maximum damage), stored in `NodeFieldDamage` for the contact stage.
 //! - Algorithms 1 and 2 (the node's reference gradient and each pair's side) are the partition
@@ -35,6 +36,7 @@
 
 use super::field_assignment::install_field_assignment;
 use crate::spatial::Spatial;
+use fractum_engine::decomposition::RankMaximum;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -142,6 +144,13 @@ impl<D: Spatial> DfgNeighbours<D> {
 )]
 pub struct SurfaceDetected(pub bool);
 
+/// The largest kernel sum of the whole scene, which surface detection compares each particle's
+/// with (§2.4): given by the ranks of a distributed run before the first step, each rank seeing
+/// only its part of the scene ([`fractum_engine::decomposition::RankMaximum`]); absent in one
+/// process, whose system finds it over its own particles.
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+pub struct SceneLargestKernelSum(pub f64);
+
 fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed: DfgParams = params.parse()?;
     if let Some(r) = parsed.radius
@@ -181,10 +190,18 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     install_field_assignment(installer)?;
     installer.add_node_component(NodeFieldDamage::default());
     if parsed.surface.is_some() {
-        // Whether detection has run; the threshold is a fraction of the largest kernel sum
-        // of the whole scene, which a rank of a distributed run does not see: with this state
-        // the pipeline runs as one process.
-        installer.init_state::<SurfaceDetected>();
+        // Whether detection has run: set by every rank at the same step. Its threshold is a
+        // fraction of the largest kernel sum of the whole scene, which the ranks of a
+        // distributed run agree on before the first step; a ghost's sum reads neighbours a
+        // kernel radius further.
+        installer.init_shared_state::<SurfaceDetected>();
+        installer.declare_particle_reach("surface detection's kernel sums", radius_cells * spacing);
+        with_dim!(installer.dimension(), D => installer.add_rank_maximum(RankMaximum {
+            name: "partition/dfg: the largest kernel sum",
+            wanted: |world| world.get_resource::<SurfaceDetected>().is_some_and(|d| !d.0),
+            local: owned_largest_kernel_sum::<D>,
+            apply: |world, largest| world.insert_resource(SceneLargestKernelSum(largest)),
+        }));
     }
     super::field_assignment::install_split_record(installer)?;
     installer.add_particle_component(SurfaceFlag::default());
@@ -328,6 +345,7 @@ pub fn dfg_partition<D: Spatial>(
     grid: Res<Grid<D>>,
     params: Res<DfgParams>,
     mut carried: DfgCarried<D>,
+    scene_largest: Option<Res<SceneLargestKernelSum>>,
     connectivity: Res<Connectivity<D>>,
     mut particles: ParticleQuery<D>,
     mut nodes: Query<(&NodeFields, &mut NodeFieldDamage), With<Node>>,
@@ -345,7 +363,9 @@ pub fn dfg_partition<D: Spatial>(
     if let (Some(threshold), Some(detected)) = (params.surface, carried.detected.as_mut())
         && !detected.0
     {
-        detect_surface(positions, neighbours, bodies, radius, threshold, surface);
+        let sums = body_kernel_sums(positions, neighbours, bodies, radius);
+        let largest = scene_largest.map_or_else(|| largest_of(&sums), |l| l.0);
+        detect_surface(&sums, largest, threshold, surface);
         detected.0 = true;
     }
     let (effective, near_damage, damaged) = &mut *buffers;
@@ -405,17 +425,14 @@ pub fn dfg_partition<D: Spatial>(
     });
 }
 
-/// Flags the particles whose kernel sum over their own body's neighbours is below `threshold`
-/// times the largest (§2.4).
-fn detect_surface<D: Dim>(
+/// Each particle's kernel sum over its own body's neighbours (§2.4).
+fn body_kernel_sums<D: Dim>(
     positions: &[Position<D>],
     neighbours: &Neighbourhoods,
     bodies: &[BodyId],
     radius: f64,
-    threshold: f64,
-    surface: &mut [SurfaceFlag],
-) {
-    let sums: Vec<f64> = (0..positions.len())
+) -> Vec<f64> {
+    (0..positions.len())
         .into_par_iter()
         .map(|p| {
             let row = neighbours
@@ -425,11 +442,38 @@ fn detect_surface<D: Dim>(
                 .map(|&q| (positions[q as usize].0, 0.0));
             kernel_sums(positions[p].0, row, radius).0
         })
-        .collect();
-    let largest = sums.iter().copied().fold(0.0, f64::max);
-    for (flag, s) in surface.iter_mut().zip(&sums) {
+        .collect()
+}
+
+fn largest_of(sums: &[f64]) -> f64 {
+    sums.iter().copied().fold(0.0, f64::max)
+}
+
+/// Flags the particles whose kernel sum is below `threshold` times `largest` (§2.4).
+fn detect_surface(sums: &[f64], largest: f64, threshold: f64, surface: &mut [SurfaceFlag]) {
+    for (flag, s) in surface.iter_mut().zip(sums) {
         flag.0 = if *s < threshold * largest { 1.0 } else { 0.0 };
     }
+}
+
+/// The largest kernel sum over the particles this rank owns, from lists built for the purpose
+/// (the system's own are left to build at its step, as in one process).
+fn owned_largest_kernel_sum<D: Spatial>(world: &mut World) -> f64 {
+    let grid = world.resource::<Grid<D>>().clone();
+    let params = *world.resource::<DfgParams>();
+    let radius = params.radius.unwrap_or(grid.spacing * (D::N as f64).sqrt());
+    let mut query =
+        world.query_filtered::<(&Position<D>, &ContactGroup, &BodyId), With<Particle>>();
+    let (positions, groups, bodies): (Vec<Position<D>>, Vec<ContactGroup>, Vec<BodyId>) =
+        query.iter(world).map(|(x, g, b)| (*x, *g, *b)).collect();
+    let mut lists = DfgNeighbours::<D>::default();
+    lists.refresh(&positions, &groups, radius);
+    let sums = body_kernel_sums(&positions, &lists.rows, &bodies, radius);
+    let ownership = world.get_resource::<fractum_engine::decomposition::Ownership>();
+    (sums.iter().enumerate())
+        .filter(|(row, _)| fractum_engine::decomposition::counts_here(ownership, *row))
+        .map(|(_, s)| *s)
+        .fold(0.0, f64::max)
 }
 
 // The checkpoint key of this system's state (stable across builds).
