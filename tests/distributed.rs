@@ -96,6 +96,35 @@ fn on_ranks<D: Dim>(text: &str, ranks: usize, steps: u64) -> Vec<(States, Column
     threads.into_iter().map(|t| t.join().unwrap()).collect()
 }
 
+/// Every particle is owned by one rank of `results`, with the state it has in `reference`.
+fn assert_states_match(
+    reference: &States,
+    results: &[(States, Columns, usize, u64)],
+    ranks: usize,
+) {
+    let mut merged = States::new();
+    for (owned, ..) in results {
+        for (id, state) in owned {
+            assert!(
+                merged.insert(*id, state.clone()).is_none(),
+                "particle {id} owned twice"
+            );
+        }
+    }
+    assert_eq!(merged.len(), reference.len(), "{ranks} ranks");
+    let differing: Vec<u32> = reference
+        .iter()
+        .filter(|(id, state)| merged.get(id) != Some(state))
+        .map(|(id, _)| *id)
+        .collect();
+    assert!(
+        differing.is_empty(),
+        "{ranks} ranks: {} particles differ from the single process, the first {:?}",
+        differing.len(),
+        &differing[..differing.len().min(5)]
+    );
+}
+
 /// Runs `pipeline` on 1 to 4 ranks: every particle's state is the single process's, bit for
 /// bit; each published column, summed over ranks, is the single process's to 1e-12 of its
 /// magnitude (the ranks add their parts in another order). Returns the single process's
@@ -118,27 +147,7 @@ fn assert_scene_ranks_match_serial<D: Dim>(text: &str, steps: u64) -> Columns {
                 "{ranks} ranks: {name} is {summed}, the single process's {value}"
             );
         }
-        let mut merged = States::new();
-        for (owned, ..) in &results {
-            for (id, state) in owned {
-                assert!(
-                    merged.insert(*id, state.clone()).is_none(),
-                    "particle {id} owned twice"
-                );
-            }
-        }
-        assert_eq!(merged.len(), reference.len(), "{ranks} ranks");
-        let differing: Vec<u32> = reference
-            .iter()
-            .filter(|(id, state)| merged.get(id) != Some(state))
-            .map(|(id, _)| *id)
-            .collect();
-        assert!(
-            differing.is_empty(),
-            "{ranks} ranks: {} particles differ from the single process, the first {:?}",
-            differing.len(),
-            &differing[..differing.len().min(5)]
-        );
+        assert_states_match(&reference, &results, ranks);
         if ranks > 1 {
             // The disks cross the slabs: particles changed hands.
             let moved: usize = results.iter().map(|r| r.2).sum();
@@ -251,6 +260,39 @@ fn dfg_partitioned_cracks_with_contact_on_one_to_four_ranks_are_the_single_proce
     let value = |name: &str| columns.iter().find(|c| c.0 == name).unwrap().1;
     assert!(value("failed_particles") > 0.0, "{columns:?}");
     assert!(value("contact_work") < 0.0, "{columns:?}");
+}
+
+#[test]
+fn surface_detection_on_one_to_four_ranks_flags_what_the_single_process_flags() {
+    // The left disk's particles are denser, so its kernel sums are the scene's largest, and the
+    // disks lie further apart than a halo: a rank holding only the right disk would find a
+    // smaller largest sum and flag fewer surface particles unless the ranks agree on the
+    // scene's. The flags are particle state, compared bit for bit.
+    let text = r#"(
+    title: "two disks, one group",
+    time: (step: Fixed(1.0e-3), end: Steps(100)),
+    grid: (min: (0.0, 0.0), max: (3.0, 1.0), spacing: 0.05),
+    materials: {
+        "elastic": (density: 1000.0, youngs_modulus: 1000.0, poisson_ratio: 0.3),
+    },
+    bodies: [
+        (name: "left", shape: Disk(center: (0.4, 0.5), radius: 0.2), material: "elastic",
+         particles_per_cell: 3, velocity: Uniform((1.0, 0.0))),
+        (name: "right", shape: Disk(center: (2.6, 0.5), radius: 0.2), material: "elastic",
+         particles_per_cell: 2, velocity: Uniform((-1.0, 0.0))),
+    ],
+    pipeline: [
+        (system: "basis/linear"), (system: "predictor/newmark"),
+        (system: "stress/neo_hookean"),
+        (system: "partition/dfg", params: (surface: 0.8)),
+        (system: "contact/frictional", params: (friction: 0.0)),
+        (system: "corrector/newmark"), (system: "advection/newmark"),
+    ],
+)"#;
+    let (reference, _) = serial::<Two>(text, 100);
+    for ranks in 2..=4 {
+        assert_states_match(&reference, &on_ranks::<Two>(text, ranks, 100), ranks);
+    }
 }
 
 #[test]
