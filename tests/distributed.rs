@@ -263,6 +263,21 @@ fn dfg_partitioned_cracks_with_contact_on_one_to_four_ranks_are_the_single_proce
 }
 
 #[test]
+fn eigenerosion_on_one_to_four_ranks_is_the_single_process() {
+    // Points fail where the disks meet; each rank counts and releases the energy of the points
+    // it owns.
+    let erosion = r#"(system: "neighbour/kdtree", params: (c_epsilon: 2.0)),
+        (system: "basis/linear"), (system: "predictor/newmark"),
+        (system: "stress/linear_elastic"),
+        (system: "damage/eigenerosion", params: (fracture_energy: 0.02)),
+        (system: "corrector/newmark"), (system: "advection/newmark")"#;
+    let columns = assert_ranks_match_serial(erosion, 450);
+    let value = |name: &str| columns.iter().find(|c| c.0 == name).unwrap().1;
+    assert!(value("failed_particles") > 10.0, "{columns:?}");
+    assert!(value("dissipated_energy") > 0.0, "{columns:?}");
+}
+
+#[test]
 fn surface_detection_on_one_to_four_ranks_flags_what_the_single_process_flags() {
     // The left disk's particles are denser, so its kernel sums are the scene's largest, and the
     // disks lie further apart than a halo: a rank holding only the right disk would find a
@@ -297,20 +312,12 @@ fn surface_detection_on_one_to_four_ranks_flags_what_the_single_process_flags() 
 
 #[test]
 fn a_pipeline_whose_state_a_rank_cannot_split_is_refused_with_its_reason() {
-    // Penalty contact carries a running potential; eigenerosion the energy its failures
-    // released.
+    // Penalty contact carries a running potential over particle pairs, which no rank owns.
     let penalty = r#"(system: "basis/linear"), (system: "partition/bodies"),
         (system: "predictor/newmark"), (system: "stress/linear_elastic"),
         (system: "contact/penalty", params: (friction: 0.5)),
         (system: "corrector/newmark"), (system: "advection/newmark")"#;
-    let erosion = r#"(system: "neighbour/kdtree"), (system: "basis/linear"),
-        (system: "predictor/newmark"), (system: "stress/linear_elastic"),
-        (system: "damage/eigenerosion", params: (fracture_energy: 1.0)),
-        (system: "corrector/newmark"), (system: "advection/newmark")"#;
-    for (pipeline, state) in [
-        (penalty, "contact_potential"),
-        (erosion, "eigenerosion/state"),
-    ] {
+    for (pipeline, state) in [(penalty, "contact_potential")] {
         let e = build_rank_simulation(
             &parse(&scene(pipeline, 10)),
             &fractum_systems::stock_registry(),

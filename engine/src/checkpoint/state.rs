@@ -145,8 +145,9 @@ pub struct CheckpointState {
     resources: Vec<ResourceEntry>,
     /// The carried resources that keep a value per particle row.
     rows: Vec<RowEntry>,
-    /// The carried resources every rank of a distributed run holds alike.
-    shared: Vec<&'static str>,
+    /// The carried resources each rank of a distributed run keeps as its own
+    /// ([`Self::rank_resource`]).
+    per_rank: Vec<&'static str>,
     /// Keys asked for by two different types (a scene with any is refused).
     collisions: Vec<&'static str>,
 }
@@ -264,19 +265,20 @@ impl CheckpointState {
         }
     }
 
-    /// Carries resource `R` as one whose value every rank of a distributed run holds alike: a
-    /// flag every rank sets at the same step, a value agreed over ranks. Each rank's checkpoint
-    /// piece holds its copy.
-    pub fn shared_resource<R: Resource + State>(&mut self) {
+    /// Carries resource `R` as one that each rank of a distributed run keeps as its own: a
+    /// value every rank holds alike (a flag every rank sets at the same step, a value agreed
+    /// over ranks), or the rank's part of a sum over what it owns (a running total published
+    /// as an owned-sum column). Each rank's checkpoint piece holds its copy.
+    pub fn rank_resource<R: Resource + State>(&mut self) {
         self.resource::<R>();
-        if !self.shared.contains(&R::KEY) {
-            self.shared.push(R::KEY);
+        if !self.per_rank.contains(&R::KEY) {
+            self.per_rank.push(R::KEY);
         }
     }
 
-    /// Whether resource `name` is held alike by every rank ([`Self::shared_resource`]).
-    pub fn is_shared_resource(&self, name: &str) -> bool {
-        self.shared.contains(&name)
+    /// Whether each rank keeps resource `name` as its own ([`Self::rank_resource`]).
+    pub fn is_rank_resource(&self, name: &str) -> bool {
+        self.per_rank.contains(&name)
     }
 
     /// Whether resource `name` keeps its values by particle row ([`RowState`]).

@@ -358,15 +358,26 @@ impl<'a> Installer<'a> {
             .row_resource::<R>();
     }
 
-    /// [`Installer::init_state`] for a resource whose value every rank of a distributed run
-    /// holds alike (a flag every rank sets at the same step, or a value agreed over ranks with
-    /// [`Installer::add_rank_maximum`]): unlike other carried state, it lets the pipeline run
-    /// over ranks.
-    pub fn init_shared_state<R: Resource + FromWorld + crate::checkpoint::State>(&mut self) {
+    /// [`Installer::insert_state`] for a resource that each rank of a distributed run keeps
+    /// as its own, correct on every rank: a value every rank holds alike (a flag every rank
+    /// sets at the same step, a value agreed over ranks with [`Installer::add_rank_maximum`]),
+    /// or the rank's part of a sum over the particles or nodes it owns (a running total behind
+    /// an [`Installer::add_owned_sum_column`]). Unlike other carried state, it lets the
+    /// pipeline run over ranks.
+    pub fn insert_rank_state<R: Resource + crate::checkpoint::State>(&mut self, resource: R) {
+        self.world.insert_resource(resource);
+        self.world
+            .get_resource_or_init::<crate::checkpoint::CheckpointState>()
+            .rank_resource::<R>();
+    }
+
+    /// [`Installer::insert_rank_state`] with the resource built from the world unless one
+    /// exists.
+    pub fn init_rank_state<R: Resource + FromWorld + crate::checkpoint::State>(&mut self) {
         self.world.init_resource::<R>();
         self.world
             .get_resource_or_init::<crate::checkpoint::CheckpointState>()
-            .shared_resource::<R>();
+            .rank_resource::<R>();
     }
 
     /// Asks a distributed run for a value of the whole scene before a step: each rank's

@@ -194,7 +194,7 @@ impl<D: Dim> Spec<D> {
         let carried = state.resource_names();
         // State kept by particle row travels with the particles; other state cannot yet.
         if let Some(own) = carried.iter().find(|n| {
-            !engine_state.contains(n) && !state.is_row_resource(n) && !state.is_shared_resource(n)
+            !engine_state.contains(n) && !state.is_row_resource(n) && !state.is_rank_resource(n)
         }) {
             return Err(self.source.error(
                 "pipeline",

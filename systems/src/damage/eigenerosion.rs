@@ -11,7 +11,8 @@
 //!   it keeps its mass and stops contributing internal force.
 //! - Jacobi: every particle reads its neighbours' state from before this update.
 //! - Publishes `failed_particles` and `dissipated_energy`, the stored energy the failed points
-//!   held when they failed (the elastic energy the erosion removes).
+//!   held when they failed (the elastic energy the erosion removes): in a distributed run each
+//!   rank counts and sums the particles it owns, and the run adds the ranks' columns.
 //!
 //! # Normalisation
 //!
@@ -34,6 +35,7 @@
 //! The failed points of the crack lie where `W → 0` (θ = ±π) and still count in `Σ V_q`, as
 //! in the derivation. `k` is taken per material from its Poisson ratio.
 
+use fractum_engine::decomposition::Ownership;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -95,7 +97,8 @@ pub fn griffith_factor(nu: f64, dimensions: usize) -> f64 {
 pub struct EigenerosionState {
     /// G_F.
     pub fracture_energy: f64,
-    /// Stored energy removed by failures so far.
+    /// Stored energy removed by failures so far (in a distributed run, of this rank's owned
+    /// particles).
     pub released: f64,
     /// Slots of the published columns: failed, dissipated energy.
     pub columns: [usize; 2],
@@ -126,10 +129,11 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         ));
     }
     let columns = [
-        installer.add_series_column("failed_particles"),
-        installer.add_series_column("dissipated_energy"),
+        installer.add_owned_sum_column("failed_particles"),
+        installer.add_owned_sum_column("dissipated_energy"),
     ];
-    installer.insert_state(EigenerosionState {
+    // Each rank of a distributed run releases the energy of the particles it owns.
+    installer.insert_rank_state(EigenerosionState {
         fracture_energy: raw.fracture_energy,
         released: 0.0,
         columns,
@@ -184,6 +188,7 @@ pub fn eigenerosion<D: Dim>(
     mut state: ResMut<EigenerosionState>,
     mut columns: ResMut<SeriesColumns>,
     mut particles: ParticleQuery<D>,
+    ownership: Option<Res<Ownership>>,
 ) {
     let Some((material, volume, v0, stress, energy, mut damage)) =
         single_table(particles.contiguous_iter_mut(), "particles")
@@ -210,13 +215,18 @@ pub fn eigenerosion<D: Dim>(
             g * state.factor[material[p].0 as usize] > state.fracture_energy
         })
         .collect();
+    let owned = |p: &usize| super::counts_here(ownership.as_deref(), *p);
     for (p, fail) in fails.into_iter().enumerate() {
         if fail {
-            state.released += stored(p);
+            if owned(&p) {
+                state.released += stored(p);
+            }
             damage[p].0 = 1.0;
         }
     }
-    let failed = damage.iter().filter(|d| d.0 >= 1.0).count();
+    let failed = (damage.iter().enumerate())
+        .filter(|(p, d)| d.0 >= 1.0 && owned(p))
+        .count();
     let [f, e] = state.columns;
     columns.values[f] = failed as f64;
     columns.values[e] = state.released;

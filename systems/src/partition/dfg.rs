@@ -194,7 +194,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         // fraction of the largest kernel sum of the whole scene, which the ranks of a
         // distributed run agree on before the first step; a ghost's sum reads neighbours a
         // kernel radius further.
-        installer.init_shared_state::<SurfaceDetected>();
+        installer.init_rank_state::<SurfaceDetected>();
         installer.declare_particle_reach("surface detection's kernel sums", radius_cells * spacing);
         with_dim!(installer.dimension(), D => installer.add_rank_maximum(RankMaximum {
             name: "partition/dfg: the largest kernel sum",
