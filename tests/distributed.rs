@@ -311,27 +311,31 @@ fn surface_detection_on_one_to_four_ranks_flags_what_the_single_process_flags() 
 }
 
 #[test]
-fn a_pipeline_whose_state_a_rank_cannot_split_is_refused_with_its_reason() {
-    // Penalty contact carries a running potential over particle pairs, which no rank owns.
+fn penalty_contact_on_one_to_four_ranks_is_the_single_process() {
+    // The disks meet through the penalty potential, with friction; each rank sums the energy
+    // and the friction's work of the particles it owns, and bins partners as one process.
     let penalty = r#"(system: "basis/linear"), (system: "partition/bodies"),
         (system: "predictor/newmark"), (system: "stress/linear_elastic"),
         (system: "contact/penalty", params: (friction: 0.5)),
         (system: "corrector/newmark"), (system: "advection/newmark")"#;
-    for (pipeline, state) in [(penalty, "contact_potential")] {
-        let e = build_rank_simulation(
-            &parse(&scene(pipeline, 10)),
-            &fractum_systems::stock_registry(),
-            0,
-            2,
-        )
+    let columns = assert_ranks_match_serial(penalty, 500);
+    let value = |name: &str| columns.iter().find(|c| c.0 == name).unwrap().1;
+    assert!(value("friction_work") < 0.0, "{columns:?}");
+}
+
+#[test]
+fn a_scene_a_rank_cannot_split_is_refused_with_its_reason() {
+    // Removing a particle that leaves the grid reorders the rows of the rank that holds it.
+    let text = scene(USL, 10).replace(
+        "    units: SI,",
+        "    units: SI,\n    safety: (on_leave_grid: Remove),",
+    );
+    let e = build_rank_simulation(&parse(&text), &fractum_systems::stock_registry(), 0, 2)
         .err()
         .expect("refused");
-        let message = e.to_string();
-        assert!(
-            message.contains(state)
-                && message.contains("cannot yet")
-                && message.contains("run it as one process"),
-            "{message}"
-        );
-    }
+    let message = e.to_string();
+    assert!(
+        message.contains("on_leave_grid") && message.contains("cannot run on several ranks yet"),
+        "{message}"
+    );
 }

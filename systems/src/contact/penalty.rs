@@ -42,6 +42,7 @@ use super::penalty_law::{
     KERNEL_REACH, depth_energy, depth_slope, kernel, pair_force, penalty_modulus,
 };
 use bevy_ecs::system::SystemParam;
+use fractum_engine::decomposition::{Ownership, RankMaximum, counts_here};
 use fractum_engine::energy::ContactPotential;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
@@ -108,15 +109,68 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     );
     installer.insert_resource(moduli);
     installer.insert_resource(parsed);
-    installer.init_state::<ContactPotential>();
-    let energy = installer.add_series_column("contact_energy");
-    let friction = installer.add_series_column("friction_work");
+    // Each rank of a distributed run holds the energy of the particles it owns, and sums their
+    // columns; the run adds the ranks'.
+    installer.init_rank_state::<ContactPotential>();
+    let energy = installer.add_owned_sum_column("contact_energy");
+    let friction = installer.add_owned_sum_column("friction_work");
     installer.insert_resource(PenaltyColumns { energy, friction });
     with_dim!(installer.dimension(), D => {
+        // A particle's force reads its partners' depths, which read theirs: two kernel
+        // reaches of the widest particle (no narrower than a cell, as seeded particles are).
+        let widest = widest_particle::<D>(installer.world()).max(widest_cell::<D>(installer));
+        installer.declare_particle_reach(
+            "contact/penalty's depths and pair forces",
+            2.0 * KERNEL_REACH * widest,
+        );
+        installer.add_rank_maximum(RankMaximum {
+            name: "contact/penalty: the widest particle",
+            wanted: |world| !world.contains_resource::<SceneWidestParticle>(),
+            local: |world| widest_particle::<D>(world),
+            apply: |world, widest| world.insert_resource(SceneWidestParticle(widest)),
+        });
         installer.add_node_component(NodeContactForce::<D>::default());
         installer.add_node_component(NodeContactImpulse::<D>::default());
         installer.add_impulse_systems(penalty_contact::<D>)
     })
+}
+
+/// The widest contact particle of the whole scene, which sizes the bins that find each
+/// particle's partners: given by the ranks of a distributed run before the first step, so that
+/// every rank bins as one process does ([`RankMaximum`]); absent in one process, whose system
+/// finds it over its own particles.
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+pub struct SceneWidestParticle(pub f64);
+
+/// The widest of the particles `world` counts (a rank's owned particles; every particle in one
+/// process): their domains' side from the initial volumes.
+fn widest_particle<D: Dim>(world: &World) -> f64 {
+    let thickness = if D::N == 2 {
+        world.get_resource::<Thickness>().map_or(1.0, |t| t.0)
+    } else {
+        1.0
+    };
+    let Some(mut query) = world.try_query_filtered::<&InitialVolume, With<Particle>>() else {
+        return 0.0;
+    };
+    let ownership = world.get_resource::<Ownership>();
+    (query.iter(world).enumerate())
+        .filter(|(row, _)| fractum_engine::decomposition::counts_here(ownership, *row))
+        .map(|(_, v)| contact_width(v.0, thickness, D::N))
+        .fold(0.0, f64::max)
+}
+
+/// The widest cell of the grid.
+fn widest_cell<D: Dim>(installer: &Installer) -> f64 {
+    let grid = installer.world().resource::<Grid<D>>();
+    (0..D::N)
+        .flat_map(|a| (0..grid.cells[a]).map(move |i| grid.cell_width(a, i)))
+        .fold(0.0, f64::max)
+}
+
+/// A contact particle's width, the side of its undeformed domain.
+fn contact_width(initial_volume: f64, thickness: f64, dimensions: usize) -> f64 {
+    2.0 * crate::basis::gimp::domain_half_width(initial_volume, thickness, dimensions)
 }
 
 /// Young's modulus of each material, by `MaterialId`.
@@ -153,6 +207,34 @@ pub struct ContactSet<'a, V> {
     pub groups: &'a [ContactGroup],
 }
 
+/// Where the bins that find each particle's partners lie: their corner and the widest
+/// particle, whose kernel reach is their side. Fixed by the scene (the grid's corner, the
+/// scene's widest particle) rather than by the particles at hand, so that a rank of a
+/// distributed run, holding some of them, visits an owned particle's partners in the order one
+/// process does.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BinFrame {
+    /// The corner of bin (0, 0, 0) (x, y, z; unused axes zero).
+    pub origin: [f64; 3],
+    /// The widest particle's width.
+    pub widest: f64,
+}
+
+impl BinFrame {
+    /// The frame of `set` alone: its lowest corner and its widest particle.
+    pub fn of<V: VectorOps>(set: &ContactSet<V>) -> Self {
+        let mut origin = [f64::INFINITY; 3];
+        for p in set.particles {
+            let x = p.position.to_3d();
+            for a in 0..3 {
+                origin[a] = origin[a].min(x[a]);
+            }
+        }
+        let widest = set.particles.iter().map(|p| p.width).fold(0.0, f64::max);
+        Self { origin, widest }
+    }
+}
+
 /// Bins of side the largest kernel reach: a particle's partners lie in its own bin or the
 /// adjacent ones. Each bin lists its particles in row order and whether it holds more than one
 /// contact group.
@@ -169,21 +251,14 @@ struct Bin {
 }
 
 impl Bins {
-    fn new<V: VectorOps>(set: &ContactSet<V>) -> Option<Self> {
-        let side = KERNEL_REACH * set.particles.iter().map(|p| p.width).fold(0.0, f64::max);
-        if !(side > 0.0 && side.is_finite()) {
+    fn new<V: VectorOps>(set: &ContactSet<V>, frame: BinFrame) -> Option<Self> {
+        let side = KERNEL_REACH * frame.widest;
+        if !(side > 0.0 && side.is_finite() && frame.origin.iter().all(|x| x.is_finite())) {
             return None;
-        }
-        let mut origin = [f64::INFINITY; 3];
-        for p in set.particles {
-            let x = p.position.to_3d();
-            for a in 0..3 {
-                origin[a] = origin[a].min(x[a]);
-            }
         }
         let mut bins = Self {
             side,
-            origin,
+            origin: frame.origin,
             cells: HashMap::new(),
         };
         for (row, (p, group)) in set.particles.iter().zip(set.groups).enumerate() {
@@ -243,13 +318,15 @@ impl Bins {
 /// Each particle's contact with the particles of other groups (see [`ParticleContact`]), with
 /// the friction coefficient of each pair of groups from `params`: first each particle's depth
 /// `S_p` in the other groups' material, then the pair forces. Partners are visited from both
-/// sides, each side in a fixed order, so the sums are the same for any thread count.
+/// sides, each side in a fixed order (bins placed by `frame`, rows in order), so the sums are the
+/// same for any thread count.
 pub fn particle_contacts<V: VectorOps>(
     set: &ContactSet<V>,
     params: &PenaltyParams,
     law: &PairLaw,
+    frame: BinFrame,
 ) -> Vec<ParticleContact<V>> {
-    let Some(bins) = Bins::new(set) else {
+    let Some(bins) = Bins::new(set, frame) else {
         return vec![ParticleContact::default(); set.particles.len()];
     };
     let d = law.dimension;
@@ -342,6 +419,9 @@ pub struct PenaltyInputs<'w, D: Dim> {
     slots: Res<'w, PenaltyColumns>,
     columns: ResMut<'w, SeriesColumns>,
     potential: ResMut<'w, ContactPotential>,
+    grid: Res<'w, Grid<D>>,
+    widest: Option<Res<'w, SceneWidestParticle>>,
+    ownership: Option<Res<'w, Ownership>>,
 }
 
 type ParticleQuery<'w, 's, D> = Query<
@@ -404,7 +484,7 @@ pub fn penalty_contact<D: Dim>(
         .map(|p| ContactParticle {
             position: positions[p].0 + grid_velocity[p] * lookahead,
             velocity: grid_velocity[p],
-            width: 2.0 * crate::basis::gimp::domain_half_width(volume[p].0, thickness, D::N),
+            width: contact_width(volume[p].0, thickness, D::N),
             mass: mass[p].0,
             modulus: inputs
                 .moduli
@@ -425,7 +505,17 @@ pub fn penalty_contact<D: Dim>(
         particles: &states,
         groups,
     };
-    let forces = particle_contacts(&set, &inputs.params, &law);
+    // The grid's corner and the scene's widest particle place the bins.
+    let widest = inputs.widest.as_ref().map_or_else(
+        || states.iter().map(|p| p.width).fold(0.0, f64::max),
+        |w| w.0,
+    );
+    let min = inputs.grid.min.to_3d();
+    let frame = BinFrame {
+        origin: std::array::from_fn(|a| if a < D::N { min[a] } else { 0.0 }),
+        widest,
+    };
+    let forces = particle_contacts(&set, &inputs.params, &law, frame);
     let held = inputs.bcs.held_mask(node_mass.len());
     node_forces(c, &forces, &held, &mut contact);
     if integration == GridIntegration::UpdateStressLast {
@@ -445,9 +535,17 @@ pub fn penalty_contact<D: Dim>(
                 }
             });
     }
-    // Sequential sums in particle order: the same bits for any thread count.
-    let energy: f64 = forces.iter().map(|f| f.energy).sum();
-    let power: f64 = forces.iter().map(|f| f.friction_power).sum();
+    // Sequential sums in particle order: the same bits for any thread count. A rank of a
+    // distributed run sums the particles it owns.
+    let owned = |row: &usize| counts_here(inputs.ownership.as_deref(), *row);
+    let energy: f64 = (forces.iter().enumerate())
+        .filter(|(row, _)| owned(row))
+        .map(|(_, f)| f.energy)
+        .sum();
+    let power: f64 = (forces.iter().enumerate())
+        .filter(|(row, _)| owned(row))
+        .map(|(_, f)| f.friction_power)
+        .sum();
     inputs.potential.0 = energy;
     let slots = *inputs.slots;
     inputs.columns.values[slots.energy] = energy;
@@ -532,7 +630,7 @@ mod tests {
             particles: &[at(0.3), at(0.7)],
             groups: &[ContactGroup(0), ContactGroup(1)],
         };
-        particle_contacts(&set, &PenaltyParams::default(), &law)
+        particle_contacts(&set, &PenaltyParams::default(), &law, BinFrame::of(&set))
     }
 
     /// Newmark: each particle's contact force reaches the nodes of its own field, equal and
@@ -620,7 +718,12 @@ mod tests {
             particles: &particles[..2],
             groups: &[ContactGroup(3), ContactGroup(3)],
         };
-        let forces = particle_contacts(&alone, &PenaltyParams::default(), &law);
+        let forces = particle_contacts(
+            &alone,
+            &PenaltyParams::default(),
+            &law,
+            BinFrame::of(&alone),
+        );
         assert!(
             forces
                 .iter()
@@ -631,7 +734,7 @@ mod tests {
             particles: &particles,
             groups: &groups,
         };
-        let forces = particle_contacts(&set, &PenaltyParams::default(), &law);
+        let forces = particle_contacts(&set, &PenaltyParams::default(), &law, BinFrame::of(&set));
         assert!(forces[0].force.x < 0.0 && forces[1].force.x < 0.0 && forces[2].force.x > 0.0);
         let net: DVec2 = forces.iter().map(|f| f.force).sum();
         assert!(net.length() < 1e-15);
