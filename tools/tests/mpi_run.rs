@@ -302,3 +302,46 @@ fn under_mpirun_two_to_four_ranks_step_scenes_as_the_single_process_does() {
         }
     }
 }
+
+#[test]
+fn under_mpirun_a_scene_too_large_for_one_process_runs_on_ranks_whose_parts_fit() {
+    // Kalthoff–Winkler's plate needs about 160 MiB as one process and at most 85 MiB on each of
+    // four ranks (`fractum check --estimate --ranks 4`); with 120 MB to each process, one
+    // process is refused and four ranks run.
+    let out_dir = std::env::temp_dir().join(format!("fractum-mpi-fit-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out_dir);
+    let dir = out_dir.to_str().unwrap();
+    let args = [
+        "run",
+        "scenes/kalthoff_winkler_dfg.ron",
+        "--out",
+        dir,
+        "--steps",
+        "2",
+        "--quiet",
+        "--threads",
+        "1",
+    ];
+    let limited = |ranks: usize| {
+        std::process::Command::new("mpirun")
+            .args(["--allow-run-as-root", "--oversubscribe", "-np"])
+            .arg(ranks.to_string())
+            .arg(env!("CARGO_BIN_EXE_fractum"))
+            .args(args)
+            .env("FRACTUM_MEMORY_LIMIT", "120e6")
+            .current_dir(root())
+            .output()
+            .unwrap()
+    };
+    let alone = limited(1);
+    assert_eq!(alone.status.code(), Some(1), "{}", text(&alone.stderr));
+    assert!(
+        text(&alone.stderr).contains("FRACTUM_MEMORY_LIMIT"),
+        "{}",
+        text(&alone.stderr)
+    );
+    let ranks = limited(4);
+    assert!(ranks.status.success(), "{}", text(&ranks.stderr));
+    assert!(out_dir.join("frames/particles_00000002.pvtu").exists());
+    let _ = std::fs::remove_dir_all(&out_dir);
+}
