@@ -76,6 +76,9 @@ pub struct StepDigest {
     /// How often the slabs were re-cut, and how far the most loaded rank was over the mean
     /// after the last step (0 in one process).
     pub rebalanced: (u64, f64),
+    /// The particles this rank held (owned and ghosts) after the last step, and the bytes it
+    /// sent to other ranks over the steps (0 in one process).
+    pub traffic: (u64, u64),
 }
 
 /// Steps `file` `steps` times, as rank `comm.rank()` of a distributed run when `comm` is given
@@ -124,15 +127,17 @@ pub fn step_digest(
                 .collect()
         })
         .unwrap_or_default();
-    let rebalanced = sim
+    let ownership = sim
         .world
-        .get_resource::<fractum_engine::decomposition::Ownership>()
-        .map_or((0, 0.0), |o| (o.rebalances, o.imbalance));
+        .get_resource::<fractum_engine::decomposition::Ownership>();
+    let rebalanced = ownership.map_or((0, 0.0), |o| (o.rebalances, o.imbalance));
+    let traffic = ownership.map_or((0, 0), |o| (o.particles.len() as u64, o.sent_bytes));
     Ok(StepDigest {
         particles: states.len() as u64,
         digest,
         columns,
         rebalanced,
+        traffic,
     })
 }
 

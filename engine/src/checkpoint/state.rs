@@ -217,7 +217,8 @@ impl CheckpointState {
     /// picked at most once, and a particle carries a component exactly where its source did.
     /// Component by component into each column when every particle has the component, entity
     /// by entity otherwise. With `same_rows` (every row holds the particle it held), the
-    /// [`RowState`] resources keep their rows as they are: their cached lists stay valid.
+    /// [`RowState`] resources keep their rows as they are: their cached lists stay valid; and a
+    /// row picked as [`KEEP_ROW`] keeps its components.
     pub fn load_picked_rows(
         &self,
         world: &mut World,
@@ -453,6 +454,9 @@ fn pick_column<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
     };
     let column: &mut [C] = &mut column;
     for (slot, &(block, index)) in column.iter_mut().zip(picks) {
+        if (block, index) == KEEP_ROW {
+            continue;
+        }
         let value = picked(&mut decoded, block, index).and_then(Option::take);
         match value {
             Some(value) => *slot = value,
@@ -478,6 +482,9 @@ fn pick_component<C: Component<Mutability = bevy_ecs::component::Mutable> + Stat
         .map(|bytes| postcard::from_bytes(bytes).map_err(codec(name)))
         .collect::<Result<_, _>>()?;
     for (&entity, &(block, index)) in targets.iter().zip(picks) {
+        if (block, index) == KEEP_ROW {
+            continue;
+        }
         // Each particle is picked once: its value is moved out.
         let value = picked(&mut decoded, block, index)
             .map(Option::take)
@@ -501,6 +508,9 @@ fn pick_component<C: Component<Mutability = bevy_ecs::component::Mutable> + Stat
 }
 
 /// The slot of the `index`-th value of block `block`, if it was sent.
+/// A pick ([`CheckpointState::load_picked_rows`]) that leaves its row as it is.
+pub const KEEP_ROW: (u32, u32) = (u32::MAX, u32::MAX);
+
 fn picked<T>(decoded: &mut [Vec<Option<T>>], block: u32, index: u32) -> Option<&mut Option<T>> {
     decoded.get_mut(block as usize)?.get_mut(index as usize)
 }

@@ -125,6 +125,9 @@ pub struct Ownership {
     pub imbalance: f64,
     /// How often the slabs were re-cut.
     pub rebalances: u64,
+    /// Bytes this rank has sent to other ranks since the run began: each step's particles for
+    /// their holders (`crate::run::distributed::redistribute`).
+    pub sent_bytes: u64,
     /// Per node index: owned here (on the lower face of one of this rank's cell layers, or
     /// the grid's last node layer for the last rank), so that each node counts on one rank.
     pub nodes: Vec<bool>,
@@ -156,6 +159,7 @@ impl Ownership {
             rebalance_above: Some(0.1),
             imbalance: 0.0,
             rebalances: 0,
+            sent_bytes: 0,
             nodes,
         }
     }
@@ -164,10 +168,11 @@ impl Ownership {
     /// along the axis from `node_layers`.
     pub fn relayout(&mut self, layout: Layout, node_layers: impl Iterator<Item = usize>) {
         let rebalances = self.rebalances + 1;
-        let (above, total) = (self.rebalance_above, self.total);
+        let (above, total, sent) = (self.rebalance_above, self.total, self.sent_bytes);
         *self = Self::new(layout, self.rank, total, node_layers);
         self.rebalance_above = above;
         self.rebalances = rebalances;
+        self.sent_bytes = sent;
     }
 
     /// Marks each particle row from the layer it is in at the start of a step.

@@ -150,17 +150,18 @@ fn exchange_and_rebuild<D: Dim>(
             }),
         ));
     }
+    ownership.sent_bytes += sends.iter().map(|(_, b)| b.len() as u64).sum::<u64>();
     let received = comm.exchange(&sends);
     if let Some(failure) = failure {
         return Err(failure);
     }
-    let mut blocks = vec![block(world, &state, &kept)?];
+    let mut arrived = Vec::with_capacity(peers.len());
     for (peer, bytes) in peers.iter().zip(received) {
         let decoded: Block = postcard::from_bytes(&bytes)
             .map_err(|e| format!("cannot decode the particles rank {peer} sent: {e}"))?;
-        blocks.push(decoded);
+        arrived.push(decoded);
     }
-    rebuild::<D>(world, &state, blocks)?;
+    rebuild::<D>(world, &state, &kept, arrived)?;
     if next != layout {
         let axis = next.axis;
         let node_layers = (0..grid.node_count()).map(|n| grid.node_lattice(n)[axis]);
@@ -203,20 +204,26 @@ fn rebalanced(layout: &Layout, per_layer: &[u64], above: Option<f64>) -> Option<
     })
 }
 
-/// Makes the world's particles exactly those of `blocks`, sorted by id.
+/// Makes the world's particles exactly those it `kept` (storage row, entity, id) and those
+/// that `arrived` from other ranks, sorted by id, each with its owner's state. Mostly no
+/// particle enters or leaves a rank in a step: every kept particle is then in its row already,
+/// with the state this rank computed for it, and only the rows of those that arrived are
+/// written.
 fn rebuild<D: Dim>(
     world: &mut World,
     state: &CheckpointState,
-    blocks: Vec<Block>,
+    kept: &[(usize, Entity, u32)],
+    arrived: Vec<Block>,
 ) -> Result<(), String> {
-    let mut picks: Vec<(u32, u32, u32)> = blocks
-        .iter()
-        .enumerate()
-        .flat_map(|(b, (ids, _))| {
+    // Block 0 is what this rank kept, the others what arrived, in order.
+    let kept_ids = kept.iter().map(|r| r.2);
+    let mut picks: Vec<(u32, u32, u32)> = (kept_ids.enumerate())
+        .map(|(i, id)| (id, 0, i as u32))
+        .chain(arrived.iter().enumerate().flat_map(|(b, (ids, _))| {
             ids.iter()
                 .enumerate()
-                .map(move |(i, &id)| (id, b as u32, i as u32))
-        })
+                .map(move |(i, &id)| (id, b as u32 + 1, i as u32))
+        }))
         .collect();
     picks.sort_unstable();
     if let Some(w) = picks.windows(2).find(|w| w[0].0 == w[1].0) {
@@ -226,13 +233,33 @@ fn rebuild<D: Dim>(
     // and the systems' row caches (neighbour lists) stay valid.
     let held: Vec<u32> = rows::<D>(world).into_iter().map(|r| r.1).collect();
     let same_rows = held.len() == picks.len() && held.iter().zip(&picks).all(|(a, b)| *a == b.0);
+    // The kept particles' state, read before the rows move; none is needed where they stay.
+    let kept_block = if same_rows {
+        None
+    } else {
+        Some(block(world, state, kept)?.1)
+    };
     resize_particles::<D>(world, picks.len())?;
     let mut ids = world.query_filtered::<&mut ParticleId, With<Particle>>();
     for (mut slot, &(id, _, _)) in ids.iter_mut(world).zip(&picks) {
         slot.0 = id;
     }
-    let components: Vec<Vec<Vec<u8>>> = blocks.into_iter().map(|b| b.1).collect();
-    let picks: Vec<(u32, u32)> = picks.iter().map(|&(_, b, i)| (b, i)).collect();
+    let arrived = arrived.into_iter().map(|b| b.1);
+    let (components, picks): (Vec<Vec<Vec<u8>>>, Vec<(u32, u32)>) = match kept_block {
+        // The kept rows keep their state: only what arrived is decoded and written.
+        None => {
+            let picks = picks.iter().map(|&(_, b, i)| match b {
+                0 => crate::checkpoint::KEEP_ROW,
+                _ => (b - 1, i),
+            });
+            (arrived.collect(), picks.collect())
+        }
+        Some(kept_block) => {
+            let mut components = vec![kept_block];
+            components.extend(arrived);
+            (components, picks.iter().map(|&(_, b, i)| (b, i)).collect())
+        }
+    };
     state
         .load_picked_rows(world, &components, &picks, same_rows)
         .map_err(|e| e.to_string())
