@@ -206,28 +206,7 @@ fn eigensoftening_with_lme_on_one_to_four_ranks_is_the_single_process() {
 #[test]
 fn spheres_with_lme_and_eigensoftening_in_3d_on_one_to_four_ranks_are_the_single_process() {
     // Two spheres meet along x and crack where they meet, while both drift across the slabs.
-    let text = r#"(
-    title: "two spheres",
-    time: (step: Fixed(1.0e-3), end: Steps(320)),
-    grid: (min: (0.0, 0.0, 0.0), max: (1.0, 0.5, 0.5), spacing: 0.05),
-    materials: {
-        "elastic": (density: 1000.0, youngs_modulus: 1000.0, poisson_ratio: 0.3),
-    },
-    bodies: [
-        (name: "left", shape: Sphere(center: (0.32, 0.25, 0.25), radius: 0.15),
-         material: "elastic", particles_per_cell: 1, velocity: Uniform((0.8, 0.0, 0.0))),
-        (name: "right", shape: Sphere(center: (0.68, 0.25, 0.25), radius: 0.15),
-         material: "elastic", particles_per_cell: 1, velocity: Uniform((-0.2, 0.0, 0.0))),
-    ],
-    pipeline: [
-        (system: "neighbour/kdtree", params: (c_epsilon: 2.0)),
-        (system: "basis/lme", params: (gamma: 1.8)), (system: "predictor/newmark"),
-        (system: "stress/linear_elastic"),
-        (system: "damage/eigensoftening", params: (tensile_strength: 2.0,
-            fracture_energy: 0.05, band_width: 0.1)),
-        (system: "corrector/newmark"), (system: "advection/newmark"),
-    ],
-)"#;
+    let text = include_str!("fixtures/two_spheres_lme_3d.ron");
     let columns = assert_scene_ranks_match_serial::<Three>(text, 320);
     let value = |name: &str| columns.iter().find(|c| c.0 == name).unwrap().1;
     assert!(value("damaged_particles") > 0.0, "{columns:?}");

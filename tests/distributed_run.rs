@@ -64,29 +64,7 @@ fn parse(text: &str) -> SceneFile {
 }
 
 /// Two spheres meeting along x, cracking where they meet (LME, eigensoftening), in 3D.
-const SPHERES: &str = r#"(
-    title: "two spheres",
-    time: (step: Fixed(1.0e-3), end: Steps(320)),
-    grid: (min: (0.0, 0.0, 0.0), max: (1.0, 0.5, 0.5), spacing: 0.05),
-    materials: {
-        "elastic": (density: 1000.0, youngs_modulus: 1000.0, poisson_ratio: 0.3),
-    },
-    bodies: [
-        (name: "left", shape: Sphere(center: (0.32, 0.25, 0.25), radius: 0.15),
-         material: "elastic", particles_per_cell: 1, velocity: Uniform((0.8, 0.0, 0.0))),
-        (name: "right", shape: Sphere(center: (0.68, 0.25, 0.25), radius: 0.15),
-         material: "elastic", particles_per_cell: 1, velocity: Uniform((-0.2, 0.0, 0.0))),
-    ],
-    output: (csv_every: 10, vtu_every: 160, probes: [Force("left")]),
-    pipeline: [
-        (system: "neighbour/kdtree", params: (c_epsilon: 2.0)),
-        (system: "basis/lme", params: (gamma: 1.8)), (system: "predictor/newmark"),
-        (system: "stress/linear_elastic"),
-        (system: "damage/eigensoftening", params: (tensile_strength: 2.0,
-            fracture_energy: 0.05, band_width: 0.1)),
-        (system: "corrector/newmark"), (system: "advection/newmark"),
-    ],
-)"#;
+const SPHERES: &str = include_str!("fixtures/two_spheres_lme_3d.ron");
 
 /// The shipped scene at `path` with each `(text, replacement)` made, each text found once.
 fn shipped_scene_with(path: &str, edits: &[(&str, &str)]) -> String {

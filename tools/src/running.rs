@@ -131,6 +131,18 @@ fn prepare_out_dir(dir: &Path, force: bool) -> Result<(), String> {
     Ok(())
 }
 
+/// The record of the scene at `scene` (its path made absolute where possible) and its `text`,
+/// which checkpoints keep.
+fn scene_record(scene: &Path, text: String) -> SceneRecord {
+    SceneRecord {
+        path: std::path::absolute(scene)
+            .unwrap_or_else(|_| scene.to_path_buf())
+            .display()
+            .to_string(),
+        text,
+    }
+}
+
 fn default_out_dir(scene: &Path) -> PathBuf {
     let stem = scene.file_stem().map(|s| s.to_string_lossy().into_owned());
     Path::new("out").join(stem.unwrap_or_else(|| "run".into()))
@@ -167,13 +179,7 @@ pub fn run_command(
         eprintln!("error: {e}");
         return EXIT_IO;
     }
-    let record = SceneRecord {
-        path: std::path::absolute(scene)
-            .unwrap_or_else(|_| scene.to_path_buf())
-            .display()
-            .to_string(),
-        text: file.text,
-    };
+    let record = scene_record(scene, file.text);
     execute(built, &out_dir, record, None, settings, None)
 }
 
@@ -228,13 +234,7 @@ pub fn run_ranks(
     if let Err(failure) = comm.agree(prepared.as_deref()) {
         return refuse(EXIT_IO, &failure.message);
     }
-    let record = SceneRecord {
-        path: std::path::absolute(scene)
-            .unwrap_or_else(|_| scene.to_path_buf())
-            .display()
-            .to_string(),
-        text: file.text,
-    };
+    let record = scene_record(scene, file.text);
     let mut settings = settings.clone();
     settings.quiet |= !speaks;
     execute(built, &out_dir, record, None, &settings, Some(comm))
