@@ -183,6 +183,16 @@ pub fn run_command(
     execute(built, &out_dir, record, None, settings, None)
 }
 
+/// What rank 0 says of a failure the ranks agreed on: rank 0's own message as it is (what every
+/// rank found, such as a scene's error, is found by rank 0 first), another rank's with its rank.
+fn rank_message(failure: fractum_engine::communicator::RankFailure) -> String {
+    if failure.rank == 0 {
+        failure.message
+    } else {
+        failure.to_string()
+    }
+}
+
 /// `fractum run` as one of the ranks of `comm`, which an MPI launcher started: every rank
 /// builds its part of the scene ([`fractum_engine::scene::build_rank_simulation`]) and steps
 /// it with the others; rank 0 prepares the output folder, writes the series and the frames'
@@ -210,20 +220,18 @@ pub fn run_ranks(
     });
     let failure = built.as_ref().err().map(ToString::to_string);
     if let Err(failure) = comm.agree(failure.as_deref()) {
-        // A scene's error is every rank's; another failure (a rank's memory) names its rank.
-        let message = if failure.rank == 0 {
-            failure.message
-        } else {
-            failure.to_string()
-        };
-        return refuse(EXIT_BAD_SCENE, &message);
+        return refuse(EXIT_BAD_SCENE, &rank_message(failure));
     }
     let Ok((file, mut built)) = built else {
         return EXIT_BAD_SCENE;
     };
-    // The same check on every rank, with the same outcome; rank 0 says why.
-    if let Err((code, message)) = ready_to_run(&mut built.simulation, settings, false) {
-        return refuse(code, &message);
+    // The same check on every rank; a rank that cannot start its threads fails alone, so the
+    // ranks agree before going on, and rank 0 says why.
+    let ready = ready_to_run(&mut built.simulation, settings, false);
+    let failure = ready.as_ref().err().map(|(_, message)| message.clone());
+    if let Err(failure) = comm.agree(failure.as_deref()) {
+        let code = ready.err().map_or(EXIT_RESOURCES, |(code, _)| code);
+        return refuse(code, &rank_message(failure));
     }
     let out_dir = out.unwrap_or_else(|| default_out_dir(scene));
     let prepared = if speaks {
@@ -440,12 +448,7 @@ pub fn resume_ranks(
         // Every rank reads the same manifest and scene: their refusal is every rank's.
         let code = restored.as_ref().err().map_or(EXIT_IO, |(code, _)| *code);
         if speaks {
-            let message = if failure.rank == 0 {
-                failure.message
-            } else {
-                failure.to_string()
-            };
-            eprintln!("error: {message}");
+            eprintln!("error: {}", rank_message(failure));
         }
         return code;
     }

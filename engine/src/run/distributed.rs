@@ -245,19 +245,22 @@ fn rebuild<D: Dim>(
         slot.0 = id;
     }
     let arrived = arrived.into_iter().map(|b| b.1);
-    let (components, picks): (Vec<Vec<Vec<u8>>>, Vec<(u32, u32)>) = match kept_block {
-        // The kept rows keep their state: only what arrived is decoded and written.
+    // Block 0 is what this rank kept, encoded where its rows move; otherwise the kept rows keep
+    // their state, and only what arrived is decoded and written.
+    let mut components = Vec::with_capacity(arrived.len() + 1);
+    let picks: Vec<(u32, u32)> = match kept_block {
         None => {
-            let picks = picks.iter().map(|&(_, b, i)| match b {
+            components.extend(arrived);
+            let keep = |&(_, b, i): &(u32, u32, u32)| match b {
                 0 => crate::checkpoint::KEEP_ROW,
                 _ => (b - 1, i),
-            });
-            (arrived.collect(), picks.collect())
+            };
+            picks.iter().map(keep).collect()
         }
         Some(kept_block) => {
-            let mut components = vec![kept_block];
+            components.push(kept_block);
             components.extend(arrived);
-            (components, picks.iter().map(|&(_, b, i)| (b, i)).collect())
+            picks.iter().map(|&(_, b, i)| (b, i)).collect()
         }
     };
     state

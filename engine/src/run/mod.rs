@@ -161,37 +161,24 @@ impl Outputs<'_> {
         let step = sim.clock().step;
         let due = |every: u64| every > 0 && step.is_multiple_of(every);
         let fresh = |slot: Option<u64>| slot != Some(step);
+        // One process stops at the first failure. A rank of a distributed run goes through
+        // every part, whatever failed before on it, so that it takes part in every collective
+        // the other ranks do (a row's sum, a frame's index writer), and reports its first
+        // failure after them.
+        let mut failed = Failures {
+            distributed: self.comm.is_some(),
+            first: None,
+        };
         let row_due = due(self.plan.csv_every) || (self.plan.csv_every == 0 && step == 0);
         if (force || row_due) && fresh(self.written[0]) {
             self.written[0] = Some(step);
-            self.row(sim, step)?;
+            failed.keep(self.row(sim, step))?;
         }
         let mut framed = false;
         if self.plan.vtu_every > 0 && (force || due(self.plan.vtu_every)) && fresh(self.written[1])
         {
             self.written[1] = Some(step);
-            let mut frame = sim.with_world_in_pool(particle_frame);
-            if let Some(fields) = &self.plan.frame_fields {
-                frame.keep_only(fields);
-            }
-            let name = match self.comm {
-                None => {
-                    let name = format!("frames/particles_{step:08}.vtu");
-                    self.writer.particles(self.dir.join(&name), frame)?;
-                    name
-                }
-                Some(comm) => {
-                    let (piece, index) =
-                        self.pieces(comm, &format!("particles_{step:08}"), frame.position.len());
-                    self.writer.particle_piece(piece, frame, index)?;
-                    format!("frames/particles_{step:08}.pvtu")
-                }
-            };
-            self.frames.push((sim.clock().time, name));
-            if self.comm.is_none_or(|c| c.rank() == 0) {
-                let pvd = self.dir.join("particles.pvd");
-                self.writer.collection(pvd, self.frames.clone())?;
-            }
+            failed.keep(self.particle_frame(sim, step))?;
             framed = true;
         }
         if self.plan.grid_every > 0
@@ -199,29 +186,64 @@ impl Outputs<'_> {
             && fresh(self.written[2])
         {
             self.written[2] = Some(step);
-            let frame = grid_frame(&mut sim.world);
-            let name = match self.comm {
-                None => {
-                    let name = format!("frames/grid_{step:08}.vtu");
-                    self.writer.grid(self.dir.join(&name), frame)?;
-                    name
-                }
-                Some(comm) => {
-                    let (piece, index) =
-                        self.pieces(comm, &format!("grid_{step:08}"), frame.position.len());
-                    self.writer.grid_piece(piece, frame, index)?;
-                    format!("frames/grid_{step:08}.pvtu")
-                }
-            };
-            self.grid_frames.push((sim.clock().time, name));
-            if self.comm.is_none_or(|c| c.rank() == 0) {
-                let pvd = self.dir.join("grid.pvd");
-                self.writer.collection(pvd, self.grid_frames.clone())?;
-            }
+            failed.keep(self.grid_frame(sim, step))?;
             framed = true;
         }
         if framed {
-            self.flush()?;
+            failed.keep(self.flush())?;
+        }
+        failed.first.map_or(Ok(()), Err)
+    }
+
+    /// Writes the particle frame of `step` (this rank's piece of it, in a distributed run) and
+    /// the collection that lists it.
+    fn particle_frame(&mut self, sim: &mut Simulation, step: u64) -> Result<(), RunError> {
+        let mut frame = sim.with_world_in_pool(particle_frame);
+        if let Some(fields) = &self.plan.frame_fields {
+            frame.keep_only(fields);
+        }
+        let name = match self.comm {
+            None => {
+                let name = format!("frames/particles_{step:08}.vtu");
+                self.writer.particles(self.dir.join(&name), frame)?;
+                name
+            }
+            Some(comm) => {
+                let (piece, index) =
+                    self.pieces(comm, &format!("particles_{step:08}"), frame.position.len());
+                self.writer.particle_piece(piece, frame, index)?;
+                format!("frames/particles_{step:08}.pvtu")
+            }
+        };
+        self.frames.push((sim.clock().time, name));
+        if self.comm.is_none_or(|c| c.rank() == 0) {
+            let pvd = self.dir.join("particles.pvd");
+            self.writer.collection(pvd, self.frames.clone())?;
+        }
+        Ok(())
+    }
+
+    /// Writes the grid frame of `step` (this rank's piece of it, in a distributed run) and the
+    /// collection that lists it.
+    fn grid_frame(&mut self, sim: &mut Simulation, step: u64) -> Result<(), RunError> {
+        let frame = grid_frame(&mut sim.world);
+        let name = match self.comm {
+            None => {
+                let name = format!("frames/grid_{step:08}.vtu");
+                self.writer.grid(self.dir.join(&name), frame)?;
+                name
+            }
+            Some(comm) => {
+                let (piece, index) =
+                    self.pieces(comm, &format!("grid_{step:08}"), frame.position.len());
+                self.writer.grid_piece(piece, frame, index)?;
+                format!("frames/grid_{step:08}.pvtu")
+            }
+        };
+        self.grid_frames.push((sim.clock().time, name));
+        if self.comm.is_none_or(|c| c.rank() == 0) {
+            let pvd = self.dir.join("grid.pvd");
+            self.writer.collection(pvd, self.grid_frames.clone())?;
         }
         Ok(())
     }
@@ -296,6 +318,26 @@ impl Outputs<'_> {
 fn index_writer(comm: &dyn Communicator, count: usize) -> usize {
     let counts = comm.all_gather(&[count as f64]);
     counts.iter().position(|&n| n > 0.0).unwrap_or(0)
+}
+
+/// The failures of the parts of an output step: one process stops at the first; a rank of a
+/// distributed run keeps the first and goes on ([`Outputs::record`]).
+struct Failures {
+    distributed: bool,
+    first: Option<RunError>,
+}
+
+impl Failures {
+    /// `part`'s failure, for the caller to stop at in one process; kept in a distributed run.
+    fn keep(&mut self, part: Result<(), RunError>) -> Result<(), RunError> {
+        match part {
+            Err(e) if self.distributed => {
+                self.first.get_or_insert(e);
+                Ok(())
+            }
+            other => other,
+        }
+    }
 }
 
 /// What a run does besides stepping: checkpoints, interruption, continuing the outputs of an

@@ -332,12 +332,14 @@ type ParticleQuery<'w, 's, D> = Query<
 >;
 
 /// What `partition/dfg` carries from step to step: whether surfaces were detected, and its
-/// neighbour candidates.
+/// neighbour candidates; and the scene's largest kernel sum where the ranks of a distributed
+/// run gave it.
 #[derive(bevy_ecs::system::SystemParam)]
 pub struct DfgCarried<'w, D: Dim> {
     /// Present when the entry detects surfaces.
     detected: Option<ResMut<'w, SurfaceDetected>>,
     candidates: ResMut<'w, DfgNeighbours<D>>,
+    scene_largest: Option<Res<'w, SceneLargestKernelSum>>,
 }
 
 /// The `partition/dfg` system.
@@ -345,7 +347,6 @@ pub fn dfg_partition<D: Spatial>(
     grid: Res<Grid<D>>,
     params: Res<DfgParams>,
     mut carried: DfgCarried<D>,
-    scene_largest: Option<Res<SceneLargestKernelSum>>,
     connectivity: Res<Connectivity<D>>,
     mut particles: ParticleQuery<D>,
     mut nodes: Query<(&NodeFields, &mut NodeFieldDamage), With<Node>>,
@@ -364,7 +365,7 @@ pub fn dfg_partition<D: Spatial>(
         && !detected.0
     {
         let sums = body_kernel_sums(positions, neighbours, bodies, radius);
-        let largest = scene_largest.map_or_else(|| largest_of(&sums), |l| l.0);
+        let largest = (carried.scene_largest.as_ref()).map_or_else(|| largest_of(&sums), |l| l.0);
         detect_surface(&sums, largest, threshold, surface);
         detected.0 = true;
     }
