@@ -5,6 +5,7 @@
 use fractum_engine::communicator::{Communicator, thread_ranks};
 use fractum_engine::decomposition::Ownership;
 use fractum_engine::dim::{Dim, Three, Two};
+use fractum_engine::health::EscapedParticles;
 use fractum_engine::run::distributed::{self, state_of_particles};
 use fractum_engine::scene::{SceneFile, build_rank_simulation, build_simulation};
 use fractum_engine::series::SeriesColumns;
@@ -302,19 +303,86 @@ fn penalty_contact_on_one_to_four_ranks_is_the_single_process() {
     assert!(value("friction_work") < 0.0, "{columns:?}");
 }
 
+/// The scene with `on_leave_grid: Remove`, the upper disk thrown out through the grid's right
+/// side: the slabs stack along x, so it leaves from the last rank's slab while its particles
+/// cross the others'.
+fn leaving(pipeline: &str, steps: u64) -> String {
+    scene(pipeline, steps)
+        .replace(
+            "    units: SI,",
+            "    units: SI,\n    safety: (on_leave_grid: Remove),",
+        )
+        .replace(
+            "velocity: Uniform((-0.4, -0.1))",
+            "velocity: Uniform((2.0, -0.1))",
+        )
+}
+
+/// The particles removed so far, as each rank of `ranks` holds the count after `steps`, with
+/// each rank's owned particles.
+fn removed_on_ranks(text: &str, ranks: usize, steps: u64) -> Vec<(States, EscapedParticles)> {
+    let threads: Vec<_> = thread_ranks(ranks)
+        .into_iter()
+        .map(|comm| {
+            let file = parse(text);
+            std::thread::spawn(move || {
+                let registry = fractum_systems::stock_registry();
+                let mut built =
+                    build_rank_simulation(&file, &registry, comm.rank(), comm.size()).unwrap();
+                for _ in 0..steps {
+                    distributed::step(&mut built.simulation, &comm).unwrap();
+                }
+                let world = &mut built.simulation.world;
+                let escaped = world.resource::<EscapedParticles>().clone();
+                (state_of_particles::<Two>(world).unwrap(), escaped)
+            })
+        })
+        .collect();
+    threads.into_iter().map(|t| t.join().unwrap()).collect()
+}
+
 #[test]
-fn a_scene_a_rank_cannot_split_is_refused_with_its_reason() {
-    // Removing a particle that leaves the grid reorders the rows of the rank that holds it.
-    let text = scene(USL, 10).replace(
-        "    units: SI,",
-        "    units: SI,\n    safety: (on_leave_grid: Remove),",
-    );
-    let e = build_rank_simulation(&parse(&text), &fractum_systems::stock_registry(), 0, 2)
-        .err()
-        .expect("refused");
-    let message = e.to_string();
+fn particles_removed_on_leaving_the_grid_leave_every_rank_count_alike() {
+    let steps = 300;
+    let text = leaving(USL, steps);
+    let mut serial = build_simulation(&parse(&text), &fractum_systems::stock_registry()).unwrap();
+    for _ in 0..steps {
+        serial.simulation.step().unwrap();
+    }
+    let world = &mut serial.simulation.world;
+    let expected = world.resource::<EscapedParticles>().clone();
+    let serial_ids: Vec<u32> = state_of_particles::<Two>(world)
+        .unwrap()
+        .into_keys()
+        .collect();
     assert!(
-        message.contains("on_leave_grid") && message.contains("cannot run on several ranks yet"),
-        "{message}"
+        expected.count > 20 && serial_ids.len() > 100,
+        "{expected:?}, {} left",
+        serial_ids.len()
     );
+    let mut one_rank = None;
+    for ranks in 1..=4 {
+        let results = removed_on_ranks(&text, ranks, steps);
+        // Every rank holds the run's count and first removed particle: one process's.
+        for (_, escaped) in &results {
+            assert_eq!(escaped.count, expected.count, "{ranks} ranks");
+            assert_eq!(escaped.first, expected.first, "{ranks} ranks");
+            assert!(escaped.removed.is_empty(), "a rank despawned rows");
+        }
+        let mut merged = States::new();
+        for (owned, _) in results {
+            merged.extend(owned);
+        }
+        // The same particles are left as in one process, each owned by one rank.
+        assert_eq!(merged.keys().copied().collect::<Vec<_>>(), serial_ids);
+        // One process moves its last rows into the removed ones' places, so its node sums
+        // then add in another order; the ranks keep their rows in id order, so every rank
+        // count gives the same bits.
+        match &one_rank {
+            None => one_rank = Some(merged),
+            Some(reference) => {
+                assert_states_match(reference, &[(merged, Columns::new(), 0, 0)], ranks)
+            }
+        }
+    }
 }

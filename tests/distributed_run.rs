@@ -390,6 +390,50 @@ fn a_particle_leaving_the_grid_on_one_rank_stops_every_rank_with_its_message() {
 }
 
 #[test]
+fn particles_removed_on_leaving_the_grid_are_the_single_process_removals_on_any_rank_count() {
+    // The lower disk flies out through the right side, where the last rank's slab is, and the
+    // run goes on without it.
+    let text = scene(400, 6.0).replace(
+        "    units: SI,",
+        "    units: SI,\n    safety: (on_leave_grid: Remove),",
+    );
+    let serial_dir = out_dir("removed-serial");
+    let serial = run_serial(&text, &serial_dir).unwrap();
+    let (header, reference) = series(&serial_dir);
+    let first = read_particle_frame(&serial_dir.join("frames/particles_00000000.vtu")).unwrap();
+    let last = read_particle_frame(&serial_dir.join("frames/particles_00000400.vtu")).unwrap();
+    let mass: f64 = first.mass.iter().sum();
+    assert!(
+        serial.removed > 100 && !last.id.is_empty(),
+        "{} removed, {} left",
+        serial.removed,
+        last.id.len()
+    );
+    for ranks in [2, 3] {
+        let dir = out_dir(&format!("removed-ranks-{ranks}"));
+        for outcome in run_ranks(&text, ranks, &dir, vec![false; ranks]) {
+            let summary = outcome.unwrap();
+            assert_eq!((summary.steps, summary.removed), (400, serial.removed));
+        }
+        // One process moves its last rows into the removed ones' places, and its sums add in
+        // that order from then on; the series agree to the tolerance of sums in another order.
+        let (rank_header, rows) = series(&dir);
+        assert_eq!(rank_header, header);
+        assert_series_close(&header, &reference, &rows, mass, &format!("{ranks} ranks"));
+        let frame = read_particle_frame(&dir.join("frames/particles_00000400.pvtu")).unwrap();
+        let ids = |f: &ParticleFrame| {
+            by_id(f.clone())
+                .into_iter()
+                .map(|r| r.0)
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(ids(&frame), ids(&last), "{ranks} ranks");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+    std::fs::remove_dir_all(&serial_dir).unwrap();
+}
+
+#[test]
 fn an_interrupt_seen_by_one_rank_stops_every_rank_after_the_same_step() {
     let text = scene(300, 0.4);
     let dir = out_dir("interrupted");

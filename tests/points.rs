@@ -145,6 +145,18 @@ fn vtu_files_from_meshio_and_from_fractum_give_the_csv_s_particles() {
 /// A 2D scene over the unit square whose one body is the particle file `csv` (written beside
 /// it), with the damage law `damage` (a pipeline entry, or empty for none).
 fn scene_with_points(name: &str, csv: &str, damage: &str) -> Result<Built, SceneError> {
+    scene_with_points_built(name, csv, damage, |file, registry| {
+        build_simulation(file, registry)
+    })
+}
+
+/// [`scene_with_points`], built by `build`.
+fn scene_with_points_built(
+    name: &str,
+    csv: &str,
+    damage: &str,
+    build: impl FnOnce(&SceneFile, &fractum_engine::registry::Registry) -> Result<Built, SceneError>,
+) -> Result<Built, SceneError> {
     let dir = temp_dir(name);
     std::fs::write(dir.join("p.csv"), csv).unwrap();
     let text = format!(
@@ -164,7 +176,7 @@ fn scene_with_points(name: &str, csv: &str, damage: &str) -> Result<Built, Scene
     );
     let scene = dir.join("scene.ron");
     let file = SceneFile::parse(&scene.to_string_lossy(), text).unwrap();
-    let built = build_simulation(&file, &fractum_systems::stock_registry());
+    let built = build(&file, &fractum_systems::stock_registry());
     std::fs::remove_dir_all(&dir).unwrap();
     built
 }
@@ -217,4 +229,22 @@ fn strength_scales_that_no_damage_law_reads_are_refused() {
         Err(e) => e.to_string(),
     };
     assert!(error.contains("line 2: `strength_scale` is 0"), "{error}");
+}
+
+#[test]
+fn strength_scales_on_several_ranks_are_refused_with_the_reason() {
+    // The scale goes with a particle only at the build, and a rank's particles that arrive
+    // later are spawned without it, in another table.
+    let law = r#"(system: "damage/time_to_failure", params: (tensile_strength: 100.0, crack_speed: 200.0)),"#;
+    let refused = scene_with_points_built("ranks", SCALED, law, |file, registry| {
+        fractum_engine::scene::build_rank_simulation(file, registry, 0, 2)
+    });
+    let error = match refused {
+        Ok(_) => panic!("strength scales were accepted on two ranks"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        error.contains("`bodies[0]`") && error.contains("cannot run on several ranks yet"),
+        "{error}"
+    );
 }

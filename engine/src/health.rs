@@ -518,6 +518,24 @@ pub struct EscapedParticles {
     pub first: Option<(u32, [f64; 3])>,
 }
 
+impl EscapedParticles {
+    /// The failure of a run whose every particle has left the grid, after step `step`.
+    pub fn nothing_left(&self, step: u64) -> Blowup {
+        let first = self.first.map_or(String::new(), |(id, x)| {
+            format!(" (the first, particle {id}, at {x:?})")
+        });
+        Blowup::new(
+            step,
+            Stage::Advection,
+            format!(
+                "every particle has left the grid: {} removed{first}; nothing is left to \
+                 simulate",
+                self.count
+            ),
+        )
+    }
+}
+
 /// Despawns the particles outside the grid (run after advection under [`LeaveGrid::Remove`]).
 /// The removal takes effect at the end of the step; particle rows are renumbered, which every
 /// system handles because per-row state is rebuilt when the particle count changes.
@@ -533,6 +551,25 @@ pub fn remove_escaped_particles<D: Dim>(
             escaped.removed.push(id.0);
             escaped.first.get_or_insert((id.0, x.0.to_3d()));
             commands.entity(entity).despawn();
+        }
+    }
+}
+
+/// A rank's counterpart of [`remove_escaped_particles`] in a distributed run (run after
+/// advection under [`LeaveGrid::Remove`]): the particles it owns that are outside the grid are
+/// owned no more, so that nothing after advection counts them (the energy account's work), and
+/// are listed in [`Ownership::escaped`] for the step's redistribution to drop and count. A
+/// rank despawns none in the step: its rows would move.
+pub fn mark_escaped_particles<D: Dim>(
+    grid: Res<Grid<D>>,
+    mut ownership: ResMut<Ownership>,
+    particles: Query<(&ParticleId, &Position<D>), With<Particle>>,
+) {
+    let ownership = &mut *ownership;
+    for (row, (id, x)) in particles.iter().enumerate() {
+        if ownership.owns_particle(row) && !grid.contains(x.0) && x.0.is_finite() {
+            ownership.particles[row] = false;
+            ownership.escaped.push((id.0, x.0.to_3d()));
         }
     }
 }

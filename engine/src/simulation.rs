@@ -397,18 +397,7 @@ impl Simulation {
                 .get_resource::<crate::health::EscapedParticles>()
                 .cloned()
                 .unwrap_or_default();
-            let first = escaped.first.map_or(String::new(), |(id, x)| {
-                format!(" (the first, particle {id}, at {x:?})")
-            });
-            return Err(Blowup::new(
-                clock_step(&self.world),
-                Stage::Advection,
-                format!(
-                    "every particle has left the grid: {} removed{first}; nothing is left to \
-                     simulate",
-                    escaped.count
-                ),
-            ));
+            return Err(escaped.nothing_left(clock_step(&self.world)));
         }
         Ok(())
     }

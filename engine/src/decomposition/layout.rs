@@ -131,6 +131,12 @@ pub struct Ownership {
     /// Per node index: owned here (on the lower face of one of this rank's cell layers, or
     /// the grid's last node layer for the last rank), so that each node counts on one rank.
     pub nodes: Vec<bool>,
+    /// The particles this rank owned that left the grid in this step under
+    /// `LeaveGrid::Remove` (id and position, x, y, z), no longer owned from the end of the
+    /// step's advection ([`crate::health::mark_escaped_particles`]); the step's redistribution
+    /// counts and drops them. Empty between steps.
+    #[serde(skip)]
+    pub escaped: Vec<(u32, [f64; 3])>,
 }
 
 impl Ownership {
@@ -161,6 +167,7 @@ impl Ownership {
             rebalances: 0,
             sent_bytes: 0,
             nodes,
+            escaped: Vec::new(),
         }
     }
 

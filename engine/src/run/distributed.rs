@@ -8,7 +8,9 @@ use crate::communicator::{Communicator, RankFailure};
 use crate::components::{Particle, ParticleBundle, ParticleId, Position};
 use crate::decomposition::{Layout, Ownership};
 use crate::dim::{Dim, VectorOps};
+use crate::health::{EscapedParticles, LeaveGrid};
 use crate::resources::Grid;
+use crate::resources::SimClock;
 use crate::with_dim;
 use bevy_ecs::prelude::*;
 
@@ -93,20 +95,33 @@ fn exchange_and_rebuild<D: Dim>(
         .unwrap_or_default();
     let layout = ownership.layout.clone();
     let me = ownership.rank;
+    let removing = world.get_resource::<LeaveGrid>() == Some(&LeaveGrid::Remove);
     // The particles this rank takes over: those whose step here was exact (they began near
-    // the slab) and that ended it in the slab.
+    // the slab) and that ended it in the slab. Under `LeaveGrid::Remove` a particle that ended
+    // the step outside the grid is taken over by none, and counted by its owner.
     let mut claimed = Vec::new();
-    let mut per_layer = vec![0.0; layout.cells()];
+    let escaped = std::mem::take(&mut ownership.escaped);
+    // Particles per cell layer, and the particles this rank removed in the last slot.
+    let mut per_layer = vec![0.0; layout.cells() + 1];
+    per_layer[layout.cells()] = escaped.len() as f64;
     for (row, (entity, id, x)) in rows::<D>(world).into_iter().enumerate() {
+        if removing && x.is_finite() && !grid.contains(x) {
+            continue;
+        }
         let layer = layer_of::<D>(&layout, &grid, x);
         if ownership.claimable.get(row).copied().unwrap_or(false) && layout.owner(layer) == me {
             claimed.push((row, entity, id, layer));
             per_layer[layer] += 1.0;
         }
     }
-    // Every rank takes part in the sum and the exchange, whatever it found, so that none waits
-    // for another; the failures are reported after them.
-    let per_layer: Vec<u64> = comm.sum(&per_layer).iter().map(|&n| n as u64).collect();
+    // Every rank takes part in the sums and the exchange, whatever it found, so that none
+    // waits for another; the failures are reported after them.
+    let mut per_layer: Vec<u64> = comm.sum(&per_layer).iter().map(|&n| n as u64).collect();
+    let removed = per_layer.pop().unwrap_or(0);
+    if removed > 0 {
+        record_removed(world, comm, &escaped, removed);
+        ownership.total -= removed.min(ownership.total);
+    }
     let owned: u64 = per_layer.iter().sum();
     let mut failure = (owned != ownership.total).then(|| {
         format!(
@@ -115,6 +130,14 @@ fn exchange_and_rebuild<D: Dim>(
             ownership.total, layout.halo
         )
     });
+    if ownership.total == 0 && failure.is_none() {
+        let escaped = world.resource::<EscapedParticles>();
+        failure = Some(
+            escaped
+                .nothing_left(world.resource::<SimClock>().step)
+                .to_string(),
+        );
+    }
     let next = rebalanced(&layout, &per_layer, ownership.rebalance_above);
     let (next, peers) = match next {
         // The slabs move: any rank may hold what another owned.
@@ -178,6 +201,29 @@ fn exchange_and_rebuild<D: Dim>(
         .collect();
     ownership.mark(layers.into_iter());
     Ok(())
+}
+
+/// Adds the `removed` particles that left the grid in this step, over every rank, to the
+/// run's [`EscapedParticles`], which every rank holds alike: the count, and the first removed
+/// when none was before (the lowest id, as one process, which removes a step's particles in
+/// row order and keeps its rows in id order until it first removes one). `escaped` are the ones
+/// this rank owned (`Ownership::escaped`). Every rank calls it after the same step.
+fn record_removed(
+    world: &mut World,
+    comm: &dyn Communicator,
+    escaped: &[(u32, [f64; 3])],
+    removed: u64,
+) {
+    let mut record = world.resource_mut::<EscapedParticles>();
+    record.count += removed;
+    if record.first.is_none() {
+        let lowest = escaped.iter().min_by_key(|e| e.0);
+        let id = comm.min(lowest.map_or(f64::INFINITY, |e| f64::from(e.0)));
+        // The owner of the lowest id gives its position; the others add zeros.
+        let mine = lowest.filter(|e| f64::from(e.0) == id);
+        let position = comm.sum(&mine.map_or([0.0; 3], |e| e.1));
+        record.first = Some((id as u32, [position[0], position[1], position[2]]));
+    }
 }
 
 /// Each slab's particles, from the particles per layer.

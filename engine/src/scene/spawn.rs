@@ -15,7 +15,7 @@ use crate::components::{
 use crate::connectivity::Connectivity;
 use crate::decomposition::Ownership;
 use crate::dim::{Dim, Lattice, VectorOps, lattice_range};
-use crate::health::{LeaveGrid, remove_escaped_particles};
+use crate::health::{LeaveGrid, mark_escaped_particles, remove_escaped_particles};
 use crate::loads::{LoadShare, ParticleLoads, apply_loads};
 use crate::output::{OutputPlan, ProbeKind};
 use crate::registry::Registry;
@@ -155,13 +155,6 @@ impl<D: Dim> Spec<D> {
                 "no basis system of this pipeline declares its support radius \
                  (Installer::declare_support_radius), so the halo a rank needs is unknown; run \
                  it as one process",
-            ));
-        }
-        if self.on_leave_grid == LeaveGrid::Remove {
-            return Err(self.source.error(
-                "on_leave_grid",
-                "particles removed on leaving the grid cannot run on several ranks yet; use \
-                 `Stop`, or run as one process",
             ));
         }
         let slabs = self.slabs(seeds, ranks)?.slabs;
@@ -408,8 +401,21 @@ impl<D: Dim> Spec<D> {
         world.insert_resource(crate::energy::EnergyWatch::with_floor(floor));
         schedule.add_systems(crate::energy::account_work::<D>.in_set(StepSet::AccountWork));
         if self.on_leave_grid == LeaveGrid::Remove {
-            schedule
-                .add_systems(remove_escaped_particles::<D>.in_set(StageCheck(Stage::Advection)));
+            if world.contains_resource::<Ownership>() {
+                // A rank despawns none in the step, which would move its rows: it disowns
+                // them after the check, before the work is accounted, and the step's
+                // redistribution drops them (`run::distributed`).
+                schedule.add_systems(
+                    mark_escaped_particles::<D>
+                        .after(StageCheck(Stage::Advection))
+                        .before(StageCheck(Stage::PostStep))
+                        .before(StepSet::AccountWork),
+                );
+            } else {
+                schedule.add_systems(
+                    remove_escaped_particles::<D>.in_set(StageCheck(Stage::Advection)),
+                );
+            }
         }
     }
 
