@@ -253,6 +253,12 @@ fn assert_run_matches_serial(name: &str, text: &str, steps: u64) -> (String, Vec
                 (steps, serial.particles)
             );
             assert_eq!(summary.frames, serial.frames);
+            // The energy watch judges the run's energy, not a rank's part of it.
+            assert_eq!(
+                summary.energy_created.map(|c| c.step),
+                serial.energy_created.map(|c| c.step),
+                "{ranks} ranks"
+            );
         }
         let (rank_header, rows) = series(&dir);
         assert_eq!(rank_header, header);

@@ -542,7 +542,8 @@ fn execute(
     let started = Instant::now();
     let first_step = sim.clock().step;
     let mut last_draw = Instant::now();
-    let mut warned = false;
+    // Every rank watches the run's energy alike; rank 0 says so.
+    let mut warned = comm.is_some_and(|c| c.rank() != 0);
     let result = run_with(sim, &built.output, out_dir, options, |sim| {
         if !warned
             && let Some(first) = sim

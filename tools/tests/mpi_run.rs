@@ -68,6 +68,13 @@ fn under_mpirun_three_ranks_run_and_resume_a_scene_as_the_single_process_does() 
     let first: Vec<&str> = first.iter().map(String::as_str).collect();
     let ran = mpirun(3, &first);
     assert!(ran.status.success(), "{}", text(&ran.stderr));
+    // The ranks watch the run's energy, not their parts of it: as one process, no warning.
+    assert_eq!(
+        text(&ran.stderr).matches("warning:").count(),
+        text(&serial.stderr).matches("warning:").count(),
+        "{}",
+        text(&ran.stderr)
+    );
     assert_eq!(
         text(&ran.stdout).matches("steps 900").count(),
         1,

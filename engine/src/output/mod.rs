@@ -17,8 +17,8 @@ pub use columns::{ColumnValues, FrameColumns};
 pub use csv::SeriesWriter;
 pub use frames::{grid_frame, particle_frame, refill_particle_frame};
 pub use probes::{
-    ForceProbeMemory, largest_energy_particle, must_be_finite, series_parts, series_row,
-    series_row_from,
+    ForceProbeMemory, initial_energy_part, largest_energy_particle, must_be_finite, series_parts,
+    series_row, series_row_from,
 };
 pub use pvd::{read_pvd, write_pvd};
 pub use pvtu::{piece_name, read_pvtu_pieces, write_pvtu};

@@ -276,6 +276,12 @@ fn series_parts_of<D: Dim>(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
     parts
 }
 
+/// The initial energy among series `parts` ([`series_parts`], or their sum over ranks): the
+/// energy account's parts (work, initial energy, dissipation) end them.
+pub fn initial_energy_part(parts: &[f64]) -> f64 {
+    parts.len().checked_sub(2).map_or(f64::NAN, |i| parts[i])
+}
+
 fn series_row_of<D: Dim>(world: &mut World, plan: &OutputPlan, parts: &[f64]) -> Vec<f64> {
     let layout = SeriesParts::of(plan);
     let t = Totals {

@@ -118,12 +118,10 @@ impl From<WriteFailure> for RunError {
 /// `dissipated_energy` accounts: dissipation is never negative, so a total energy above the
 /// work done is created energy whatever those accounts say (the uniaxial account of the
 /// Rankine laws reads up to 25% high, which alone would look like creation).
-fn watch_energy(sim: &mut Simulation, row: &[f64]) {
+/// `initial` is the run's initial energy: in a distributed run the sum of the ranks' parts,
+/// not this rank's account's.
+fn watch_energy(sim: &mut Simulation, row: &[f64], initial: f64) {
     let step = sim.clock().step;
-    let initial = sim
-        .world
-        .get_resource::<crate::energy::EnergyAccount>()
-        .map_or(f64::NAN, |a| a.initial_energy);
     let n = row.len();
     let (total, work) = (row[3], row[n - 2]);
     let mut watch = sim.world.get_resource_or_init::<EnergyWatch>();
@@ -295,7 +293,7 @@ impl Outputs<'_> {
                 None,
             ));
         }
-        watch_energy(sim, &row);
+        watch_energy(sim, &row, crate::output::initial_energy_part(&parts));
         let path = self.dir.join("series.csv");
         self.series.push(step, &row).map_err(io_error(&path))
     }
