@@ -439,6 +439,77 @@ fn particles_removed_on_leaving_the_grid_are_the_single_process_removals_on_any_
     std::fs::remove_dir_all(&serial_dir).unwrap();
 }
 
+/// Every frame `dir`'s collections list, with each of its pieces on disk: how many.
+fn listed_with_every_piece(dir: &Path) -> usize {
+    let mut listed = 0;
+    for collection in ["particles.pvd", "grid.pvd"] {
+        let Ok(frames) = read_pvd(&dir.join(collection)) else {
+            continue;
+        };
+        for (_, index) in frames {
+            let index = dir.join(index);
+            let pieces = read_pvtu_pieces(&index)
+                .unwrap_or_else(|e| panic!("{collection} lists {}: {e}", index.display()));
+            for piece in pieces {
+                let piece = index.parent().unwrap().join(piece);
+                assert!(
+                    piece.exists(),
+                    "{collection} lists {} before its piece {} is on disk",
+                    index.display(),
+                    piece.display()
+                );
+            }
+            listed += 1;
+        }
+    }
+    listed
+}
+
+#[test]
+fn the_collections_list_a_distributed_frame_only_once_every_piece_is_on_disk() {
+    // A particle and a grid frame at every step, so that the ranks' writers are still writing
+    // their pieces when rank 0 would list them; rank 0 looks after every step.
+    let steps = 40;
+    let text = scene(steps, 0.4).replace(
+        "output: (vtu_every: 100, grid_every: 100,",
+        "output: (vtu_every: 1, grid_every: 1,",
+    );
+    let dir = out_dir("collections");
+    let ranks = 3;
+    let threads: Vec<_> = thread_ranks(ranks)
+        .into_iter()
+        .map(|comm| {
+            let file = parse(&text);
+            let dir = dir.clone();
+            std::thread::spawn(move || {
+                use fractum_engine::communicator::Communicator;
+                let registry = fractum_systems::stock_registry();
+                let mut built =
+                    build_rank_simulation(&file, &registry, comm.rank(), comm.size()).unwrap();
+                let rank = comm.rank();
+                let options = RunOptions {
+                    communicator: Some(&comm),
+                    ..RunOptions::default()
+                };
+                let mut seen = 0;
+                run_with(&mut built.simulation, &built.output, &dir, options, |_| {
+                    if rank == 0 {
+                        seen = seen.max(listed_with_every_piece(&dir));
+                    }
+                })
+                .unwrap();
+                seen
+            })
+        })
+        .collect();
+    let seen: Vec<usize> = threads.into_iter().map(|t| t.join().unwrap()).collect();
+    // Frames were listed while the run went on, and at its end every frame is.
+    assert!(seen[0] > steps as usize, "rank 0 saw {} listed", seen[0]);
+    let every = 2 * (steps as usize + 1);
+    assert_eq!(listed_with_every_piece(&dir), every);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn an_interrupt_seen_by_one_rank_stops_every_rank_after_the_same_step() {
     let text = scene(300, 0.4);

@@ -145,18 +145,6 @@ fn vtu_files_from_meshio_and_from_fractum_give_the_csv_s_particles() {
 /// A 2D scene over the unit square whose one body is the particle file `csv` (written beside
 /// it), with the damage law `damage` (a pipeline entry, or empty for none).
 fn scene_with_points(name: &str, csv: &str, damage: &str) -> Result<Built, SceneError> {
-    scene_with_points_built(name, csv, damage, |file, registry| {
-        build_simulation(file, registry)
-    })
-}
-
-/// [`scene_with_points`], built by `build`.
-fn scene_with_points_built(
-    name: &str,
-    csv: &str,
-    damage: &str,
-    build: impl FnOnce(&SceneFile, &fractum_engine::registry::Registry) -> Result<Built, SceneError>,
-) -> Result<Built, SceneError> {
     let dir = temp_dir(name);
     std::fs::write(dir.join("p.csv"), csv).unwrap();
     let text = format!(
@@ -176,7 +164,7 @@ fn scene_with_points_built(
     );
     let scene = dir.join("scene.ron");
     let file = SceneFile::parse(&scene.to_string_lossy(), text).unwrap();
-    let built = build(&file, &fractum_systems::stock_registry());
+    let built = build_simulation(&file, &fractum_systems::stock_registry());
     std::fs::remove_dir_all(&dir).unwrap();
     built
 }
@@ -231,20 +219,123 @@ fn strength_scales_that_no_damage_law_reads_are_refused() {
     assert!(error.contains("line 2: `strength_scale` is 0"), "{error}");
 }
 
+/// A disk of particles from a file with a strength scale growing along x, thrown at a plain
+/// disk at rest, with time-to-failure damage: the scene's text, written beside its file in
+/// `dir`: the scene's path and text.
+fn scaled_disk_scene(dir: &std::path::Path) -> (String, String) {
+    let mut csv = String::from("x,y,volume,strength_scale\n");
+    let spacing = 0.025;
+    for i in 0..40 {
+        for j in 0..40 {
+            let (x, y) = (0.0125 + spacing * i as f64, 0.0125 + spacing * j as f64);
+            if (x - 0.3f64).hypot(y - 0.5) < 0.15 {
+                csv.push_str(&format!("{x},{y},{},{}\n", spacing * spacing, 1.0 + x));
+            }
+        }
+    }
+    std::fs::write(dir.join("disk.csv"), csv).unwrap();
+    let text = r#"(
+    time: (step: Fixed(1.0e-4), end: Steps(150)),
+    grid: (min: (0.0, 0.0), max: (1.0, 1.0), spacing: 0.05),
+    materials: {"rock": (density: 1000.0, youngs_modulus: 1.0e6, poisson_ratio: 0.2)},
+    bodies: [
+        (name: "scaled", shape: Points("disk.csv"), material: "rock",
+         velocity: Uniform((20.0, 0.0))),
+        (name: "plain", shape: Disk(center: (0.75, 0.5), radius: 0.1), material: "rock",
+         particles_per_cell: 2),
+    ],
+    pipeline: [
+        (system: "basis/linear"),
+        (system: "predictor/usl"),
+        (system: "stress/neo_hookean"),
+        (system: "damage/time_to_failure", params: (tensile_strength: 2.0e4, crack_speed: 200.0)),
+        (system: "advection/usl"),
+    ],
+)"#;
+    let scene = dir.join("scene.ron").to_string_lossy().into_owned();
+    (scene, text.to_string())
+}
+
 #[test]
-fn strength_scales_on_several_ranks_are_refused_with_the_reason() {
-    // The scale goes with a particle only at the build, and a rank's particles that arrive
-    // later are spawned without it, in another table.
-    let law = r#"(system: "damage/time_to_failure", params: (tensile_strength: 100.0, crack_speed: 200.0)),"#;
-    let refused = scene_with_points_built("ranks", SCALED, law, |file, registry| {
-        fractum_engine::scene::build_rank_simulation(file, registry, 0, 2)
-    });
-    let error = match refused {
-        Ok(_) => panic!("strength scales were accepted on two ranks"),
-        Err(e) => e.to_string(),
-    };
-    assert!(
-        error.contains("`bodies[0]`") && error.contains("cannot run on several ranks yet"),
-        "{error}"
-    );
+fn strength_scales_beside_a_body_without_them_leave_every_particle_in_one_table() {
+    let dir = temp_dir("scaled-and-plain");
+    let (path, text) = scaled_disk_scene(&dir);
+    let file = SceneFile::parse(&path, text).unwrap();
+    let mut built = build_simulation(&file, &fractum_systems::stock_registry()).unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    // The systems read the particles' columns as one table: steps run.
+    for _ in 0..5 {
+        built.simulation.step().unwrap();
+    }
+    let world = &mut built.simulation.world;
+    let mut query = world.query::<(
+        &Position<Two>,
+        &fractum_engine::components::BodyId,
+        &Strength,
+    )>();
+    for (x, body, strength) in query.iter(world) {
+        let expected = match body.0 {
+            // The file's scale, 1 + x at the seed; the disk has moved 5 steps at 20 m/s.
+            0 => 2.0e4 * (1.0 + x.0.x - 5.0 * 1.0e-4 * 20.0),
+            _ => 2.0e4,
+        };
+        assert!(
+            (strength.0 - expected).abs() < 1e-9 * expected,
+            "body {}: {} against {expected}",
+            body.0,
+            strength.0
+        );
+    }
+}
+
+#[test]
+fn strength_scales_over_ranks_give_every_particle_the_single_process_state() {
+    use fractum_engine::communicator::{Communicator, thread_ranks};
+    use fractum_engine::run::distributed::{self, state_of_particles};
+    let dir = temp_dir("scaled-ranks");
+    let (path, text) = scaled_disk_scene(&dir);
+    let file = SceneFile::parse(&path, text.clone()).unwrap();
+    let registry = fractum_systems::stock_registry();
+    let steps = 150;
+    let mut serial = build_simulation(&file, &registry).unwrap();
+    for _ in 0..steps {
+        serial.simulation.step().unwrap();
+    }
+    let reference = state_of_particles::<Two>(&mut serial.simulation.world).unwrap();
+    for ranks in 2..=3 {
+        let threads: Vec<_> = thread_ranks(ranks)
+            .into_iter()
+            .map(|comm| {
+                let file = SceneFile::parse(&path, text.clone()).unwrap();
+                std::thread::spawn(move || {
+                    let registry = fractum_systems::stock_registry();
+                    let mut built = fractum_engine::scene::build_rank_simulation(
+                        &file,
+                        &registry,
+                        comm.rank(),
+                        comm.size(),
+                    )
+                    .unwrap();
+                    for _ in 0..steps {
+                        distributed::step(&mut built.simulation, &comm).unwrap();
+                    }
+                    state_of_particles::<Two>(&mut built.simulation.world).unwrap()
+                })
+            })
+            .collect();
+        let mut merged = std::collections::BTreeMap::new();
+        for thread in threads {
+            merged.extend(thread.join().unwrap());
+        }
+        assert_eq!(merged.len(), reference.len(), "{ranks} ranks");
+        let differing = reference
+            .iter()
+            .filter(|(id, s)| merged.get(id) != Some(s))
+            .count();
+        assert_eq!(
+            differing, 0,
+            "{ranks} ranks: particles differ from one process"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
 }

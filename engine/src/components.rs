@@ -189,8 +189,9 @@ pub struct Strength(pub f64);
 
 /// A factor on a particle's tensile strength, given per particle by a particle file's
 /// `strength_scale` column (as GEOS's particle files give it): the damage laws that give each
-/// particle a [`Strength`] multiply it by this factor. Only particles whose file gives one
-/// carry it.
+/// particle a [`Strength`] multiply it by this factor. In a scene with such a file every
+/// particle carries one, 1 where no file gives it, so that all particles share one table (and
+/// particles arriving at a rank of a distributed run join it).
 #[derive(Component, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StrengthScale(pub f64);
 

@@ -79,6 +79,10 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             return if e.use_stderr() { EXIT_USAGE } else { 0 };
         }
     };
+    let divided = matches!(cli.command, Command::Run { .. } | Command::Resume { .. });
+    if !divided && let Some(code) = ranks::one_process_only() {
+        return code;
+    }
     match cli.command {
         Command::Systems => {
             out!("{}", systems_report(registry));

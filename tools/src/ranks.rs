@@ -7,7 +7,8 @@
 //! ([`communicator`]). A binary without the feature is refused before the scene is read, by
 //! every rank with the same exit code and the message printed once, by rank 0: otherwise each
 //! rank would run the whole scene into the same output folder. One rank (`mpirun -np 1`) runs
-//! as a plain process.
+//! as a plain process. Every other command started as several ranks is refused the same way
+//! ([`one_process_only`]).
 
 use fractum_engine::communicator::{Communicator, Serial};
 
@@ -58,6 +59,25 @@ pub fn several_ranks() -> Option<Result<Box<dyn Communicator>, i32>> {
         );
     }
     Some(Err(crate::EXIT_USAGE))
+}
+
+/// Refuses a command other than `run` and `resume` started as several ranks: it runs as one
+/// process, and every rank would run it whole, each writing the same files. The exit code every
+/// rank ends with, the reason printed once, by rank 0; `None` for one rank or none.
+pub fn one_process_only() -> Option<i32> {
+    let (rank, launched) = launched_ranks()?;
+    if launched <= 1 {
+        return None;
+    }
+    if rank == 0 {
+        eprintln!(
+            "error: this command was started as {launched} ranks (mpirun -np {launched}), but \
+             it runs as one process, and each rank would run it whole, writing the same files: \
+             only `fractum run` and `fractum resume` divide their work over ranks. Run it \
+             without mpirun"
+        );
+    }
+    Some(crate::EXIT_USAGE)
 }
 
 /// What a distributed run of a scene left after some steps, in a form ranks can add up: the

@@ -362,6 +362,37 @@ fn a_run_started_as_several_ranks_is_refused_once_and_one_rank_runs() {
 }
 
 #[test]
+fn a_command_other_than_run_started_as_several_ranks_is_refused_once() {
+    let as_rank = |rank: usize| {
+        command(&["verify", "--list"])
+            .env("OMPI_COMM_WORLD_RANK", rank.to_string())
+            .env("OMPI_COMM_WORLD_SIZE", "2")
+            .output()
+            .unwrap()
+    };
+    let first = as_rank(0);
+    assert_eq!(first.status.code(), Some(2));
+    let error = text(&first.stderr);
+    assert!(
+        error.contains("started as 2 ranks")
+            && error.contains("runs as one process")
+            && error.contains("only `fractum run` and `fractum resume`"),
+        "{error}"
+    );
+    assert!(first.stdout.is_empty(), "{}", text(&first.stdout));
+    let second = as_rank(1);
+    assert_eq!(second.status.code(), Some(2));
+    assert!(second.stderr.is_empty(), "{}", text(&second.stderr));
+    // One rank is a plain process.
+    let alone = command(&["verify", "--list"])
+        .env("OMPI_COMM_WORLD_RANK", "0")
+        .env("OMPI_COMM_WORLD_SIZE", "1")
+        .output()
+        .unwrap();
+    assert!(alone.status.success(), "{}", text(&alone.stderr));
+}
+
+#[test]
 fn check_estimate_divides_a_scene_over_ranks_in_balanced_slabs() {
     let out = fractum(&[
         "check",

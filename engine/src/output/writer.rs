@@ -3,7 +3,9 @@
 //! its own, which encodes it and writes it atomically while the next steps compute.
 //!
 //! - Files are written one at a time in the order they were handed over, so a `.pvd`
-//!   collection never names a frame that is not yet complete on disk.
+//!   collection never names a frame that is not yet complete on disk. In a distributed run
+//!   each rank writes its own pieces: the ranks agree on the frames whose every piece is on
+//!   disk ([`FrameWriter::frames_written`]) before rank 0 lists them.
 //! - At most one frame waits while another is written: the queue holds one, and handing over
 //!   another blocks until there is room. Beside the state, a run holds at most three frames
 //!   (one being written, one queued, one being handed over).
@@ -16,6 +18,7 @@
 use super::vtu::{grid_frame_file, particle_frame_file};
 use super::{FrameCompression, GridFrame, ParticleFrame, write_pvd, write_pvtu};
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
@@ -89,6 +92,8 @@ pub struct FrameWriter {
     worker: Option<JoinHandle<()>>,
     /// The first failure; later jobs are dropped unwritten once there is one.
     failure: Arc<Mutex<Option<WriteFailure>>>,
+    /// Particle and grid frames (or pieces) on disk so far.
+    written: Arc<[AtomicU64; 2]>,
 }
 
 impl FrameWriter {
@@ -96,7 +101,8 @@ impl FrameWriter {
     pub fn start(compression: FrameCompression) -> std::io::Result<Self> {
         let (jobs, queue) = sync_channel::<Job>(1);
         let failure = Arc::new(Mutex::new(None));
-        let shared = Arc::clone(&failure);
+        let written = Arc::new([AtomicU64::new(0), AtomicU64::new(0)]);
+        let shared = (Arc::clone(&failure), Arc::clone(&written));
         let worker = std::thread::Builder::new()
             .name("fractum-frames".into())
             .spawn(move || work(queue, shared, compression))?;
@@ -104,7 +110,18 @@ impl FrameWriter {
             jobs: Some(jobs),
             worker: Some(worker),
             failure,
+            written,
         })
+    }
+
+    /// The particle frames and the grid frames (or a distributed run's pieces of them) this
+    /// writer has put on disk so far, each with its index when it wrote one.
+    pub fn frames_written(&self) -> (u64, u64) {
+        let [particles, grid] = &*self.written;
+        (
+            particles.load(Ordering::Acquire),
+            grid.load(Ordering::Acquire),
+        )
     }
 
     /// Hands over a particle frame for `path`.
@@ -205,10 +222,15 @@ fn stopped(path: PathBuf) -> WriteFailure {
 
 fn work(
     queue: Receiver<Job>,
-    failure: Arc<Mutex<Option<WriteFailure>>>,
+    (failure, written): (Arc<Mutex<Option<WriteFailure>>>, Arc<[AtomicU64; 2]>),
     compression: FrameCompression,
 ) {
     for job in queue {
+        let counter = match &job {
+            Job::Particles(..) => Some(&written[0]),
+            Job::Grid(..) => Some(&written[1]),
+            _ => None,
+        };
         let failed = failure.lock().unwrap_or_else(|e| e.into_inner()).is_some();
         if failed {
             // Answer waits; write nothing more once a file has failed.
@@ -217,8 +239,13 @@ fn work(
             }
             continue;
         }
-        if let Err(f) = job.write(compression) {
-            *failure.lock().unwrap_or_else(|e| e.into_inner()) = Some(f);
+        match job.write(compression) {
+            Ok(()) => {
+                if let Some(counter) = counter {
+                    counter.fetch_add(1, Ordering::Release);
+                }
+            }
+            Err(f) => *failure.lock().unwrap_or_else(|e| e.into_inner()) = Some(f),
         }
     }
 }

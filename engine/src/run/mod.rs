@@ -136,6 +136,8 @@ struct Outputs<'a> {
     series: SeriesWriter,
     frames: Vec<(f64, String)>,
     grid_frames: Vec<(f64, String)>,
+    /// The particle and grid frames a resumed run began with, written before it.
+    inherited: [usize; 2],
     /// The step of the last row, particle frame and grid frame written.
     written: [Option<u64>; 3],
     /// Encodes and writes the frames while the next steps compute.
@@ -214,11 +216,53 @@ impl Outputs<'_> {
             }
         };
         self.frames.push((sim.clock().time, name));
+        self.list_frames(false)
+    }
+
+    /// Writes the `.pvd` collections (rank 0 of a distributed run) with the frames whose every
+    /// piece is on disk: one process's writer writes its collection after its frames, but the
+    /// other ranks' pieces may still be in flight, so the ranks agree on how many frames each
+    /// has written (every rank calls it at the same output step). `grid` for the grid frames.
+    fn list_frames(&mut self, grid: bool) -> Result<(), RunError> {
+        let (frames, name, k) = if grid {
+            (&self.grid_frames, "grid.pvd", 1)
+        } else {
+            (&self.frames, "particles.pvd", 0)
+        };
+        let listed = match self.comm {
+            None => frames.len(),
+            Some(comm) => {
+                let written = self.writer.frames_written();
+                let here = if grid { written.1 } else { written.0 };
+                (self.inherited[k] + comm.min(here as f64) as usize).min(frames.len())
+            }
+        };
         if self.comm.is_none_or(|c| c.rank() == 0) {
-            let pvd = self.dir.join("particles.pvd");
-            self.writer.collection(pvd, self.frames.clone())?;
+            let pvd = self.dir.join(name);
+            self.writer.collection(pvd, frames[..listed].to_vec())?;
         }
         Ok(())
+    }
+
+    /// Lists every frame in the collections of a distributed run, once every rank has settled
+    /// its files ([`Outputs::settle`] and an agreement): the collections then name every
+    /// frame, as one process's do. Nothing to do in one process.
+    fn list_every_frame(&mut self) -> Result<(), RunError> {
+        let Some(comm) = self.comm else {
+            return Ok(());
+        };
+        if comm.rank() == 0 {
+            for (name, frames) in [
+                ("particles.pvd", &self.frames),
+                ("grid.pvd", &self.grid_frames),
+            ] {
+                if !frames.is_empty() {
+                    self.writer
+                        .collection(self.dir.join(name), frames.clone())?;
+                }
+            }
+        }
+        self.writer.wait().map_err(RunError::from)
     }
 
     /// Writes the grid frame of `step` (this rank's piece of it, in a distributed run) and the
@@ -239,11 +283,7 @@ impl Outputs<'_> {
             }
         };
         self.grid_frames.push((sim.clock().time, name));
-        if self.comm.is_none_or(|c| c.rank() == 0) {
-            let pvd = self.dir.join("grid.pvd");
-            self.writer.collection(pvd, self.grid_frames.clone())?;
-        }
-        Ok(())
+        self.list_frames(true)
     }
 
     /// This rank's piece of the frame `frames/{stem}.pvtu` of a distributed run, which holds
@@ -444,6 +484,8 @@ pub fn run_with(
             let last_good = plan.last_good_frame.then_some(&last_good);
             let written = write_last_good(plan, &frames_dir, step, last_good, comm);
             let written = agreed(comm, settled.and(written))?;
+            let listed = outputs.list_every_frame();
+            agreed(comm, listed)?;
             return Err(failure.with_last_good(written));
         }
         let recorded = outputs.record(sim, false);
@@ -479,6 +521,8 @@ pub fn run_with(
     // The run ends only when its files are safe.
     let settled = outputs.settle();
     agreed(comm, settled)?;
+    let listed = outputs.list_every_frame();
+    agreed(comm, listed)?;
     let split_here = sim
         .world
         .get_resource::<crate::fields::FieldSplits>()
@@ -578,6 +622,7 @@ fn open_outputs<'a>(
         series,
         frames: Vec::new(),
         grid_frames: Vec::new(),
+        inherited: [0; 2],
         written: [None; 3],
         writer: FrameWriter::start(plan.compression).map_err(|source| RunError::Io {
             path: out_dir.join("frames"),
@@ -592,6 +637,7 @@ fn open_outputs<'a>(
         }
         outputs.frames = earlier.frames;
         outputs.grid_frames = earlier.grid_frames;
+        outputs.inherited = [outputs.frames.len(), outputs.grid_frames.len()];
         outputs.written = [Some(sim.clock().step); 3];
         if let Some(t) = earlier.next_checkpoint_time {
             schedule.next_time = Some(t);
@@ -650,6 +696,9 @@ fn checkpoint_now(
     // The checkpoint lists the frames written: they must be on disk first, on every rank.
     let settled = outputs.settle();
     agreed(comm, settled)?;
+    // The collections then name every frame the checkpoint records.
+    let listed = outputs.list_every_frame();
+    agreed(comm, listed)?;
     let saved = CheckpointOutputs {
         series_bytes: outputs.series.text().len() as u64,
         frames: outputs.frames.clone(),

@@ -134,10 +134,18 @@ impl<D: Dim> Spec<D> {
         world.insert_resource(self.seed_density(seeds));
         let mut schedule = step_schedule();
         self.install_pipeline(registry, &mut schedule, &mut world)?;
+        let mut templates = world
+            .remove_resource::<ComponentTemplates>()
+            .unwrap_or_default();
+        if !self.scaled_bodies().is_empty() {
+            // Every particle carries a strength scale, 1 where no file gives one, so that all
+            // of them share one table (and so do those that arrive at a rank later).
+            templates
+                .particles
+                .record(&crate::components::StrengthScale(1.0));
+        }
         Ok(PipelineProbe {
-            templates: world
-                .remove_resource::<ComponentTemplates>()
-                .unwrap_or_default(),
+            templates,
             declared: world
                 .remove_resource::<budget::ParticleMemory>()
                 .unwrap_or_default(),
@@ -145,6 +153,18 @@ impl<D: Dim> Spec<D> {
                 .remove_resource::<crate::decomposition::StepReach>()
                 .unwrap_or_default(),
         })
+    }
+
+    /// The bodies whose particle file gives a `strength_scale` column, by index.
+    pub(super) fn scaled_bodies(&self) -> Vec<u16> {
+        (self.bodies.iter().enumerate())
+            .filter(|(_, body)| {
+                body.shape
+                    .point_set()
+                    .is_some_and(|s| s.has_strength_scale())
+            })
+            .map(|(b, _)| b as u16)
+            .collect()
     }
 
     /// The mean number of particles per cell of the smallest width over every seed.

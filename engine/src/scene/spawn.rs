@@ -485,23 +485,21 @@ impl<D: Dim> Spec<D> {
             let mut bundles = self.body_particles(b, body, seeded, &mut next_id)?;
             self.share_loads(b, body, &mut bundles, &mut loads)?;
             if let Some(plan) = plan {
-                // Ids, load shares and strengths are the whole body's; the rank keeps its own.
-                if !strength_scales(body, &bundles).is_empty() {
-                    return Err(self.source.error(
-                        &format!("bodies[{b}]"),
-                        "a body whose particle file gives `strength_scale` cannot run on \
-                         several ranks yet; run it as one process",
-                    ));
-                }
+                // Ids, load shares and strength scales are the whole body's; the rank keeps its
+                // own.
                 bundles.retain(|p| plan.holds(&self.grid, p.position.0));
             }
             counts.push(bundles.len());
             let scales = strength_scales(body, &bundles);
             let entities = templates.spawn(world, bundles);
             for (k, scale) in scales {
-                world
-                    .entity_mut(entities[k])
-                    .insert(crate::components::StrengthScale(scale));
+                // Spawned with a scale of 1 (`Spec::probe_pipeline`): set in place, in the
+                // same table.
+                if let Some(mut given) =
+                    world.get_mut::<crate::components::StrengthScale>(entities[k])
+                {
+                    given.0 = scale;
+                }
             }
         }
         Ok((counts, loads))

@@ -138,10 +138,13 @@ impl<D: Dim> Spec<D> {
     /// of the pipeline gives the particles a finite tensile strength to scale.
     pub(super) fn check_strength_scales(&self, world: &mut World) -> Result<(), SceneError> {
         use crate::components::{BodyId, ParticleId, Strength, StrengthScale};
+        // Every particle of such a scene carries a scale; those of the files' bodies need a
+        // strength to scale.
+        let scaled = self.scaled_bodies();
         let mut query = world.query::<(&StrengthScale, &BodyId, &ParticleId, Option<&Strength>)>();
-        let unread = query
-            .iter(world)
-            .find(|(_, _, _, strength)| !strength.is_some_and(|s| s.0.is_finite()));
+        let unread = query.iter(world).find(|(_, body, _, strength)| {
+            scaled.contains(&body.0) && !strength.is_some_and(|s| s.0.is_finite())
+        });
         let Some((_, body, id, _)) = unread else {
             return Ok(());
         };
