@@ -239,6 +239,7 @@ fn by_id(mut frame: ParticleFrame) -> Vec<(u32, [f64; 3], [f64; 3], f64)> {
 fn assert_run_matches_serial(name: &str, text: &str, steps: u64) -> (String, Vec<Vec<f64>>) {
     let serial_dir = out_dir(&format!("{name}-serial"));
     let serial = run_serial(text, &serial_dir).unwrap();
+    assert_eq!(serial.ranks, None);
     let (header, reference) = series(&serial_dir);
     let last = format!("frames/particles_{steps:08}");
     let serial_frame = read_particle_frame(&serial_dir.join(format!("{last}.vtu"))).unwrap();
@@ -253,6 +254,13 @@ fn assert_run_matches_serial(name: &str, text: &str, steps: u64) -> (String, Vec
                 (steps, serial.particles)
             );
             assert_eq!(summary.frames, serial.frames);
+            // How the work divided: the same report on every rank.
+            let report = summary.ranks.expect("a distributed run reports its ranks");
+            assert_eq!(Some(report), outcomes[0].as_ref().unwrap().ranks);
+            assert_eq!(report.ranks, ranks);
+            if ranks > 1 {
+                assert!(report.held_over_owned > 1.0 && report.sent_per_step > 0.0);
+            }
             // The energy watch judges the run's energy, not a rank's part of it.
             assert_eq!(
                 summary.energy_created.map(|c| c.step),

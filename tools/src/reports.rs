@@ -255,8 +255,19 @@ pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
     } else {
         ""
     };
+    let ranks = s.ranks.map_or(String::new(), |r| {
+        format!(
+            "ranks {}: slabs re-cut {} times, the most loaded rank {:.1}% over the mean at the \
+             end; ghosts make {:.2}x the particles; {} sent per step per rank\n",
+            r.ranks,
+            r.rebalances,
+            100.0 * r.imbalance,
+            r.held_over_owned,
+            fractum_engine::scene::budget::describe_bytes(r.sent_per_step)
+        )
+    });
     format!(
-        "steps {}, simulated time {:.6e} s, particles {}, threads {threads}\nwall time {:.3} s, {:.4e} particle-steps/s\n{} VTU frames, output in {}\n{removed}{energy}{never_split}",
+        "steps {}, simulated time {:.6e} s, particles {}, threads {threads}\nwall time {:.3} s, {:.4e} particle-steps/s\n{} VTU frames, output in {}\n{ranks}{removed}{energy}{never_split}",
         s.steps,
         s.time,
         s.particles,

@@ -81,6 +81,11 @@ fn under_mpirun_three_ranks_run_and_resume_a_scene_as_the_single_process_does() 
         "rank 0 alone reports: {}",
         text(&ran.stdout)
     );
+    assert!(
+        text(&ran.stdout).contains("ranks 3: slabs re-cut"),
+        "{}",
+        text(&ran.stdout)
+    );
     let checkpoints = ranks_dir.join("checkpoints");
     let mut files: Vec<String> = std::fs::read_dir(&checkpoints)
         .unwrap()

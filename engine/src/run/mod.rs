@@ -91,6 +91,25 @@ pub struct RunSummary {
     pub never_split: bool,
     /// The last checkpoint written, if any.
     pub checkpoint: Option<PathBuf>,
+    /// How a distributed run divided its work over the ranks (`None` in one process).
+    pub ranks: Option<RankReport>,
+}
+
+/// How a distributed run divided its work, the same on every rank: the load balance and what
+/// the halos cost.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RankReport {
+    /// Ranks.
+    pub ranks: usize,
+    /// How often the slabs were re-cut to balance the ranks' particles.
+    pub rebalances: u64,
+    /// How far the most loaded rank was over the mean after the last step (0.05: 5%).
+    pub imbalance: f64,
+    /// The particles the ranks held at the end, owned and ghosts, over the run's particles: what
+    /// the halos add to the work.
+    pub held_over_owned: f64,
+    /// Bytes every rank sent to others per step of this run, on average over the ranks.
+    pub sent_per_step: f64,
 }
 
 impl RunSummary {
@@ -458,6 +477,8 @@ pub fn run_with(
     };
     let started = Instant::now();
     let first_step = sim.clock().step;
+    let sent_before =
+        (sim.world.get_resource::<crate::decomposition::Ownership>()).map_or(0, |o| o.sent_bytes);
     if !resumed {
         if let Some(comm) = comm {
             // Each rank's watch starts from the floor of the particles it owns: the run's is
@@ -552,7 +573,36 @@ pub fn run_with(
         interrupted,
         never_split: split == Some(false),
         checkpoint,
+        ranks: comm.map(|comm| rank_report(sim, comm, clock.step - first_step, sent_before)),
     })
+}
+
+/// The [`RankReport`] of a distributed run that took `steps` steps, every rank calling it;
+/// `sent_before` is what this rank had sent before them (a resumed run's earlier steps).
+fn rank_report(
+    sim: &mut Simulation,
+    comm: &dyn Communicator,
+    steps: u64,
+    sent_before: u64,
+) -> RankReport {
+    let ownership = sim.world.get_resource::<crate::decomposition::Ownership>();
+    let (rebalances, imbalance, sent) = ownership.map_or((0, 0.0, 0), |o| {
+        (
+            o.rebalances,
+            o.imbalance,
+            o.sent_bytes - sent_before.min(o.sent_bytes),
+        )
+    });
+    let held = sim.particle_count() as f64;
+    let owned = owned_particles(sim) as f64;
+    let sums = comm.sum(&[held, owned, sent as f64]);
+    RankReport {
+        ranks: comm.size(),
+        rebalances,
+        imbalance,
+        held_over_owned: sums[0] / sums[1].max(1.0),
+        sent_per_step: sums[2] / comm.size() as f64 / steps.max(1) as f64,
+    }
 }
 
 /// Why a step failed: a blow-up of one process, or the failure every rank agreed on.
