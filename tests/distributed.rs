@@ -69,9 +69,13 @@ fn serial<D: Dim>(text: &str, steps: u64) -> (States, Columns) {
     (state_of_particles::<D>(world).unwrap(), columns(world))
 }
 
-/// Each rank's owned particles and its series columns after `steps`, and how many particles
-/// each rank owned over the run that were first seeded on another rank.
-fn on_ranks<D: Dim>(text: &str, ranks: usize, steps: u64) -> Vec<(States, Columns, usize, u64)> {
+/// Builds rank `r`'s part of `text` on each of `ranks` ranks (threads) and hands it to `work`;
+/// each rank's result, by rank.
+fn each_rank<T: Send + 'static>(
+    text: &str,
+    ranks: usize,
+    work: impl Fn(&mut fractum_engine::Simulation, &dyn Communicator) -> T + Copy + Send + 'static,
+) -> Vec<T> {
     let threads: Vec<_> = thread_ranks(ranks)
         .into_iter()
         .map(|comm| {
@@ -80,21 +84,28 @@ fn on_ranks<D: Dim>(text: &str, ranks: usize, steps: u64) -> Vec<(States, Column
                 let registry = fractum_systems::stock_registry();
                 let mut built =
                     build_rank_simulation(&file, &registry, comm.rank(), comm.size()).unwrap();
-                let first = state_of_particles::<D>(&mut built.simulation.world).unwrap();
-                let mut arrived = std::collections::BTreeSet::<u32>::new();
-                for _ in 0..steps {
-                    distributed::step(&mut built.simulation, &comm).unwrap();
-                    let owned = state_of_particles::<D>(&mut built.simulation.world).unwrap();
-                    arrived.extend(owned.keys().filter(|id| !first.contains_key(id)));
-                }
-                let world = &mut built.simulation.world;
-                let owned = state_of_particles::<D>(world).unwrap();
-                let rebalances = world.resource::<Ownership>().rebalances;
-                (owned, columns(world), arrived.len(), rebalances)
+                work(&mut built.simulation, &comm)
             })
         })
         .collect();
     threads.into_iter().map(|t| t.join().unwrap()).collect()
+}
+
+/// Each rank's owned particles and its series columns after `steps`, and how many particles
+/// each rank owned over the run that were first seeded on another rank.
+fn on_ranks<D: Dim>(text: &str, ranks: usize, steps: u64) -> Vec<(States, Columns, usize, u64)> {
+    each_rank(text, ranks, move |sim, comm| {
+        let first = state_of_particles::<D>(&mut sim.world).unwrap();
+        let mut arrived = std::collections::BTreeSet::<u32>::new();
+        for _ in 0..steps {
+            distributed::step(sim, comm).unwrap();
+            let owned = state_of_particles::<D>(&mut sim.world).unwrap();
+            arrived.extend(owned.keys().filter(|id| !first.contains_key(id)));
+        }
+        let owned = state_of_particles::<D>(&mut sim.world).unwrap();
+        let rebalances = sim.world.resource::<Ownership>().rebalances;
+        (owned, columns(&sim.world), arrived.len(), rebalances)
+    })
 }
 
 /// Every particle is owned by one rank of `results`, with the state it has in `reference`.
@@ -321,24 +332,13 @@ fn leaving(pipeline: &str, steps: u64) -> String {
 /// The particles removed so far, as each rank of `ranks` holds the count after `steps`, with
 /// each rank's owned particles.
 fn removed_on_ranks(text: &str, ranks: usize, steps: u64) -> Vec<(States, EscapedParticles)> {
-    let threads: Vec<_> = thread_ranks(ranks)
-        .into_iter()
-        .map(|comm| {
-            let file = parse(text);
-            std::thread::spawn(move || {
-                let registry = fractum_systems::stock_registry();
-                let mut built =
-                    build_rank_simulation(&file, &registry, comm.rank(), comm.size()).unwrap();
-                for _ in 0..steps {
-                    distributed::step(&mut built.simulation, &comm).unwrap();
-                }
-                let world = &mut built.simulation.world;
-                let escaped = world.resource::<EscapedParticles>().clone();
-                (state_of_particles::<Two>(world).unwrap(), escaped)
-            })
-        })
-        .collect();
-    threads.into_iter().map(|t| t.join().unwrap()).collect()
+    each_rank(text, ranks, move |sim, comm| {
+        for _ in 0..steps {
+            distributed::step(sim, comm).unwrap();
+        }
+        let escaped = sim.world.resource::<EscapedParticles>().clone();
+        (state_of_particles::<Two>(&mut sim.world).unwrap(), escaped)
+    })
 }
 
 #[test]
@@ -383,6 +383,37 @@ fn particles_removed_on_leaving_the_grid_leave_every_rank_count_alike() {
             Some(reference) => {
                 assert_states_match(reference, &[(merged, Columns::new(), 0, 0)], ranks)
             }
+        }
+    }
+}
+
+#[test]
+fn every_particle_leaving_the_grid_stops_every_rank_as_one_process_stops() {
+    // Both disks thrown out through the right side.
+    let text = leaving(USL, 400).replace(
+        "velocity: Uniform((0.4, 0.1))",
+        "velocity: Uniform((4.0, 0.1))",
+    );
+    let mut serial = build_simulation(&parse(&text), &fractum_systems::stock_registry()).unwrap();
+    let expected = loop {
+        if let Err(blowup) = serial.simulation.step() {
+            break blowup.to_string();
+        }
+    };
+    assert!(
+        expected.contains("every particle has left the grid"),
+        "{expected}"
+    );
+    for ranks in [2, 3] {
+        let failures = each_rank(&text, ranks, |sim, comm| {
+            loop {
+                if let Err(failure) = distributed::step(sim, comm) {
+                    break failure.message;
+                }
+            }
+        });
+        for message in failures {
+            assert_eq!(message, expected, "{ranks} ranks");
         }
     }
 }
