@@ -335,7 +335,7 @@ fn slabs_report(ranks: &fractum_engine::scene::RankSlabs, out: &mut String) {
     let _ = writeln!(
         out,
         "  each rank also holds the particles within {} cell layers of its slab (ghosts, as \
-         deep as a step reaches)",
+         deep as a step reaches), and every node of the grid",
         ranks.halo
     );
     for (rank, (((layers, particles), (low, high)), (held, bytes))) in slabs
