@@ -360,6 +360,7 @@ fn on_substrate(h: f64, height: f64, end: f64) -> Spec<Two> {
         spacing: h,
         cells: [(0.8 / h).round() as usize, (height / h).round() as usize],
         graded: None,
+        window: None,
     })
     .time(TimeStep::Cfl(0.4), End::Time(end))
     .material(Material::new("stiff", 1000.0, 2.0e7, 0.25))
@@ -558,6 +559,7 @@ fn pull_cracked_bar(integrator: &[(&str, Option<&str>)], partition: Option<&str>
         spacing: h,
         cells: [24, 6],
         graded: None,
+        window: None,
     })
     .time(TimeStep::Cfl(0.4), End::Time(0.02))
     .material(Material::new("bar", 1000.0, 1.0e7, 0.0))
@@ -921,6 +923,7 @@ fn bars_meeting_end_to_end_carry_the_plane_wave_contact_stress() {
         spacing: h,
         cells: [52, 4],
         graded: None,
+        window: None,
     })
     .time(TimeStep::Cfl(0.5), End::Time(2.0 * transit))
     .material(Material::new("concrete", rho, e, nu))

@@ -3,9 +3,10 @@
 //! is refused with its reason. The same steps under `mpirun` are `tools/tests/mpi_run.rs`.
 
 use fractum_engine::communicator::{Communicator, thread_ranks};
-use fractum_engine::decomposition::Ownership;
+use fractum_engine::decomposition::{Ownership, RankRebuild, rank_grid};
 use fractum_engine::dim::{Dim, Three, Two};
 use fractum_engine::health::EscapedParticles;
+use fractum_engine::resources::Grid;
 use fractum_engine::run::distributed::{self, state_of_particles};
 use fractum_engine::scene::{SceneFile, build_rank_simulation, build_simulation};
 use fractum_engine::series::SeriesColumns;
@@ -91,9 +92,49 @@ fn each_rank<T: Send + 'static>(
     threads.into_iter().map(|t| t.join().unwrap()).collect()
 }
 
-/// Each rank's owned particles and its series columns after `steps`, and how many particles
-/// each rank owned over the run that were first seeded on another rank.
-fn on_ranks<D: Dim>(text: &str, ranks: usize, steps: u64) -> Vec<(States, Columns, usize, u64)> {
+/// A rank's nodes after a run: how many it held and owned of the grid's, whether they were
+/// those its slabs at the end reach, and how often its world was built afresh for re-cut
+/// slabs.
+#[derive(Clone, Debug)]
+struct RankNodes {
+    held: usize,
+    owned: usize,
+    grid: usize,
+    follow_the_slabs: bool,
+    rebuilds: u64,
+}
+
+fn rank_nodes<D: Dim>(world: &bevy_ecs::world::World) -> RankNodes {
+    let grid = world.resource::<Grid<D>>();
+    let ownership = world.resource::<Ownership>();
+    let reach = world.resource::<RankRebuild>().node_reach;
+    let wanted = rank_grid(grid, &ownership.layout, ownership.rank, reach);
+    RankNodes {
+        held: grid.node_count(),
+        owned: ownership.nodes.iter().filter(|&&o| o).count(),
+        grid: grid.global_node_count(),
+        follow_the_slabs: wanted == *grid,
+        rebuilds: ownership.rebuilds,
+    }
+}
+
+/// Each rank holds the nodes its slabs reach, and every node is owned by one rank.
+fn assert_nodes_follow_the_slabs(nodes: &[RankNodes]) {
+    let ranks = nodes.len();
+    assert!(nodes.iter().all(|n| n.follow_the_slabs), "{nodes:?}");
+    let owned: usize = nodes.iter().map(|n| n.owned).sum();
+    assert_eq!(owned, nodes[0].grid, "{ranks} ranks: {nodes:?}");
+}
+
+/// On 4 ranks a re-cut moved some rank's nodes, so that its world was built afresh for them
+/// during the run (and its particles stayed the single process's).
+fn assert_worlds_rebuilt(nodes: &[RankNodes]) {
+    assert!(nodes.iter().any(|n| n.rebuilds > 0), "{nodes:?}");
+}
+
+/// Each rank's owned particles and its series columns after `steps`, how many particles each
+/// rank owned over the run that were first seeded on another rank, its re-cuts and its nodes.
+fn on_ranks<D: Dim>(text: &str, ranks: usize, steps: u64) -> Vec<RankResult> {
     each_rank(text, ranks, move |sim, comm| {
         let first = state_of_particles::<D>(&mut sim.world).unwrap();
         let mut arrived = std::collections::BTreeSet::<u32>::new();
@@ -104,18 +145,22 @@ fn on_ranks<D: Dim>(text: &str, ranks: usize, steps: u64) -> Vec<(States, Column
         }
         let owned = state_of_particles::<D>(&mut sim.world).unwrap();
         let rebalances = sim.world.resource::<Ownership>().rebalances;
-        (owned, columns(&sim.world), arrived.len(), rebalances)
+        let nodes = rank_nodes::<D>(&sim.world);
+        (owned, columns(&sim.world), arrived.len(), rebalances, nodes)
     })
 }
 
+/// What [`on_ranks`] gives for each rank.
+type RankResult = (States, Columns, usize, u64, RankNodes);
+
 /// Every particle is owned by one rank of `results`, with the state it has in `reference`.
-fn assert_states_match(
+fn assert_states_match<'a>(
     reference: &States,
-    results: &[(States, Columns, usize, u64)],
+    results: impl IntoIterator<Item = &'a States>,
     ranks: usize,
 ) {
     let mut merged = States::new();
-    for (owned, ..) in results {
+    for owned in results {
         for (id, state) in owned {
             assert!(
                 merged.insert(*id, state.clone()).is_none(),
@@ -141,17 +186,21 @@ fn assert_states_match(
 /// bit; each published column, summed over ranks, is the single process's to 1e-12 of its
 /// magnitude (the ranks add their parts in another order). Returns the single process's
 /// columns.
-fn assert_ranks_match_serial(pipeline: &str, steps: u64) -> Columns {
+fn assert_ranks_match_serial(pipeline: &str, steps: u64) -> (Columns, Vec<RankNodes>) {
     assert_scene_ranks_match_serial::<Two>(&scene(pipeline, steps), steps)
 }
 
 /// [`assert_ranks_match_serial`] for scene `text` in dimension `D`.
-fn assert_scene_ranks_match_serial<D: Dim>(text: &str, steps: u64) -> Columns {
+fn assert_scene_ranks_match_serial<D: Dim>(text: &str, steps: u64) -> (Columns, Vec<RankNodes>) {
     let (reference, reference_columns) = serial::<D>(text, steps);
     let mut rebalances_seen = Vec::new();
+    let mut nodes_on_four = Vec::new();
     for ranks in 1..=4 {
         let results = on_ranks::<D>(text, ranks, steps);
         rebalances_seen.push(results[0].3);
+        let nodes: Vec<RankNodes> = results.iter().map(|r| r.4.clone()).collect();
+        assert_nodes_follow_the_slabs(&nodes);
+        nodes_on_four = nodes;
         for (k, (name, value)) in reference_columns.iter().enumerate() {
             let summed: f64 = results.iter().map(|r| r.1[k].1).sum();
             assert!(
@@ -159,7 +208,7 @@ fn assert_scene_ranks_match_serial<D: Dim>(text: &str, steps: u64) -> Columns {
                 "{ranks} ranks: {name} is {summed}, the single process's {value}"
             );
         }
-        assert_states_match(&reference, &results, ranks);
+        assert_states_match(&reference, results.iter().map(|r| &r.0), ranks);
         if ranks > 1 {
             // The disks cross the slabs: particles changed hands.
             let moved: usize = results.iter().map(|r| r.2).sum();
@@ -175,13 +224,16 @@ fn assert_scene_ranks_match_serial<D: Dim>(text: &str, steps: u64) -> Columns {
         rebalances_seen[2..].iter().all(|&r| r > 0),
         "re-cuts on 1 to 4 ranks: {rebalances_seen:?}"
     );
-    reference_columns
+    (reference_columns, nodes_on_four)
 }
 
 #[test]
 fn two_disks_colliding_on_one_to_four_ranks_are_the_single_process_bit_for_bit() {
     // 0.4 m/s each over 0.5 s: the disks cross the slab boundaries and meet.
-    assert_ranks_match_serial(USL, 500);
+    let (_, nodes) = assert_ranks_match_serial(USL, 500);
+    // A halo of 4 layers on a 20-cell grid: each of 4 ranks holds fewer nodes than the grid.
+    assert!(nodes.iter().all(|n| n.held < n.grid), "{nodes:?}");
+    assert_worlds_rebuilt(&nodes);
 }
 
 #[test]
@@ -209,7 +261,7 @@ fn eigensoftening_with_lme_on_one_to_four_ranks_is_the_single_process() {
         (system: "damage/eigensoftening", params: (tensile_strength: 2.0,
             fracture_energy: 0.05, band_width: 0.1)),
         (system: "corrector/newmark"), (system: "advection/newmark")"#;
-    let columns = assert_ranks_match_serial(softening, 450);
+    let (columns, _) = assert_ranks_match_serial(softening, 450);
     let value = |name: &str| columns.iter().find(|c| c.0 == name).unwrap().1;
     assert!(value("damaged_particles") > 10.0, "{columns:?}");
     assert!(value("dissipated_energy") > 0.0, "{columns:?}");
@@ -219,7 +271,7 @@ fn eigensoftening_with_lme_on_one_to_four_ranks_is_the_single_process() {
 fn spheres_with_lme_and_eigensoftening_in_3d_on_one_to_four_ranks_are_the_single_process() {
     // Two spheres meet along x and crack where they meet, while both drift across the slabs.
     let text = include_str!("fixtures/two_spheres_lme_3d.ron");
-    let columns = assert_scene_ranks_match_serial::<Three>(text, 320);
+    let (columns, _) = assert_scene_ranks_match_serial::<Three>(text, 320);
     let value = |name: &str| columns.iter().find(|c| c.0 == name).unwrap().1;
     assert!(value("damaged_particles") > 0.0, "{columns:?}");
 }
@@ -232,7 +284,7 @@ fn disks_in_frictional_contact_on_one_to_four_ranks_are_the_single_process() {
         (system: "stress/linear_elastic"), (system: "partition/bodies"),
         (system: "contact/frictional", params: (friction: 0.3)),
         (system: "corrector/newmark"), (system: "advection/newmark")"#;
-    let columns = assert_ranks_match_serial(contact, 500);
+    let (columns, _) = assert_ranks_match_serial(contact, 500);
     let work = columns.iter().find(|c| c.0 == "contact_work").unwrap().1;
     assert!(work < 0.0, "{columns:?}");
 }
@@ -247,7 +299,8 @@ fn dfg_partitioned_cracks_with_contact_on_one_to_four_ranks_are_the_single_proce
         (system: "partition/dfg"),
         (system: "contact/frictional", params: (friction: 0.0, separability: 0.25)),
         (system: "corrector/newmark"), (system: "advection/newmark")"#;
-    let columns = assert_ranks_match_serial(dfg, 500);
+    let (columns, nodes) = assert_ranks_match_serial(dfg, 500);
+    assert_worlds_rebuilt(&nodes);
     let value = |name: &str| columns.iter().find(|c| c.0 == name).unwrap().1;
     assert!(value("failed_particles") > 0.0, "{columns:?}");
     assert!(value("contact_work") < 0.0, "{columns:?}");
@@ -262,7 +315,7 @@ fn eigenerosion_on_one_to_four_ranks_is_the_single_process() {
         (system: "stress/linear_elastic"),
         (system: "damage/eigenerosion", params: (fracture_energy: 0.02)),
         (system: "corrector/newmark"), (system: "advection/newmark")"#;
-    let columns = assert_ranks_match_serial(erosion, 450);
+    let (columns, _) = assert_ranks_match_serial(erosion, 450);
     let value = |name: &str| columns.iter().find(|c| c.0 == name).unwrap().1;
     assert!(value("failed_particles") > 10.0, "{columns:?}");
     assert!(value("dissipated_energy") > 0.0, "{columns:?}");
@@ -297,7 +350,8 @@ fn surface_detection_on_one_to_four_ranks_flags_what_the_single_process_flags() 
 )"#;
     let (reference, _) = serial::<Two>(text, 100);
     for ranks in 2..=4 {
-        assert_states_match(&reference, &on_ranks::<Two>(text, ranks, 100), ranks);
+        let results = on_ranks::<Two>(text, ranks, 100);
+        assert_states_match(&reference, results.iter().map(|r| &r.0), ranks);
     }
 }
 
@@ -309,7 +363,7 @@ fn penalty_contact_on_one_to_four_ranks_is_the_single_process() {
         (system: "predictor/newmark"), (system: "stress/linear_elastic"),
         (system: "contact/penalty", params: (friction: 0.5)),
         (system: "corrector/newmark"), (system: "advection/newmark")"#;
-    let columns = assert_ranks_match_serial(penalty, 500);
+    let (columns, _) = assert_ranks_match_serial(penalty, 500);
     let value = |name: &str| columns.iter().find(|c| c.0 == name).unwrap().1;
     assert!(value("friction_work") < 0.0, "{columns:?}");
 }
@@ -380,9 +434,7 @@ fn particles_removed_on_leaving_the_grid_leave_every_rank_count_alike() {
         // count gives the same bits.
         match &one_rank {
             None => one_rank = Some(merged),
-            Some(reference) => {
-                assert_states_match(reference, &[(merged, Columns::new(), 0, 0)], ranks)
-            }
+            Some(reference) => assert_states_match(reference, [&merged], ranks),
         }
     }
 }

@@ -42,6 +42,7 @@ fn grid2() -> Grid<Two> {
         spacing: H,
         cells: [40; 2],
         graded: None,
+        window: None,
     }
 }
 
@@ -51,6 +52,7 @@ fn grid3() -> Grid<Three> {
         spacing: H,
         cells: [40; 3],
         graded: None,
+        window: None,
     }
 }
 

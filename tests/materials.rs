@@ -22,6 +22,7 @@ fn blocks(stress: Vec<PipelineEntry>) -> Spec<Two> {
         spacing: 0.1,
         cells: [12, 6],
         graded: None,
+        window: None,
     })
     .time(TimeStep::Fixed(1.0e-5), End::Steps(1))
     .material(Material::new("steel", 7800.0, 2.0e11, 0.3))

@@ -33,6 +33,7 @@ fn grid2(cells: usize) -> Grid<Two> {
         spacing: 1.0 / cells as f64,
         cells: [cells; 2],
         graded: None,
+        window: None,
     }
 }
 
@@ -48,6 +49,7 @@ fn seeded3(shape: &Shape, cells: usize) -> Vec<(DVec3, f64)> {
         spacing: 1.0 / cells as f64,
         cells: [cells; 3],
         graded: None,
+        window: None,
     };
     particles_in_shape(shape, &grid, 2, Placement::Gauss, 1.0)
 }
@@ -213,6 +215,7 @@ fn two_disks(threads: usize) -> Built {
         spacing: 0.05,
         cells: [20; 2],
         graded: None,
+        window: None,
     };
     let spec = Spec::new(grid)
         .time(TimeStep::Fixed(1e-4), End::Steps(20))
@@ -348,6 +351,7 @@ fn boundary_groups_hold_the_grid_nodes_along_them() {
         spacing: h,
         cells: [50, 30],
         graded: None,
+        window: None,
     };
     let plate = || {
         Spec::new(grid.clone())
@@ -387,6 +391,7 @@ fn boundary_groups_hold_the_grid_nodes_along_them() {
         spacing: 0.025,
         cells: [12, 12, 8],
         graded: None,
+        window: None,
     };
     let block = Spec::new(grid)
         .time(TimeStep::Fixed(1e-7), End::Steps(1))

@@ -58,6 +58,7 @@ fn stretched_bar<D: Dim>() -> Spec<D> {
         spacing: 0.1,
         cells: D::Cell::from_fn(|a| if a == 0 { 10 } else { 2 }),
         graded: None,
+        window: None,
     };
     let shape = match D::N {
         2 => Shape::Rectangle {

@@ -38,6 +38,7 @@ fn scene(bodies: Vec<Body<Two>>) -> Spec<Two> {
         spacing: 0.0125,
         cells: [80, 40],
         graded: None,
+        window: None,
     };
     let mut spec = Spec::new(grid)
         .time(TimeStep::Fixed(1e-6), End::Steps(1))

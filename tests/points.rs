@@ -44,6 +44,7 @@ fn world_of(shape: Shape) -> bevy_ecs::world::World {
         spacing: 0.1,
         cells: [10, 10],
         graded: None,
+        window: None,
     };
     let built = build_elastic(
         Spec::new(grid)

@@ -27,6 +27,7 @@ fn particles_on(shape: Shape, cells: usize, threads: usize) -> Vec<([f64; 3], f6
         spacing: 0.1 / cells as f64,
         cells: [cells; 3],
         graded: None,
+        window: None,
     };
     let mut body = Body::new(shape, "steel");
     body.placement = Placement::Gauss;

@@ -586,6 +586,7 @@ mod tests {
             spacing: 0.25,
             cells: [8, 4],
             graded: None,
+            window: None,
         }
     }
 

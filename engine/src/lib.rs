@@ -57,7 +57,9 @@ pub mod prelude {
     pub use crate::registry::{
         Installer, MaterialFilter, ParamDoc, Params, Registration, Registry,
     };
-    pub use crate::resources::{BodyForce, Grid, Material, Materials, SimClock, Thickness};
+    pub use crate::resources::{
+        BodyForce, Grid, Material, Materials, NodeWindow, SimClock, Thickness,
+    };
     pub use crate::scene::SceneError;
     pub use crate::series::SeriesColumns;
     pub use crate::stage::{Stage, StepSet};

@@ -30,6 +30,29 @@ pub struct Grid<D: Dim> {
     pub cells: D::Cell,
     /// Node coordinates along each axis of a graded grid (`None`: uniform).
     pub graded: Option<Arc<GradedAxes>>,
+    /// The nodes this world holds, when not every node (`None`): a rank of a distributed run
+    /// holds the nodes its particles reach. Node indices ([`Grid::node_index`]) count the
+    /// held nodes; the geometry (corner, coordinates, cells) stays the whole grid's, so a node
+    /// is at the same position, to the bit, whichever world holds it.
+    pub window: Option<NodeWindow<D>>,
+}
+
+/// A box of a grid's nodes: those with lattice coordinates from `first` to `first + counts`
+/// (excluded) along each axis, numbered in the grid's order (the first axis fastest), so that
+/// the held nodes keep the whole grid's relative order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NodeWindow<D: Dim> {
+    /// Lattice coordinates of the box's first node.
+    pub first: D::Cell,
+    /// Nodes along each axis.
+    pub counts: D::Cell,
+}
+
+impl<D: Dim> NodeWindow<D> {
+    /// Whether the node with lattice coordinates `node` is in the box.
+    pub fn contains(&self, node: D::Cell) -> bool {
+        (0..D::N).all(|a| node[a] >= self.first[a] && node[a] < self.first[a] + self.counts[a])
+    }
 }
 
 /// Node coordinates along each axis of a graded (rectilinear) grid, strictly increasing.
@@ -47,6 +70,7 @@ impl<D: Dim> Grid<D> {
             spacing,
             cells,
             graded: None,
+            window: None,
         }
     }
 
@@ -73,6 +97,7 @@ impl<D: Dim> Grid<D> {
             spacing,
             cells,
             graded: Some(Arc::new(GradedAxes { coordinates })),
+            window: None,
         })
     }
 
@@ -109,9 +134,36 @@ impl<D: Dim> Grid<D> {
         D::Cell::from_fn(|a| self.cells[a] + 1)
     }
 
-    /// Total node count.
+    /// The nodes this world holds: the window's, or every node of the grid.
     pub fn node_count(&self) -> usize {
+        match &self.window {
+            Some(window) => window.counts.product(),
+            None => self.global_node_count(),
+        }
+    }
+
+    /// Every node of the grid, held here or not.
+    pub fn global_node_count(&self) -> usize {
         self.nodes_per_axis().product()
+    }
+
+    /// The grid holding the nodes of `window` only (clamped into the grid).
+    pub fn windowed(&self, window: NodeWindow<D>) -> Self {
+        let all = self.nodes_per_axis();
+        let first = D::Cell::from_fn(|a| window.first[a].min(all[a] - 1));
+        let counts = D::Cell::from_fn(|a| window.counts[a].min(all[a] - first[a]).max(1));
+        Self {
+            window: Some(NodeWindow { first, counts }),
+            ..self.clone()
+        }
+    }
+
+    /// The whole grid: the same geometry, every node held.
+    pub fn whole(&self) -> Self {
+        Self {
+            window: None,
+            ..self.clone()
+        }
     }
 
     /// Total cell count.
@@ -119,22 +171,51 @@ impl<D: Dim> Grid<D> {
         self.cells.product()
     }
 
-    /// Linear index `i + nx (j + ny k)` of the node with lattice coordinates `node`.
+    /// Linear index `i + nx (j + ny k)` of the node with lattice coordinates `node` among
+    /// the held nodes (counted from the window's first node, `nx`, `ny` the window's counts).
+    ///
+    /// # Panics
+    /// When the node is not held: a rank's window covers every node its particles reach
+    /// ([`crate::decomposition::Layout::node_window`]), so this is a broken invariant, and a
+    /// wrong index would corrupt another node's sums silently.
+    #[inline]
     pub fn node_index(&self, node: D::Cell) -> usize {
-        let counts = self.nodes_per_axis();
-        (0..D::N)
-            .rev()
-            .fold(0, |index, a| index * counts[a] + node[a])
+        match self.held_node_index(node) {
+            Some(index) => index,
+            None => panic!(
+                "node {:?} is outside the nodes this world holds ({:?})",
+                node.as_ref(),
+                self.window
+            ),
+        }
     }
 
-    /// Lattice coordinates of the node with linear index `index`.
+    /// [`Grid::node_index`], or `None` for a node this world does not hold.
+    #[inline]
+    pub fn held_node_index(&self, node: D::Cell) -> Option<usize> {
+        let (first, counts) = match &self.window {
+            Some(w) => (w.first, w.counts),
+            None => (D::Cell::default(), self.nodes_per_axis()),
+        };
+        let mut index = 0;
+        for a in (0..D::N).rev() {
+            let local = node[a].checked_sub(first[a]).filter(|&i| i < counts[a])?;
+            index = index * counts[a] + local;
+        }
+        Some(index)
+    }
+
+    /// Lattice coordinates (in the whole grid) of the held node with linear index `index`.
     pub fn node_lattice(&self, index: usize) -> D::Cell {
-        let counts = self.nodes_per_axis();
+        let (first, counts) = match &self.window {
+            Some(w) => (w.first, w.counts),
+            None => (D::Cell::default(), self.nodes_per_axis()),
+        };
         let mut rest = index;
         D::Cell::from_fn(|a| {
             let coordinate = rest % counts[a];
             rest /= counts[a];
-            coordinate
+            first[a] + coordinate
         })
     }
 
@@ -377,6 +458,7 @@ mod tests {
             spacing: 0.5,
             cells: [4, 2],
             graded: None,
+            window: None,
         };
         assert_eq!(grid.node_count(), 15);
         assert_eq!(grid.max(), DVec2::new(1.0, 1.0));
@@ -395,6 +477,7 @@ mod tests {
             spacing: 0.25,
             cells: [4, 2, 3],
             graded: None,
+            window: None,
         };
         assert_eq!(grid.node_count(), 5 * 3 * 4);
         assert_eq!(grid.cell_count(), 24);
@@ -410,6 +493,53 @@ mod tests {
         assert_eq!(grid.cell_of(grid.max()), Some([3, 1, 2]));
         assert_eq!(grid.cell_of(DVec3::new(0.3, -0.9, 2.0)), Some([1, 0, 0]));
         assert_eq!(grid.cell_of(DVec3::new(0.3, -0.9, 1.99)), None);
+    }
+
+    #[test]
+    fn a_window_numbers_its_nodes_in_the_grid_order_at_the_grid_positions() {
+        let grid = Grid::<Three>::uniform(DVec3::new(0.0, -1.0, 2.0), 0.25, [4, 2, 3]);
+        let window = NodeWindow {
+            first: [1, 0, 2],
+            counts: [3, 3, 2],
+        };
+        let held = grid.windowed(window);
+        assert_eq!(held.node_count(), 18);
+        assert_eq!(held.global_node_count(), grid.node_count());
+        let mut previous = None;
+        for index in 0..held.node_count() {
+            let node = held.node_lattice(index);
+            assert!(window.contains(node));
+            assert_eq!(held.node_index(node), index);
+            // The same bits as the whole grid's node.
+            assert_eq!(
+                held.node_position(index),
+                grid.node_position(grid.node_index(node))
+            );
+            // Ascending in the whole grid's numbering.
+            let global = grid.node_index(node);
+            assert!(previous.is_none_or(|p| p < global));
+            previous = Some(global);
+        }
+        assert_eq!(held.held_node_index([0, 0, 2]), None);
+        assert_eq!(held.held_node_index([1, 0, 4]), None);
+        assert_eq!(held.whole(), grid);
+        // A window reaching past the grid is clamped into it.
+        let clamped = grid.windowed(NodeWindow {
+            first: [0, 0, 3],
+            counts: [9, 9, 9],
+        });
+        assert_eq!(clamped.node_count(), 5 * 3);
+    }
+
+    #[test]
+    #[should_panic(expected = "outside the nodes this world holds")]
+    fn a_node_outside_the_window_is_refused_rather_than_numbered() {
+        let grid = Grid::<Two>::uniform(DVec2::ZERO, 1.0, [4, 4]);
+        let held = grid.windowed(NodeWindow {
+            first: [0, 2],
+            counts: [5, 3],
+        });
+        held.node_index([1, 1]);
     }
 
     #[test]

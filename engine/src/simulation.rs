@@ -224,6 +224,21 @@ impl Simulation {
         initialize_schedule(&mut self.schedule, &mut self.world)
     }
 
+    /// Takes the world and the step schedule of `fresh`, a simulation of the same scene built
+    /// afresh (a rank's world for re-cut slabs, [`crate::run::distributed::step`]), keeping
+    /// this one's threads, end, step cap and clock compensation; the stage times of profiling
+    /// go on adding up.
+    pub fn adopt_world(&mut self, fresh: Simulation) -> Result<(), String> {
+        let profiled = self.world.remove_resource::<crate::profile::StageClock>();
+        self.world = fresh.world;
+        self.schedule = fresh.schedule;
+        if let Some(clock) = profiled {
+            self.profile_stages()?;
+            self.world.insert_resource(clock);
+        }
+        Ok(())
+    }
+
     /// The bytes each system of the step reads and writes (see [`crate::traffic`]).
     pub fn traffic(&self) -> Vec<crate::traffic::SystemTraffic> {
         crate::traffic::schedule_traffic(&self.schedule, &self.world)

@@ -34,6 +34,7 @@ fn simulation() -> Simulation {
         spacing: H,
         cells: [CELLS + 8; 2],
         graded: None,
+        window: None,
     };
     let spec = Spec::new(grid)
         .named("<ecs overhead>")

@@ -20,6 +20,7 @@ fn grid<D: Dim>(cells: usize) -> Grid<D> {
         spacing: 1.0 / cells as f64,
         cells: D::Cell::from_fn(|_| cells),
         graded: None,
+        window: None,
     }
 }
 

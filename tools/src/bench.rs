@@ -121,6 +121,7 @@ pub fn bench_spec<D: Dim>(pipeline: BenchPipeline, particles: usize) -> Spec<D> 
         spacing: h,
         cells: D::Cell::from_fn(|_| cells + 8),
         graded: None,
+        window: None,
     };
     // Decreasing amplitudes along y (and z) so no two components are alike.
     let amplitude = D::Vector::from_fn(|a| 0.1 / (1 << a) as f64);

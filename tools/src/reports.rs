@@ -335,10 +335,10 @@ fn slabs_report(ranks: &fractum_engine::scene::RankSlabs, out: &mut String) {
     let _ = writeln!(
         out,
         "  each rank also holds the particles within {} cell layers of its slab (ghosts, as \
-         deep as a step reaches), and every node of the grid",
+         deep as a step reaches), and the nodes they reach",
         ranks.halo
     );
-    for (rank, (((layers, particles), (low, high)), (held, bytes))) in slabs
+    for (rank, (((layers, particles), (low, high)), (held, nodes, bytes))) in slabs
         .layers
         .iter()
         .zip(&slabs.particles)
@@ -349,11 +349,12 @@ fn slabs_report(ranks: &fractum_engine::scene::RankSlabs, out: &mut String) {
         let _ = writeln!(
             out,
             "  rank {rank:<4} {axis} {} to {} m (cell layers {}..{}): {particles} particles, \
-             {held} with ghosts, {}",
+             {held} with ghosts, {} nodes, {}",
             short(*low),
             short(*high),
             layers.start,
             layers.end,
+            fractum_engine::budget::describe_count(*nodes as f64),
             fractum_engine::budget::describe_bytes(*bytes)
         );
     }

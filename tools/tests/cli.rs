@@ -407,7 +407,7 @@ fn check_estimate_divides_a_scene_over_ranks_in_balanced_slabs() {
         report.contains("ranks      4 slabs along x, cut at cell faces; imbalance 0.8%"),
         "{report}"
     );
-    // "…: 12344 particles, 15480 with ghosts, 76.3 MiB": owned, held.
+    // "…: 12344 particles, 15480 with ghosts, 12915 nodes, 60.6 MiB": owned, held, nodes.
     let counts: Vec<(u64, u64)> = report
         .lines()
         .filter(|l| l.trim_start().starts_with("rank "))
@@ -416,6 +416,24 @@ fn check_estimate_divides_a_scene_over_ranks_in_balanced_slabs() {
             (words[0].parse().unwrap(), words[2].parse().unwrap())
         })
         .collect();
+    let nodes: Vec<usize> = report
+        .lines()
+        .filter(|l| l.trim_start().starts_with("rank "))
+        .map(|l| {
+            l.split(", ")
+                .nth(2)
+                .unwrap()
+                .trim_end_matches(" nodes")
+                .parse()
+                .unwrap()
+        })
+        .collect();
+    // A rank holds the nodes its held cell layers reach and 3 node layers more each way (linear
+    // basis: a cell of support, a step's motion, the cut), of 105 nodes each; the grid has 209.
+    // Rank 1 holds cell layers 103..150, so node layers 100..154.
+    assert!(report.contains("grid       21945 nodes"), "{report}");
+    assert_eq!(nodes[1], 54 * 105, "{report}");
+    assert!(nodes.iter().all(|&n| n < 21945), "{report}");
     let owned: Vec<u64> = counts.iter().map(|c| c.0).collect();
     assert_eq!(owned, vec![12344, 12152, 12304, 12400], "{report}");
     // DFG with its kernel reaches 8 layers; an inner rank holds ghosts on both sides.

@@ -317,9 +317,10 @@ fn under_mpirun_two_to_four_ranks_step_scenes_as_the_single_process_does() {
 
 #[test]
 fn under_mpirun_a_scene_too_large_for_one_process_runs_on_ranks_whose_parts_fit() {
-    // Kalthoff–Winkler's plate needs about 160 MiB as one process and at most 85 MiB on each of
-    // four ranks (`fractum check --estimate --ranks 4`); with 120 MB to each process, one
-    // process is refused and four ranks run.
+    // Kalthoff–Winkler's plate needs about 160 MiB as one process and at most 61 MiB on each of
+    // four ranks (`fractum check --estimate --ranks 4`), each holding the nodes its particles
+    // reach (every node, as ranks held before, made the largest part 85 MiB); with 72 MB to
+    // each process, one process is refused and four ranks run.
     let out_dir = std::env::temp_dir().join(format!("fractum-mpi-fit-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out_dir);
     let dir = out_dir.to_str().unwrap();
@@ -340,7 +341,7 @@ fn under_mpirun_a_scene_too_large_for_one_process_runs_on_ranks_whose_parts_fit(
             .arg(ranks.to_string())
             .arg(env!("CARGO_BIN_EXE_fractum"))
             .args(args)
-            .env("FRACTUM_MEMORY_LIMIT", "120e6")
+            .env("FRACTUM_MEMORY_LIMIT", "72e6")
             .current_dir(root())
             .output()
             .unwrap()

@@ -1,7 +1,8 @@
 //! What each rank of a distributed run holds: its slab of the grid's cell layers and a halo.
 //!
 //! **What a rank holds.** The particles of its slab (it *owns* them) and copies of every
-//! particle within [`Layout::halo`] layers of the slab (*ghosts*), with every node of the grid.
+//! particle within [`Layout::halo`] layers of the slab (*ghosts*), with the grid's nodes that
+//! those particles reach ([`Layout::node_layers`]).
 //! Each rank steps its particles, owned and ghost alike, with the scene's whole pipeline, in
 //! the order of their global ids ([`crate::run::distributed::redistribute`] keeps the rows sorted by id), so a node that
 //! an owned particle's step reads sums the same entries in the same order as the single
@@ -84,6 +85,14 @@ impl Layout {
         slab.start.saturating_sub(self.halo)..(slab.end + self.halo).min(self.cells())
     }
 
+    /// The node layers along the axis that rank `rank`'s particles reach: the nodes of its held
+    /// cell layers and `reach` node layers more on each side, within the grid's `cells() + 1`.
+    /// A rank's world holds these nodes only ([`crate::resources::Grid::window`]).
+    pub fn node_layers(&self, rank: usize, reach: usize) -> Range<usize> {
+        let held = self.held(rank);
+        held.start.saturating_sub(reach)..(held.end + 1 + reach).min(self.cells() + 1)
+    }
+
     /// The ranks that hold particles of `layer`, ascending.
     pub fn holders(&self, layer: usize) -> impl Iterator<Item = usize> + '_ {
         (0..self.slabs.len()).filter(move |&r| self.held(r).contains(&layer))
@@ -125,12 +134,19 @@ pub struct Ownership {
     pub imbalance: f64,
     /// How often the slabs were re-cut.
     pub rebalances: u64,
+    /// How often a re-cut moved the nodes this rank holds, so that its world was built afresh
+    /// for the new slabs (`crate::run::distributed::step`).
+    pub rebuilds: u64,
     /// Bytes this rank has sent to other ranks since the run began: each step's particles for
     /// their holders (`crate::run::distributed::redistribute`).
     pub sent_bytes: u64,
     /// Per node index: owned here (on the lower face of one of this rank's cell layers, or
     /// the grid's last node layer for the last rank), so that each node counts on one rank.
     pub nodes: Vec<bool>,
+    /// The slabs were re-cut after the last step, and the nodes this rank holds and owns are
+    /// still the last step's: they follow the slabs when the next step begins
+    /// (`crate::run::distributed::step`).
+    pub nodes_pending: bool,
     /// The particles this rank owned that left the grid in this step under
     /// `LeaveGrid::Remove` (id and position, x, y, z), no longer owned from the end of the
     /// step's advection ([`crate::health::mark_escaped_particles`]); the step's redistribution
@@ -149,14 +165,7 @@ impl Ownership {
         total: u64,
         node_layers: impl Iterator<Item = usize>,
     ) -> Self {
-        let slab = layout.slabs[rank].clone();
-        // Node layer `i` lies on the lower face of cell layer `i`: each node belongs to the
-        // slab of the cell layer above it, and the grid's last node layer to the last slab.
-        let last = slab.end == layout.cells();
-        let nodes = node_layers
-            .map(|i| slab.contains(&i) || (last && i == slab.end))
-            .collect();
-        Self {
+        let mut ownership = Self {
             rank,
             layout,
             particles: Vec::new(),
@@ -165,10 +174,26 @@ impl Ownership {
             rebalance_above: Some(0.1),
             imbalance: 0.0,
             rebalances: 0,
+            rebuilds: 0,
             sent_bytes: 0,
-            nodes,
+            nodes: Vec::new(),
+            nodes_pending: false,
             escaped: Vec::new(),
-        }
+        };
+        ownership.nodes = ownership.node_flags(node_layers);
+        ownership
+    }
+
+    /// Whether each node is owned here, from its lattice index along the axis (`node_layers`,
+    /// in node order).
+    pub fn node_flags(&self, node_layers: impl Iterator<Item = usize>) -> Vec<bool> {
+        let slab = self.layout.slabs[self.rank].clone();
+        // Node layer `i` lies on the lower face of cell layer `i`: each node belongs to the
+        // slab of the cell layer above it, and the grid's last node layer to the last slab.
+        let last = slab.end == self.layout.cells();
+        node_layers
+            .map(|i| slab.contains(&i) || (last && i == slab.end))
+            .collect()
     }
 
     /// Takes the slabs of `layout` (the same ranks and halo), with each node's lattice index
@@ -176,9 +201,11 @@ impl Ownership {
     pub fn relayout(&mut self, layout: Layout, node_layers: impl Iterator<Item = usize>) {
         let rebalances = self.rebalances + 1;
         let (above, total, sent) = (self.rebalance_above, self.total, self.sent_bytes);
+        let rebuilds = self.rebuilds;
         *self = Self::new(layout, self.rank, total, node_layers);
         self.rebalance_above = above;
         self.rebalances = rebalances;
+        self.rebuilds = rebuilds;
         self.sent_bytes = sent;
     }
 
@@ -229,6 +256,16 @@ mod tests {
         assert_eq!(l.peers(0), [1]);
         assert_eq!(l.peers(1), [0, 2]);
         assert_eq!(l.peers(2), [1]);
+        // The nodes of the held cell layers and two node layers more each way, within the
+        // grid's 13 node layers; every rank's own nodes among them.
+        assert_eq!(l.node_layers(0, 2), 0..10);
+        assert_eq!(l.node_layers(1, 2), 0..13);
+        assert_eq!(l.node_layers(2, 2), 5..13);
+        for rank in 0..3 {
+            let slab = &l.slabs[rank];
+            let nodes = l.node_layers(rank, 0);
+            assert!(nodes.start <= slab.start && nodes.end > slab.end, "{rank}");
+        }
         // A halo wider than a slab reaches past the neighbour: ranks 0 and 2 meet.
         let wide = Layout { halo: 7, ..l };
         assert_eq!(wide.peers(0), [1, 2]);

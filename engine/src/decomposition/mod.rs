@@ -16,9 +16,10 @@ pub use layout::{Layout, Ownership, StepReach, counts_here};
 use bevy_ecs::prelude::{Resource, World};
 
 /// A value of the whole scene that a system needs and a rank cannot find alone, such as the
-/// largest of a quantity over every particle: before each step for which `wanted` holds (the
-/// same on every rank), a distributed run takes each rank's `local` maximum over what it owns,
-/// and gives the greatest over ranks to every rank's world with `apply`
+/// largest of a quantity over every particle: before each step for which `wanted` holds on any
+/// rank (a rank whose world was built afresh for re-cut slabs wants it again), a distributed
+/// run takes each rank's `local` maximum over what it owns, and gives the greatest over ranks
+/// to every rank's world with `apply`
 /// ([`crate::run::distributed::step`]). One process never calls them: its system finds the
 /// value over its own particles.
 #[derive(Clone, Copy)]
@@ -36,6 +37,61 @@ pub struct RankMaximum {
 /// The [`RankMaximum`]s the pipeline asked for (`Installer::add_rank_maximum`).
 #[derive(Resource, Clone, Default)]
 pub struct RankMaxima(pub Vec<RankMaximum>);
+
+/// How a rank's world is built afresh for other slabs, a resource of a rank's world
+/// (`Spec::build_rank` inserts it). A rank holds the nodes its particles reach
+/// ([`rank_grid`]); when the slabs are re-cut and those nodes change,
+/// [`crate::run::distributed::step`] builds the rank's world for the new slabs from the scene
+/// and moves the run's state into it, as a resume would. Every system then starts from a
+/// world built for the nodes it holds, whatever it caches about them.
+#[derive(Resource, Clone)]
+pub struct RankRebuild {
+    /// Node layers a rank holds beyond the nodes of its held cell layers, on each side.
+    pub node_reach: usize,
+    build: RankBuilder,
+}
+
+/// Builds the world of one rank of a scene for the slabs of a layout.
+type RankBuilder =
+    std::sync::Arc<dyn Fn(&Layout) -> Result<crate::Simulation, String> + Send + Sync + 'static>;
+
+impl RankRebuild {
+    /// A rebuild that holds `node_reach` node layers beyond the held cells and builds with
+    /// `build`.
+    pub fn new(
+        node_reach: usize,
+        build: impl Fn(&Layout) -> Result<crate::Simulation, String> + Send + Sync + 'static,
+    ) -> Self {
+        Self {
+            node_reach,
+            build: std::sync::Arc::new(build),
+        }
+    }
+
+    /// The rank's simulation built from the scene for the slabs of `layout`.
+    pub fn build(&self, layout: &Layout) -> Result<crate::Simulation, String> {
+        (self.build)(layout)
+    }
+}
+
+/// The part of `grid` that rank `rank` of `layout` holds: every node along the other axes, and
+/// along the slabs' axis the node layers its held cell layers reach, with `node_reach` more
+/// on each side ([`Layout::node_layers`]).
+pub fn rank_grid<D: crate::dim::Dim>(
+    grid: &crate::resources::Grid<D>,
+    layout: &Layout,
+    rank: usize,
+    node_reach: usize,
+) -> crate::resources::Grid<D> {
+    use crate::dim::Lattice;
+    let axis = layout.axis;
+    let layers = layout.node_layers(rank, node_reach);
+    let all = grid.nodes_per_axis();
+    grid.whole().windowed(crate::resources::NodeWindow {
+        first: D::Cell::from_fn(|a| if a == axis { layers.start } else { 0 }),
+        counts: D::Cell::from_fn(|a| if a == axis { layers.len() } else { all[a] }),
+    })
+}
 
 use std::ops::Range;
 

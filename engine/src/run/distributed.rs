@@ -6,7 +6,7 @@
 use crate::checkpoint::CheckpointState;
 use crate::communicator::{Communicator, RankFailure};
 use crate::components::{Particle, ParticleBundle, ParticleId, Position};
-use crate::decomposition::{Layout, Ownership};
+use crate::decomposition::{Layout, Ownership, RankRebuild};
 use crate::dim::{Dim, VectorOps};
 use crate::health::{EscapedParticles, LeaveGrid};
 use crate::resources::Grid;
@@ -19,6 +19,8 @@ use bevy_ecs::prelude::*;
 /// (a blow-up it found, an exchange it could not decode) is returned by every rank, naming the
 /// first failing one.
 pub fn step(sim: &mut crate::Simulation, comm: &dyn Communicator) -> Result<(), RankFailure> {
+    let followed = with_dim!(sim.dimension(), D => follow_layout::<D>(sim));
+    comm.agree(followed.err().as_deref())?;
     agree_maxima(&mut sim.world, comm);
     let dt = comm.min(sim.planned_time_step());
     let stepped = sim.step_with_time_step(dt).map_err(|e| e.to_string());
@@ -27,14 +29,99 @@ pub fn step(sim: &mut crate::Simulation, comm: &dyn Communicator) -> Result<(), 
     comm.agree(moved.err().as_deref())
 }
 
+/// Moves this rank onto the nodes of its slabs, when they were re-cut after the last step
+/// ([`Ownership::nodes_pending`]). Until then the world kept the nodes the last step computed
+/// and owned, for what is read after a step (reactions, grid frames, a checkpoint). When the
+/// new slabs reach nodes the world does not hold, or no longer reach some it holds, the world
+/// is built afresh from the scene for them ([`RankRebuild`]) and the rank's particles, their
+/// carried state and the run's are put into it, as a resume puts a checkpoint into a fresh
+/// world; else only the nodes it owns change. A world built without a [`RankRebuild`] (one made
+/// by hand) keeps its nodes.
+fn follow_layout<D: Dim>(sim: &mut crate::Simulation) -> Result<(), String> {
+    let world = &mut sim.world;
+    let Some(mut ownership) = world
+        .get_resource::<Ownership>()
+        .filter(|o| o.nodes_pending)
+        .cloned()
+    else {
+        return Ok(());
+    };
+    ownership.nodes_pending = false;
+    let grid = world.resource::<Grid<D>>();
+    let wanted = world.get_resource::<RankRebuild>().map(|rebuild| {
+        let grid = crate::decomposition::rank_grid(
+            grid,
+            &ownership.layout,
+            ownership.rank,
+            rebuild.node_reach,
+        );
+        (grid, rebuild.clone())
+    });
+    let rebuild = match wanted {
+        Some((wanted, rebuild)) if wanted.window != grid.window => rebuild,
+        _ => {
+            // The same nodes: those owned here follow the slabs.
+            own_nodes::<D>(world, ownership);
+            return Ok(());
+        }
+    };
+    let saved = crate::checkpoint::capture(world).map_err(|e| e.to_string())?;
+    ownership.rebuilds += 1;
+    let mut fresh = rebuild.build(&ownership.layout).map_err(|e| {
+        format!(
+            "rank {} cannot build its world for the re-cut slabs: {e}",
+            ownership.rank
+        )
+    })?;
+    put_particles::<D>(&mut fresh.world, &saved.particles, ownership)?;
+    crate::checkpoint::restore(&mut fresh.world, &saved).map_err(|e| {
+        format!("the rank's state does not fit its world built for the re-cut slabs: {e}")
+    })?;
+    sim.adopt_world(fresh)
+}
+
+/// Gives `world`, a rank's world freshly built from the scene, the particles `ids` in that row
+/// order (rows spawned or despawned at the end of its table) and `ownership`; the particles'
+/// state is then to be restored.
+fn put_particles<D: Dim>(
+    world: &mut World,
+    ids: &[u32],
+    ownership: Ownership,
+) -> Result<(), String> {
+    resize_particles::<D>(world, ids.len())?;
+    let mut slots = world.query_filtered::<&mut ParticleId, With<Particle>>();
+    for (mut slot, &id) in slots.iter_mut(world).zip(ids) {
+        slot.0 = id;
+    }
+    own_nodes::<D>(world, ownership);
+    Ok(())
+}
+
+/// Gives `world` `ownership`, with the nodes it owns those of its slab among the nodes of the
+/// world's grid, and measures the reactions at them.
+fn own_nodes<D: Dim>(world: &mut World, mut ownership: Ownership) {
+    let grid = world.resource::<Grid<D>>();
+    let axis = ownership.layout.axis;
+    let layers = (0..grid.node_count()).map(|n| grid.node_lattice(n)[axis]);
+    ownership.nodes = ownership.node_flags(layers);
+    ownership.nodes_pending = false;
+    if let Some(mut bcs) = world.get_resource_mut::<crate::boundary::BoundaryConditions>() {
+        bcs.measured_nodes = Some(ownership.nodes.clone());
+    }
+    world.insert_resource(ownership);
+}
+
 /// Gives the world each scene-wide maximum the pipeline wants before this step
-/// ([`crate::decomposition::RankMaximum`]): the greatest of the ranks' own.
+/// ([`crate::decomposition::RankMaximum`]): the greatest of the ranks' own. A maximum any rank
+/// wants is found by all: a rank whose world was built afresh for re-cut slabs
+/// ([`follow_layout`]) wants again what the others hold already.
 fn agree_maxima(world: &mut World, comm: &dyn Communicator) {
     let Some(maxima) = world.get_resource::<crate::decomposition::RankMaxima>() else {
         return;
     };
     for maximum in maxima.0.clone() {
-        if (maximum.wanted)(world) {
+        let wanted = if (maximum.wanted)(world) { 1.0 } else { 0.0 };
+        if comm.max(wanted) > 0.0 {
             let local = (maximum.local)(world);
             (maximum.apply)(world, comm.max(local));
         }
@@ -186,12 +273,12 @@ fn exchange_and_rebuild<D: Dim>(
     }
     rebuild::<D>(world, &state, &kept, arrived)?;
     if next != layout {
-        let axis = next.axis;
-        let node_layers = (0..grid.node_count()).map(|n| grid.node_lattice(n)[axis]);
-        ownership.relayout(next, node_layers);
-        if let Some(mut bcs) = world.get_resource_mut::<crate::boundary::BoundaryConditions>() {
-            bcs.measured_nodes = Some(ownership.nodes.clone());
-        }
+        // The nodes this step computed stay owned (and held) until the next step begins
+        // (`follow_layout`): what is read after the step reads them.
+        let nodes = std::mem::take(&mut ownership.nodes);
+        ownership.relayout(next, std::iter::empty());
+        ownership.nodes = nodes;
+        ownership.nodes_pending = true;
     }
     ownership.imbalance =
         crate::decomposition::imbalance(&slab_loads(&ownership.layout, &per_layer));
@@ -388,17 +475,19 @@ pub fn restore_rank_piece(
     }
     let ownership: Ownership = postcard::from_bytes(ownership)
         .map_err(|e| format!("the piece's ownership cannot be read: {e}"))?;
+    // The slabs may have been re-cut before the checkpoint: the rank's world holds the nodes
+    // of the piece's slabs.
+    let built_for = sim
+        .world
+        .get_resource::<Ownership>()
+        .map(|o| o.layout.clone());
+    if built_for.as_ref() != Some(&ownership.layout)
+        && let Some(rebuild) = sim.world.get_resource::<RankRebuild>().cloned()
+    {
+        sim.adopt_world(rebuild.build(&ownership.layout)?)?;
+    }
     let dimension = sim.dimension();
     let world = &mut sim.world;
-    let count = file.world.particles.len();
-    with_dim!(dimension, D => resize_particles::<D>(world, count))?;
-    let mut ids = world.query_filtered::<&mut ParticleId, With<Particle>>();
-    for (mut slot, &id) in ids.iter_mut(world).zip(&file.world.particles) {
-        slot.0 = id;
-    }
-    if let Some(mut bcs) = world.get_resource_mut::<crate::boundary::BoundaryConditions>() {
-        bcs.measured_nodes = Some(ownership.nodes.clone());
-    }
-    world.insert_resource(ownership);
+    with_dim!(dimension, D => put_particles::<D>(world, &file.world.particles, ownership))?;
     super::restore_checkpoint(sim, file)
 }

@@ -12,6 +12,7 @@ use crate::dim::{Dim, VectorOps};
 use crate::loads::ParticleLoads;
 use crate::registry::Registry;
 use crate::registry::templates::ComponentTemplates;
+use crate::resources::Grid;
 use crate::simulation::step_schedule;
 use bevy_ecs::prelude::World;
 
@@ -54,9 +55,9 @@ pub struct RankSlabs {
     pub bounds: Vec<(f64, f64)>,
     /// Cell layers of ghost particles on each side of a slab, as deep as a step reaches.
     pub halo: usize,
-    /// Each rank's particles with its ghosts, and the bytes it needs (every node, those
-    /// particles, the pipeline's storage for them, the working buffers).
-    pub held: Vec<(u64, f64)>,
+    /// Each rank's particles with its ghosts, the nodes they reach, and the bytes it needs
+    /// (those nodes and particles, the pipeline's storage for them, the working buffers).
+    pub held: Vec<(u64, usize, f64)>,
 }
 
 impl<D: Dim> Spec<D> {
@@ -264,7 +265,9 @@ impl<D: Dim> Spec<D> {
             .map(|rank| {
                 let held = self.rank_seeds(seeds, &layout, rank);
                 let count = held.iter().map(Vec::len).sum::<usize>() as u64;
-                (count, self.estimate_from_counts(&held, probe).total())
+                let nodes = self.rank_grid(&layout, rank, probe).node_count();
+                let bytes = self.estimate_with_nodes(&held, probe, nodes).total();
+                (count, nodes, bytes)
             })
             .collect();
         Ok(slabs)
@@ -284,6 +287,23 @@ impl<D: Dim> Spec<D> {
             slabs: slabs.layers,
             halo: probe.reach.halo_layers(narrowest),
         }
+    }
+
+    /// Node layers beyond a rank's held cell layers that its particles reach: the basis's
+    /// support, a step's motion (less than a cell) and a layer for the cut.
+    pub(super) fn node_reach(&self, probe: &PipelineProbe) -> usize {
+        let support = probe.reach.support.unwrap_or(self.grid.spacing);
+        (support / self.grid.spacing).ceil() as usize + 2
+    }
+
+    /// The part of the grid rank `rank` of `layout` holds ([`decomposition::rank_grid`]).
+    pub(super) fn rank_grid(
+        &self,
+        layout: &decomposition::Layout,
+        rank: usize,
+        probe: &PipelineProbe,
+    ) -> Grid<D> {
+        decomposition::rank_grid(&self.grid, layout, rank, self.node_reach(probe))
     }
 
     /// The seeds rank `rank` of `layout` holds: those of its slab and its halo.
@@ -315,8 +335,18 @@ impl<D: Dim> Spec<D> {
         seeds: &[Seeds<D>],
         probe: &PipelineProbe,
     ) -> MemoryEstimate {
+        self.estimate_with_nodes(seeds, probe, self.grid.node_count())
+    }
+
+    /// [`Spec::estimate_from_counts`] for a world holding `nodes` of the grid's nodes.
+    fn estimate_with_nodes(
+        &self,
+        seeds: &[Seeds<D>],
+        probe: &PipelineProbe,
+        nodes: usize,
+    ) -> MemoryEstimate {
         let particles = seeds.iter().map(Vec::len).sum::<usize>() as f64;
-        let nodes = self.grid.node_count() as f64;
+        let nodes = nodes as f64;
         let mut estimate = MemoryEstimate::default();
         estimate.add(
             format!("{} grid nodes", budget::describe_count(nodes)),

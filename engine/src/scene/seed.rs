@@ -230,6 +230,7 @@ mod tests {
             spacing: 0.1,
             cells: [10, 10],
             graded: None,
+            window: None,
         };
         let disk = Shape::Disk {
             center: DVec2::new(0.5, 0.5),
@@ -256,6 +257,7 @@ mod tests {
             spacing: 0.25,
             cells: [4, 4],
             graded: None,
+            window: None,
         };
         let shape = Shape::Rectangle {
             min: DVec2::ZERO,
@@ -301,6 +303,7 @@ mod tests {
             spacing: 0.25,
             cells: [4, 4, 4],
             graded: None,
+            window: None,
         };
         let shape = Shape::Box {
             min: DVec3::ZERO,
@@ -331,6 +334,7 @@ mod tests {
             spacing: 0.0125,
             cells: [80, 40],
             graded: None,
+            window: None,
         };
         let plate = Shape::Rectangle {
             min: DVec2::ZERO,
@@ -399,6 +403,7 @@ mod tests {
             spacing: 0.025,
             cells: [40, 40, 40],
             graded: None,
+            window: None,
         };
         let octant = Shape::Intersection(vec![
             Shape::Box {

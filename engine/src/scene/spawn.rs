@@ -13,7 +13,7 @@ use crate::components::{
     BodyId, ContactGroup, Damage, NodeBundle, ParticleBundle, Velocity, WaveSpeed,
 };
 use crate::connectivity::Connectivity;
-use crate::decomposition::Ownership;
+use crate::decomposition::{Layout, Ownership, RankRebuild};
 use crate::dim::{Dim, Lattice, VectorOps, lattice_range};
 use crate::health::{LeaveGrid, mark_escaped_particles, remove_escaped_particles};
 use crate::loads::{LoadShare, ParticleLoads, apply_loads};
@@ -39,7 +39,7 @@ type TrackedParticle = Option<(u32, [f64; 3])>;
 /// Which rank a world is built for, and the slabs.
 struct RankPlan {
     rank: usize,
-    layout: crate::decomposition::Layout,
+    layout: Layout,
     /// The run's particles, every rank's.
     total: u64,
 }
@@ -80,19 +80,40 @@ impl<D: Dim> Spec<D> {
         rank: usize,
         ranks: usize,
     ) -> Result<Built, SceneError> {
-        self.build_for(registry, Some((rank, ranks)))
+        self.build_for(registry, Some((rank, ranks, None)))
+    }
+
+    /// [`Spec::build_rank`] on the slabs of `layout` rather than a cut of the seeds: a world
+    /// for slabs that were re-cut during the run (a resume, a rebalance), holding the particles
+    /// it spawns from the seeds in its slab and halo and the nodes they reach. The run's
+    /// particles are then put into it ([`crate::run::distributed`]).
+    pub fn build_rank_on(
+        self,
+        registry: &Registry,
+        rank: usize,
+        layout: Layout,
+    ) -> Result<Built, SceneError> {
+        let ranks = layout.slabs.len();
+        self.build_for(registry, Some((rank, ranks, Some(layout))))
     }
 
     fn build_for(
-        self,
+        mut self,
         registry: &Registry,
-        rank: Option<(usize, usize)>,
+        rank: Option<(usize, usize, Option<Layout>)>,
     ) -> Result<Built, SceneError> {
+        let rebuild = rank.as_ref().map(|_| (self.clone(), registry.clone()));
         let (available, seeds, probe) = self.seeded_and_probed(registry)?;
         let plan = match rank {
-            Some((rank, ranks)) => Some(self.rank_plan(&seeds, &probe, rank, ranks)?),
+            Some((rank, ranks, layout)) => {
+                Some(self.rank_plan(&seeds, &probe, rank, ranks, layout)?)
+            }
             None => None,
         };
+        if let Some(plan) = &plan {
+            // A rank holds the nodes its particles reach; positions stay the whole grid's.
+            self.grid = self.rank_grid(&plan.layout, plan.rank, &probe);
+        }
         // A rank needs memory for what it holds, not for the whole scene.
         let memory = match &plan {
             Some(plan) => {
@@ -108,7 +129,8 @@ impl<D: Dim> Spec<D> {
             mut output,
             pipeline,
         } = self.spawn_and_install(registry, seeds, &probe.templates, plan.as_ref())?;
-        if plan.is_some() {
+        if let (Some(plan), Some((spec, registry))) = (&plan, rebuild) {
+            world.insert_resource(rank_rebuild(spec, registry, plan.rank, &probe));
             self.distribute(&mut world, probe.templates.particles)?;
         }
         world.insert_resource(memory);
@@ -148,6 +170,7 @@ impl<D: Dim> Spec<D> {
         probe: &super::estimate::PipelineProbe,
         rank: usize,
         ranks: usize,
+        layout: Option<Layout>,
     ) -> Result<RankPlan, SceneError> {
         if probe.reach.support.is_none() {
             return Err(self.source.error(
@@ -157,10 +180,13 @@ impl<D: Dim> Spec<D> {
                  it as one process",
             ));
         }
-        let slabs = self.slabs(seeds, ranks)?.slabs;
+        let layout = match layout {
+            Some(layout) => layout,
+            None => self.layout(self.slabs(seeds, ranks)?.slabs, probe),
+        };
         Ok(RankPlan {
             rank,
-            layout: self.layout(slabs, probe),
+            layout,
             total: seeds.iter().map(Vec::len).sum::<usize>() as u64,
         })
     }
@@ -706,19 +732,11 @@ impl<D: Dim> Spec<D> {
     }
 
     fn region(&self, r: usize, region: &Boundary<D>) -> Result<BoundaryRegion, SceneError> {
-        let grid = &self.grid;
-        let tol = 1e-9 * grid.spacing;
-        let nodes: Vec<u32> = match &region.facets {
-            Some(facets) => nodes_near_facets(grid, &facets.facets),
-            None => (0..grid.node_count())
-                .filter(|&i| {
-                    let x = grid.node_position(i);
-                    (0..D::N).all(|a| x[a] >= region.min[a] - tol && x[a] <= region.max[a] + tol)
-                })
-                .map(|i| i as u32)
-                .collect(),
-        };
-        if nodes.is_empty() {
+        let nodes = region_nodes(&self.grid, region);
+        // A rank's world may hold none of a region's nodes; the scene must have some.
+        if nodes.is_empty()
+            && (self.grid.window.is_none() || region_nodes(&self.grid.whole(), region).is_empty())
+        {
             let what = match region.facets {
                 Some(_) => "no grid node lies within half a cell of this boundary group",
                 None => "no grid node lies in this box",
@@ -858,8 +876,10 @@ fn nodes_near_facets<D: Dim>(grid: &Grid<D>, facets: &[Facet]) -> Vec<u32> {
         for node in lattice_range(first, end) {
             let x = grid.lattice_position(node);
             let half = 0.5 * grid.smallest_width_near(x);
-            if facet.distance(x.to_3d().into()) <= half {
-                nodes.push(grid.node_index(node) as u32);
+            if facet.distance(x.to_3d().into()) <= half
+                && let Some(index) = grid.held_node_index(node)
+            {
+                nodes.push(index as u32);
             }
         }
     }
@@ -882,6 +902,40 @@ fn strength_scales<D: Dim>(body: &Body<D>, bundles: &[ParticleBundle<D>]) -> Vec
             Some((k, given.strength_scale?))
         })
         .collect()
+}
+
+/// The indices of the held nodes of `grid` in `region`: within its box, or within half a cell
+/// of its facets.
+fn region_nodes<D: Dim>(grid: &Grid<D>, region: &Boundary<D>) -> Vec<u32> {
+    let tol = 1e-9 * grid.spacing;
+    match &region.facets {
+        Some(facets) => nodes_near_facets(grid, &facets.facets),
+        None => (0..grid.node_count())
+            .filter(|&i| {
+                let x = grid.node_position(i);
+                (0..D::N).all(|a| x[a] >= region.min[a] - tol && x[a] <= region.max[a] + tol)
+            })
+            .map(|i| i as u32)
+            .collect(),
+    }
+}
+
+/// What rebuilds the world of rank `rank` of `spec` for other slabs: the spec as the scene
+/// gave it, with the nodes a rank reaches from the probed pipeline's support.
+fn rank_rebuild<D: Dim>(
+    spec: Spec<D>,
+    registry: Registry,
+    rank: usize,
+    probe: &super::estimate::PipelineProbe,
+) -> RankRebuild {
+    let reach = spec.node_reach(probe);
+    RankRebuild::new(reach, move |layout: &Layout| {
+        let built = spec
+            .clone()
+            .build_rank_on(&registry, rank, layout.clone())
+            .map_err(|e| e.to_string())?;
+        Ok(built.simulation)
+    })
 }
 
 fn spawn_nodes<D: Dim>(world: &mut World, grid: &Grid<D>, templates: &TemplateSet) {

@@ -223,6 +223,7 @@ impl<D: Dim> Reader<D> {
                 spacing: g.spacing,
                 cells,
                 graded: None,
+                window: None,
             });
         }
         if let Some(k) = g.refine.iter().position(|r| r.axis.index() >= D::N) {

@@ -263,6 +263,7 @@ mod tests {
             spacing: 0.5,
             cells: [4, 4],
             graded: None,
+            window: None,
         };
         let l = 0.125; // two particles per cell
         // Well inside a cell: the four nodes of the cell only, as with the tents.
@@ -276,6 +277,7 @@ mod tests {
             spacing: 0.5,
             cells: [4, 4, 2],
             graded: None,
+            window: None,
         };
         check_consistency(&grid, DVec3::new(0.05, 2.95, 0.98), l, 27);
         check_consistency(&grid, DVec3::new(0.25, 3.25, 0.75), l, 8);

@@ -147,6 +147,7 @@ mod tests {
             spacing: 0.5,
             cells: [4, 4],
             graded: None,
+            window: None,
         };
         for x in [
             DVec2::new(-0.8, 2.1),
@@ -161,6 +162,7 @@ mod tests {
             spacing: 0.5,
             cells: [4, 4, 2],
             graded: None,
+            window: None,
         };
         for x in [
             DVec3::new(-0.8, 2.1, 0.6),

@@ -120,7 +120,8 @@ pub fn node_linked_neighbours<D: Dim>(
                 }
                 node[a] = c as usize;
             }
-            Some(grid.node_index(node))
+            // A rank holds the nodes its particles reach: a node it does not hold links none.
+            grid.held_node_index(node)
         });
         // Each particle is linked to one node and each node visited once: no duplicates, but
         // the order is by node.
