@@ -260,6 +260,10 @@ fn assert_run_matches_serial(name: &str, text: &str, steps: u64) -> (String, Vec
             assert_eq!(report.ranks, ranks);
             if ranks > 1 {
                 assert!(report.held_over_owned > 1.0 && report.sent_per_step > 0.0);
+                // Each node is held by a rank at least; where ranks' reaches overlap, by more.
+                assert!(report.held_nodes_over_grid >= 1.0, "{report:?}");
+            } else {
+                assert_eq!(report.held_nodes_over_grid, 1.0);
             }
             // The energy watch judges the run's energy, not a rank's part of it.
             assert_eq!(
@@ -569,6 +573,7 @@ fn resume_ranks(ranks: usize, dir: &Path) -> Vec<Result<RunSummary, RunError>> {
                 let (rank, size) = (comm.rank(), comm.size());
                 let mut built = build_rank_simulation(&file, &registry, rank, size).unwrap();
                 restore_rank_piece(&mut built.simulation, &piece, (rank, size)).unwrap();
+                assert_holds_the_nodes_of_its_slabs(&built.simulation.world);
                 let step = built.simulation.clock().step;
                 let outputs = if rank == 0 {
                     rewind_outputs(&dir, &manifest, step)
@@ -586,6 +591,18 @@ fn resume_ranks(ranks: usize, dir: &Path) -> Vec<Result<RunSummary, RunError>> {
         })
         .collect();
     threads.into_iter().map(|t| t.join().unwrap()).collect()
+}
+
+/// The rank's world holds the nodes of the slabs it owns now, which the run may have re-cut.
+fn assert_holds_the_nodes_of_its_slabs(world: &bevy_ecs::world::World) {
+    use fractum_engine::decomposition::{Ownership, RankRebuild, rank_grid};
+    use fractum_engine::resources::Grid;
+    let grid = world.resource::<Grid<fractum_engine::dim::Two>>();
+    let ownership = world.resource::<Ownership>();
+    let reach = world.resource::<RankRebuild>().node_reach;
+    let wanted = rank_grid(grid, &ownership.layout, ownership.rank, reach);
+    assert_eq!(wanted.window, grid.window, "rank {}", ownership.rank);
+    assert!(!ownership.nodes_pending);
 }
 
 #[test]
@@ -607,6 +624,31 @@ fn a_run_over_ranks_resumes_from_its_checkpoint_on_as_many_ranks_bit_for_bit() {
         .unwrap()
         .count();
     assert_eq!(files, 2 * 4);
+    // The slabs were re-cut before the checkpoint, and moved some rank's nodes: the resume
+    // builds each rank's world for the checkpoint's slabs, not the seeds' cut.
+    let (_, newest) = list_checkpoints(&stopped).pop().unwrap();
+    let manifest = read_checkpoint(&newest).unwrap();
+    let Some(RankCheckpoint::Manifest { pieces, .. }) = &manifest.ranks else {
+        panic!("not a manifest");
+    };
+    let recut: Vec<(u64, u64)> = pieces
+        .iter()
+        .map(|name| {
+            let piece = read_checkpoint(&newest.with_file_name(name)).unwrap();
+            let Some(RankCheckpoint::Piece { ownership, .. }) = &piece.ranks else {
+                panic!("not a piece");
+            };
+            let ownership: fractum_engine::decomposition::Ownership =
+                postcard::from_bytes(ownership).unwrap();
+            (ownership.rebalances, ownership.rebuilds)
+        })
+        .collect();
+    assert!(
+        recut
+            .iter()
+            .any(|&(cuts, rebuilds)| cuts > 0 && rebuilds > 0),
+        "{recut:?}"
+    );
     for outcome in resume_ranks(3, &stopped) {
         assert_eq!(outcome.unwrap().steps, 150);
     }

@@ -257,12 +257,15 @@ pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
     };
     let ranks = s.ranks.map_or(String::new(), |r| {
         format!(
-            "ranks {}: slabs re-cut {} times, the most loaded rank {:.1}% over the mean at the \
-             end; ghosts make {:.2}x the particles; {} sent per step per rank\n",
+            "ranks {}: slabs re-cut {} times ({} worlds rebuilt for the nodes they moved), the \
+             most loaded rank {:.1}% over the mean at the end; ghosts make {:.2}x the particles, \
+             the nodes the ranks hold {:.2}x the grid's; {} sent per step per rank\n",
             r.ranks,
             r.rebalances,
+            r.rebuilds,
             100.0 * r.imbalance,
             r.held_over_owned,
+            r.held_nodes_over_grid,
             fractum_engine::scene::budget::describe_bytes(r.sent_per_step)
         )
     });

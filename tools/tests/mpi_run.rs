@@ -86,6 +86,11 @@ fn under_mpirun_three_ranks_run_and_resume_a_scene_as_the_single_process_does() 
         "{}",
         text(&ran.stdout)
     );
+    assert!(
+        text(&ran.stdout).contains("x the grid's;"),
+        "{}",
+        text(&ran.stdout)
+    );
     let checkpoints = ranks_dir.join("checkpoints");
     let mut files: Vec<String> = std::fs::read_dir(&checkpoints)
         .unwrap()

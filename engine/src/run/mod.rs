@@ -110,6 +110,12 @@ pub struct RankReport {
     pub held_over_owned: f64,
     /// Bytes every rank sent to others per step of this run, on average over the ranks.
     pub sent_per_step: f64,
+    /// The nodes the ranks held at the end over the grid's: what the overlap of the nodes
+    /// their particles reach adds.
+    pub held_nodes_over_grid: f64,
+    /// How often, over every rank, a re-cut moved a rank's nodes so that its world was built
+    /// afresh for the new slabs.
+    pub rebuilds: u64,
 }
 
 impl RunSummary {
@@ -586,22 +592,30 @@ fn rank_report(
     sent_before: u64,
 ) -> RankReport {
     let ownership = sim.world.get_resource::<crate::decomposition::Ownership>();
-    let (rebalances, imbalance, sent) = ownership.map_or((0, 0.0, 0), |o| {
+    let (rebalances, imbalance, sent, rebuilds) = ownership.map_or((0, 0.0, 0, 0), |o| {
         (
             o.rebalances,
             o.imbalance,
             o.sent_bytes - sent_before.min(o.sent_bytes),
+            o.rebuilds,
         )
     });
     let held = sim.particle_count() as f64;
     let owned = owned_particles(sim) as f64;
-    let sums = comm.sum(&[held, owned, sent as f64]);
+    let world = &sim.world;
+    let (nodes, grid_nodes) = crate::with_dim!(sim.dimension(), D => {
+        let grid = world.resource::<crate::resources::Grid<D>>();
+        (grid.node_count(), grid.global_node_count())
+    });
+    let sums = comm.sum(&[held, owned, sent as f64, nodes as f64, rebuilds as f64]);
     RankReport {
         ranks: comm.size(),
         rebalances,
         imbalance,
         held_over_owned: sums[0] / sums[1].max(1.0),
         sent_per_step: sums[2] / comm.size() as f64 / steps.max(1) as f64,
+        held_nodes_over_grid: sums[3] / grid_nodes.max(1) as f64,
+        rebuilds: sums[4] as u64,
     }
 }
 

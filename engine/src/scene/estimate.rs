@@ -73,7 +73,7 @@ impl<D: Dim> Spec<D> {
         registry: &Registry,
         ranks: Option<usize>,
     ) -> Result<Estimate, SceneError> {
-        let (available, seeds, probe) = self.seeded_and_probed(registry)?;
+        let (available, seeds, probe) = self.seeded_and_probed(registry, ranks.unwrap_or(1))?;
         let estimate = self.estimate_from_counts(&seeds, &probe);
         let slabs = match ranks {
             Some(ranks) => Some(self.rank_slabs(&seeds, &probe, ranks)?),
@@ -107,10 +107,11 @@ impl<D: Dim> Spec<D> {
     pub(super) fn seeded_and_probed(
         &self,
         registry: &Registry,
+        ranks: usize,
     ) -> Result<(budget::Available, Vec<Seeds<D>>, PipelineProbe), SceneError> {
         self.check()?;
         let available = budget::available_memory();
-        self.check_memory_before_seeding(available)?;
+        self.check_memory_before_seeding(available, ranks)?;
         let seeds = self.seed_bodies()?;
         let probe = self.probe_pipeline(registry, &seeds)?;
         Ok((available, seeds, probe))

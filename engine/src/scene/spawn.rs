@@ -103,7 +103,8 @@ impl<D: Dim> Spec<D> {
         rank: Option<(usize, usize, Option<Layout>)>,
     ) -> Result<Built, SceneError> {
         let rebuild = rank.as_ref().map(|_| (self.clone(), registry.clone()));
-        let (available, seeds, probe) = self.seeded_and_probed(registry)?;
+        let ranks = rank.as_ref().map_or(1, |r| r.1);
+        let (available, seeds, probe) = self.seeded_and_probed(registry, ranks)?;
         let plan = match rank {
             Some((rank, ranks, layout)) => {
                 Some(self.rank_plan(&seeds, &probe, rank, ranks, layout)?)

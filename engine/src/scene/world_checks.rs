@@ -18,17 +18,22 @@ impl<D: Dim> Spec<D> {
     /// Refuses a grid or bodies that cannot fit in `available` before any particle is seeded:
     /// the nodes, and each body's particles bounded by its bounding box's cells (at the
     /// smallest cell width) times the particles per cell. A cheap bound, so that a mistaken
-    /// spacing is refused before its seeds fill the memory.
+    /// spacing is refused before its seeds fill the memory. A rank of `ranks` holds only the
+    /// nodes its particles reach, a share of at least `1/ranks` for the most loaded; it seeds
+    /// every body to find its own particles.
     pub(super) fn check_memory_before_seeding(
         &self,
         available: budget::Available,
+        ranks: usize,
     ) -> Result<(), SceneError> {
         let nodes = (0..D::N)
             .map(|a| (self.grid.cells[a] + 1) as f64)
-            .product::<f64>();
+            .product::<f64>()
+            / ranks.max(1) as f64;
+        let share = if ranks > 1 { " (a rank's share)" } else { "" };
         let mut estimate = MemoryEstimate::default();
         estimate.add(
-            format!("{} grid nodes", budget::describe_count(nodes)),
+            format!("{} grid nodes{share}", budget::describe_count(nodes)),
             nodes * budget::node_bytes::<D>(),
         );
         let (lo, hi) = (self.grid.min.to_3d(), self.grid.max().to_3d());
