@@ -46,9 +46,12 @@ pub fn seeded_and_stepped<T>(
     (seeded, look(&mut built.simulation.world))
 }
 
-/// A fresh, empty temporary folder for one test.
+/// A fresh, empty temporary folder for one test, of its own however many tests of the process
+/// give the same name.
 pub fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("fractum-test-{}-{name}", std::process::id()));
+    static MADE: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let k = MADE.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("fractum-test-{}-{k}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir)
         .unwrap_or_else(|e| panic!("cannot create {}: {e}", dir.display()));
