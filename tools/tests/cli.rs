@@ -1,8 +1,6 @@
 //! The `fractum` binary as a user runs it: exit codes, messages, and files written.
 
-mod support;
-
-use support::{command, fractum, root, text};
+use crate::support::{command, fractum, root, text};
 
 #[test]
 fn systems_lists_every_stock_system_with_its_stage() {

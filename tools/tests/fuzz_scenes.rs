@@ -10,13 +10,11 @@
 //!
 //! `PROPTEST_CASES` sets the number of mutated scenes (256 by default here).
 
-mod support;
-
+use crate::support::{root, text};
 use proptest::prelude::*;
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
-use support::{root, text};
 
 /// Small shipped scenes of every kind of pipeline (2D and 3D, USL and Newmark, LME, damage,
 /// contact, partitioning) and of shape (a boolean difference in `plate_with_hole`, an STL

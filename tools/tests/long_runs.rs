@@ -2,12 +2,10 @@
 //! policy, checkpoints and `resume`, interruption by signals, the exit codes, and the inputs
 //! that used to get through `check` and abort or hang a run.
 
-mod support;
-
+use crate::support::{command, fractum, root, text};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-use support::{command, fractum, root, text};
 
 /// Starts `fractum run SCENE --out OUT --quiet --threads 1` in the background, its stderr
 /// captured.
