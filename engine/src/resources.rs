@@ -176,7 +176,7 @@ impl<D: Dim> Grid<D> {
     ///
     /// # Panics
     /// When the node is not held: a rank's window covers every node its particles reach
-    /// ([`crate::decomposition::Layout::node_window`]), so this is a broken invariant, and a
+    /// ([`crate::decomposition::rank_grid`]), so this is a broken invariant, and a
     /// wrong index would corrupt another node's sums silently.
     #[inline]
     pub fn node_index(&self, node: D::Cell) -> usize {
