@@ -180,29 +180,47 @@ impl<D: Dim> Grid<D> {
     /// wrong index would corrupt another node's sums silently.
     #[inline]
     pub fn node_index(&self, node: D::Cell) -> usize {
-        match self.held_node_index(node) {
-            Some(index) => index,
-            None => panic!(
-                "node {:?} is outside the nodes this world holds ({:?})",
-                node.as_ref(),
-                self.window
-            ),
+        let (index, held) = self.index_in_window(node);
+        if !held {
+            self.not_held(node);
         }
+        index
     }
 
     /// [`Grid::node_index`], or `None` for a node this world does not hold.
     #[inline]
     pub fn held_node_index(&self, node: D::Cell) -> Option<usize> {
+        let (index, held) = self.index_in_window(node);
+        held.then_some(index)
+    }
+
+    /// The linear index of `node` among the held nodes, and whether it is held (the index is
+    /// meaningless when not). One test for every axis, not a branch per axis: this is on the
+    /// path of every particle's every node.
+    #[inline]
+    fn index_in_window(&self, node: D::Cell) -> (usize, bool) {
         let (first, counts) = match &self.window {
             Some(w) => (w.first, w.counts),
             None => (D::Cell::default(), self.nodes_per_axis()),
         };
-        let mut index = 0;
+        let mut index = 0usize;
+        let mut held = true;
         for a in (0..D::N).rev() {
-            let local = node[a].checked_sub(first[a]).filter(|&i| i < counts[a])?;
-            index = index * counts[a] + local;
+            let local = node[a].wrapping_sub(first[a]);
+            held &= local < counts[a];
+            index = index.wrapping_mul(counts[a]).wrapping_add(local);
         }
-        Some(index)
+        (index, held)
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn not_held(&self, node: D::Cell) -> ! {
+        panic!(
+            "node {:?} is outside the nodes this world holds ({:?})",
+            node.as_ref(),
+            self.window
+        )
     }
 
     /// Lattice coordinates (in the whole grid) of the held node with linear index `index`.
