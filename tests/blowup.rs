@@ -3,8 +3,8 @@
 
 use fractum_engine::health::EscapedParticles;
 use fractum_engine::prelude::*;
-use fractum_engine::run::{RunError, run};
-use fractum_engine::scene::{SceneFile, build_simulation};
+use fractum_io::run::{RunError, run};
+use fractum_scene::{SceneFile, build_simulation};
 use fractum_suite::temp_dir;
 
 fn scene(velocity: &str, extra_system: &str) -> SceneFile {
@@ -131,7 +131,7 @@ fn a_blown_up_run_writes_the_state_at_the_start_of_the_failing_step() {
     let out = temp_dir("last-good");
     // Uncompressed, for vtkio (which does not take compressed inline arrays).
     let mut plan = built.output.clone();
-    plan.compression = fractum_engine::output::FrameCompression::None;
+    plan.compression = fractum_io::output::FrameCompression::None;
     let error = run(&mut built.simulation, &plan, &out, |_| {}).unwrap_err();
     let RunError::Blowup(blowup, Some(path)) = error else {
         panic!("expected a blow-up with a last good frame");

@@ -5,13 +5,11 @@
 //! (force-probe memory, energy account); DFG partitioning with surface detection (its
 //! neighbour lists and the once-only detection flag); particles removed on leaving the grid.
 
-use fractum_engine::checkpoint::{
-    SceneRecord, WorldState, capture, list_checkpoints, read_checkpoint,
-};
 use fractum_engine::components::{CrackOpening, Damage};
-use fractum_engine::run::{CheckpointPlan, RunOptions, resume_from, run_with};
-use fractum_engine::scene::{Built, SceneFile, build_simulation};
 use fractum_engine::simulation::End;
+use fractum_io::checkpoint::{SceneRecord, WorldState, capture, list_checkpoints, read_checkpoint};
+use fractum_io::run::{CheckpointPlan, RunOptions, resume_from, run_with};
+use fractum_scene::{Built, SceneFile, build_simulation};
 use fractum_suite::{repo_root, temp_dir};
 use std::path::Path;
 
@@ -42,7 +40,7 @@ fn run_to(text: &str, dir: &Path, end: u64, every: Option<u64>) -> WorldState {
     built.simulation.set_end(End::Steps(end));
     let options = RunOptions {
         checkpoints: every.map(|n| CheckpointPlan {
-            every: fractum_engine::checkpoint::CheckpointEvery::Steps(n),
+            every: fractum_io::checkpoint::CheckpointEvery::Steps(n),
             keep: 2,
         }),
         scene: Some(record(text)),
@@ -123,7 +121,7 @@ fn scene(name: &str) -> String {
 }
 
 /// The values of the carried component `C`, found by its checkpoint key.
-fn component<C: fractum_engine::checkpoint::State>(state: &WorldState) -> Vec<C> {
+fn component<C: fractum_io::checkpoint::State>(state: &WorldState) -> Vec<C> {
     let bytes = &state
         .components
         .iter()
@@ -258,7 +256,7 @@ fn checkpoint_keys_are_stable_and_unique() {
         let state = built
             .simulation
             .world
-            .resource::<fractum_engine::checkpoint::CheckpointState>();
+            .resource::<fractum_io::checkpoint::CheckpointState>();
         assert!(state.collisions().is_empty(), "{}", path.display());
         let names: Vec<&str> = state
             .component_names()
@@ -278,7 +276,7 @@ fn checkpoint_keys_are_stable_and_unique() {
 /// scene that would do so is refused.
 #[test]
 fn two_types_under_one_key_are_a_collision() {
-    use fractum_engine::checkpoint::CheckpointState;
+    use fractum_io::checkpoint::CheckpointState;
     #[derive(serde::Serialize, serde::Deserialize, bevy_ecs::prelude::Resource)]
     struct First(u8);
     #[derive(serde::Serialize, serde::Deserialize, bevy_ecs::prelude::Resource)]

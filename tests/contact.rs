@@ -3,8 +3,8 @@
 //! quoted in the closing note of the work; tolerances are the ones the specification states.
 
 use fractum_engine::prelude::*;
-use fractum_engine::scene::{PipelineEntry, Placement, SceneFile, Spec};
 use fractum_engine::simulation::TimeStep;
+use fractum_scene::{PipelineEntry, Placement, SceneFile, Spec};
 use fractum_suite::repo_root;
 
 fn entry(system: &str, params: Option<&str>) -> PipelineEntry {
@@ -353,8 +353,8 @@ fn two_spheres_in_contact_bounce_apart() {
 /// spacing `h` 0.8 m wide and `height` high, run to `end` at a CFL factor of 0.4: what the
 /// sliding block and the rolling disk stand on.
 fn on_substrate(h: f64, height: f64, end: f64) -> Spec<Two> {
-    use fractum_engine::scene::{Body, Boundary, Condition, Shape};
     use fractum_engine::simulation::End;
+    use fractum_scene::{Body, Boundary, Condition, Shape};
     Spec::<Two>::new(Grid {
         min: DVec2::ZERO,
         spacing: h,
@@ -392,7 +392,7 @@ fn slide(
     v0: f64,
     end: f64,
 ) -> Vec<(f64, f64, f64)> {
-    use fractum_engine::scene::{Body, InitialVelocity, Shape};
+    use fractum_scene::{Body, InitialVelocity, Shape};
     let mut spec = on_substrate(0.02, 0.2, end)
         .body(
             Body::new(
@@ -540,8 +540,8 @@ fn surface_detection_reproduces_two_group_contact() {
 /// Largest reaction at the fixed left end of a bar pulled at its right end, with a band of
 /// failed particles across its middle, and the final gap between the two halves.
 fn pull_cracked_bar(integrator: &[(&str, Option<&str>)], partition: Option<&str>) -> (f64, f64) {
-    use fractum_engine::scene::{Body, Boundary, Condition, Shape};
     use fractum_engine::simulation::End;
+    use fractum_scene::{Body, Boundary, Condition, Shape};
     let h = 0.05;
     // The integrator's contact pipeline with `partition`, or without partition and contact.
     let entries: Vec<PipelineEntry> = integrator
@@ -624,7 +624,7 @@ fn pull_cracked_bar(integrator: &[(&str, Option<&str>)], partition: Option<&str>
 /// point into it from both sides, no particle is flagged (no surface detection), and every
 /// field key is group 0's (0 or 1: the side is relative to each node's reference direction).
 fn check_partition_frame(world: &mut World) {
-    let frame = fractum_engine::output::particle_frame(world);
+    let frame = fractum_io::output::particle_frame(world);
     let scalar = |name: &str| {
         frame
             .scalars
@@ -875,7 +875,7 @@ fn grid_frames_show_both_fields_where_the_disks_meet() {
     for _ in 0..1300 {
         sim.step().unwrap_or_else(|e| panic!("{e}"));
     }
-    let frame = fractum_engine::output::grid_frame(&mut sim.world);
+    let frame = fractum_io::output::grid_frame(&mut sim.world);
     let diagonal = DVec2::ONE.normalize();
     let shared: Vec<usize> = (0..frame.index.len())
         .filter(|&i| frame.fields[i] == 2)
@@ -899,8 +899,8 @@ fn grid_frames_show_both_fields_where_the_disks_meet() {
 /// integrated as a force) fails it.
 #[test]
 fn bars_meeting_end_to_end_carry_the_plane_wave_contact_stress() {
-    use fractum_engine::scene::{Body, Boundary, Condition, InitialVelocity, Shape};
     use fractum_engine::simulation::End;
+    use fractum_scene::{Body, Boundary, Condition, InitialVelocity, Shape};
     let (rho, e, nu, v, length, height): (f64, f64, f64, f64, f64, f64) =
         (2368.0, 31.0e9, 0.2, 1.0, 0.1, 0.02);
     let constrained = e * (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu));
@@ -1019,7 +1019,7 @@ fn roll_with(
     contact: PipelineEntry,
     placement: Placement,
 ) -> Rolling {
-    use fractum_engine::scene::{Body, Shape};
+    use fractum_scene::{Body, Shape};
     let (radius, end) = (0.05, 0.15);
     let mut spec = on_substrate(h, 0.24, end)
         .body(

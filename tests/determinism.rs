@@ -1,8 +1,8 @@
 //! The same scene gives bitwise-identical results with 1 and 2 threads, in 2D and in 3D.
 
 use fractum_engine::prelude::*;
-use fractum_engine::scene::{PipelineEntry, SceneFile, Spec};
 use fractum_engine::simulation::End;
+use fractum_scene::{PipelineEntry, SceneFile, Spec};
 use fractum_suite::repo_root;
 
 /// Basis, integrator and stress: LME + Newmark + neo-Hookean.

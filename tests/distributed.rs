@@ -7,9 +7,9 @@ use fractum_engine::decomposition::{Ownership, RankRebuild, rank_grid};
 use fractum_engine::dim::{Dim, Three, Two};
 use fractum_engine::health::EscapedParticles;
 use fractum_engine::resources::Grid;
-use fractum_engine::run::distributed::{self, state_of_particles};
-use fractum_engine::scene::{SceneFile, build_rank_simulation, build_simulation};
 use fractum_engine::series::SeriesColumns;
+use fractum_io::run::distributed::{self, state_of_particles};
+use fractum_scene::{SceneFile, build_rank_simulation, build_simulation};
 use std::collections::BTreeMap;
 
 type States = BTreeMap<u32, Vec<Vec<u8>>>;

@@ -1,5 +1,5 @@
 //! A run over several ranks (threads of this process, `ThreadRank`) through the run loop
-//! (`fractum_engine::run::run_with` with a communicator): one `series.csv`, written by rank 0,
+//! (`fractum_io::run::run_with` with a communicator): one `series.csv`, written by rank 0,
 //! equal to the single process's to 1e-12 of each column's largest magnitude and the same bits
 //! run to run; particle frames as per-rank pieces whose `.pvtu` index reads back as the single
 //! process's frame; a blow-up on one rank stops every rank with its message; an interrupt seen
@@ -7,16 +7,16 @@
 //! which the same rank count resumes bit for bit. The same run under `mpirun`:
 //! `tools/tests/mpi_run.rs`.
 
-use fractum_engine::checkpoint::{
+use fractum_engine::communicator::thread_ranks;
+use fractum_io::checkpoint::{
     CheckpointEvery, RankCheckpoint, SceneRecord, list_checkpoints, read_checkpoint,
 };
-use fractum_engine::communicator::thread_ranks;
-use fractum_engine::output::{ParticleFrame, read_particle_frame, read_pvd, read_pvtu_pieces};
-use fractum_engine::run::distributed::restore_rank_piece;
-use fractum_engine::run::{
+use fractum_io::output::{ParticleFrame, read_particle_frame, read_pvd, read_pvtu_pieces};
+use fractum_io::run::distributed::restore_rank_piece;
+use fractum_io::run::{
     CheckpointPlan, RunError, RunOptions, RunSummary, resumed_outputs, rewind_outputs, run_with,
 };
-use fractum_engine::scene::{SceneFile, build_rank_simulation, build_simulation};
+use fractum_scene::{SceneFile, build_rank_simulation, build_simulation};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 

@@ -9,7 +9,7 @@
 //!   (docs/verification/; too large here).
 
 use fractum_cli::plot::{CurveSummary, curve_summary};
-use fractum_engine::output::series_row;
+use fractum_io::output::series_row;
 use fractum_suite::repo_root;
 
 /// Plane-strain finite-element slope R/u of the cracked panel before cracking.
@@ -19,11 +19,9 @@ const ELASTIC_SLOPE: f64 = 1.98;
 fn load_curve(scene: &str, end: f64) -> (Vec<f64>, Vec<f64>) {
     let path = repo_root().join("scenes").join(scene);
     let text = std::fs::read_to_string(&path).unwrap();
-    let file =
-        fractum_engine::scene::SceneFile::parse(scene, text).unwrap_or_else(|e| panic!("{e}"));
-    let mut built =
-        fractum_engine::scene::build_simulation(&file, &fractum_systems::stock_registry())
-            .unwrap_or_else(|e| panic!("{e}"));
+    let file = fractum_scene::SceneFile::parse(scene, text).unwrap_or_else(|e| panic!("{e}"));
+    let mut built = fractum_scene::build_simulation(&file, &fractum_systems::stock_registry())
+        .unwrap_or_else(|e| panic!("{e}"));
     built
         .simulation
         .set_end(fractum_engine::simulation::End::Time(end));

@@ -28,15 +28,14 @@ fn history(scene: &str) -> Vec<Vec<(f64, f64)>> {
 }
 
 /// A shipped scene with text edits (each `(from, to)` must match), built with the stock systems.
-fn scene_with(scene: &str, edits: &[(&str, &str)]) -> fractum_engine::scene::Built {
+fn scene_with(scene: &str, edits: &[(&str, &str)]) -> fractum_scene::Built {
     let mut text = std::fs::read_to_string(repo_root().join("scenes").join(scene)).unwrap();
     for (from, to) in edits {
         assert!(text.contains(from), "{scene} has no {from:?}");
         text = text.replace(from, to);
     }
-    let file =
-        fractum_engine::scene::SceneFile::parse(scene, text).unwrap_or_else(|e| panic!("{e}"));
-    fractum_engine::scene::build_simulation(&file, &fractum_systems::stock_registry())
+    let file = fractum_scene::SceneFile::parse(scene, text).unwrap_or_else(|e| panic!("{e}"));
+    fractum_scene::build_simulation(&file, &fractum_systems::stock_registry())
         .unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -438,7 +437,7 @@ fn weibull_strengths_follow_eq_25_per_particle_and_reach_the_frames() {
     strengths.sort_by(f64::total_cmp);
     let median = strengths[strengths.len() / 2];
     assert!((median / 100.0 - 1.0).abs() < 0.05, "median {median}");
-    let frame = fractum_engine::output::particle_frame(world);
+    let frame = fractum_io::output::particle_frame(world);
     let written = frame
         .scalars
         .iter()
@@ -453,7 +452,7 @@ fn weibull_strengths_follow_eq_25_per_particle_and_reach_the_frames() {
 fn frames_show_strength_only_where_a_law_governs() {
     let mut built = scene_with("tension_rankine.ron", &[]);
     let world = &mut built.simulation.world;
-    let frame = fractum_engine::output::particle_frame(world);
+    let frame = fractum_io::output::particle_frame(world);
     let (_, strength) = frame
         .scalars
         .iter()

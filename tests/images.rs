@@ -6,11 +6,11 @@
 use bevy_ecs::query::With;
 use fractum_engine::components::{Damage, InitialVolume, MaterialId, Particle, Position};
 use fractum_engine::prelude::*;
-use fractum_engine::scene::image::{Phase, VoxelFrame, VoxelImage, read_image};
-use fractum_engine::scene::{
+use fractum_engine::simulation::{End, TimeStep};
+use fractum_scene::image::{Phase, VoxelFrame, VoxelImage, read_image};
+use fractum_scene::{
     Body, Placement, SceneFile, Shape, Spec, build_simulation, particles_in_shape,
 };
-use fractum_engine::simulation::{End, TimeStep};
 use fractum_suite::{build_elastic, repo_root};
 use glam::{DVec2, DVec3};
 use std::f64::consts::PI;
@@ -217,7 +217,7 @@ fn particles(world: &mut bevy_ecs::world::World) -> Vec<([u64; 2], f64, u16)> {
 }
 
 /// The shipped scene `name` with each `from` replaced by `to`, built from the scenes folder.
-fn variant(name: &str, edits: &[(&str, &str)]) -> fractum_engine::scene::Built {
+fn variant(name: &str, edits: &[(&str, &str)]) -> fractum_scene::Built {
     let path = repo_root().join("scenes").join(name);
     let mut text = std::fs::read_to_string(&path).unwrap();
     for (from, to) in edits {

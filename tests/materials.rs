@@ -2,8 +2,8 @@
 //! `stress/neo_hookean` and a rubber body under `stress/linear_elastic` in one run.
 
 use fractum_engine::prelude::*;
-use fractum_engine::scene::{Body, InitialVelocity, PipelineEntry, Shape, Spec};
 use fractum_engine::simulation::{End, TimeStep};
+use fractum_scene::{Body, InitialVelocity, PipelineEntry, Shape, Spec};
 
 /// Two blocks stretched by their initial velocity, with the stress systems in `stress`.
 fn blocks(stress: Vec<PipelineEntry>) -> Spec<Two> {

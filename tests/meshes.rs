@@ -7,11 +7,11 @@ use bevy_ecs::query::With;
 use fractum_engine::boundary::BoundaryConditions;
 use fractum_engine::components::{InitialVolume, Particle, Position, Velocity};
 use fractum_engine::prelude::*;
-use fractum_engine::scene::mesh::{Mesh, MeshSeeding, boundary_facets, read_mesh, read_raw_mesh};
-use fractum_engine::scene::{
+use fractum_engine::simulation::{End, TimeStep};
+use fractum_scene::mesh::{Mesh, MeshSeeding, boundary_facets, read_mesh, read_raw_mesh};
+use fractum_scene::{
     Body, Boundary, Built, Condition, InitialVelocity, Placement, Shape, Spec, particles_in_shape,
 };
-use fractum_engine::simulation::{End, TimeStep};
 use fractum_suite::{build_elastic, repo_root, seeded_and_stepped};
 use glam::{DVec2, DVec3};
 use std::f64::consts::PI;

@@ -3,8 +3,8 @@
 //! user's crate follows (README, "Adding your own system").
 
 use fractum_engine::prelude::*;
-use fractum_engine::scene::{Body, Boundary, Condition, InitialVelocity, Shape, Spec};
 use fractum_engine::simulation::{End, TimeStep};
+use fractum_scene::{Body, Boundary, Condition, InitialVelocity, Shape, Spec};
 use serde::Deserialize;
 
 /// Parameters of `damage/overstress`.

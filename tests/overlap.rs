@@ -4,8 +4,8 @@
 use bevy_ecs::query::With;
 use fractum_engine::components::{BodyId, InitialVolume, Particle};
 use fractum_engine::prelude::*;
-use fractum_engine::scene::{Body, Shape, Spec};
 use fractum_engine::simulation::{End, TimeStep};
+use fractum_scene::{Body, Shape, Spec};
 use glam::DVec2;
 
 const PLATE_AREA: f64 = 0.5;

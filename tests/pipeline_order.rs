@@ -4,7 +4,7 @@
 //! naming both.
 
 use fractum_engine::prelude::*;
-use fractum_engine::scene::{SceneFile, build_simulation};
+use fractum_scene::{SceneFile, build_simulation};
 
 /// Stages in the order their systems ran.
 #[derive(Resource, Default)]

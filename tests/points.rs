@@ -8,9 +8,9 @@ use fractum_engine::components::{
     Damage, InitialVolume, Mass, MaterialId, Particle, Position, Strength, Velocity,
 };
 use fractum_engine::prelude::*;
-use fractum_engine::scene::points::read_points;
-use fractum_engine::scene::{Body, Built, SceneError, SceneFile, Shape, Spec, build_simulation};
 use fractum_engine::simulation::{End, TimeStep};
+use fractum_scene::points::read_points;
+use fractum_scene::{Body, Built, SceneError, SceneFile, Shape, Spec, build_simulation};
 use fractum_suite::{build_elastic, repo_root, seeded_and_stepped, temp_dir};
 use glam::DVec2;
 use std::sync::Arc;
@@ -292,7 +292,7 @@ fn strength_scales_beside_a_body_without_them_leave_every_particle_in_one_table(
 #[test]
 fn strength_scales_over_ranks_give_every_particle_the_single_process_state() {
     use fractum_engine::communicator::{Communicator, thread_ranks};
-    use fractum_engine::run::distributed::{self, state_of_particles};
+    use fractum_io::run::distributed::{self, state_of_particles};
     let dir = temp_dir("scaled-ranks");
     let (path, text) = scaled_disk_scene(&dir);
     let file = SceneFile::parse(&path, text.clone()).unwrap();
@@ -310,7 +310,7 @@ fn strength_scales_over_ranks_give_every_particle_the_single_process_state() {
                 let file = SceneFile::parse(&path, text.clone()).unwrap();
                 std::thread::spawn(move || {
                     let registry = fractum_systems::stock_registry();
-                    let mut built = fractum_engine::scene::build_rank_simulation(
+                    let mut built = fractum_scene::build_rank_simulation(
                         &file,
                         &registry,
                         comm.rank(),

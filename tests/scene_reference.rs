@@ -1,12 +1,12 @@
 //! SCENES.md documents every field and variant of the scene format: each name declared in
-//! `engine/src/scene/format.rs` (struct fields, enum variants and their fields) must appear in
+//! `engine/scene/src/format.rs` (struct fields, enum variants and their fields) must appear in
 //! it in backticks, so adding a field without documenting it fails here.
 
 use fractum_suite::repo_root;
 
 /// Field and variant names declared in the format module, read from its source.
 fn format_names() -> Vec<String> {
-    let source = std::fs::read_to_string(repo_root().join("engine/src/scene/format.rs")).unwrap();
+    let source = std::fs::read_to_string(repo_root().join("engine/scene/src/format.rs")).unwrap();
     let mut names = Vec::new();
     let mut inside: Option<&str> = None;
     for line in source.lines() {

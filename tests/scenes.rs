@@ -5,13 +5,13 @@
 //! reader takes both encodings in `tests/vtk_reader.rs`.
 
 use bevy_ecs::prelude::{Entity, With};
+use fractum_engine::budget::MemoryUse;
 use fractum_engine::components::Particle;
-use fractum_engine::output::{FrameCompression, base_columns, read_particle_frame};
 use fractum_engine::registry::templates::SPAWN_BATCH;
-use fractum_engine::run::run;
-use fractum_engine::scene::budget::MemoryUse;
-use fractum_engine::scene::{Built, SceneFile, estimate_memory};
 use fractum_engine::simulation::End;
+use fractum_io::output::{FrameCompression, base_columns, read_particle_frame};
+use fractum_io::run::run;
+use fractum_scene::{Built, SceneFile, estimate_memory};
 use fractum_suite::{load, ron_files, temp_dir};
 
 fn frame_point_count(path: &std::path::Path) -> usize {

@@ -4,9 +4,9 @@
 use bevy_ecs::query::With;
 use fractum_engine::components::{InitialVolume, Particle, Position};
 use fractum_engine::prelude::*;
-use fractum_engine::scene::surface::read_surface;
-use fractum_engine::scene::{Body, Placement, Shape, Spec};
 use fractum_engine::simulation::{End, TimeStep};
+use fractum_scene::surface::read_surface;
+use fractum_scene::{Body, Placement, Shape, Spec};
 use fractum_suite::repo_root;
 use glam::DVec3;
 use std::sync::Arc;

@@ -1,10 +1,10 @@
 //! Verification against analytic solutions, in 2D and 3D. Tolerances are the ones the
 //! specification states, or are justified next to the assertion.
 
-use fractum_engine::output::series_row;
 use fractum_engine::prelude::*;
-use fractum_engine::scene::{PipelineEntry, SceneFile, Spec};
 use fractum_engine::simulation::TimeStep;
+use fractum_io::output::series_row;
+use fractum_scene::{PipelineEntry, SceneFile, Spec};
 use fractum_suite::repo_root;
 
 /// The spec of a shipped scene, with its pipeline replaced when `pipeline` is given.

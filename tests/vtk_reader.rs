@@ -11,11 +11,11 @@
 //! FRACTUM_VTK_PYTHON=target/vtk-venv/bin/python cargo test --features vtk-reader --test vtk_reader
 //! ```
 
-use fractum_engine::output::{
+use fractum_engine::simulation::End;
+use fractum_io::output::{
     FrameCompression, OutputPlan, ParticleFrame, read_particle_frame, write_particle_frame,
 };
-use fractum_engine::run::run;
-use fractum_engine::simulation::End;
+use fractum_io::run::run;
 use fractum_suite::{load, repo_root, temp_dir};
 use std::path::{Path, PathBuf};
 

@@ -1,5 +1,5 @@
-//! The solver digest `fractum verify` keys its results by: an FNV-1a hash of the engine's and
-//! the stock systems' sources and of `Cargo.lock`, so that a change to the physics re-runs the
+//! The solver digest `fractum verify` keys its results by: an FNV-1a hash of the engine's crates'
+//! and the stock systems' sources and of `Cargo.lock`, so that a change to the physics re-runs the
 //! verification cases while a change to the command line's own code does not. Built outside
 //! this workspace (the sources not beside it), the digest is the crate's version alone.
 
@@ -9,7 +9,10 @@ fn main() {
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap_or_default());
     let root = manifest.parent().map(Path::to_path_buf).unwrap_or_default();
     let inputs = [
-        root.join("engine/src"),
+        root.join("engine/core/src"),
+        root.join("engine/geometry/src"),
+        root.join("engine/io/src"),
+        root.join("engine/scene/src"),
         root.join("systems/src"),
         root.join("Cargo.lock"),
     ];

@@ -8,8 +8,8 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use fractum_engine::connectivity::Connectivity;
 use fractum_engine::prelude::*;
-use fractum_engine::scene::{Body, InitialVelocity, Output, Shape, Spec};
 use fractum_engine::simulation::{End, Simulation, TimeStep};
+use fractum_scene::{Body, InitialVelocity, Output, Shape, Spec};
 use fractum_systems::basis::linear::{fill_multilinear_row, nodes_per_particle};
 use fractum_systems::predictor::usl::{NodeColumns, StepContext, grid_update};
 use fractum_systems::stress::linear_elastic::{ElasticState, update_elastic};

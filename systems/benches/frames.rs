@@ -4,10 +4,8 @@
 //! `cargo bench -p fractum-systems --bench frames`; the sizes print before the timings.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use fractum_engine::output::{
-    FrameCompression, ParticleFrame, particle_frame, write_particle_frame,
-};
-use fractum_engine::scene::{SceneFile, build_simulation};
+use fractum_io::output::{FrameCompression, ParticleFrame, particle_frame, write_particle_frame};
+use fractum_scene::{SceneFile, build_simulation};
 use std::path::PathBuf;
 use std::time::Duration;
 

@@ -1,7 +1,7 @@
 //! Shared helpers for the integration tests in `tests/`.
 
 use fractum_engine::dim::Dim;
-use fractum_engine::scene::{Built, SceneError, SceneFile, Spec, build_simulation};
+use fractum_scene::{Built, SceneError, SceneFile, Spec, build_simulation};
 use std::path::{Path, PathBuf};
 
 /// The workspace root.

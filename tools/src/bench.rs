@@ -15,9 +15,9 @@
 use fractum_engine::prelude::*;
 use fractum_engine::profile::StageClock;
 use fractum_engine::registry::Registry;
-use fractum_engine::scene::{Body, InitialVelocity, Output, Shape, Spec};
 use fractum_engine::simulation::{End, TimeStep};
 use fractum_engine::stage::Stage;
+use fractum_scene::{Body, InitialVelocity, Output, Shape, Spec};
 use std::fmt::Write as _;
 use std::time::Instant;
 

@@ -192,9 +192,9 @@ pub struct RunArgs {
     /// Write a checkpoint every N steps (`1000`) or every T of simulated time (`2.5e-5s`),
     /// and one at the end; a run always writes one when interrupted.
     #[arg(long)]
-    pub checkpoint_every: Option<fractum_engine::checkpoint::CheckpointEvery>,
+    pub checkpoint_every: Option<fractum_io::checkpoint::CheckpointEvery>,
     /// Checkpoints to keep (the newest).
-    #[arg(long, default_value_t = fractum_engine::checkpoint::DEFAULT_KEEP, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=1000))]
+    #[arg(long, default_value_t = fractum_io::checkpoint::DEFAULT_KEEP, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=1000))]
     pub keep_checkpoints: usize,
 }
 

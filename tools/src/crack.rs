@@ -32,7 +32,7 @@
 //!   material, which a crack cannot exceed.
 
 use crate::fragments::components;
-use fractum_engine::output::{ParticleFrame, read_particle_frame, read_pvd};
+use fractum_io::output::{ParticleFrame, read_particle_frame, read_pvd};
 use std::path::Path;
 
 /// The default crack length at which the initial angle is taken, in link lengths (12 particle

@@ -11,8 +11,8 @@
 //! path.
 
 use crate::fragments::{frame_thickness, particle_size};
-use fractum_engine::output::ParticleFrame;
-use fractum_engine::scene::Axis;
+use fractum_io::output::ParticleFrame;
+use fractum_scene::Axis;
 use serde::Deserialize;
 
 /// A line (a plane in 3D) and the window on it in which one crack is looked for.

@@ -17,8 +17,8 @@
 //!   area in 2D, of the sphere of the same volume in 3D), centroid, velocity (its momentum over
 //!   its mass) and speed.
 
-use fractum_engine::output::ParticleFrame;
 use fractum_engine::prelude::{DVec3, Three};
+use fractum_io::output::ParticleFrame;
 use fractum_systems::spatial::Spatial;
 
 /// What counts as a fragment.
@@ -270,7 +270,7 @@ pub fn frame_file_near(
     dir: &std::path::Path,
     time: Option<f64>,
 ) -> Result<(f64, std::path::PathBuf), String> {
-    let frames = fractum_engine::output::read_pvd(&dir.join("particles.pvd"))?;
+    let frames = fractum_io::output::read_pvd(&dir.join("particles.pvd"))?;
     let chosen = match time {
         Some(t) => frames
             .iter()
@@ -289,7 +289,7 @@ pub fn run_fragments(
     options: &FragmentOptions,
 ) -> Result<RunFragments, String> {
     let (time, path) = frame_file_near(dir, time)?;
-    let frame = fractum_engine::output::read_particle_frame(&path)?;
+    let frame = fractum_io::output::read_particle_frame(&path)?;
     let (fragments, link) =
         find_fragments(&frame, options).map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(RunFragments {
@@ -325,7 +325,7 @@ pub fn write_fragment_tables(run: &RunFragments) -> Result<(), String> {
     }
     for (name, text) in [("fragments.csv", table), ("fragment_sizes.csv", sizes)] {
         let path = run.dir.join(name);
-        fractum_engine::output::write_atomically(&path, text.as_bytes())
+        fractum_io::output::write_atomically(&path, text.as_bytes())
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     }
     Ok(())

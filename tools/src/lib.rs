@@ -46,7 +46,7 @@ pub use reports::{check_report, energy_warning, summary_report, systems_report};
 use clap::Parser;
 use fractum_engine::dim::Dimension;
 use fractum_engine::registry::Registry;
-use fractum_engine::scene::{Built, SceneError, SceneFile, build_simulation, estimate_memory};
+use fractum_scene::{Built, SceneError, SceneFile, build_simulation, estimate_memory};
 use std::ffi::OsString;
 use std::path::Path;
 

@@ -102,14 +102,14 @@ pub struct StepDigest {
 }
 
 /// Steps `file` `steps` times, as rank `comm.rank()` of a distributed run when `comm` is given
-/// (`fractum_engine::run::distributed`), as one process otherwise, and digests what this
+/// (`fractum_io::run::distributed`), as one process otherwise, and digests what this
 /// process owns.
 pub fn step_digest(
-    file: &fractum_engine::scene::SceneFile,
+    file: &fractum_scene::SceneFile,
     steps: u64,
     comm: Option<&dyn Communicator>,
 ) -> Result<StepDigest, String> {
-    use fractum_engine::scene::{build_rank_simulation, build_simulation};
+    use fractum_scene::{build_rank_simulation, build_simulation};
     let registry = fractum_systems::stock_registry();
     let mut built = match comm {
         Some(comm) => build_rank_simulation(file, &registry, comm.rank(), comm.size()),
@@ -120,14 +120,14 @@ pub fn step_digest(
     for _ in 0..steps {
         match comm {
             Some(comm) => {
-                fractum_engine::run::distributed::step(sim, comm).map_err(|e| e.to_string())?
+                fractum_io::run::distributed::step(sim, comm).map_err(|e| e.to_string())?
             }
             None => sim.step().map_err(|e| e.to_string())?,
         }
     }
     let dimension = file.dimension().map_err(|e| e.to_string())?;
     let states = fractum_engine::with_dim!(dimension, D =>
-        fractum_engine::run::distributed::state_of_particles::<D>(&mut sim.world))?;
+        fractum_io::run::distributed::state_of_particles::<D>(&mut sim.world))?;
     let digest = states
         .iter()
         .map(|(id, parts)| {
@@ -178,7 +178,7 @@ mod tests {
             env!("CARGO_MANIFEST_DIR"),
             "/../scenes/two_disks_contact.ron"
         );
-        let read = || fractum_engine::scene::SceneFile::read(std::path::Path::new(path)).unwrap();
+        let read = || fractum_scene::SceneFile::read(std::path::Path::new(path)).unwrap();
         let serial = step_digest(&read(), 40, None).unwrap();
         let threads: Vec<_> = fractum_engine::communicator::thread_ranks(3)
             .into_iter()

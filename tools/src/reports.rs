@@ -4,10 +4,10 @@ use fractum_engine::dim::{Dim, Dimension};
 use fractum_engine::energy::EnergyCreation;
 use fractum_engine::registry::Registry;
 use fractum_engine::resources::{Grid, Materials, Thickness};
-use fractum_engine::run::RunSummary;
-use fractum_engine::scene::Built;
 use fractum_engine::simulation::{End, TimeStep};
 use fractum_engine::with_dim;
+use fractum_io::run::RunSummary;
+use fractum_scene::Built;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -85,8 +85,8 @@ fn grid_line<D: Dim>(built: &mut Built) -> String {
 
 /// The memory estimate and the materials, one line each, for `check`.
 fn memory_and_materials(world: &fractum_engine::prelude::World, out: &mut String) {
-    if let Some(memory) = world.get_resource::<fractum_engine::scene::budget::MemoryUse>() {
-        use fractum_engine::scene::budget::describe_bytes;
+    if let Some(memory) = world.get_resource::<fractum_engine::budget::MemoryUse>() {
+        use fractum_engine::budget::describe_bytes;
         let _ = writeln!(
             out,
             "memory     about {} estimated, {}",
@@ -266,7 +266,7 @@ pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
             100.0 * r.imbalance,
             r.held_over_owned,
             r.held_nodes_over_grid,
-            fractum_engine::scene::budget::describe_bytes(r.sent_per_step)
+            fractum_engine::budget::describe_bytes(r.sent_per_step)
         )
     });
     format!(
@@ -283,8 +283,8 @@ pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
 
 /// The `fractum check --estimate` report: the scene's counts and its memory estimate part by
 /// part, against what the process may use.
-pub fn estimate_report(estimate: &fractum_engine::scene::Estimate) -> String {
-    use fractum_engine::scene::budget::describe_bytes;
+pub fn estimate_report(estimate: &fractum_scene::Estimate) -> String {
+    use fractum_engine::budget::describe_bytes;
     let mut out = String::new();
     let _ = writeln!(out, "scene      {}", estimate.source);
     let _ = writeln!(out, "grid       {} nodes", estimate.nodes);
@@ -325,7 +325,7 @@ pub fn estimate_report(estimate: &fractum_engine::scene::Estimate) -> String {
 }
 
 /// The slabs of `check --estimate --ranks N`: one line per rank and the imbalance.
-fn slabs_report(ranks: &fractum_engine::scene::RankSlabs, out: &mut String) {
+fn slabs_report(ranks: &fractum_scene::RankSlabs, out: &mut String) {
     let slabs = &ranks.slabs;
     let axis = ["x", "y", "z"][slabs.axis.min(2)];
     let _ = writeln!(

@@ -8,17 +8,17 @@
 
 use crate::{EXIT_ABANDONED, EXIT_BAD_SCENE, EXIT_BLOWUP, EXIT_INTERRUPTED, EXIT_IO};
 use crate::{EXIT_RESOURCES, EXIT_USAGE, energy_warning, load, report_scene_error, summary_report};
-use fractum_engine::checkpoint::{
-    CHECKPOINT_DIR, CheckpointEvery, CheckpointFile, RankCheckpoint, SceneRecord, list_checkpoints,
-    read_checkpoint,
-};
 use fractum_engine::communicator::Communicator;
 use fractum_engine::energy::EnergyWatch;
 use fractum_engine::registry::Registry;
-use fractum_engine::run::{
+use fractum_io::checkpoint::{
+    CHECKPOINT_DIR, CheckpointEvery, CheckpointFile, RankCheckpoint, SceneRecord, list_checkpoints,
+    read_checkpoint,
+};
+use fractum_io::run::{
     CheckpointPlan, RunError, RunOptions, restore_checkpoint, rewind_outputs, run_with,
 };
-use fractum_engine::scene::{SceneFile, build_simulation};
+use fractum_scene::{SceneFile, build_simulation};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
@@ -194,7 +194,7 @@ fn rank_message(failure: fractum_engine::communicator::RankFailure) -> String {
 }
 
 /// `fractum run` as one of the ranks of `comm`, which an MPI launcher started: every rank
-/// builds its part of the scene ([`fractum_engine::scene::build_rank_simulation`]) and steps
+/// builds its part of the scene ([`fractum_scene::build_rank_simulation`]) and steps
 /// it with the others; rank 0 prepares the output folder, writes the series and the frames'
 /// indexes, and says what happened. Every rank returns the same exit code where they fail
 /// together; a failure on one rank stops the others at the next point they agree.
@@ -214,8 +214,7 @@ pub fn run_ranks(
         code
     };
     let built = SceneFile::read(scene).and_then(|file| {
-        let built =
-            fractum_engine::scene::build_rank_simulation(&file, registry, comm.rank(), comm.size());
+        let built = fractum_scene::build_rank_simulation(&file, registry, comm.rank(), comm.size());
         built.map(|built| (file, built))
     });
     let failure = built.as_ref().err().map(ToString::to_string);
@@ -460,7 +459,7 @@ pub fn resume_ranks(
     let outputs = if speaks {
         rewind_outputs(out_dir, &checkpoint, step)
     } else {
-        fractum_engine::run::resumed_outputs(out_dir, &checkpoint, step)
+        fractum_io::run::resumed_outputs(out_dir, &checkpoint, step)
     };
     let failure = outputs.as_ref().err().cloned();
     if let Err(failure) = comm.agree(failure.as_deref()) {
@@ -489,7 +488,7 @@ fn restore_rank(
     registry: &Registry,
     comm: &dyn Communicator,
     speaks: bool,
-) -> Result<(CheckpointFile, PathBuf, fractum_engine::scene::Built), (i32, String)> {
+) -> Result<(CheckpointFile, PathBuf, fractum_scene::Built), (i32, String)> {
     let (rank, ranks) = (comm.rank(), comm.size());
     let (path, manifest) = newest_checkpoint(out_dir)?;
     same_ranks(&path, out_dir, checkpoint_ranks(&manifest), ranks).map_err(|e| (EXIT_USAGE, e))?;
@@ -502,23 +501,19 @@ fn restore_rank(
     let piece_path = path.with_file_name(&pieces[rank]);
     let piece = read_checkpoint(&piece_path).map_err(|e| (EXIT_IO, e))?;
     let file = checkpoint_scene(&manifest, &path, speaks)?;
-    let mut built = fractum_engine::scene::build_rank_simulation(&file, registry, rank, ranks)
+    let mut built = fractum_scene::build_rank_simulation(&file, registry, rank, ranks)
         .map_err(|e| (EXIT_BAD_SCENE, e.to_string()))?;
-    fractum_engine::run::distributed::restore_rank_piece(
-        &mut built.simulation,
-        &piece,
-        (rank, ranks),
-    )
-    .map_err(|e| (EXIT_IO, format!("{}: {e}", piece_path.display())))?;
+    fractum_io::run::distributed::restore_rank_piece(&mut built.simulation, &piece, (rank, ranks))
+        .map_err(|e| (EXIT_IO, format!("{}: {e}", piece_path.display())))?;
     ready_to_run(&mut built.simulation, settings, true)?;
     Ok((manifest, path, built))
 }
 
 fn execute(
-    mut built: fractum_engine::scene::Built,
+    mut built: fractum_scene::Built,
     out_dir: &Path,
     scene: SceneRecord,
-    resume: Option<fractum_engine::run::ResumedOutputs>,
+    resume: Option<fractum_io::run::ResumedOutputs>,
     settings: &RunSettings,
     comm: Option<&dyn Communicator>,
 ) -> i32 {
@@ -575,7 +570,7 @@ fn execute(
 }
 
 /// The exit code of a run's outcome (as [`report_outcome`] returns it, without a word).
-fn exit_code(result: &Result<fractum_engine::run::RunSummary, RunError>) -> i32 {
+fn exit_code(result: &Result<fractum_io::run::RunSummary, RunError>) -> i32 {
     match result {
         Ok(summary) if summary.interrupted => EXIT_INTERRUPTED,
         Ok(_) => 0,
@@ -586,9 +581,9 @@ fn exit_code(result: &Result<fractum_engine::run::RunSummary, RunError>) -> i32 
 
 /// Prints what a run did, or why it stopped, and returns the exit code.
 fn report_outcome(
-    result: Result<fractum_engine::run::RunSummary, RunError>,
+    result: Result<fractum_io::run::RunSummary, RunError>,
     sim: &fractum_engine::Simulation,
-    pipeline: &fractum_engine::scene::PipelineSummary,
+    pipeline: &fractum_scene::PipelineSummary,
     out_dir: &Path,
 ) -> i32 {
     match result {

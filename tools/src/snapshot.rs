@@ -14,8 +14,8 @@
 
 use crate::fragments::{frame_thickness, median_spacing, particle_size};
 use crate::plot::{register_font, tick_label};
-use fractum_engine::output::{ParticleFrame, read_particle_frame};
 use fractum_engine::prelude::{DVec3, Three};
+use fractum_io::output::{ParticleFrame, read_particle_frame};
 use fractum_systems::spatial::Spatial;
 use plotters::prelude::*;
 use std::path::Path;

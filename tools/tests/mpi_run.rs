@@ -29,7 +29,7 @@ fn series(dir: &std::path::Path) -> (String, Vec<Vec<f64>>) {
 
 /// Particle ids and positions of a frame (a `.vtu`, or a `.pvtu` and its pieces), by id.
 fn positions(path: &std::path::Path) -> Vec<(u32, [f64; 3])> {
-    let frame = fractum_engine::output::read_particle_frame(path).unwrap();
+    let frame = fractum_io::output::read_particle_frame(path).unwrap();
     let mut rows: Vec<_> = frame.id.into_iter().zip(frame.position).collect();
     rows.sort_by_key(|r| r.0);
     rows
@@ -166,9 +166,7 @@ fn under_mpirun_three_ranks_run_and_resume_a_scene_as_the_single_process_does() 
     // The last frame: three pieces behind its index, the single process's particles.
     let index = ranks_dir.join("frames/particles_00001700.pvtu");
     assert_eq!(
-        fractum_engine::output::read_pvtu_pieces(&index)
-            .unwrap()
-            .len(),
+        fractum_io::output::read_pvtu_pieces(&index).unwrap().len(),
         3
     );
     let whole = positions(&serial_dir.join("frames/particles_00001700.vtu"));
@@ -216,7 +214,7 @@ fn sigterm_ends_the_ranks_with_a_checkpoint_that_resumes(ranks: usize) {
     let ended = child.wait_with_output().unwrap();
     let error = text(&ended.stderr);
     assert_eq!(error.matches("interrupted at step").count(), 1, "{error}");
-    let manifests = fractum_engine::checkpoint::list_checkpoints(&out_dir);
+    let manifests = fractum_io::checkpoint::list_checkpoints(&out_dir);
     assert_eq!(manifests.len(), 1, "{error}");
     let files = std::fs::read_dir(out_dir.join("checkpoints"))
         .unwrap()

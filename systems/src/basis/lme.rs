@@ -25,10 +25,10 @@
 use super::lme_graded::graded_rows;
 use super::lme_kernel::{LmeScratch, LmeSettings, lme_row_map, lme_solve, support_radius};
 use crate::spatial::Spatial;
+use fractum_engine::budget::cells_in_ball;
 use fractum_engine::connectivity::RowMap;
 use fractum_engine::health::{Blowup, Health, fmt_vector};
 use fractum_engine::prelude::*;
-use fractum_engine::scene::budget::cells_in_ball;
 use rayon::prelude::*;
 use serde::Deserialize;
 

@@ -5,8 +5,8 @@ pub mod lme;
 mod lme_graded;
 pub mod lme_kernel;
 
+use fractum_engine::budget::{connectivity_entry_bytes, describe_count};
 use fractum_engine::prelude::*;
-use fractum_engine::scene::budget::{connectivity_entry_bytes, describe_count};
 
 /// Declares a basis's connectivity storage, `nodes` support nodes per particle, for the
 /// scene's memory estimate, and its support radius, `radius_cells` cell widths, for a

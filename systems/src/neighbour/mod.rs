@@ -68,13 +68,13 @@ pub fn declare_lists(installer: &mut Installer, name: &str, reaches: &[f64]) {
     let per_cell = installer.particles_per_cell();
     let counts: Vec<f64> = reaches
         .iter()
-        .map(|&reach| fractum_engine::scene::budget::ball_volume(d, reach + 0.5) * per_cell)
+        .map(|&reach| fractum_engine::budget::ball_volume(d, reach + 0.5) * per_cell)
         .collect();
     let widest = counts.iter().copied().fold(0.0, f64::max);
     installer.declare_particle_memory(
         format!(
             "{name}: about {} neighbours per particle",
-            fractum_engine::scene::budget::describe_count(widest)
+            fractum_engine::budget::describe_count(widest)
         ),
         4.0 * counts.iter().sum::<f64>() + (8 * d) as f64,
     );

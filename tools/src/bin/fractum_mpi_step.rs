@@ -17,7 +17,7 @@ fn main() {
         std::process::exit(2);
     };
     let serial = args.iter().any(|a| a == "--serial");
-    let file = match fractum_engine::scene::SceneFile::read(std::path::Path::new(scene)) {
+    let file = match fractum_scene::SceneFile::read(std::path::Path::new(scene)) {
         Ok(file) => file,
         Err(e) => {
             eprintln!("error: {e}");

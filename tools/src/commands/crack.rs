@@ -1,9 +1,9 @@
 //! `fractum crack`: a crack's tip, angle and speed from a run's frames.
 
 use crate::{CrackArgs, EXIT_IO, crack, fragments, load};
-use fractum_engine::output::{read_particle_frame, read_pvd, write_atomically};
 use fractum_engine::registry::Registry;
 use fractum_engine::resources::Materials;
+use fractum_io::output::{read_particle_frame, read_pvd, write_atomically};
 use std::path::Path;
 
 /// A point of 2 or 3 coordinates as three.

@@ -2,7 +2,7 @@
 
 use crate::EXIT_IO;
 use crate::snapshot::{SnapshotOptions, snapshot};
-use fractum_engine::output::read_particle_frame;
+use fractum_io::output::read_particle_frame;
 use std::path::{Path, PathBuf};
 
 pub(crate) fn snapshot_command(

@@ -5,7 +5,7 @@
 
 use super::catalogue::{Case, Catalogue, Source, Tier};
 use super::record::{self, Results, Status};
-use fractum_engine::output::write_atomically;
+use fractum_io::output::write_atomically;
 use std::fmt::Write as _;
 use std::path::Path;
 

@@ -7,7 +7,7 @@
 //! `--rerun` asks.
 
 use super::catalogue::{Case, Catalogue, Check, Source};
-use fractum_engine::output::write_atomically;
+use fractum_io::output::write_atomically;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;

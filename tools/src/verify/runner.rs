@@ -8,7 +8,7 @@
 //! alone, which passes one SIGINT to each child: every child finishes its step and writes a
 //! checkpoint, and the next `verify` resumes it.
 
-use fractum_engine::output::write_atomically;
+use fractum_io::output::write_atomically;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::Instant;

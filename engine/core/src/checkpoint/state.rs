@@ -1,0 +1,789 @@
+//! What a checkpoint carries and how a world's state is captured and restored (see the
+//! module [`crate::checkpoint`]).
+
+use crate::components::{Particle, ParticleId};
+use bevy_ecs::prelude::*;
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+
+/// Data a checkpoint can carry: serde both ways, safe to share between threads, and stored
+/// under an explicit [`State::KEY`].
+pub trait State: Serialize + DeserializeOwned + Send + Sync + 'static {
+    /// The name the value is stored under: stable across builds and compilers (never derived
+    /// from the type's Rust path), unique among everything a run carries. Stock keys are
+    /// `particle/…`, `engine/…` and `<system>/…`; a user's crate should prefix its own.
+    const KEY: &'static str;
+}
+
+/// A carried resource that keeps a value per particle row (a Newton warm start, a cached
+/// neighbour list): in a distributed run, each row's value goes with its particle to the ranks
+/// that hold it ([`CheckpointState::row_resource`]). Rows are storage rows, the rows of every
+/// particle slice.
+pub trait RowState: Resource<Mutability = bevy_ecs::component::Mutable> + State {
+    /// What one row carries to another rank (`()` for a cache that is simply rebuilt).
+    type Row: Serialize + DeserializeOwned;
+
+    /// Row `row`'s value.
+    fn row(&self, row: usize) -> Self::Row;
+
+    /// Makes `rows` the rows, in order: the particles' rows after they were rebuilt. Cached
+    /// data that is not carried must be marked for rebuilding here.
+    fn set_rows(&mut self, rows: Vec<Self::Row>);
+}
+
+/// Implements [`State`] for types with explicit keys: `checkpoint_keys! { MyTotal => "my/total" }`.
+/// A generic type is written out by hand (`impl<D: Dim> State for MyState<D> { … }`).
+#[macro_export]
+macro_rules! checkpoint_keys {
+    ($($ty:ty => $key:literal),* $(,)?) => {
+        $(impl $crate::checkpoint::State for $ty {
+            const KEY: &'static str = $key;
+        })*
+    };
+}
+
+/// Implements [`State`] for generic-over-`D` engine types.
+macro_rules! dim_keys {
+    ($($ty:ident => $key:literal),* $(,)?) => {
+        $(impl<D: crate::dim::Dim> State for crate::components::$ty<D> {
+            const KEY: &'static str = $key;
+        })*
+    };
+}
+
+dim_keys! {
+    Position => "particle/position",
+    Velocity => "particle/velocity",
+    Acceleration => "particle/acceleration",
+    DeformationGradient => "particle/deformation_gradient",
+    Stress => "particle/stress",
+    Strain => "particle/strain",
+    ExternalForce => "particle/external_force",
+    DamageGradient => "particle/damage_gradient",
+}
+
+checkpoint_keys! {
+    crate::components::Mass => "particle/mass",
+    crate::components::Volume => "particle/volume",
+    crate::components::InitialVolume => "particle/initial_volume",
+    crate::components::StrainEnergyDensity => "particle/strain_energy_density",
+    crate::components::WaveSpeed => "particle/wave_speed",
+    crate::components::Damage => "particle/damage",
+    crate::components::DamageHistory => "particle/damage_history",
+    crate::components::MaterialId => "particle/material",
+    crate::components::BodyId => "particle/body",
+    crate::components::ContactGroup => "particle/contact_group",
+    crate::components::Strength => "particle/strength",
+    crate::components::CrackOpening => "particle/crack_opening",
+    crate::components::SurfaceFlag => "particle/surface_flag",
+    crate::loads::LoadShare => "particle/load_share",
+    crate::resources::SimClock => "engine/clock",
+    crate::energy::EnergyAccount => "engine/energy_account",
+    crate::energy::EnergyWatch => "engine/energy_watch",
+    crate::series::ForceProbeMemory => "engine/force_probes",
+    crate::health::EscapedParticles => "engine/escaped_particles",
+    crate::series::SeriesColumns => "engine/series_columns",
+}
+
+/// Why a checkpoint could not be written or restored.
+#[derive(Debug, thiserror::Error)]
+pub enum CheckpointError {
+    /// A value could not be encoded or decoded.
+    #[error("cannot encode or decode {what}: {source}")]
+    Codec {
+        /// The component or resource.
+        what: String,
+        /// The cause.
+        source: postcard::Error,
+    },
+    /// The checkpoint does not fit the world rebuilt from the scene.
+    #[error("{0}")]
+    Mismatch(String),
+}
+
+type SaveComponent = fn(&mut World, &[Entity]) -> Result<Vec<u8>, CheckpointError>;
+type LoadComponent = fn(&mut World, &[Entity], &[u8]) -> Result<(), CheckpointError>;
+type PickComponent =
+    fn(&mut World, &[Entity], &[&[u8]], &[(u32, u32)]) -> Result<(), CheckpointError>;
+type SaveColumn = fn(&mut World, &[usize], usize) -> Option<Result<Vec<u8>, CheckpointError>>;
+type PickColumn = fn(&mut World, &[&[u8]], &[(u32, u32)]) -> Option<Result<(), CheckpointError>>;
+type SaveRows = fn(&World, &[usize]) -> Result<Vec<u8>, CheckpointError>;
+type PickRows = fn(&mut World, &[&[u8]], &[(u32, u32)]) -> Result<(), CheckpointError>;
+type SaveResource = fn(&World) -> Result<Option<Vec<u8>>, CheckpointError>;
+type LoadResource = fn(&mut World, &[u8]) -> Result<(), CheckpointError>;
+
+#[derive(Clone, Copy)]
+struct ComponentEntry {
+    name: &'static str,
+    type_id: std::any::TypeId,
+    save: SaveComponent,
+    load: LoadComponent,
+    pick: PickComponent,
+    save_column: SaveColumn,
+    pick_column: PickColumn,
+}
+
+#[derive(Clone, Copy)]
+struct ResourceEntry {
+    name: &'static str,
+    type_id: std::any::TypeId,
+    save: SaveResource,
+    load: LoadResource,
+}
+
+#[derive(Clone, Copy)]
+struct RowEntry {
+    name: &'static str,
+    save: SaveRows,
+    pick: PickRows,
+}
+
+/// The components and resources a checkpoint carries (see the module header).
+#[derive(Resource, Clone, Default)]
+pub struct CheckpointState {
+    components: Vec<ComponentEntry>,
+    resources: Vec<ResourceEntry>,
+    /// The carried resources that keep a value per particle row.
+    rows: Vec<RowEntry>,
+    /// The carried resources each rank of a distributed run keeps as its own
+    /// ([`Self::rank_resource`]).
+    per_rank: Vec<&'static str>,
+    /// Keys asked for by two different types (a scene with any is refused).
+    collisions: Vec<&'static str>,
+}
+
+impl std::fmt::Debug for CheckpointState {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CheckpointState")
+            .field("components", &self.component_names())
+            .field("resources", &self.resource_names())
+            .finish()
+    }
+}
+
+impl CheckpointState {
+    /// Carries particle component `C` (once, however often it is asked).
+    pub fn component<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(&mut self) {
+        let (name, type_id) = (C::KEY, std::any::TypeId::of::<C>());
+        if self.is_new(name, type_id) {
+            self.components.push(ComponentEntry {
+                name,
+                type_id,
+                save: save_component::<C>,
+                load: load_component::<C>,
+                pick: pick_component::<C>,
+                save_column: save_column::<C>,
+                pick_column: pick_column::<C>,
+            });
+        }
+    }
+
+    /// Carries resource `R` (once, however often it is asked).
+    pub fn resource<R: Resource + State>(&mut self) {
+        let (name, type_id) = (R::KEY, std::any::TypeId::of::<R>());
+        if self.is_new(name, type_id) {
+            self.resources.push(ResourceEntry {
+                name,
+                type_id,
+                save: save_resource::<R>,
+                load: load_resource::<R>,
+            });
+        }
+    }
+
+    /// Part `c` (a component, or a row resource after the components) of each of `blocks`.
+    fn block_parts<'b>(
+        &self,
+        blocks: &'b [Vec<Vec<u8>>],
+        c: usize,
+    ) -> Result<Vec<&'b [u8]>, CheckpointError> {
+        let carried = self.components.len() + self.rows.len();
+        blocks
+            .iter()
+            .map(|block| match block.get(c) {
+                Some(bytes) if block.len() == carried => Ok(bytes.as_slice()),
+                _ => Err(CheckpointError::Mismatch(format!(
+                    "a block of {} parts, {carried} carried",
+                    block.len()
+                ))),
+            })
+            .collect()
+    }
+
+    /// Writes into every particle of `world`, in storage order, every carried component of
+    /// particle `picks[k] = (b, i)` for the `k`-th: the `i`-th particle of `blocks[b]`, which
+    /// [`CheckpointState::save_particles`] encoded (with the same carried components); and makes
+    /// the picked rows, in order, the rows of each [`RowState`] resource. Each particle is
+    /// picked at most once, and a particle carries a component exactly where its source did.
+    /// Component by component into each column when every particle has the component, entity
+    /// by entity otherwise. With `same_rows` (every row holds the particle it held), the
+    /// [`RowState`] resources keep their rows as they are: their cached lists stay valid; and a
+    /// row picked as [`KEEP_ROW`] keeps its components.
+    pub fn load_picked_rows(
+        &self,
+        world: &mut World,
+        blocks: &[Vec<Vec<u8>>],
+        picks: &[(u32, u32)],
+        same_rows: bool,
+    ) -> Result<(), CheckpointError> {
+        let part = |c: usize| self.block_parts(blocks, c);
+        let (targets, _) = particles_in_order(world);
+        if targets.len() != picks.len() {
+            return Err(CheckpointError::Mismatch(format!(
+                "{} particles to fill from {} picked",
+                targets.len(),
+                picks.len()
+            )));
+        }
+        for (c, entry) in self.components.iter().enumerate() {
+            let sources = part(c)?;
+            match (entry.pick_column)(world, &sources, picks) {
+                Some(done) => done?,
+                None => (entry.pick)(world, &targets, &sources, picks)?,
+            }
+        }
+        if same_rows {
+            return Ok(());
+        }
+        for (r, entry) in self.rows.iter().enumerate() {
+            (entry.pick)(world, &part(self.components.len() + r)?, picks)?;
+        }
+        Ok(())
+    }
+
+    /// Carries resource `R`, which keeps a value per particle row: in a checkpoint whole, and
+    /// in a distributed run row by row with the particles ([`RowState`]).
+    pub fn row_resource<R: RowState>(&mut self) {
+        self.resource::<R>();
+        let type_id = std::any::TypeId::of::<R>();
+        let carried = self.resources.iter().any(|e| e.type_id == type_id);
+        if carried && !self.is_row_resource(R::KEY) {
+            self.rows.push(RowEntry {
+                name: R::KEY,
+                save: save_rows::<R>,
+                pick: pick_rows::<R>,
+            });
+        }
+    }
+
+    /// Carries resource `R` as one that each rank of a distributed run keeps as its own: a
+    /// value every rank holds alike (a flag every rank sets at the same step, a value agreed
+    /// over ranks), or the rank's part of a sum over what it owns (a running total published
+    /// as an owned-sum column). Each rank's checkpoint piece holds its copy.
+    pub fn rank_resource<R: Resource + State>(&mut self) {
+        self.resource::<R>();
+        if !self.per_rank.contains(&R::KEY) {
+            self.per_rank.push(R::KEY);
+        }
+    }
+
+    /// Whether each rank keeps resource `name` as its own ([`Self::rank_resource`]).
+    pub fn is_rank_resource(&self, name: &str) -> bool {
+        self.per_rank.contains(&name)
+    }
+
+    /// Whether resource `name` keeps its values by particle row ([`RowState`]).
+    pub fn is_row_resource(&self, name: &str) -> bool {
+        self.rows.iter().any(|r| r.name == name)
+    }
+
+    /// Whether `name` is not carried yet; a key already taken by another type is recorded as
+    /// a collision.
+    fn is_new(&mut self, name: &'static str, type_id: std::any::TypeId) -> bool {
+        let taken = self
+            .components
+            .iter()
+            .map(|e| (e.name, e.type_id))
+            .chain(self.resources.iter().map(|e| (e.name, e.type_id)))
+            .find(|(n, _)| *n == name);
+        match taken {
+            None => true,
+            Some((_, t)) if t == type_id => false,
+            Some(_) => {
+                self.collisions.push(name);
+                false
+            }
+        }
+    }
+
+    /// Keys that two different types asked for.
+    pub fn collisions(&self) -> &[&'static str] {
+        &self.collisions
+    }
+
+    /// Names of the carried components.
+    pub fn component_names(&self) -> Vec<&'static str> {
+        self.components.iter().map(|e| e.name).collect()
+    }
+
+    /// Every carried component of `particles` (storage rows `rows`), each encoded as a
+    /// checkpoint encodes it, in the order the components are carried, then their rows of each
+    /// [`RowState`] resource: the particles' state, to be sent to another rank of a
+    /// distributed run and put back with [`CheckpointState::load_picked_rows`].
+    pub fn save_particles(
+        &self,
+        world: &mut World,
+        particles: &[Entity],
+        rows: &[usize],
+    ) -> Result<Vec<Vec<u8>>, CheckpointError> {
+        let mut saved = Vec::with_capacity(self.components.len() + self.rows.len());
+        for entry in &self.components {
+            // From the component's column when every particle has it, as they do in one table;
+            // entity by entity otherwise.
+            let bytes = match (entry.save_column)(world, rows, particles.len()) {
+                Some(column) => column?,
+                None => (entry.save)(world, particles)?,
+            };
+            saved.push(bytes);
+        }
+        for entry in &self.rows {
+            saved.push((entry.save)(world, rows)?);
+        }
+        Ok(saved)
+    }
+
+    /// Names of the carried resources.
+    pub fn resource_names(&self) -> Vec<&'static str> {
+        self.resources.iter().map(|e| e.name).collect()
+    }
+}
+
+/// Registers particle component `C` with the world's [`CheckpointState`].
+pub fn carry_component<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
+    world: &mut World,
+) {
+    world
+        .get_resource_or_init::<CheckpointState>()
+        .component::<C>();
+}
+
+/// Registers resource `R` with the world's [`CheckpointState`].
+pub fn carry_resource<R: Resource + State>(world: &mut World) {
+    world
+        .get_resource_or_init::<CheckpointState>()
+        .resource::<R>();
+}
+
+fn codec(what: &str) -> impl FnOnce(postcard::Error) -> CheckpointError + '_ {
+    move |source| CheckpointError::Codec {
+        what: what.to_string(),
+        source,
+    }
+}
+
+fn save_component<C: Component + State>(
+    world: &mut World,
+    particles: &[Entity],
+) -> Result<Vec<u8>, CheckpointError> {
+    let values: Vec<Option<&C>> = particles.iter().map(|&e| world.get::<C>(e)).collect();
+    postcard::to_allocvec(&values).map_err(codec(C::KEY))
+}
+
+fn load_component<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
+    world: &mut World,
+    particles: &[Entity],
+    bytes: &[u8],
+) -> Result<(), CheckpointError> {
+    let name = C::KEY;
+    let values: Vec<Option<C>> = postcard::from_bytes(bytes).map_err(codec(name))?;
+    if values.len() != particles.len() {
+        return Err(CheckpointError::Mismatch(format!(
+            "{name}: the checkpoint has {} particles, the scene {}",
+            values.len(),
+            particles.len()
+        )));
+    }
+    for (&entity, value) in particles.iter().zip(values) {
+        match (world.get_mut::<C>(entity), value) {
+            (Some(mut slot), Some(value)) => *slot = value,
+            (None, None) => {}
+            _ => {
+                return Err(CheckpointError::Mismatch(format!(
+                    "{name}: the particles that have it differ between the checkpoint and the \
+                     scene"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `C` of particle rows `rows`, encoded as [`save_component`] encodes them, read from the
+/// particles' one table; `None` when the particles (`count` of them) are not all in one table
+/// with `C`.
+fn save_column<C: Component + State>(
+    world: &mut World,
+    rows: &[usize],
+    count: usize,
+) -> Option<Result<Vec<u8>, CheckpointError>> {
+    let mut query = world.query_filtered::<&C, With<Particle>>();
+    let mut tables = query.contiguous_iter(world).ok()?;
+    let column: &[C] = tables.next()?;
+    if tables.next().is_some() || column.len() < count {
+        return None;
+    }
+    let values: Option<Vec<Option<&C>>> = rows.iter().map(|&r| column.get(r).map(Some)).collect();
+    Some(postcard::to_allocvec(&values?).map_err(codec(C::KEY)))
+}
+
+/// [`pick_component`] into every particle row in order, through the particles' one table;
+/// `None` when they are not all in one table with `C`.
+fn pick_column<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
+    world: &mut World,
+    sources: &[&[u8]],
+    picks: &[(u32, u32)],
+) -> Option<Result<(), CheckpointError>> {
+    let name = C::KEY;
+    let count = world
+        .query_filtered::<(), With<Particle>>()
+        .iter(world)
+        .count();
+    let mut query = world.query_filtered::<&mut C, With<Particle>>();
+    let mut tables = query.contiguous_iter_mut(world).ok()?;
+    let mut column = tables.next()?;
+    if tables.next().is_some() || column.len() != count || count != picks.len() {
+        return None;
+    }
+    let decoded: Result<Vec<Vec<Option<C>>>, _> = sources
+        .iter()
+        .map(|bytes| postcard::from_bytes(bytes).map_err(codec(name)))
+        .collect();
+    let mut decoded = match decoded {
+        Ok(decoded) => decoded,
+        Err(e) => return Some(Err(e)),
+    };
+    let column: &mut [C] = &mut column;
+    for (slot, &(block, index)) in column.iter_mut().zip(picks) {
+        if (block, index) == KEEP_ROW {
+            continue;
+        }
+        let value = picked(&mut decoded, block, index).and_then(Option::take);
+        match value {
+            Some(value) => *slot = value,
+            None => {
+                return Some(Err(CheckpointError::Mismatch(format!(
+                    "{name}: particle {index} of block {block} was not sent with it"
+                ))));
+            }
+        }
+    }
+    Some(Ok(()))
+}
+
+fn pick_component<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
+    world: &mut World,
+    targets: &[Entity],
+    sources: &[&[u8]],
+    picks: &[(u32, u32)],
+) -> Result<(), CheckpointError> {
+    let name = C::KEY;
+    let mut decoded: Vec<Vec<Option<C>>> = sources
+        .iter()
+        .map(|bytes| postcard::from_bytes(bytes).map_err(codec(name)))
+        .collect::<Result<_, _>>()?;
+    for (&entity, &(block, index)) in targets.iter().zip(picks) {
+        if (block, index) == KEEP_ROW {
+            continue;
+        }
+        // Each particle is picked once: its value is moved out.
+        let value = picked(&mut decoded, block, index)
+            .map(Option::take)
+            .ok_or_else(|| {
+                CheckpointError::Mismatch(format!(
+                    "{name}: particle {index} of block {block} was not sent"
+                ))
+            })?;
+        match (world.get_mut::<C>(entity), value) {
+            (Some(mut slot), Some(value)) => *slot = value,
+            (None, None) => {}
+            _ => {
+                return Err(CheckpointError::Mismatch(format!(
+                    "{name}: carried by the particle sent and not by the one it fills, or the \
+                     other way round"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The slot of the `index`-th value of block `block`, if it was sent.
+/// A pick ([`CheckpointState::load_picked_rows`]) that leaves its row as it is.
+pub const KEEP_ROW: (u32, u32) = (u32::MAX, u32::MAX);
+
+fn picked<T>(decoded: &mut [Vec<Option<T>>], block: u32, index: u32) -> Option<&mut Option<T>> {
+    decoded.get_mut(block as usize)?.get_mut(index as usize)
+}
+
+fn save_rows<R: RowState>(world: &World, rows: &[usize]) -> Result<Vec<u8>, CheckpointError> {
+    let values: Vec<R::Row> = match world.get_resource::<R>() {
+        Some(resource) => rows.iter().map(|&r| resource.row(r)).collect(),
+        None => Vec::new(),
+    };
+    postcard::to_allocvec(&values).map_err(codec(R::KEY))
+}
+
+fn pick_rows<R: RowState>(
+    world: &mut World,
+    sources: &[&[u8]],
+    picks: &[(u32, u32)],
+) -> Result<(), CheckpointError> {
+    let name = R::KEY;
+    if !world.contains_resource::<R>() {
+        return Ok(());
+    }
+    let mut decoded: Vec<Vec<Option<R::Row>>> = sources
+        .iter()
+        .map(|bytes| {
+            postcard::from_bytes::<Vec<R::Row>>(bytes)
+                .map(|rows| rows.into_iter().map(Some).collect())
+                .map_err(codec(name))
+        })
+        .collect::<Result<_, _>>()?;
+    let rows = picks
+        .iter()
+        .map(|&(block, index)| {
+            picked(&mut decoded, block, index)
+                .and_then(Option::take)
+                .ok_or_else(|| {
+                    CheckpointError::Mismatch(format!(
+                        "{name}: row {index} of block {block} was not sent"
+                    ))
+                })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    if let Some(mut resource) = world.get_resource_mut::<R>() {
+        resource.set_rows(rows);
+    }
+    Ok(())
+}
+
+fn save_resource<R: Resource + State>(world: &World) -> Result<Option<Vec<u8>>, CheckpointError> {
+    world
+        .get_resource::<R>()
+        .map(|r| postcard::to_allocvec(r).map_err(codec(R::KEY)))
+        .transpose()
+}
+
+fn load_resource<R: Resource + State>(
+    world: &mut World,
+    bytes: &[u8],
+) -> Result<(), CheckpointError> {
+    let value: R = postcard::from_bytes(bytes).map_err(codec(R::KEY))?;
+    world.insert_resource(value);
+    Ok(())
+}
+
+/// Registers what the engine itself carries from step to step: every component particles are
+/// spawned with (their id is the key, not carried), the clock, and the running totals.
+pub fn carry_engine_state<D: crate::dim::Dim>(world: &mut World) {
+    use crate::components::*;
+    let mut state = world.get_resource_or_init::<CheckpointState>();
+    state.component::<Position<D>>();
+    state.component::<Velocity<D>>();
+    state.component::<Acceleration<D>>();
+    state.component::<Mass>();
+    state.component::<Volume>();
+    state.component::<InitialVolume>();
+    state.component::<DeformationGradient<D>>();
+    state.component::<Stress<D>>();
+    state.component::<Strain<D>>();
+    state.component::<StrainEnergyDensity>();
+    state.component::<WaveSpeed>();
+    state.component::<Damage>();
+    state.component::<DamageHistory>();
+    state.component::<MaterialId>();
+    state.component::<BodyId>();
+    state.component::<ContactGroup>();
+    state.component::<ExternalForce<D>>();
+    state.component::<crate::loads::LoadShare>();
+    state.resource::<crate::resources::SimClock>();
+    state.resource::<crate::energy::EnergyAccount>();
+    state.resource::<crate::energy::EnergyWatch>();
+    state.resource::<crate::series::ForceProbeMemory>();
+    state.resource::<crate::health::EscapedParticles>();
+    state.resource::<crate::series::SeriesColumns>();
+}
+
+/// The state of a world: its particles in storage order, those removed so far in the order
+/// they went, and each carried component and resource, encoded.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct WorldState {
+    /// The live particles' ids, in storage (query) order.
+    pub particles: Vec<u32>,
+    /// The removed particles' ids, in the order they were removed.
+    pub removed: Vec<u32>,
+    /// Component name and its values, one per live particle in `particles` order.
+    pub components: Vec<(String, Vec<u8>)>,
+    /// Resource name and its value (absent resources are not listed).
+    pub resources: Vec<(String, Vec<u8>)>,
+}
+
+fn particles_in_order(world: &mut World) -> (Vec<Entity>, Vec<u32>) {
+    let mut query = world.query_filtered::<(Entity, &ParticleId), With<Particle>>();
+    query.iter(world).map(|(e, id)| (e, id.0)).unzip()
+}
+
+/// Captures the state of `world` that its [`CheckpointState`] lists.
+pub fn capture(world: &mut World) -> Result<WorldState, CheckpointError> {
+    let state = world
+        .get_resource::<CheckpointState>()
+        .cloned()
+        .unwrap_or_default();
+    let (entities, particles) = particles_in_order(world);
+    let removed = world
+        .get_resource::<crate::health::EscapedParticles>()
+        .map(|e| e.removed.clone())
+        .unwrap_or_default();
+    let mut components = Vec::new();
+    for entry in &state.components {
+        components.push((entry.name.to_string(), (entry.save)(world, &entities)?));
+    }
+    let mut resources = Vec::new();
+    for entry in &state.resources {
+        if let Some(bytes) = (entry.save)(world)? {
+            resources.push((entry.name.to_string(), bytes));
+        }
+    }
+    Ok(WorldState {
+        particles,
+        removed,
+        components,
+        resources,
+    })
+}
+
+/// Puts `saved` into `world`, a world freshly built from the same scene: removes the particles
+/// removed before the checkpoint in their order, checks that the storage order is the saved
+/// one, and overwrites every carried component and resource.
+pub fn restore(world: &mut World, saved: &WorldState) -> Result<(), CheckpointError> {
+    let state = world
+        .get_resource::<CheckpointState>()
+        .cloned()
+        .unwrap_or_default();
+    let (entities, ids) = particles_in_order(world);
+    let by_id: std::collections::HashMap<u32, Entity> =
+        ids.iter().copied().zip(entities.iter().copied()).collect();
+    for id in &saved.removed {
+        let entity = by_id.get(id).copied().ok_or_else(|| {
+            CheckpointError::Mismatch(format!(
+                "the checkpoint removed particle {id}, which the scene does not have"
+            ))
+        })?;
+        world.despawn(entity);
+    }
+    let (entities, ids) = particles_in_order(world);
+    if ids != saved.particles {
+        return Err(CheckpointError::Mismatch(format!(
+            "the scene's particles ({}) are not the checkpoint's ({}) in the same order",
+            ids.len(),
+            saved.particles.len()
+        )));
+    }
+    let saved_names: Vec<&str> = saved.components.iter().map(|(n, _)| n.as_str()).collect();
+    let names = state.component_names();
+    if names != saved_names {
+        return Err(CheckpointError::Mismatch(format!(
+            "the pipeline carries the particle components {names:?}, the checkpoint \
+             {saved_names:?}"
+        )));
+    }
+    for (entry, (_, bytes)) in state.components.iter().zip(&saved.components) {
+        (entry.load)(world, &entities, bytes)?;
+    }
+    for (name, bytes) in &saved.resources {
+        let entry = state
+            .resources
+            .iter()
+            .find(|e| e.name == name)
+            .ok_or_else(|| {
+                CheckpointError::Mismatch(format!(
+                    "the checkpoint carries {name}, which this scene's pipeline does not have"
+                ))
+            })?;
+        (entry.load)(world, bytes)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::components::{Position, Velocity};
+    use crate::dim::Two;
+    use crate::testing::{spawn_particle, tiny_world};
+    use glam::DVec2;
+
+    /// A resource that keeps one number per row, as a warm start does.
+    #[derive(Resource, Default, Serialize, Deserialize)]
+    struct PerRow(Vec<f64>);
+    crate::checkpoint_keys! { PerRow => "test/per_row" }
+    impl RowState for PerRow {
+        type Row = f64;
+        fn row(&self, row: usize) -> f64 {
+            self.0[row]
+        }
+        fn set_rows(&mut self, rows: Vec<f64>) {
+            self.0 = rows;
+        }
+    }
+
+    fn world_of(xs: &[f64]) -> World {
+        let mut world = tiny_world::<Two>(4, 1.0, 1e-3);
+        carry_engine_state::<Two>(&mut world);
+        world
+            .resource_mut::<CheckpointState>()
+            .row_resource::<PerRow>();
+        for &x in xs {
+            spawn_particle(&mut world, DVec2::new(x, 0.5), DVec2::new(x, 0.0), 1.0, 1.0);
+        }
+        world.insert_resource(PerRow(xs.to_vec()));
+        world
+    }
+
+    fn particles<T: Component + Copy>(world: &mut World) -> Vec<T> {
+        let mut query = world.query_filtered::<&T, With<Particle>>();
+        query.iter(world).copied().collect()
+    }
+
+    /// Particles saved from two worlds are put, picked in another order, into a third, rows
+    /// and row state alike; with `same_rows` the row state is left as it is.
+    #[test]
+    fn particles_picked_from_blocks_fill_the_rows_in_order() {
+        let state = world_of(&[]).resource::<CheckpointState>().clone();
+        let mut blocks = Vec::new();
+        for xs in [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]] {
+            let mut source = world_of(&xs);
+            let (entities, _) = particles_in_order(&mut source);
+            let saved = state.save_particles(&mut source, &entities[1..], &[1, 2]);
+            blocks.push(saved.unwrap());
+        }
+        let mut target = world_of(&[0.0, 0.0, 0.0]);
+        // Row 0 gets particle 1 of block 1 (x = 6), row 1 particle 0 of block 0 (x = 2), row 2
+        // particle 0 of block 1 (x = 5).
+        let picks = [(1, 1), (0, 0), (1, 0)];
+        state
+            .load_picked_rows(&mut target, &blocks, &picks, false)
+            .unwrap();
+        let xs: Vec<f64> = particles::<Position<Two>>(&mut target)
+            .iter()
+            .map(|p| p.0.x)
+            .collect();
+        assert_eq!(xs, [6.0, 2.0, 5.0]);
+        let vs: Vec<f64> = particles::<Velocity<Two>>(&mut target)
+            .iter()
+            .map(|v| v.0.x)
+            .collect();
+        assert_eq!(vs, [6.0, 2.0, 5.0]);
+        assert_eq!(target.resource::<PerRow>().0, [6.0, 2.0, 5.0]);
+        target.resource_mut::<PerRow>().0 = vec![9.0; 3];
+        state
+            .load_picked_rows(&mut target, &blocks, &[(0, 1), (0, 0), (1, 0)], true)
+            .unwrap();
+        assert_eq!(target.resource::<PerRow>().0, [9.0; 3]);
+        // A pick with no particle behind it is refused, not read out of bounds.
+        let missing =
+            state.load_picked_rows(&mut target, &blocks, &[(0, 5), (0, 0), (1, 0)], false);
+        assert!(missing.is_err());
+    }
+}

@@ -1,0 +1,282 @@
+//! How a scene divides over the ranks of a distributed run: one slab of cell layers per rank,
+//! along the axis on which the particles spread furthest, cut at cell faces so that the rank
+//! with the most particles has as few as any such cut allows.
+//!
+//! The cut is the contiguous partition of the layers' particle counts that minimises its
+//! largest part: the least bound `B` for which filling slabs greedily up to `B` needs no more
+//! slabs than ranks, found by bisection on `B` (the greedy fill is optimal for a given bound).
+//! Slabs rather than recursive bisection because a slab has two neighbours, whatever the rank
+//! count, which keeps a first distributed step's exchanges to two per rank; the imbalance this
+//! reports tells when a scene needs better.
+
+mod layout;
+
+pub use layout::{Layout, Ownership, StepReach, counts_here};
+
+use bevy_ecs::prelude::{Resource, World};
+
+/// A value of the whole scene that a system needs and a rank cannot find alone, such as the
+/// largest of a quantity over every particle: before each step for which `wanted` holds on any
+/// rank (a rank whose world was built afresh for re-cut slabs wants it again), a distributed
+/// run takes each rank's `local` maximum over what it owns, and gives the greatest over ranks
+/// to every rank's world with `apply`
+/// (`fractum_io::run::distributed::step`). One process never calls them: its system finds the
+/// value over its own particles.
+#[derive(Clone, Copy)]
+pub struct RankMaximum {
+    /// What the value is (one entry per name).
+    pub name: &'static str,
+    /// Whether the value is wanted before the coming step.
+    pub wanted: fn(&World) -> bool,
+    /// This rank's maximum over the particles or nodes it owns.
+    pub local: fn(&mut World) -> f64,
+    /// Gives the world the run's maximum.
+    pub apply: fn(&mut World, f64),
+}
+
+/// The [`RankMaximum`]s the pipeline asked for (`Installer::add_rank_maximum`).
+#[derive(Resource, Clone, Default)]
+pub struct RankMaxima(pub Vec<RankMaximum>);
+
+/// How a rank's world is built afresh for other slabs, a resource of a rank's world
+/// (`Spec::build_rank` inserts it). A rank holds the nodes its particles reach
+/// ([`rank_grid`]); when the slabs are re-cut and those nodes change,
+/// `fractum_io::run::distributed::step` builds the rank's world for the new slabs from the scene
+/// and moves the run's state into it, as a resume would. Every system then starts from a
+/// world built for the nodes it holds, whatever it caches about them.
+#[derive(Resource, Clone)]
+pub struct RankRebuild {
+    /// Node layers a rank holds beyond the nodes of its held cell layers, on each side.
+    pub node_reach: usize,
+    build: RankBuilder,
+}
+
+/// Builds the world of one rank of a scene for the slabs of a layout.
+type RankBuilder =
+    std::sync::Arc<dyn Fn(&Layout) -> Result<crate::Simulation, String> + Send + Sync + 'static>;
+
+impl RankRebuild {
+    /// A rebuild that holds `node_reach` node layers beyond the held cells and builds with
+    /// `build`.
+    pub fn new(
+        node_reach: usize,
+        build: impl Fn(&Layout) -> Result<crate::Simulation, String> + Send + Sync + 'static,
+    ) -> Self {
+        Self {
+            node_reach,
+            build: std::sync::Arc::new(build),
+        }
+    }
+
+    /// The rank's simulation built from the scene for the slabs of `layout`.
+    pub fn build(&self, layout: &Layout) -> Result<crate::Simulation, String> {
+        (self.build)(layout)
+    }
+}
+
+/// The part of `grid` that rank `rank` of `layout` holds: every node along the other axes, and
+/// along the slabs' axis the node layers its held cell layers reach, with `node_reach` more
+/// on each side ([`Layout::node_layers`]).
+pub fn rank_grid<D: crate::dim::Dim>(
+    grid: &crate::resources::Grid<D>,
+    layout: &Layout,
+    rank: usize,
+    node_reach: usize,
+) -> crate::resources::Grid<D> {
+    use crate::dim::Lattice;
+    let axis = layout.axis;
+    let layers = layout.node_layers(rank, node_reach);
+    let all = grid.nodes_per_axis();
+    grid.whole().windowed(crate::resources::NodeWindow {
+        first: D::Cell::from_fn(|a| if a == axis { layers.start } else { 0 }),
+        counts: D::Cell::from_fn(|a| if a == axis { layers.len() } else { all[a] }),
+    })
+}
+
+use std::ops::Range;
+
+/// The slabs of a scene over its ranks.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Slabs {
+    /// The axis the slabs are stacked along (0 = x).
+    pub axis: usize,
+    /// Each rank's cell layers along `axis`, in rank order, covering every layer.
+    pub layers: Vec<Range<usize>>,
+    /// Each rank's particles.
+    pub particles: Vec<u64>,
+}
+
+impl Slabs {
+    /// How far the most loaded rank is above the mean: `max / mean − 1` (0 when balanced).
+    pub fn imbalance(&self) -> f64 {
+        imbalance(&self.particles)
+    }
+}
+
+/// `max / mean − 1` of per-rank counts; 0 for no particles.
+pub fn imbalance(counts: &[u64]) -> f64 {
+    let total: u64 = counts.iter().sum();
+    let Some(&most) = counts.iter().max() else {
+        return 0.0;
+    };
+    if total == 0 {
+        return 0.0;
+    }
+    most as f64 * counts.len() as f64 / total as f64 - 1.0
+}
+
+/// Cuts `per_layer` (the particles in each cell layer along `axis`) into `ranks` slabs of at
+/// least one layer each, minimising the largest slab's particles. Refused when there are
+/// fewer layers than ranks.
+pub fn cut_slabs(axis: usize, per_layer: &[u64], ranks: usize) -> Result<Slabs, String> {
+    if ranks == 0 {
+        return Err("a run needs at least one rank".to_string());
+    }
+    if per_layer.len() < ranks {
+        return Err(format!(
+            "the grid has {} cell layers along the {} axis, fewer than the {ranks} ranks: a rank \
+             owns at least one layer",
+            per_layer.len(),
+            ["x", "y", "z"][axis.min(2)]
+        ));
+    }
+    let (mut low, mut high) = (
+        per_layer.iter().copied().max().unwrap_or(0),
+        per_layer.iter().sum::<u64>(),
+    );
+    while low < high {
+        let bound = low + (high - low) / 2;
+        if greedy_slabs(per_layer, bound).len() <= ranks {
+            high = bound;
+        } else {
+            low = bound + 1;
+        }
+    }
+    let mut layers = greedy_slabs(per_layer, low);
+    // Fewer slabs than ranks: split slabs of several layers (no part grows) until each rank
+    // has one, taking layers off the end of the widest.
+    while layers.len() < ranks {
+        let widest = (0..layers.len())
+            .max_by_key(|&k| (layers[k].len(), std::cmp::Reverse(k)))
+            .expect("at least one slab");
+        let range = layers[widest].clone();
+        let middle = range.start + range.len() / 2;
+        layers[widest] = range.start..middle;
+        layers.insert(widest + 1, middle..range.end);
+    }
+    let particles = layers
+        .iter()
+        .map(|r| per_layer[r.clone()].iter().sum())
+        .collect();
+    Ok(Slabs {
+        axis,
+        layers,
+        particles,
+    })
+}
+
+/// Slabs filled in order up to `bound` particles each (a layer above `bound` alone makes one).
+fn greedy_slabs(per_layer: &[u64], bound: u64) -> Vec<Range<usize>> {
+    let mut slabs = Vec::new();
+    let (mut start, mut load) = (0, 0u64);
+    for (k, &count) in per_layer.iter().enumerate() {
+        if k > start && load + count > bound {
+            slabs.push(start..k);
+            (start, load) = (k, 0);
+        }
+        load += count;
+    }
+    slabs.push(start..per_layer.len());
+    slabs
+}
+
+/// The axis along which `extent` (the particles' bounding box, per axis) is longest; the
+/// first on a tie.
+pub fn longest_axis(extent: &[f64]) -> usize {
+    (0..extent.len()).fold(0, |best, a| if extent[a] > extent[best] { a } else { best })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn a_uniform_body_is_cut_into_equal_slabs() {
+        let slabs = cut_slabs(0, &[10; 12], 4).unwrap();
+        assert_eq!(slabs.layers, vec![0..3, 3..6, 6..9, 9..12]);
+        assert_eq!(slabs.particles, vec![30; 4]);
+        assert_eq!(slabs.imbalance(), 0.0);
+    }
+
+    #[test]
+    fn empty_layers_go_to_the_outer_slabs_and_the_dense_part_is_shared() {
+        // A body in the middle third of the grid.
+        let mut per_layer = vec![0; 30];
+        per_layer[10..20].fill(100);
+        let slabs = cut_slabs(1, &per_layer, 2).unwrap();
+        assert_eq!(slabs.particles, vec![500, 500]);
+        assert_eq!(slabs.layers[0].end, 15);
+        assert_eq!(slabs.layers.last().unwrap().end, 30);
+    }
+
+    #[test]
+    fn more_ranks_than_particles_still_give_every_rank_a_layer() {
+        let slabs = cut_slabs(0, &[0, 0, 5, 0, 0, 0], 4).unwrap();
+        assert_eq!(slabs.layers.len(), 4);
+        assert_eq!(slabs.particles.iter().sum::<u64>(), 5);
+        assert!(slabs.layers.iter().all(|r| !r.is_empty()));
+        assert_eq!(slabs.imbalance(), 3.0);
+    }
+
+    #[test]
+    fn fewer_layers_than_ranks_are_refused() {
+        let error = cut_slabs(2, &[1, 2, 3], 4).unwrap_err();
+        assert!(error.contains("3 cell layers along the z axis, fewer than the 4 ranks"));
+        assert!(cut_slabs(0, &[1], 0).is_err());
+    }
+
+    #[test]
+    fn the_longest_axis_is_the_first_of_the_longest() {
+        assert_eq!(longest_axis(&[1.0, 3.0, 3.0]), 1);
+        assert_eq!(longest_axis(&[2.0, 1.0]), 0);
+    }
+
+    /// The least largest part over every way to cut `per_layer` into `ranks` non-empty
+    /// contiguous slabs, by trying them all.
+    fn best_by_search(per_layer: &[u64], ranks: usize) -> u64 {
+        fn search(per_layer: &[u64], ranks: usize) -> u64 {
+            if ranks == 1 {
+                return per_layer.iter().sum();
+            }
+            (1..=per_layer.len() - (ranks - 1))
+                .map(|first| {
+                    let head: u64 = per_layer[..first].iter().sum();
+                    head.max(search(&per_layer[first..], ranks - 1))
+                })
+                .min()
+                .unwrap()
+        }
+        search(per_layer, ranks)
+    }
+
+    proptest! {
+        #[test]
+        fn the_cut_is_the_best_contiguous_one(
+            per_layer in proptest::collection::vec(0u64..50, 1..10),
+            ranks in 1usize..5,
+        ) {
+            prop_assume!(ranks <= per_layer.len());
+            let slabs = cut_slabs(0, &per_layer, ranks).unwrap();
+            prop_assert_eq!(slabs.layers.len(), ranks);
+            prop_assert_eq!(slabs.layers[0].start, 0);
+            prop_assert_eq!(slabs.layers[ranks - 1].end, per_layer.len());
+            for pair in slabs.layers.windows(2) {
+                prop_assert_eq!(pair[0].end, pair[1].start);
+                prop_assert!(!pair[0].is_empty());
+            }
+            let largest = *slabs.particles.iter().max().unwrap();
+            prop_assert_eq!(largest, best_by_search(&per_layer, ranks));
+        }
+    }
+}
