@@ -8,6 +8,7 @@ mod bad_scenes;
 mod blowup;
 mod checkpoint;
 mod contact;
+mod crate_floors;
 mod determinism;
 mod distributed;
 mod distributed_run;

@@ -19,6 +19,22 @@ pub trait Spatial: Dim {
     fn within(tree: &Self::Tree, x: Self::Vector, radius: f64, out: &mut Vec<u32>);
 }
 
+/// Fills `candidates` with the rows within `radius` of each particle, from a fresh kd-tree,
+/// each sorted once here so that the every-step filtering keeps them sorted.
+pub fn build_candidates<D: Spatial>(
+    positions: &[Position<D>],
+    radius: f64,
+    candidates: &mut Neighbourhoods,
+) {
+    let points: Vec<D::Vector> = positions.iter().map(|p| p.0).collect();
+    let tree = D::tree(&points);
+    candidates.fill_rows(points.len(), radius, |p, out| {
+        let start = out.len();
+        D::within(&tree, points[p], radius, out);
+        out[start..].sort_unstable();
+    });
+}
+
 macro_rules! kiddo_spatial {
     ($dim:ty, $n:expr) => {
         impl Spatial for $dim {

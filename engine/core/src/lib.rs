@@ -47,6 +47,7 @@ pub mod prelude {
     pub use crate::capability::{Capability, HyperelasticStress};
     pub use crate::components::*;
     pub use crate::connectivity::Connectivity;
+    pub use crate::decomposition::{Owned, OwnedRows};
     pub use crate::dim::{
         Dim, Dimension, Lattice, Matrix, MatrixOps, SymOps, SymTensor, SymTensor2, SymTensor3,
         Three, Two, Vector, VectorOps, lattice_range,

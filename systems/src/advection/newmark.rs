@@ -199,7 +199,7 @@ mod tests {
     /// are theirs.
     #[test]
     fn parameter_docs_match_the_parameters() {
-        crate::param_docs::assert_defaults::<NewmarkAdvectionParams>(&REGISTRATION);
+        fractum_engine::testing::assert_defaults::<NewmarkAdvectionParams>(&REGISTRATION);
     }
 
     /// The consistent update moves a particle to where the predicted velocity took it, and

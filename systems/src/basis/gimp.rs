@@ -74,16 +74,10 @@ pub fn gimp_1d(r: f64, h: f64, l: f64) -> (f64, f64) {
     }
 }
 
-/// Half the side of the square (cubic) domain of a particle of `volume` (per `thickness` in 2D;
-/// pass 1 in 3D): `½ (V/t)^{1/d}`.
-pub fn domain_half_width(volume: f64, thickness: f64, dimensions: usize) -> f64 {
-    0.5 * (volume / thickness).powf(1.0 / dimensions as f64)
-}
-
 /// Half the side of a particle's undeformed domain, `l_p / 2`, capped at `h/2` (a particle
 /// larger than a cell is treated as one cell wide).
 pub fn half_width(initial_volume: f64, thickness: f64, dimensions: usize, h: f64) -> f64 {
-    domain_half_width(initial_volume, thickness, dimensions).min(0.5 * h)
+    super::domain_half_width(initial_volume, thickness, dimensions).min(0.5 * h)
 }
 
 /// One particle's connectivity row: `(node, S̄, ∇S̄)` per node.

@@ -568,7 +568,7 @@ mod tests {
     /// `fractum systems` documents the fields its parameters read, and its documented defaults are theirs.
     #[test]
     fn parameter_docs_match_the_parameters() {
-        crate::param_docs::assert_defaults::<LmeParams>(&REGISTRATION);
+        fractum_engine::testing::assert_defaults::<LmeParams>(&REGISTRATION);
     }
 
     /// A distributed run's rows carry their warm starts to their new places and rebuild the

@@ -8,6 +8,13 @@ pub mod lme_kernel;
 use fractum_engine::budget::{connectivity_entry_bytes, describe_count};
 use fractum_engine::prelude::*;
 
+/// Half the side of the square (cubic) domain of a particle of `volume` (per `thickness` in 2D;
+/// pass 1 in 3D): `½ (V/t)^{1/d}`. GIMP's particle domain, and the contact laws' particle
+/// width.
+pub fn domain_half_width(volume: f64, thickness: f64, dimensions: usize) -> f64 {
+    0.5 * (volume / thickness).powf(1.0 / dimensions as f64)
+}
+
 /// Declares a basis's connectivity storage, `nodes` support nodes per particle, for the
 /// scene's memory estimate, and its support radius, `radius_cells` cell widths, for a
 /// distributed run's halo. `stores_gradients`: whether each entry keeps its gradient (rows

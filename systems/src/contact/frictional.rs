@@ -51,7 +51,7 @@ pub use super::frictional_law::{
 use super::frictional_law::{domain_reach, node_impulses, split_newmark_impulse};
 use crate::transfer::{ForceSources, ParticleSlices, force_contribution};
 use bevy_ecs::system::SystemParam;
-use fractum_engine::decomposition::Ownership;
+use fractum_engine::decomposition::OwnedRows;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 
@@ -122,7 +122,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         parsed.friction,
         "expected a friction coefficient μ >= 0",
     )?;
-    check_pairs(installer, params, &parsed.pairs)?;
+    super::check_pairs(installer, params, &parsed.pairs)?;
     params.require(
         "separability",
         parsed.separability > 0.0 && parsed.separability < 1.0,
@@ -153,54 +153,6 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         installer.add_node_component(NodeContactImpulse::<D>::default());
         installer.add_impulse_systems(frictional_contact::<D>)
     })
-}
-
-/// Every pair names groups some body belongs to, once, with μ >= 0.
-pub(crate) fn check_pairs(
-    installer: &mut Installer,
-    params: &Params,
-    pairs: &[PairFriction],
-) -> Result<(), SceneError> {
-    let mut groups: Vec<u8> = installer
-        .world()
-        .iter_entities()
-        .filter_map(|e| e.get::<ContactGroup>().map(|g| g.0))
-        .collect();
-    groups.sort_unstable();
-    groups.dedup();
-    let listed = groups
-        .iter()
-        .map(|g| g.to_string())
-        .collect::<Vec<_>>()
-        .join(", ");
-    for (k, pair) in pairs.iter().enumerate() {
-        for group in [pair.groups.0, pair.groups.1] {
-            if groups.binary_search(&group).is_err() {
-                return Err(params.error(
-                    &format!("pairs[{k}].groups"),
-                    format!(
-                        "unknown contact group {group}: the bodies' contact groups are {listed}"
-                    ),
-                ));
-            }
-        }
-        params.require_non_negative(
-            &format!("pairs[{k}].friction"),
-            pair.friction,
-            "expected a friction coefficient μ >= 0",
-        )?;
-        let (a, b) = pair.groups;
-        if pairs[..k]
-            .iter()
-            .any(|p| p.groups == (a, b) || p.groups == (b, a))
-        {
-            return Err(params.error(
-                &format!("pairs[{k}].groups"),
-                format!("groups ({a}, {b}) are listed twice"),
-            ));
-        }
-    }
-    Ok(())
 }
 
 type NodeQuery<'w, 's, D> = Query<
@@ -291,7 +243,7 @@ pub struct ParticleDomains<'a, D: Dim> {
 impl<D: Dim> ParticleDomains<'_, D> {
     /// Half-width of the domain of a particle of volume `volume`.
     fn half_width(&self, volume: f64) -> f64 {
-        crate::basis::gimp::domain_half_width(volume, self.thickness, D::N)
+        crate::basis::domain_half_width(volume, self.thickness, D::N)
     }
 }
 
@@ -535,7 +487,7 @@ pub struct ContactInputs<'w, D: Dim> {
     thickness: Option<Res<'w, Thickness>>,
     work_column: Res<'w, ContactWorkColumn>,
     columns: ResMut<'w, SeriesColumns>,
-    ownership: Option<Res<'w, Ownership>>,
+    owned: OwnedRows<'w>,
 }
 
 /// The slot of the `contact_work` series column.
@@ -579,7 +531,7 @@ pub fn frictional_contact<D: Dim>(
         integration: *inputs.integration,
         dt: inputs.clock.dt,
         body_force: inputs.body_force.0,
-        owned: inputs.ownership.as_deref().map(|o| o.nodes.as_slice()),
+        owned: inputs.owned.get().node_flags(),
     };
     let domains = ParticleDomains {
         positions: single_table(positions.contiguous_iter(), "particles").unwrap_or(&[]),
@@ -602,7 +554,7 @@ mod tests {
     /// `fractum systems` documents the fields its parameters read, and its documented defaults are theirs.
     #[test]
     fn parameter_docs_match_the_parameters() {
-        crate::param_docs::assert_defaults::<FrictionalParams>(&REGISTRATION);
+        fractum_engine::testing::assert_defaults::<FrictionalParams>(&REGISTRATION);
     }
     use super::super::frictional_law::tests::state;
     use fractum_engine::testing::*;

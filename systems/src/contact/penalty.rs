@@ -42,7 +42,7 @@ use super::penalty_law::{
     KERNEL_REACH, depth_energy, depth_slope, kernel, pair_force, penalty_modulus,
 };
 use bevy_ecs::system::SystemParam;
-use fractum_engine::decomposition::{Ownership, RankMaximum, counts_here};
+use fractum_engine::decomposition::{Owned, OwnedRows, RankMaximum};
 use fractum_engine::energy::ContactPotential;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
@@ -99,7 +99,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         parsed.friction,
         "expected a friction coefficient μ >= 0",
     )?;
-    super::frictional::check_pairs(installer, params, &parsed.pairs)?;
+    super::check_pairs(installer, params, &parsed.pairs)?;
     let moduli = ContactModuli(
         installer
             .world()
@@ -153,10 +153,9 @@ fn widest_particle<D: Dim>(world: &World) -> f64 {
     let Some(mut query) = world.try_query_filtered::<&InitialVolume, With<Particle>>() else {
         return 0.0;
     };
-    let ownership = world.get_resource::<Ownership>();
-    (query.iter(world).enumerate())
-        .filter(|(row, _)| fractum_engine::decomposition::counts_here(ownership, *row))
-        .map(|(_, v)| contact_width(v.0, thickness, D::N))
+    Owned::in_world(world)
+        .particles(query.iter(world))
+        .map(|v| contact_width(v.0, thickness, D::N))
         .fold(0.0, f64::max)
 }
 
@@ -170,7 +169,7 @@ fn widest_cell<D: Dim>(installer: &Installer) -> f64 {
 
 /// A contact particle's width, the side of its undeformed domain.
 fn contact_width(initial_volume: f64, thickness: f64, dimensions: usize) -> f64 {
-    2.0 * crate::basis::gimp::domain_half_width(initial_volume, thickness, dimensions)
+    2.0 * crate::basis::domain_half_width(initial_volume, thickness, dimensions)
 }
 
 /// Young's modulus of each material, by `MaterialId`.
@@ -421,7 +420,7 @@ pub struct PenaltyInputs<'w, D: Dim> {
     potential: ResMut<'w, ContactPotential>,
     grid: Res<'w, Grid<D>>,
     widest: Option<Res<'w, SceneWidestParticle>>,
-    ownership: Option<Res<'w, Ownership>>,
+    owned: OwnedRows<'w>,
 }
 
 type ParticleQuery<'w, 's, D> = Query<
@@ -537,15 +536,9 @@ pub fn penalty_contact<D: Dim>(
     }
     // Sequential sums in particle order: the same bits for any thread count. A rank of a
     // distributed run sums the particles it owns.
-    let owned = |row: &usize| counts_here(inputs.ownership.as_deref(), *row);
-    let energy: f64 = (forces.iter().enumerate())
-        .filter(|(row, _)| owned(row))
-        .map(|(_, f)| f.energy)
-        .sum();
-    let power: f64 = (forces.iter().enumerate())
-        .filter(|(row, _)| owned(row))
-        .map(|(_, f)| f.friction_power)
-        .sum();
+    let owned = inputs.owned.get();
+    let energy: f64 = owned.particles(&forces).map(|f| f.energy).sum();
+    let power: f64 = owned.particles(&forces).map(|f| f.friction_power).sum();
     inputs.potential.0 = energy;
     let slots = *inputs.slots;
     inputs.columns.values[slots.energy] = energy;
@@ -561,7 +554,7 @@ mod tests {
     /// are theirs.
     #[test]
     fn parameter_docs_match_the_parameters() {
-        crate::param_docs::assert_defaults::<PenaltyParams>(&REGISTRATION);
+        fractum_engine::testing::assert_defaults::<PenaltyParams>(&REGISTRATION);
     }
 
     /// Two particles of groups 0 and 1, 0.4 apart with domains 0.5 wide (overlap 0.1), on a

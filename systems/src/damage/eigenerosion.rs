@@ -35,7 +35,7 @@
 //! The failed points of the crack lie where `W → 0` (θ = ±π) and still count in `Σ V_q`, as
 //! in the derivation. `k` is taken per material from its Poisson ratio.
 
-use fractum_engine::decomposition::Ownership;
+use fractum_engine::decomposition::OwnedRows;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -188,7 +188,7 @@ pub fn eigenerosion<D: Dim>(
     mut state: ResMut<EigenerosionState>,
     mut columns: ResMut<SeriesColumns>,
     mut particles: ParticleQuery<D>,
-    ownership: Option<Res<Ownership>>,
+    owned: OwnedRows,
 ) {
     let Some((material, volume, v0, stress, energy, mut damage)) =
         single_table(particles.contiguous_iter_mut(), "particles")
@@ -215,17 +215,16 @@ pub fn eigenerosion<D: Dim>(
             g * state.factor[material[p].0 as usize] > state.fracture_energy
         })
         .collect();
-    let owned = |p: &usize| super::counts_here(ownership.as_deref(), *p);
     for (p, fail) in fails.into_iter().enumerate() {
         if fail {
-            if owned(&p) {
+            if owned.particle(p) {
                 state.released += stored(p);
             }
             damage[p].0 = 1.0;
         }
     }
     let failed = (damage.iter().enumerate())
-        .filter(|(p, d)| d.0 >= 1.0 && owned(p))
+        .filter(|(p, d)| d.0 >= 1.0 && owned.particle(*p))
         .count();
     let [f, e] = state.columns;
     columns.values[f] = failed as f64;
@@ -242,7 +241,7 @@ mod tests {
     /// `fractum systems` documents exactly the fields its parameters read.
     #[test]
     fn parameter_docs_match_the_parameters() {
-        crate::param_docs::assert_documented::<RawParams>(&REGISTRATION);
+        fractum_engine::testing::assert_documented::<RawParams>(&REGISTRATION);
     }
     use fractum_engine::testing::*;
 

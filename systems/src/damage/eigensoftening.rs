@@ -45,7 +45,7 @@
 
 use super::softening::{SofteningLaw, SofteningShape};
 use super::stress_reach::StressReach;
-use fractum_engine::decomposition::Ownership;
+use fractum_engine::decomposition::{Owned, OwnedRows};
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -412,7 +412,7 @@ impl<D: Dim> ParticleUpdate<'_, D> {
 fn write_back(
     params: &EigensofteningParams,
     updated: Vec<(f64, f64, f64)>,
-    (v0, ownership): (&[InitialVolume], Option<&Ownership>),
+    (v0, owned): (&[InitialVolume], Owned),
     (damage, history, opening): (&mut [Damage], &mut [DamageHistory], &mut [CrackOpening]),
 ) -> (usize, usize, f64) {
     let law = &params.law;
@@ -422,7 +422,7 @@ fn write_back(
         history[p].0 = onset;
         opening[p].0 = w;
         // The columns count what this rank owns (every particle in one process).
-        if !super::counts_here(ownership, p) {
+        if !owned.particle(p) {
             continue;
         }
         if chi > 0.0 {
@@ -445,7 +445,7 @@ pub fn eigensoftening<D: Dim>(
     params: Res<EigensofteningParams>,
     neighbourhoods: Res<Neighbourhoods>,
     mut columns: ResMut<SeriesColumns>,
-    ownership: Option<Res<Ownership>>,
+    owned: OwnedRows,
     mut reach: Local<StressReach<D>>,
     mut particles: ParticleQuery<D>,
 ) {
@@ -488,7 +488,7 @@ pub fn eigensoftening<D: Dim>(
     let (damaged, failed, dissipated) = write_back(
         &params,
         updated,
-        (v0, ownership.as_deref()),
+        (v0, owned.get()),
         (damage, history, opening),
     );
     let [d, f, e] = params.columns;
@@ -504,7 +504,7 @@ mod tests {
     /// `fractum systems` documents exactly the fields its parameters read.
     #[test]
     fn parameter_docs_match_the_parameters() {
-        crate::param_docs::assert_documented::<RawParams>(&REGISTRATION);
+        fractum_engine::testing::assert_documented::<RawParams>(&REGISTRATION);
     }
     use fractum_engine::testing::*;
 

@@ -11,7 +11,7 @@ pub mod weibull;
 
 use bevy_ecs::prelude::{Entity, With};
 use bevy_ecs::world::{EntityRef, World};
-use fractum_engine::decomposition::Ownership;
+use fractum_engine::decomposition::Owned;
 use fractum_engine::prelude::{Damage, InitialVolume, MaterialFilter, MaterialId, Particle};
 
 /// `Σ V₀ g(particle, D)` over the particles of `materials` that the scene seeds as damaged
@@ -23,13 +23,13 @@ pub fn seeded_sum(
     materials: &MaterialFilter,
     per_volume: impl Fn(EntityRef, MaterialId, f64) -> f64,
 ) -> f64 {
-    let ownership = world.get_resource::<Ownership>();
+    let owned = Owned::in_world(world);
     let Some(mut particles) = world.try_query_filtered::<Entity, With<Particle>>() else {
         return 0.0;
     };
     let mut total = 0.0;
     for (row, particle) in particles.iter(world).enumerate() {
-        if ownership.is_some_and(|o| !o.owns_particle(row)) {
+        if !owned.particle(row) {
             continue;
         }
         let entity = world.entity(particle);
@@ -46,5 +46,3 @@ pub fn seeded_sum(
     }
     total
 }
-
-pub use fractum_engine::decomposition::counts_here;

@@ -31,7 +31,7 @@ use super::tensile_degradation::{
     require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
-use fractum_engine::decomposition::Ownership;
+use fractum_engine::decomposition::OwnedRows;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -268,7 +268,7 @@ type ParticleQuery<'w, 's, D> = Query<
 pub fn rankine<D: Dim>(
     params: Res<RankineParams>,
     mut columns: ResMut<SeriesColumns>,
-    ownership: Option<Res<Ownership>>,
+    owned: OwnedRows,
     mut particles: ParticleQuery<D>,
 ) {
     let Some((material, v0, strength, strain, deformation, mut stress, mut energy, mut damage)) =
@@ -300,16 +300,12 @@ pub fn rankine<D: Dim>(
             }
         })
         .collect();
-    let (damaged, failed) = damage_counts(material, &damage, &p.materials, ownership.as_deref());
+    let (damaged, failed) = damage_counts(material, &damage, &p.materials, owned.get());
     let [cd, cf, ce] = p.columns;
     columns.values[cd] = damaged as f64;
     columns.values[cf] = failed as f64;
     // Summed in row order, whatever the thread count, over the rows this rank owns.
-    let owned = |row: &usize| super::counts_here(ownership.as_deref(), *row);
-    let total: f64 = (0..dissipated.len())
-        .filter(owned)
-        .map(|row| dissipated[row])
-        .sum();
+    let total: f64 = owned.particles(&dissipated).sum();
     columns.values[ce] = total - p.initial_dissipation;
 }
 
@@ -320,7 +316,7 @@ mod tests {
     /// `fractum systems` documents exactly the fields its parameters read.
     #[test]
     fn parameter_docs_match_the_parameters() {
-        crate::param_docs::assert_documented::<RawParams>(&REGISTRATION);
+        fractum_engine::testing::assert_documented::<RawParams>(&REGISTRATION);
     }
     use fractum_engine::testing::*;
 

@@ -38,7 +38,7 @@ use super::spectral_split::spectral_degraded;
 use super::weibull::{Weibull, WeibullOption};
 use crate::transfer::DamageInStress;
 use fractum_engine::components::StrengthScale;
-use fractum_engine::decomposition::Ownership;
+use fractum_engine::decomposition::Owned;
 use fractum_engine::prelude::*;
 use serde::Deserialize;
 
@@ -291,13 +291,13 @@ pub fn damage_counts(
     material: &[MaterialId],
     damage: &[Damage],
     materials: &MaterialFilter,
-    ownership: Option<&Ownership>,
+    owned: Owned,
 ) -> (usize, usize) {
     material
         .iter()
         .zip(damage)
         .enumerate()
-        .filter(|(row, (m, _))| materials.applies(**m) && super::counts_here(ownership, *row))
+        .filter(|(row, (m, _))| materials.applies(**m) && owned.particle(*row))
         .fold((0, 0), |(damaged, failed), (_, (_, d))| {
             (
                 damaged + usize::from(d.0 > 0.0),

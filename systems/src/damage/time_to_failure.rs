@@ -25,7 +25,7 @@ use super::tensile_degradation::{
     require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
-use fractum_engine::decomposition::Ownership;
+use fractum_engine::decomposition::OwnedRows;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -134,7 +134,7 @@ pub fn time_to_failure<D: Dim>(
     clock: Res<SimClock>,
     params: Res<TimeToFailureParams>,
     mut columns: ResMut<SeriesColumns>,
-    ownership: Option<Res<Ownership>>,
+    owned: OwnedRows,
     mut particles: ParticleQuery<D>,
 ) {
     let Some((material, strength, strain, deformation, mut stress, mut energy, mut damage)) =
@@ -162,7 +162,7 @@ pub fn time_to_failure<D: Dim>(
                     .apply::<D>(material[i], d.0, (stress, energy), strain, f);
             }
         });
-    let (damaged, failed) = damage_counts(material, &damage, &p.materials, ownership.as_deref());
+    let (damaged, failed) = damage_counts(material, &damage, &p.materials, owned.get());
     let [cd, cf] = p.columns;
     columns.values[cd] = damaged as f64;
     columns.values[cf] = failed as f64;
@@ -175,7 +175,7 @@ mod tests {
     /// `fractum systems` documents exactly the fields its parameters read.
     #[test]
     fn parameter_docs_match_the_parameters() {
-        crate::param_docs::assert_documented::<RawParams>(&REGISTRATION);
+        fractum_engine::testing::assert_documented::<RawParams>(&REGISTRATION);
     }
     use fractum_engine::testing::*;
 

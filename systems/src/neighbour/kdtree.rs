@@ -62,22 +62,6 @@ impl<D: Dim> Default for KdTreeCandidates<D> {
     }
 }
 
-/// Fills `candidates` with the rows within `radius` of each particle, from a fresh kd-tree,
-/// each sorted once here so that the every-step filtering keeps them sorted.
-pub fn build_candidates<D: Spatial>(
-    positions: &[Position<D>],
-    radius: f64,
-    candidates: &mut Neighbourhoods,
-) {
-    let points: Vec<D::Vector> = positions.iter().map(|p| p.0).collect();
-    let tree = D::tree(&points);
-    candidates.fill_rows(points.len(), radius, |p, out| {
-        let start = out.len();
-        D::within(&tree, points[p], radius, out);
-        out[start..].sort_unstable();
-    });
-}
-
 /// The `neighbour/kdtree` system.
 pub fn kdtree_neighbours<D: Spatial>(
     grid: Res<Grid<D>>,
@@ -98,7 +82,7 @@ pub fn kdtree_neighbours<D: Spatial>(
     let stale =
         anchors.len() != positions.len() || anchors.par_iter().zip(positions.par_iter()).any(moved);
     if stale {
-        build_candidates(positions, epsilon + skin, candidates);
+        crate::spatial::build_candidates(positions, epsilon + skin, candidates);
         anchors.clear();
         anchors.extend(positions.iter().map(|p| p.0));
         neighbourhoods.rebuilds += 1;
@@ -134,7 +118,7 @@ mod tests {
     /// `fractum systems` documents the fields its parameters read, and its documented defaults are theirs.
     #[test]
     fn parameter_docs_match_the_parameters() {
-        crate::param_docs::assert_defaults::<NeighbourParams>(&REGISTRATION);
+        fractum_engine::testing::assert_defaults::<NeighbourParams>(&REGISTRATION);
     }
     use fractum_engine::testing::*;
 

@@ -149,7 +149,7 @@ mod tests {
     /// `fractum systems` documents the fields its parameters read, and its documented defaults are theirs.
     #[test]
     fn parameter_docs_match_the_parameters() {
-        crate::param_docs::assert_defaults::<NeighbourParams>(&REGISTRATION);
+        fractum_engine::testing::assert_defaults::<NeighbourParams>(&REGISTRATION);
     }
     use crate::neighbour::kdtree::{KdTreeCandidates, kdtree_neighbours};
     use crate::spatial::Spatial;

@@ -124,7 +124,7 @@ impl<D: Spatial> DfgNeighbours<D> {
         }
         let Self { rows, anchors, .. } = self;
         let mut all = Neighbourhoods::default();
-        crate::neighbour::kdtree::build_candidates(positions, radius + skin, &mut all);
+        crate::spatial::build_candidates(positions, radius + skin, &mut all);
         rows.fill_rows(positions.len(), all.radius, |p, out| {
             out.extend(
                 all.of(p)
@@ -470,11 +470,9 @@ fn owned_largest_kernel_sum<D: Spatial>(world: &mut World) -> f64 {
     let mut lists = DfgNeighbours::<D>::default();
     lists.refresh(&positions, &groups, radius);
     let sums = body_kernel_sums(&positions, &lists.rows, &bodies, radius);
-    let ownership = world.get_resource::<fractum_engine::decomposition::Ownership>();
-    (sums.iter().enumerate())
-        .filter(|(row, _)| fractum_engine::decomposition::counts_here(ownership, *row))
-        .map(|(_, s)| *s)
-        .fold(0.0, f64::max)
+    fractum_engine::decomposition::Owned::in_world(world)
+        .particles(&sums)
+        .fold(0.0, |widest, s| f64::max(widest, *s))
 }
 
 // The checkpoint key of this system's state (stable across builds).
@@ -503,7 +501,7 @@ mod tests {
     /// `fractum systems` documents the fields its parameters read, and its documented defaults are theirs.
     #[test]
     fn parameter_docs_match_the_parameters() {
-        crate::param_docs::assert_defaults::<DfgParams>(&REGISTRATION);
+        fractum_engine::testing::assert_defaults::<DfgParams>(&REGISTRATION);
     }
     use fractum_engine::testing::*;
 

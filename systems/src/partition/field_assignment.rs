@@ -154,7 +154,7 @@ pub fn install_split_record(installer: &mut Installer) -> Result<(), SceneError>
 pub fn record_field_splits(
     clock: Res<SimClock>,
     mut splits: ResMut<FieldSplits>,
-    ownership: Option<Res<fractum_engine::decomposition::Ownership>>,
+    owned: fractum_engine::decomposition::OwnedRows,
     nodes: Query<&NodeFields, With<Node>>,
 ) {
     if splits.first.is_some() {
@@ -165,11 +165,10 @@ pub fn record_field_splits(
     };
     // In a distributed run, the nodes this rank owns: a run's first split is the least of
     // its ranks'.
-    let owned = |n: usize| ownership.as_ref().is_none_or(|o| o.nodes[n]);
     if fields
         .par_iter()
         .enumerate()
-        .any(|(n, f)| owned(n) && splits_a_group(f))
+        .any(|(n, f)| owned.node(n) && splits_a_group(f))
     {
         splits.first = Some(clock.step + 1);
     }

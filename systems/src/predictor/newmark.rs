@@ -178,7 +178,7 @@ mod tests {
     /// `fractum systems` documents the fields its parameters read, and its documented defaults are theirs.
     #[test]
     fn parameter_docs_match_the_parameters() {
-        crate::param_docs::assert_defaults::<NewmarkParams>(&REGISTRATION);
+        fractum_engine::testing::assert_defaults::<NewmarkParams>(&REGISTRATION);
     }
     use crate::basis::linear::linear_basis;
     use fractum_engine::testing::*;

@@ -201,7 +201,7 @@ mod tests {
     /// `fractum systems` documents the fields its parameters read, and its documented defaults are theirs.
     #[test]
     fn parameter_docs_match_the_parameters() {
-        crate::param_docs::assert_defaults::<UslPredictorParams>(&REGISTRATION);
+        fractum_engine::testing::assert_defaults::<UslPredictorParams>(&REGISTRATION);
     }
     use crate::basis::linear::linear_basis;
     use fractum_engine::boundary::BoundaryRegion;

@@ -10,8 +10,10 @@
 //! reports tells when a scene needs better.
 
 mod layout;
+mod owned;
 
 pub use layout::{Layout, Ownership, StepReach, counts_here};
+pub use owned::{Owned, OwnedRows};
 
 use bevy_ecs::prelude::{Resource, World};
 

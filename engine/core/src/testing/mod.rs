@@ -16,6 +16,13 @@
 //! ```
 //!
 //! The same test in 3D is `tiny_world::<Three>` with `DVec3` positions.
+//!
+//! [`assert_defaults`] holds a registration's documented parameters against the serde type its
+//! installer parses.
+
+mod params;
+
+pub use params::{assert_defaults, assert_documented, serde_fields};
 
 use crate::boundary::{BoundaryConditions, Reactions};
 use crate::components::{Node, NodeBundle, NodeIndex, Particle, ParticleBundle, ParticleId};
