@@ -27,13 +27,13 @@ fn overstress<D: Dim>(
     }
 }
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed: Overstress = params.parse()?;
     if !(parsed.strength.is_finite() && parsed.strength > 0.0) {
         return Err(params.error("strength", "expected a positive strength (Pa)"));
     }
     installer.insert_resource(parsed);
-    with_dim!(installer.dimension(), D => installer.add_systems(overstress::<D>));
+    installer.add_systems(overstress::<D>);
     Ok(())
 }
 
@@ -47,7 +47,7 @@ const OVERSTRESS: Registration = Registration {
         doc: "tensile strength (Pa)",
     }],
     requires: &[],
-    install,
+    install: generic_install!(install),
 };
 
 /// A bar stretched along x at 0.1 /s, its left end on rollers and its right end pulled at
@@ -178,18 +178,24 @@ fn simo_pister<D: Dim>(
     }
 }
 
-fn install_simo_pister(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install_simo_pister<D: Dim>(
+    installer: &mut Installer,
+    params: &Params,
+) -> Result<(), SceneError> {
     params.parse::<NoParams>()?;
     // The promise damage/rankine relies on: a stress from a potential, recomputed every step.
     installer.provide::<HyperelasticStress>();
-    with_dim!(installer.dimension(), D => installer.add_systems(simo_pister::<D>));
+    installer.add_systems(simo_pister::<D>);
     Ok(())
 }
 
 /// The same system, installed without declaring the capability.
-fn install_undeclared(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install_undeclared<D: Dim>(
+    installer: &mut Installer,
+    params: &Params,
+) -> Result<(), SceneError> {
     params.parse::<NoParams>()?;
-    with_dim!(installer.dimension(), D => installer.add_systems(simo_pister::<D>));
+    installer.add_systems(simo_pister::<D>);
     Ok(())
 }
 
@@ -198,7 +204,7 @@ const SIMO_PISTER: Registration = Registration {
     summary: "compressible neo-Hookean with the volumetric energy κ/4 (J² − 1 − 2 ln J)",
     params: &[],
     requires: &[],
-    install: install_simo_pister,
+    install: generic_install!(install_simo_pister),
 };
 
 const UNDECLARED: Registration = Registration {
@@ -206,7 +212,7 @@ const UNDECLARED: Registration = Registration {
     summary: "the same stress, without the capability declared",
     params: &[],
     requires: &[],
-    install: install_undeclared,
+    install: generic_install!(install_undeclared),
 };
 
 /// The stretched bar with `stress` and Rankine damage (σ_f = 2 Pa) in place of the overstress

@@ -64,7 +64,7 @@ pub mod prelude {
     pub use crate::stage::{Stage, StepSet};
     pub use crate::storage::single_table;
     pub use crate::text::SceneError;
-    pub use crate::with_dim;
+    pub use crate::{generic_install, with_dim};
     pub use bevy_ecs::prelude::*;
     pub use glam::{DMat2, DMat3, DVec2, DVec3};
 }

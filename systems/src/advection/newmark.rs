@@ -42,7 +42,7 @@ pub const REGISTRATION: Registration = Registration {
               x += Δt Σ N ṽ_I (conserves a vibration's energy)",
     }],
     requires: &["predictor/newmark"],
-    install,
+    install: generic_install!(install),
 };
 
 /// Parameters of `advection/newmark`.
@@ -87,10 +87,10 @@ impl ParticleUpdate {
     }
 }
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed: NewmarkAdvectionParams = params.parse()?;
     installer.insert_resource(parsed);
-    with_dim!(installer.dimension(), D => installer.add_systems(newmark_advection::<D>));
+    installer.add_systems(newmark_advection::<D>);
     Ok(())
 }
 

@@ -15,12 +15,12 @@ pub const REGISTRATION: Registration = Registration {
     summary: "USL particle update: v += Δt Σ N a_I, x += Δt Σ N v_I (eqs. 9-10)",
     params: &[],
     requires: &["predictor/usl"],
-    install,
+    install: generic_install!(install),
 };
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
-    with_dim!(installer.dimension(), D => installer.add_systems(usl_advection::<D>));
+    installer.add_systems(usl_advection::<D>);
     Ok(())
 }
 

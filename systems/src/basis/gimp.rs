@@ -34,13 +34,12 @@ pub const REGISTRATION: Registration = Registration {
               (up to 9 nodes per particle in 2D, 27 in 3D)",
     params: &[],
     requires: &[],
-    install,
+    install: generic_install!(install),
 };
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
-    let graded =
-        with_dim!(installer.dimension(), D => installer.world().resource::<Grid<D>>().is_graded());
+    let graded = installer.world().resource::<Grid<D>>().is_graded();
     if graded {
         // The particle domain's overlap with a tent of two different widths is another
         // integral; uGIMP here assumes one spacing.
@@ -52,8 +51,8 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     }
     let nodes = 3f64.powi(installer.dimension().count() as i32);
     // A particle half a cell wide reaches one and a half cells from its centre.
-    super::declare_support(installer, "basis/gimp", (nodes, 1.5), true, 0.0);
-    with_dim!(installer.dimension(), D => installer.add_systems(gimp_basis::<D>));
+    super::declare_support::<D>(installer, "basis/gimp", (nodes, 1.5), true, 0.0);
+    installer.add_systems(gimp_basis::<D>);
     Ok(())
 }
 

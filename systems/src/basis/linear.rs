@@ -17,14 +17,14 @@ pub const REGISTRATION: Registration = Registration {
     summary: "multilinear tent functions on the uniform grid (4 nodes per particle in 2D, 8 in 3D)",
     params: &[],
     requires: &[],
-    install,
+    install: generic_install!(install),
 };
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
     let nodes = (1 << installer.dimension().count()) as f64;
-    super::declare_support(installer, "basis/linear", (nodes, 1.0), true, 0.0);
-    with_dim!(installer.dimension(), D => installer.add_systems(linear_basis::<D>));
+    super::declare_support::<D>(installer, "basis/linear", (nodes, 1.0), true, 0.0);
+    installer.add_systems(linear_basis::<D>);
     Ok(())
 }
 

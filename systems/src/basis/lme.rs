@@ -63,7 +63,7 @@ pub const REGISTRATION: Registration = Registration {
         },
     ],
     requires: &[],
-    install,
+    install: generic_install!(install),
 };
 
 /// Parameters of `basis/lme`.
@@ -91,7 +91,7 @@ impl Default for LmeParams {
     }
 }
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Spatial>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed: LmeParams = params.parse()?;
     params.require_positive("gamma", parsed.gamma, "expected γ̂ > 0")?;
     params.require(
@@ -115,16 +115,16 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     let candidates = cells_in_ball(d, 1.25 * reach);
     let state = (8 * (3 * d + d * d)) as f64;
     // On a uniform grid each row keeps `J⁻¹` and its point instead of its gradients.
-    let graded = with_dim!(installer.dimension(), D => installer
+    let graded = installer
         .world()
         .get_resource::<Grid<D>>()
-        .is_some_and(Grid::is_graded));
+        .is_some_and(Grid::is_graded);
     let row_map = if graded {
         0.0
     } else {
         (8 * (d * d + d)) as f64
     };
-    super::declare_support(
+    super::declare_support::<D>(
         installer,
         "basis/lme",
         (nodes, reach),
@@ -132,10 +132,8 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         4.0 * candidates + state + row_map,
     );
     installer.insert_resource(parsed);
-    with_dim!(installer.dimension(), D => {
-        installer.init_row_state::<LmeState<D>>();
-        installer.add_systems(lme_basis::<D>);
-    });
+    installer.init_row_state::<LmeState<D>>();
+    installer.add_systems(lme_basis::<D>);
     Ok(())
 }
 

@@ -19,7 +19,7 @@ pub fn domain_half_width(volume: f64, thickness: f64, dimensions: usize) -> f64 
 /// scene's memory estimate, and its support radius, `radius_cells` cell widths, for a
 /// distributed run's halo. `stores_gradients`: whether each entry keeps its gradient (rows
 /// whose gradients follow a per-row map, LME's eq. 8, count the map in `extra_bytes`).
-pub fn declare_support(
+pub fn declare_support<D: Dim>(
     installer: &mut Installer,
     name: &str,
     (nodes, radius_cells): (f64, f64),
@@ -27,19 +27,17 @@ pub fn declare_support(
     extra_bytes: f64,
 ) {
     // In the widest cell, so that no support on a graded grid reaches further.
-    let widest = with_dim!(installer.dimension(), D => {
-        let grid = installer.world().resource::<fractum_engine::resources::Grid<D>>();
-        (0..D::N)
-            .flat_map(|a| (0..grid.cells[a]).map(move |i| grid.cell_width(a, i)))
-            .fold(0.0, f64::max)
-    });
+    let grid = installer.world().resource::<Grid<D>>();
+    let widest = (0..D::N)
+        .flat_map(|a| (0..grid.cells[a]).map(move |i| grid.cell_width(a, i)))
+        .fold(0.0, f64::max);
     installer.declare_support_radius(radius_cells * widest);
     let gradient = if stores_gradients {
         0.0
     } else {
-        (8 * installer.dimension().count()) as f64
+        (8 * D::N) as f64
     };
-    let entry = with_dim!(installer.dimension(), D => connectivity_entry_bytes::<D>()) - gradient;
+    let entry = connectivity_entry_bytes::<D>() - gradient;
     installer.declare_particle_memory(
         format!(
             "{name}: a support of about {} nodes per particle",

@@ -112,10 +112,10 @@ pub const REGISTRATION: Registration = Registration {
         },
     ],
     requires: &["partition/*"],
-    install,
+    install: generic_install!(install),
 };
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed: FrictionalParams = params.parse()?;
     params.require_non_negative(
         "friction",
@@ -147,12 +147,12 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     // particles whose masses and momenta the node already sums, and its impulses go where
     // its velocity goes.
     installer.insert_resource(ContactWorkColumn(slot));
-    with_dim!(installer.dimension(), D => {
+    {
         installer.add_node_component(NodeNormal::<D>::default());
         installer.add_node_component(NodeContactForce::<D>::default());
         installer.add_node_component(NodeContactImpulse::<D>::default());
         installer.add_impulse_systems(frictional_contact::<D>)
-    })
+    }
 }
 
 type NodeQuery<'w, 's, D> = Query<

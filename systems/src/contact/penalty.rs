@@ -76,7 +76,7 @@ pub const REGISTRATION: Registration = Registration {
         },
     ],
     requires: &["partition/bodies"],
-    install,
+    install: generic_install!(install),
 };
 
 /// Upper bound of a pair's stiffness factor: beyond it a pair vibrates faster than the
@@ -84,7 +84,7 @@ pub const REGISTRATION: Registration = Registration {
 /// `c/h`, against a step of a fraction of `h/c`).
 const MAX_STIFFNESS: f64 = 2.0;
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed: PenaltyParams = params.parse()?;
     params.require(
         "stiffness",
@@ -115,7 +115,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     let energy = installer.add_owned_sum_column("contact_energy");
     let friction = installer.add_owned_sum_column("friction_work");
     installer.insert_resource(PenaltyColumns { energy, friction });
-    with_dim!(installer.dimension(), D => {
+    {
         // A particle's force reads its partners' depths, which read theirs: two kernel
         // reaches of the widest particle (no narrower than a cell, as seeded particles are).
         let widest = widest_particle::<D>(installer.world()).max(widest_cell::<D>(installer));
@@ -132,7 +132,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         installer.add_node_component(NodeContactForce::<D>::default());
         installer.add_node_component(NodeContactImpulse::<D>::default());
         installer.add_impulse_systems(penalty_contact::<D>)
-    })
+    }
 }
 
 /// The widest contact particle of the whole scene, which sizes the bins that find each

@@ -25,14 +25,14 @@ pub const REGISTRATION: Registration = Registration {
     summary: "Newmark corrector: f_I from the new stress, v_I = ṽ_I + γ Δt f_I / m_I (eq. 2)",
     params: &[],
     requires: &["predictor/newmark"],
-    install,
+    install: generic_install!(install),
 };
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
     // The new stresses' forces to the nodes, read back by the advection.
     installer.declare_grid_round_trip();
-    with_dim!(installer.dimension(), D => installer.add_systems(newmark_corrector::<D>));
+    installer.add_systems(newmark_corrector::<D>);
     Ok(())
 }
 

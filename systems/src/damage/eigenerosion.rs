@@ -59,7 +59,7 @@ pub const REGISTRATION: Registration = Registration {
         },
     ],
     requires: &["neighbour/*"],
-    install,
+    install: generic_install!(install),
 };
 
 /// Parameters as written in the scene.
@@ -108,7 +108,7 @@ pub struct EigenerosionState {
     pub factor: Vec<f64>,
 }
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let raw: RawParams = params.parse()?;
     params.require_positive("fracture_energy", raw.fracture_energy, "expected G_F > 0")?;
     let dimensions = installer.dimension().count();
@@ -140,7 +140,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         materials: installer.materials().clone(),
         factor,
     });
-    with_dim!(installer.dimension(), D => installer.add_systems(eigenerosion::<D>));
+    installer.add_systems(eigenerosion::<D>);
     Ok(())
 }
 

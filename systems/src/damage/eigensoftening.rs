@@ -93,7 +93,7 @@ pub const REGISTRATION: Registration = Registration {
         },
     ],
     requires: &["neighbour/*"],
-    install,
+    install: generic_install!(install),
 };
 
 /// Parameters as written in the scene.
@@ -142,7 +142,7 @@ pub struct EigensofteningParams {
     pub initial_dissipation: f64,
 }
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let raw: RawParams = params.parse()?;
     params.require_positive("tensile_strength", raw.tensile_strength, "expected f_t > 0")?;
     params.require_positive("band_width", raw.band_width, "expected h_ε > 0")?;
@@ -211,7 +211,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         normal_modulus,
         initial_dissipation,
     });
-    with_dim!(installer.dimension(), D => installer.add_systems(eigensoftening::<D>));
+    installer.add_systems(eigensoftening::<D>);
     Ok(())
 }
 

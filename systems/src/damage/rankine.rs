@@ -59,7 +59,7 @@ pub const REGISTRATION: Registration = Registration {
         DEGRADATION_PARAM,
     ],
     requires: &[],
-    install,
+    install: generic_install!(install),
 };
 
 /// Parameters as written in the scene.
@@ -150,7 +150,7 @@ fn check_brittleness(
     Ok(())
 }
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let raw: RawParams = params.parse()?;
     require_stress_degrading_pipeline(installer, params, "damage/rankine")?;
     params.require_positive(
@@ -158,7 +158,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         raw.fracture_energy,
         "expected G_f > 0 (J/m²)",
     )?;
-    let length = characteristic_length(installer, params, raw.characteristic_length)?;
+    let length = characteristic_length::<D>(installer, params, raw.characteristic_length)?;
     let youngs_modulus: Vec<f64> = installer
         .world()
         .resource::<Materials>()
@@ -190,7 +190,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         initial_dissipation,
         degradation: TensileDegradation::new(installer, raw.degradation),
     });
-    with_dim!(installer.dimension(), D => installer.add_systems(rankine::<D>));
+    installer.add_systems(rankine::<D>);
     Ok(())
 }
 

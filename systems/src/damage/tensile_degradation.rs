@@ -266,15 +266,12 @@ pub fn install_strength(
 }
 
 /// The default characteristic length: the cell diagonal, `h √d`.
-pub fn cell_diagonal(installer: &Installer) -> f64 {
-    with_dim!(installer.dimension(), D => {
-        let grid = installer.world().resource::<Grid<D>>();
-        grid.spacing * (D::N as f64).sqrt()
-    })
+pub fn cell_diagonal<D: Dim>(installer: &Installer) -> f64 {
+    installer.world().resource::<Grid<D>>().spacing * (D::N as f64).sqrt()
 }
 
 /// The `characteristic_length` given (checked positive) or, when absent, the cell diagonal.
-pub fn characteristic_length(
+pub fn characteristic_length<D: Dim>(
     installer: &Installer,
     params: &Params,
     given: Option<f64>,
@@ -282,7 +279,7 @@ pub fn characteristic_length(
     match given {
         Some(l) if l.is_finite() && l > 0.0 => Ok(l),
         Some(_) => Err(params.error("characteristic_length", "expected l_ch > 0 (m)")),
-        None => Ok(cell_diagonal(installer)),
+        None => Ok(cell_diagonal::<D>(installer)),
     }
 }
 

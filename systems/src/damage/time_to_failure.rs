@@ -53,7 +53,7 @@ pub const REGISTRATION: Registration = Registration {
         DEGRADATION_PARAM,
     ],
     requires: &[],
-    install,
+    install: generic_install!(install),
 };
 
 /// Parameters as written in the scene.
@@ -83,11 +83,11 @@ pub struct TimeToFailureParams {
     pub degradation: TensileDegradation,
 }
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let raw: RawParams = params.parse()?;
     require_stress_degrading_pipeline(installer, params, "damage/time_to_failure")?;
     params.require_positive("crack_speed", raw.crack_speed, "expected c_f > 0 (m/s)")?;
-    let length = characteristic_length(installer, params, raw.characteristic_length)?;
+    let length = characteristic_length::<D>(installer, params, raw.characteristic_length)?;
     install_strength(installer, params, raw.tensile_strength, raw.weibull)?;
     let materials = installer.materials().clone();
     let columns = [
@@ -100,7 +100,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         materials,
         degradation: TensileDegradation::new(installer, raw.degradation),
     });
-    with_dim!(installer.dimension(), D => installer.add_systems(time_to_failure::<D>));
+    installer.add_systems(time_to_failure::<D>);
     Ok(())
 }
 

@@ -22,10 +22,10 @@ pub const REGISTRATION: Registration = Registration {
     summary: "ε-neighbourhoods from a kd-tree over particles, rebuilt when particles move past a skin",
     params: PARAM_DOCS,
     requires: &[],
-    install,
+    install: generic_install!(install),
 };
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Spatial>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed = parse_params(params)?;
     // The candidates within ε(1 + skin), and the neighbours within ε.
     super::declare_lists(
@@ -33,14 +33,12 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         "neighbour/kdtree",
         &[parsed.c_epsilon * (1.0 + parsed.skin), parsed.c_epsilon],
     );
-    let h = with_dim!(installer.dimension(), D => installer.world().resource::<Grid<D>>().spacing);
+    let h = installer.world().resource::<Grid<D>>().spacing;
     installer.declare_particle_reach("the ε-neighbourhood", parsed.c_epsilon * h);
     installer.insert_resource(parsed);
     installer.init_resource::<Neighbourhoods>();
-    with_dim!(installer.dimension(), D => {
-        installer.init_row_state::<KdTreeCandidates<D>>();
-        installer.add_systems(kdtree_neighbours::<D>);
-    });
+    installer.init_row_state::<KdTreeCandidates<D>>();
+    installer.add_systems(kdtree_neighbours::<D>);
     Ok(())
 }
 

@@ -20,12 +20,11 @@ pub const REGISTRATION: Registration = Registration {
     summary: "ε-neighbourhoods by linking particles to their closest node (paper Appendix C)",
     params: PARAM_DOCS,
     requires: &[],
-    install,
+    install: generic_install!(install),
 };
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
-    let graded =
-        with_dim!(installer.dimension(), D => installer.world().resource::<Grid<D>>().is_graded());
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    let graded = installer.world().resource::<Grid<D>>().is_graded();
     if graded {
         // The node links count ε in node spacings of one size.
         return Err(params.error(
@@ -41,14 +40,14 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         "neighbour/node_linked",
         &[parsed.c_epsilon + 0.5],
     );
-    let h = with_dim!(installer.dimension(), D => installer.world().resource::<Grid<D>>().spacing);
+    let h = installer.world().resource::<Grid<D>>().spacing;
     installer.declare_particle_reach(
         "the ε-neighbourhood and a cell",
         (parsed.c_epsilon + 1.0) * h,
     );
     installer.insert_resource(parsed);
     installer.init_resource::<Neighbourhoods>();
-    with_dim!(installer.dimension(), D => installer.add_systems(node_linked_neighbours::<D>));
+    installer.add_systems(node_linked_neighbours::<D>);
     Ok(())
 }
 

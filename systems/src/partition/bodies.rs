@@ -19,12 +19,12 @@ pub const REGISTRATION: Registration = Registration {
     summary: "one velocity field per contact group (multi-field contact, §1.1.1)",
     params: &[],
     requires: &["contact/*"],
-    install,
+    install: generic_install!(install),
 };
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
-    install_field_assignment(installer)
+    install_field_assignment::<D>(installer)
 }
 
 #[cfg(test)]

@@ -69,7 +69,7 @@ pub const REGISTRATION: Registration = Registration {
         },
     ],
     requires: &["contact/*"],
-    install,
+    install: generic_install!(install),
 };
 
 /// Parameters of `partition/dfg`.
@@ -151,16 +151,14 @@ pub struct SurfaceDetected(pub bool);
 #[derive(Resource, Clone, Copy, Debug, PartialEq)]
 pub struct SceneLargestKernelSum(pub f64);
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Spatial>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed: DfgParams = params.parse()?;
     if let Some(r) = parsed.radius
         && !(r.is_finite() && r > 0.0)
     {
         return Err(params.error("radius", "expected a positive radius in m"));
     }
-    let (spacing, dimensions) = with_dim!(installer.dimension(), D => {
-        (installer.world().resource::<Grid<D>>().spacing, D::N)
-    });
+    let (spacing, dimensions) = (installer.world().resource::<Grid<D>>().spacing, D::N);
     let parsed = resolve_radius_cells(params, parsed, spacing)?;
     if let Some(s) = parsed.surface
         && !(s > 0.0 && s < 1.0)
@@ -187,7 +185,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     );
     installer.declare_particle_reach("the damage-gradient kernel", radius_cells * spacing);
     installer.insert_resource(parsed);
-    install_field_assignment(installer)?;
+    install_field_assignment::<D>(installer)?;
     installer.add_node_component(NodeFieldDamage::default());
     if parsed.surface.is_some() {
         // Whether detection has run: set by every rank at the same step. Its threshold is a
@@ -196,22 +194,24 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
         // kernel radius further.
         installer.init_rank_state::<SurfaceDetected>();
         installer.declare_particle_reach("surface detection's kernel sums", radius_cells * spacing);
-        with_dim!(installer.dimension(), D => installer.add_rank_maximum(RankMaximum {
+        installer.add_rank_maximum(RankMaximum {
             name: "partition/dfg: the largest kernel sum",
-            wanted: |world| world.get_resource::<SurfaceDetected>().is_some_and(|d| !d.0),
+            wanted: |world| {
+                world
+                    .get_resource::<SurfaceDetected>()
+                    .is_some_and(|d| !d.0)
+            },
             local: owned_largest_kernel_sum::<D>,
             apply: |world, largest| world.insert_resource(SceneLargestKernelSum(largest)),
-        }));
+        });
     }
-    super::field_assignment::install_split_record(installer)?;
+    super::field_assignment::install_split_record::<D>(installer)?;
     installer.add_particle_component(SurfaceFlag::default());
     installer.add_frame_scalar::<SurfaceFlag>("surface", |s| s.0);
-    with_dim!(installer.dimension(), D => {
-        installer.init_row_state::<DfgNeighbours<D>>();
-        installer.add_particle_component(DamageGradient::<D>::default());
-        installer.add_frame_vector::<DamageGradient<D>>("damage_gradient", |g| g.0.to_3d());
-        installer.add_systems(dfg_partition::<D>);
-    });
+    installer.init_row_state::<DfgNeighbours<D>>();
+    installer.add_particle_component(DamageGradient::<D>::default());
+    installer.add_frame_vector::<DamageGradient<D>>("damage_gradient", |g| g.0.to_3d());
+    installer.add_systems(dfg_partition::<D>);
     Ok(())
 }
 

@@ -34,8 +34,8 @@ use rayon::prelude::*;
 
 /// Adds [`assign_fields_system`] to the step's field-assignment window; one partition system
 /// per pipeline assigns the fields.
-pub fn install_field_assignment(installer: &mut Installer) -> Result<(), SceneError> {
-    with_dim!(installer.dimension(), D => installer.add_systems_to(StepSet::AssignFields, assign_fields_system::<D>))
+pub fn install_field_assignment<D: Dim>(installer: &mut Installer) -> Result<(), SceneError> {
+    installer.add_systems_to(StepSet::AssignFields, assign_fields_system::<D>)
 }
 
 /// What the separability condition needs at assignment: each particle's damage (`max(D, s)`
@@ -141,12 +141,12 @@ pub fn assign_fields_system<D: Dim>(
 
 /// Adds [`record_field_splits`] after the field assignment (a partition that splits nodes by
 /// damage installs it, with the [`FieldSplits`] state).
-pub fn install_split_record(installer: &mut Installer) -> Result<(), SceneError> {
+pub fn install_split_record<D: Dim>(installer: &mut Installer) -> Result<(), SceneError> {
     installer.init_state::<FieldSplits>();
-    with_dim!(installer.dimension(), D => installer.add_systems_to(
+    installer.add_systems_to(
         StepSet::AssignFields,
         record_field_splits.after(assign_fields_system::<D>),
-    ))
+    )
 }
 
 /// Records in [`FieldSplits`] the first step at which some node (a node this rank owns, in a

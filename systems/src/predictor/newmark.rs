@@ -26,7 +26,7 @@ pub const REGISTRATION: Registration = Registration {
         doc: "Newmark γ in [0.5, 1]; 0.5 is second order, larger values damp high frequencies",
     }],
     requires: &["corrector/newmark", "advection/newmark"],
-    install,
+    install: generic_install!(install),
 };
 
 /// Parameters of `predictor/newmark`; it publishes γ to the corrector and to grid laws as
@@ -51,7 +51,7 @@ impl Default for NewmarkParams {
     }
 }
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed: NewmarkParams = params.parse()?;
     params.require(
         "gamma",
@@ -71,7 +71,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     installer.insert_resource(GridIntegration::PredictorCorrector {
         gamma: parsed.gamma,
     });
-    with_dim!(installer.dimension(), D => installer.add_systems(newmark_predictor::<D>));
+    installer.add_systems(newmark_predictor::<D>);
     Ok(())
 }
 

@@ -42,7 +42,7 @@ pub const REGISTRATION: Registration = Registration {
         doc: "nodes with less mass (kg) are treated as empty: zero velocity and acceleration",
     }],
     requires: &["advection/usl"],
-    install,
+    install: generic_install!(install),
 };
 
 /// Parameters of `predictor/usl`.
@@ -54,7 +54,7 @@ pub struct UslPredictorParams {
     pub min_node_mass: f64,
 }
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed: UslPredictorParams = params.parse()?;
     params.require_non_negative(
         "min_node_mass",
@@ -65,7 +65,7 @@ fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError>
     installer.insert_resource(GridIntegration::UpdateStressLast);
     // Mass, momentum and forces to the nodes, read back by the stress and the advection.
     installer.declare_grid_round_trip();
-    with_dim!(installer.dimension(), D => installer.add_systems(usl_predictor::<D>));
+    installer.add_systems(usl_predictor::<D>);
     Ok(())
 }
 

@@ -20,14 +20,14 @@ pub const REGISTRATION: Registration = Registration {
     summary: "small-strain Hooke's law (plane strain with σ_zz in 2D), from the nodal velocity field",
     params: &[],
     requires: &[],
-    install,
+    install: generic_install!(install),
 };
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
     let scope = LinearElasticScope(installer.materials().clone());
     installer.insert_resource(scope);
-    with_dim!(installer.dimension(), D => installer.add_systems(linear_elastic_stress::<D>));
+    installer.add_systems(linear_elastic_stress::<D>);
     Ok(())
 }
 

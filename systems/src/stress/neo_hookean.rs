@@ -22,15 +22,15 @@ pub const REGISTRATION: Registration = Registration {
     summary: "compressible neo-Hookean (eq. 22), plane strain in 2D, F from the nodal velocity field",
     params: &[],
     requires: &[],
-    install,
+    install: generic_install!(install),
 };
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     crate::no_params(params)?;
     let scope = NeoHookeanScope(installer.materials().clone());
     installer.insert_resource(scope);
     installer.provide::<HyperelasticStress>();
-    with_dim!(installer.dimension(), D => installer.add_systems(neo_hookean_stress::<D>));
+    installer.add_systems(neo_hookean_stress::<D>);
     Ok(())
 }
 

@@ -25,13 +25,14 @@ pub fn overstress<D: Dim>(
     }
 }
 
-fn install(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+/// Installs the system for a scene of dimension `D` (the registry picks the scene's).
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed: Overstress = params.parse()?;
     if !(parsed.strength.is_finite() && parsed.strength > 0.0) {
         return Err(params.error("strength", "expected a positive strength (Pa)"));
     }
     installer.insert_resource(parsed);
-    with_dim!(installer.dimension(), D => installer.add_systems(overstress::<D>));
+    installer.add_systems(overstress::<D>);
     Ok(())
 }
 
@@ -46,13 +47,15 @@ pub const OVERSTRESS: Registration = Registration {
         doc: "tensile strength (Pa)",
     }],
     requires: &[],
-    install,
+    install: generic_install!(install),
 };
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fractum_engine::testing::{particle_values, run_system, spawn_particle, tiny_world};
+    use fractum_engine::testing::{
+        assert_documented, particle_values, run_system, spawn_particle, tiny_world,
+    };
 
     #[test]
     fn a_particle_above_the_strength_fails_and_one_below_does_not() {
@@ -65,5 +68,11 @@ mod tests {
         run_system(&mut world, overstress::<Two>);
         let damage: Vec<f64> = particle_values::<Damage>(&mut world).iter().map(|d| d.0).collect();
         assert_eq!(damage, [0.0, 1.0]);
+    }
+
+    /// `fractum systems` documents exactly the parameters the installer parses.
+    #[test]
+    fn the_registration_documents_the_parameters() {
+        assert_documented::<Overstress>(&OVERSTRESS);
     }
 }

@@ -48,6 +48,45 @@ pub struct ParamDoc {
 /// Installs a registration's systems and resources for one pipeline entry.
 pub type InstallFn = fn(&mut Installer, &Params) -> Result<(), SceneError>;
 
+/// The [`InstallFn`] of an install function written once for both dimensions,
+/// `fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError>`:
+/// the registry calls its instance for the scene's dimension, so that the installer names `D`
+/// (`installer.add_systems(my_system::<D>)`) instead of repeating `with_dim!`.
+///
+/// ```
+/// use fractum_engine::generic_install;
+/// use fractum_engine::prelude::*;
+///
+/// fn kick<D: Dim>(mut particles: Query<&mut Velocity<D>, With<Particle>>) {
+///     for mut v in &mut particles {
+///         v.0 = v.0 * 2.0;
+///     }
+/// }
+///
+/// fn install<D: Dim>(installer: &mut Installer, _: &Params) -> Result<(), SceneError> {
+///     installer.add_systems(kick::<D>);
+///     Ok(())
+/// }
+///
+/// pub const REGISTRATION: Registration = Registration {
+///     name: "advection/kick",
+///     summary: "Doubles every particle's velocity.",
+///     params: &[],
+///     requires: &[],
+///     install: generic_install!(install),
+/// };
+/// ```
+#[macro_export]
+macro_rules! generic_install {
+    ($($install:ident)::+) => {
+        |installer: &mut $crate::registry::Installer,
+         params: &$crate::registry::Params|
+         -> ::std::result::Result<(), $crate::text::SceneError> {
+            $crate::with_dim!(installer.dimension(), D => $($install)::+::<D>(installer, params))
+        }
+    };
+}
+
 /// One registered algorithm.
 #[derive(Clone, Copy, Debug)]
 pub struct Registration {
