@@ -1111,7 +1111,7 @@ fn contact_torques(world: &mut World, centre: DVec2) -> (f64, f64) {
 /// accelerating at g (sin θ − μ cos θ) within 2%, both contact detections, at 2.5 and 5 cells
 /// per radius. Printed beside it, and not yet met: the spin-up the friction torque gives
 /// (2μg cos θ / R), and with μ = 0.5 rolling without slip at (2/3) g sin θ (issue 26's
-/// targets; CHANGELOG.md has the figures).
+/// targets; docs/history/development-log.md has the figures).
 /// Newmark on GIMP, with `contact/penalty` in place of the contact.
 const NEWMARK_GIMP_PENALTY: &[(&str, Option<&str>)] = &[
     ("basis/gimp", None),
@@ -1127,7 +1127,7 @@ const NEWMARK_GIMP_PENALTY: &[(&str, Option<&str>)] = &[
 /// (`placement: Rings`): with μ = 0.1 it slides at g (sin θ − μ cos θ) within 2% and never
 /// leaves the substrate, and it spins up under the friction torque; with μ = 0.5 it rolls. The
 /// issue's 2% for the spin-up and the rolling is not reached on these grids; the rates converge
-/// towards it (CHANGELOG.md: at h = 0.02, 0.01 and 0.005 m), and at h = 0.01 m they are
+/// towards it (docs/history/development-log.md: at h = 0.02, 0.01 and 0.005 m), and at h = 0.01 m they are
 /// asserted within 15% (spin-up, measured 13% slow) and 10% (rolling, measured 7% and 8%
 /// slow); a lattice disk's α ≈ 0 and 21% slow rolling there are far outside. (A lattice disk's flat bottom run, about √(R h) long, carries
 /// the friction torque as the face of a box would.)

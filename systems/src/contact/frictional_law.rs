@@ -29,7 +29,7 @@
 //!   weighting §1.1.1 notes "may improve the response, particularly when one field is present
 //!   in a very small fraction": the better choice for a small body on a large flat one, where
 //!   `Difference` lets the small body's tilted corner normals plough it; `Difference` is the
-//!   better one for equal bodies meeting head-on (CHANGELOG.md has the measurements).
+//!   better one for equal bodies meeting head-on (docs/history/development-log.md has the measurements).
 //! - Newmark's split of an impulse into a kick and a force ([`split_newmark_impulse`]): see
 //!   `contact/frictional`.
 
@@ -131,7 +131,7 @@ impl FrictionalParams {
 /// contact group's field then sets the normal. Where two bodies of one density and particle
 /// spacing both cover a node, their masses differ only by the particles' strain and phase
 /// against the node, so which one is heavier says nothing about whose surface is flat
-/// (CHANGELOG.md has the sliding-block measurements that set 10⁻³ and 5°).
+/// (docs/history/development-log.md has the sliding-block measurements that set 10⁻³ and 5°).
 pub const MASS_TIE: f64 = 1e-3;
 
 /// Cosine of 5°: two fields' normals (one reversed) closer than this agree, and a mass tie

@@ -19,7 +19,7 @@
 //!   a stressed particle crossing into an empty cell can invert (the cell-crossing instability
 //!   of the tent functions). `basis/gimp`'s weight and gradient vanish together at the edge of
 //!   the support, so it has no such term, nor has the Newmark predictor-corrector (its stress
-//!   uses the predicted velocity `Σ N m v / m`; CHANGELOG.md has the measured block). Use
+//!   uses the predicted velocity `Σ N m v / m`; docs/history/development-log.md has the measured block). Use
 //!   `basis/gimp` (or `basis/lme`) with this integrator when stressed surfaces move across
 //!   the grid, as in sliding contact.
 
