@@ -13,6 +13,7 @@ pub mod mesh;
 pub mod points;
 pub mod shape;
 pub mod surface;
+pub mod vtk;
 
 pub use file_error::FileError;
 pub use shape::Shape;

@@ -5,7 +5,7 @@
 
 use super::SceneError;
 use super::budget::{self, MemoryEstimate};
-use super::spawn::Seeds;
+use super::seed::Seeds;
 use super::spec::{Body, Spec};
 use bevy_ecs::prelude::World;
 use fractum_engine::decomposition;

@@ -6,6 +6,9 @@ use super::shape::Shape;
 use fractum_engine::dim::{Dim, Lattice, VectorOps, cell_volume, lattice_range};
 use fractum_engine::resources::Grid;
 
+/// A body's seeds: each particle's position and volume.
+pub(crate) type Seeds<D> = Vec<(<D as Dim>::Vector, f64)>;
+
 /// Reference coordinates in [−1, 1] and weights (summing to 2) of the points along one direction.
 pub fn cell_points(placement: Placement, per_direction: u32) -> Option<Vec<(f64, f64)>> {
     let n = per_direction as usize;

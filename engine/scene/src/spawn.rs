@@ -6,7 +6,7 @@
 use super::SceneError;
 use super::format::Probe;
 use super::mesh::Facet;
-use super::seed::particles_in_shape;
+use super::seed::{Seeds, particles_in_shape};
 use super::spec::{Body, Boundary, Built, Condition, SceneSummary, Spec};
 use bevy_ecs::prelude::{With, World};
 use bevy_ecs::schedule::IntoScheduleConfigs;
@@ -26,9 +26,6 @@ use fractum_engine::series::SeriesColumns;
 use fractum_engine::simulation::{Simulation, add_stage_checks, step_schedule};
 use fractum_engine::stage::{Stage, StageCheck, StepSet};
 use fractum_io::output::{OutputPlan, ProbeKind};
-
-/// A body's seeds: each particle's position and volume.
-pub(super) type Seeds<D> = Vec<(<D as Dim>::Vector, f64)>;
 
 /// What a seeded particle starts with: its material index, velocity and damage.
 type SeedState<D> = (usize, <D as Dim>::Vector, f64);

@@ -6,11 +6,11 @@
 //!
 //! - Stage: basis (the graded path of `basis/lme`; not a registration itself).
 
-use super::lme::{
+use super::lme_kernel::{LmeSettings, lme_gradient, lme_solve, support_radius};
+use super::lme_rows::{
     LmeParams, LmeState, NodeCloud, RowScratch, RowSlices, Solved, keep_solutions, non_convergence,
     write_row,
 };
-use super::lme_kernel::{LmeSettings, lme_gradient, lme_solve, support_radius};
 use crate::spatial::Spatial;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;

@@ -4,6 +4,7 @@ pub mod linear;
 pub mod lme;
 mod lme_graded;
 pub mod lme_kernel;
+pub mod lme_rows;
 
 use fractum_engine::budget::{connectivity_entry_bytes, describe_count};
 use fractum_engine::prelude::*;

@@ -1,6 +1,7 @@
 //! PVD collection: the list of frames with their times, which ParaView opens as one time series.
 
 use super::atomic::write_atomically;
+use fractum_geometry::vtk::attribute;
 use std::fmt::Write;
 use std::path::Path;
 
@@ -34,14 +35,6 @@ pub fn read_pvd(path: &Path) -> Result<Vec<(f64, String)>, String> {
         frames.push((time, file.to_string()));
     }
     Ok(frames)
-}
-
-/// The value of `name="…"` in an XML start tag's text.
-pub(crate) fn attribute<'a>(tag: &'a str, name: &str) -> Option<&'a str> {
-    let key = format!(" {name}=\"");
-    let start = tag.find(&key)? + key.len();
-    let end = tag[start..].find('"')? + start;
-    Some(&tag[start..end])
 }
 
 #[cfg(test)]

@@ -4,9 +4,21 @@
 //! rank that writes it has them ([`PieceArrays`]).
 
 use super::atomic::write_atomically;
-use super::vtu::PieceArrays;
+use fractum_geometry::vtk::attribute;
 use std::fmt::Write;
 use std::path::Path;
+
+/// The point-data arrays of a frame file as a `.pvtu` index declares them: the scalars' and
+/// vectors' default arrays, then each array's name, VTK type and components, in file order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PieceArrays {
+    /// The array ParaView colours by at first.
+    pub scalars: String,
+    /// The array ParaView shows as vectors at first.
+    pub vectors: String,
+    /// Name, type and components of each array.
+    pub arrays: Vec<(String, String, usize)>,
+}
 
 /// The file of rank `rank`'s piece of the frame whose index is `index` (`frames/x.pvtu` →
 /// `frames/x_3.vtu`), relative to the same folder as `index`.
@@ -51,7 +63,7 @@ pub fn read_pvtu_pieces(path: &Path) -> Result<Vec<String>, String> {
     xml.split("<Piece")
         .skip(1)
         .map(|tag| {
-            super::pvd::attribute(tag, "Source")
+            attribute(tag, "Source")
                 .map(str::to_string)
                 .ok_or_else(|| format!("{}: a Piece without a Source", path.display()))
         })

@@ -15,10 +15,11 @@
 //! written. An array left out is an empty column of [`ParticleFrame`].
 
 use super::atomic::write_atomically;
+pub use super::pvtu::PieceArrays;
 use base64::Engine as _;
 use base64::engine::general_purpose::STANDARD as BASE64;
+use fractum_geometry::vtk::{self, Encoding};
 use std::fmt::Write;
-use std::io::Read as _;
 use std::path::Path;
 
 /// How the arrays of a frame are encoded (the scene's `output.compression`).
@@ -212,18 +213,6 @@ struct Inline {
     declared: PieceArrays,
 }
 
-/// The point-data arrays of a frame file as a `.pvtu` index declares them: the scalars' and
-/// vectors' default arrays, then each array's name, VTK type and components, in file order.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct PieceArrays {
-    /// The array ParaView colours by at first.
-    pub scalars: String,
-    /// The array ParaView shows as vectors at first.
-    pub vectors: String,
-    /// Name, type and components of each array.
-    pub arrays: Vec<(String, String, usize)>,
-}
-
 impl Inline {
     /// Starts a file of `n` VTK vertices, with `field_data` (name, value) as the grid's field
     /// data, opening the vertices' point data.
@@ -351,137 +340,72 @@ fn i64_bytes(values: impl Iterator<Item = i64>) -> Vec<u8> {
     values.flat_map(i64::to_le_bytes).collect()
 }
 
-/// One named array of a frame file: its type, components and little-endian bytes.
+/// One named array of a frame file: its components and values.
 struct ReadArray {
     name: Option<String>,
-    ty: String,
     components: usize,
-    bytes: Vec<u8>,
+    values: Vec<f64>,
 }
 
-/// The `DataArray`s of a file written by this module, in file order; `compressed` when the
-/// file names VTK's zlib compressor.
-fn read_arrays(xml: &str, compressed: bool) -> Result<Vec<ReadArray>, String> {
-    let mut arrays = Vec::new();
-    for piece in xml.split("<DataArray").skip(1) {
-        let (tag, rest) = piece
-            .split_once('>')
-            .ok_or("a DataArray tag that does not close")?;
-        let body = rest
-            .split_once("</DataArray>")
-            .ok_or("a DataArray without its end tag")?
-            .0
-            .trim();
-        let bytes = if compressed {
-            decode_compressed(body)?
-        } else {
-            decode_plain(body)?
-        };
-        arrays.push(ReadArray {
-            name: super::pvd::attribute(tag, "Name").map(str::to_string),
-            ty: super::pvd::attribute(tag, "type")
-                .unwrap_or_default()
-                .to_string(),
-            components: super::pvd::attribute(tag, "NumberOfComponents")
-                .and_then(|c| c.parse().ok())
-                .unwrap_or(1),
-            bytes,
-        });
-    }
-    Ok(arrays)
-}
-
-fn base64_of(text: &str) -> Result<Vec<u8>, String> {
-    BASE64
-        .decode(text)
-        .map_err(|e| format!("a DataArray that is not base64: {e}"))
-}
-
-fn u64_at(bytes: &[u8], index: usize) -> Option<usize> {
-    let chunk = bytes.get(8 * index..8 * index + 8)?;
-    Some(u64::from_le_bytes(chunk.try_into().ok()?) as usize)
-}
-
-/// An uncompressed array: its byte count and bytes, encoded together.
-fn decode_plain(body: &str) -> Result<Vec<u8>, String> {
-    let block = base64_of(body)?;
-    let count = u64_at(&block, 0).ok_or("a DataArray without its byte count")?;
-    let data = &block[8..];
-    if count != data.len() {
-        return Err(format!(
-            "a DataArray of {} bytes that says {count}",
-            data.len()
-        ));
-    }
-    Ok(data.to_vec())
-}
-
-/// A zlib-compressed array: VTK's header `[blocks, block size, last block size, compressed
-/// sizes…]`, then the blocks, encoded separately (any number of blocks, as VTK writes them).
-fn decode_compressed(body: &str) -> Result<Vec<u8>, String> {
-    // Base64 of n bytes is 4·⌈n/3⌉ characters.
-    let encoded_len = |bytes: usize| bytes.div_ceil(3) * 4;
-    let short = || "a compressed DataArray whose header is cut short".to_string();
-    let first = body.get(..encoded_len(8)).ok_or_else(short)?;
-    let blocks = u64_at(&base64_of(first)?, 0).ok_or_else(short)?;
-    if blocks > body.len() {
-        return Err(format!("a compressed DataArray that says {blocks} blocks"));
-    }
-    let header_len = encoded_len(8 * (3 + blocks));
-    let header = base64_of(body.get(..header_len).ok_or_else(short)?)?;
-    let word = |i: usize| u64_at(&header, i).ok_or_else(short);
-    let (block_size, last_size) = (word(1)?, word(2)?);
-    let total = match (blocks, last_size) {
-        (0, _) => 0,
-        (b, 0) => b * block_size,
-        (b, last) => (b - 1) * block_size + last,
-    };
-    let data = base64_of(&body[header_len..])?;
-    let mut out = Vec::with_capacity(total);
-    let mut at = 0;
-    for i in 0..blocks {
-        let size = word(3 + i)?;
-        let block = data
-            .get(at..at + size)
-            .ok_or("a compressed DataArray shorter than its header says")?;
-        flate2::read::ZlibDecoder::new(block)
-            .read_to_end(&mut out)
-            .map_err(|e| format!("a compressed DataArray that does not inflate: {e}"))?;
-        at += size;
-    }
-    if out.len() != total {
-        return Err(format!(
-            "a compressed DataArray of {} bytes that says {total}",
-            out.len()
-        ));
-    }
-    Ok(out)
+/// The `DataArray`s of `xml` between byte offsets `from` and `to`, in file order, decoded with
+/// the shared VTK codec.
+fn read_arrays(
+    xml: &str,
+    (from, to): (usize, usize),
+    encoding: &Encoding,
+) -> Result<Vec<ReadArray>, String> {
+    let arrays = vtk::data_arrays(xml, from, to).map_err(|(_, what)| what.to_string())?;
+    arrays
+        .iter()
+        .map(|array| {
+            let name = vtk::attribute(array.tag, "Name").map(str::to_string);
+            let ty = vtk::attribute(array.tag, "type").unwrap_or_default();
+            let bytes = vtk::decode(array.body, encoding)
+                .map_err(|e| format!("DataArray {name:?}: {e}"))?;
+            let values =
+                vtk::numbers(&bytes, ty).ok_or_else(|| format!("array {name:?} of type {ty}"))?;
+            Ok(ReadArray {
+                name,
+                components: array.components(),
+                values,
+            })
+        })
+        .collect()
 }
 
 impl ReadArray {
     fn f64s(&self) -> Result<Vec<f64>, String> {
-        match self.ty.as_str() {
-            "Float64" => Ok(self
-                .bytes
-                .chunks_exact(8)
-                .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
-                .collect()),
-            "Int32" => Ok(self
-                .bytes
-                .chunks_exact(4)
-                .map(|c| f64::from(i32::from_le_bytes(c.try_into().expect("4 bytes"))))
-                .collect()),
-            other => Err(format!("array {:?} of type {other}", self.name)),
-        }
+        Ok(self.values.clone())
     }
 
     fn triples(&self) -> Result<Vec<[f64; 3]>, String> {
         Ok(self
-            .f64s()?
+            .values
             .chunks_exact(3)
             .map(|c| [c[0], c[1], c[2]])
             .collect())
     }
+}
+
+/// How a frame file encodes its arrays, from its `<VTKFile ...>` tag.
+fn frame_encoding(xml: &str) -> Result<Encoding, String> {
+    let tag = xml
+        .split_once("<VTKFile")
+        .and_then(|(_, tag)| tag.split_once('>'))
+        .map_or("", |(tag, _)| tag);
+    let compressed = match vtk::attribute(tag, "compressor") {
+        None => false,
+        Some("vtkZLibDataCompressor") => true,
+        Some(other) => return Err(format!("a frame compressed by {other}, not zlib")),
+    };
+    let header_bytes = match vtk::attribute(tag, "header_type") {
+        Some("UInt64") => 8,
+        _ => 4,
+    };
+    Ok(Encoding {
+        header_bytes,
+        compressed,
+    })
 }
 
 /// Reads a particle frame written by [`write_particle_frame`], compressed or not (the arrays it
@@ -499,20 +423,17 @@ pub fn read_particle_frame(path: &Path) -> Result<ParticleFrame, String> {
     }
     let xml = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let at = |e: String| format!("{}: {e}", path.display());
-    let compressed = match xml
-        .split_once("<VTKFile")
-        .and_then(|(_, tag)| tag.split_once('>'))
-        .and_then(|(tag, _)| super::pvd::attribute(tag, "compressor"))
-    {
-        None => false,
-        Some("vtkZLibDataCompressor") => true,
-        Some(other) => return Err(at(format!("a frame compressed by {other}, not zlib"))),
+    let encoding = frame_encoding(&xml).map_err(at)?;
+    let (field_data, arrays) = match xml.find("<Piece") {
+        Some(piece) => (
+            read_arrays(&xml, (0, piece), &encoding).map_err(at)?,
+            read_arrays(&xml, (piece, xml.len()), &encoding).map_err(at)?,
+        ),
+        None => (
+            Vec::new(),
+            read_arrays(&xml, (0, xml.len()), &encoding).map_err(at)?,
+        ),
     };
-    let (field_data, piece) = match xml.split_once("<Piece") {
-        Some((head, piece)) => (read_arrays(head, compressed).map_err(at)?, piece),
-        None => (Vec::new(), xml.as_str()),
-    };
-    let arrays = read_arrays(piece, compressed).map_err(at)?;
     let mut f = ParticleFrame::default();
     for a in &field_data {
         if a.name.as_deref() == Some("thickness") {
@@ -788,7 +709,8 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
     }
 
-    /// VTK's own writer splits an array into 32 KiB blocks; the reader takes any number.
+    /// VTK's own writer splits an array into 32 KiB blocks; the shared codec reads the frame
+    /// writer's zlib blocks in any number.
     #[test]
     fn an_array_in_several_zlib_blocks_decodes() {
         let bytes: Vec<u8> = (0..10_000u32)
@@ -800,6 +722,11 @@ mod tests {
         header.extend(blocks.iter().map(|b| b.len() as u64));
         let header: Vec<u8> = header.into_iter().flat_map(u64::to_le_bytes).collect();
         let body = BASE64.encode(header) + &BASE64.encode(blocks.concat());
+        let encoding = Encoding {
+            header_bytes: 8,
+            compressed: true,
+        };
+        let decode_compressed = |body: &str| vtk::decode(body, &encoding);
         assert_eq!(decode_compressed(&body).unwrap(), bytes);
         // Cut short, or with a corrupt block: an error, not a panic.
         assert!(decode_compressed(&body[..body.len() / 2]).is_err());
