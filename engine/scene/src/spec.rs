@@ -6,7 +6,7 @@
 //!
 //! ```
 //! use fractum_engine::prelude::*;
-//! use fractum_engine::scene::{Body, InitialVelocity, Shape, Spec};
+//! use fractum_scene::{Body, InitialVelocity, Shape, Spec};
 //! use fractum_engine::simulation::{End, TimeStep};
 //!
 //! let spec = Spec::<Three>::new(Grid::uniform(DVec3::ZERO, 0.1, [10, 10, 10]))
