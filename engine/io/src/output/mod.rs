@@ -4,6 +4,7 @@
 
 mod atomic;
 mod csv;
+mod frame_reader;
 mod frames;
 mod probes;
 mod pvd;
@@ -14,6 +15,7 @@ mod writer;
 pub use atomic::write_atomically;
 pub use csv::SeriesWriter;
 pub use fractum_engine::columns::{ColumnValues, FrameColumns};
+pub use frame_reader::read_particle_frame;
 pub use frames::{grid_frame, particle_frame, refill_particle_frame};
 pub use probes::{
     initial_energy_part, largest_energy_particle, must_be_finite, series_parts, series_row,
@@ -23,8 +25,8 @@ pub use pvd::{read_pvd, write_pvd};
 pub use pvtu::{piece_name, read_pvtu_pieces, write_pvtu};
 pub(crate) use vtu::particle_frame_file;
 pub use vtu::{
-    ENGINE_FRAME_FIELDS, FrameCompression, GridFrame, ParticleFrame, PieceArrays,
-    read_particle_frame, write_grid_frame, write_particle_frame,
+    ENGINE_FRAME_FIELDS, FrameCompression, GridFrame, ParticleFrame, PieceArrays, write_grid_frame,
+    write_particle_frame,
 };
 pub use writer::{FrameWriter, PieceIndex, WriteFailure};
 

@@ -18,7 +18,6 @@ use super::atomic::write_atomically;
 pub use super::pvtu::PieceArrays;
 use base64::Engine as _;
 use base64::engine::general_purpose::STANDARD as BASE64;
-use fractum_geometry::vtk::{self, Encoding};
 use std::fmt::Write;
 use std::path::Path;
 
@@ -340,163 +339,6 @@ fn i64_bytes(values: impl Iterator<Item = i64>) -> Vec<u8> {
     values.flat_map(i64::to_le_bytes).collect()
 }
 
-/// One named array of a frame file: its components and values.
-struct ReadArray {
-    name: Option<String>,
-    components: usize,
-    values: Vec<f64>,
-}
-
-/// The `DataArray`s of `xml` between byte offsets `from` and `to`, in file order, decoded with
-/// the shared VTK codec.
-fn read_arrays(
-    xml: &str,
-    (from, to): (usize, usize),
-    encoding: &Encoding,
-) -> Result<Vec<ReadArray>, String> {
-    let arrays = vtk::data_arrays(xml, from, to).map_err(|(_, what)| what.to_string())?;
-    arrays
-        .iter()
-        .map(|array| {
-            let name = vtk::attribute(array.tag, "Name").map(str::to_string);
-            let ty = vtk::attribute(array.tag, "type").unwrap_or_default();
-            let bytes = vtk::decode(array.body, encoding)
-                .map_err(|e| format!("DataArray {name:?}: {e}"))?;
-            let values =
-                vtk::numbers(&bytes, ty).ok_or_else(|| format!("array {name:?} of type {ty}"))?;
-            Ok(ReadArray {
-                name,
-                components: array.components(),
-                values,
-            })
-        })
-        .collect()
-}
-
-impl ReadArray {
-    fn f64s(&self) -> Result<Vec<f64>, String> {
-        Ok(self.values.clone())
-    }
-
-    fn triples(&self) -> Result<Vec<[f64; 3]>, String> {
-        Ok(self
-            .values
-            .chunks_exact(3)
-            .map(|c| [c[0], c[1], c[2]])
-            .collect())
-    }
-}
-
-/// How a frame file encodes its arrays, from its `<VTKFile ...>` tag.
-fn frame_encoding(xml: &str) -> Result<Encoding, String> {
-    let tag = xml
-        .split_once("<VTKFile")
-        .and_then(|(_, tag)| tag.split_once('>'))
-        .map_or("", |(tag, _)| tag);
-    let compressed = match vtk::attribute(tag, "compressor") {
-        None => false,
-        Some("vtkZLibDataCompressor") => true,
-        Some(other) => return Err(format!("a frame compressed by {other}, not zlib")),
-    };
-    let header_bytes = match vtk::attribute(tag, "header_type") {
-        Some("UInt64") => 8,
-        _ => 4,
-    };
-    Ok(Encoding {
-        header_bytes,
-        compressed,
-    })
-}
-
-/// Reads a particle frame written by [`write_particle_frame`], compressed or not (the arrays it
-/// writes, extra scalars and vectors by name; a column the scene's `output.fields` left out is
-/// empty, see [`ParticleFrame::require`]; a frame from elsewhere is refused with the reason).
-pub fn read_particle_frame(path: &Path) -> Result<ParticleFrame, String> {
-    if path.extension().is_some_and(|e| e == "pvtu") {
-        // A distributed run's frame: the ranks' pieces, one after another.
-        let folder = path.parent().unwrap_or(Path::new("."));
-        let mut whole = ParticleFrame::default();
-        for piece in super::pvtu::read_pvtu_pieces(path)? {
-            whole.append(read_particle_frame(&folder.join(piece))?);
-        }
-        return Ok(whole);
-    }
-    let xml = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let at = |e: String| format!("{}: {e}", path.display());
-    let encoding = frame_encoding(&xml).map_err(at)?;
-    let (field_data, arrays) = match xml.find("<Piece") {
-        Some(piece) => (
-            read_arrays(&xml, (0, piece), &encoding).map_err(at)?,
-            read_arrays(&xml, (piece, xml.len()), &encoding).map_err(at)?,
-        ),
-        None => (
-            Vec::new(),
-            read_arrays(&xml, (0, xml.len()), &encoding).map_err(at)?,
-        ),
-    };
-    let mut f = ParticleFrame::default();
-    for a in &field_data {
-        if a.name.as_deref() == Some("thickness") {
-            f.thickness = a.f64s().map_err(at)?.first().copied();
-        }
-    }
-    let mut seen_points = false;
-    for a in &arrays {
-        match (a.name.as_deref(), a.components) {
-            (None, 3) => {
-                f.position = a.triples().map_err(at)?;
-                seen_points = true;
-            }
-            (Some("id"), 1) => f.id = a.f64s().map_err(at)?.iter().map(|&v| v as u32).collect(),
-            (Some("body"), 1) => f.body = a.f64s().map_err(at)?.iter().map(|&v| v as u16).collect(),
-            (Some("material"), 1) => {
-                f.material = a.f64s().map_err(at)?.iter().map(|&v| v as u16).collect();
-            }
-            (Some("velocity"), 3) => f.velocity = a.triples().map_err(at)?,
-            (Some("mass"), 1) => f.mass = a.f64s().map_err(at)?,
-            (Some("volume"), 1) => f.volume = a.f64s().map_err(at)?,
-            (Some("stress"), 9) => {
-                f.stress = a
-                    .f64s()
-                    .map_err(at)?
-                    .chunks_exact(9)
-                    .map(|c| c.try_into().expect("9 values"))
-                    .collect();
-            }
-            (Some("damage"), 1) => f.damage = a.f64s().map_err(at)?,
-            (Some("strain_energy_density"), 1) => f.strain_energy_density = a.f64s().map_err(at)?,
-            (Some("connectivity" | "offsets" | "types"), _) => {}
-            (Some(name), 1) => f.scalars.push((name.to_string(), a.f64s().map_err(at)?)),
-            (Some(name), 3) => f.vectors.push((name.to_string(), a.triples().map_err(at)?)),
-            (name, n) => return Err(at(format!("an array {name:?} of {n} components"))),
-        }
-    }
-    let n = f.position.len();
-    let lengths = [
-        f.id.len(),
-        f.body.len(),
-        f.material.len(),
-        f.velocity.len(),
-        f.mass.len(),
-        f.volume.len(),
-        f.stress.len(),
-        f.damage.len(),
-        f.strain_energy_density.len(),
-    ];
-    let extra = f.scalars.iter().map(|(_, v)| v.len());
-    let extra = extra.chain(f.vectors.iter().map(|(_, v)| v.len()));
-    let consistent = lengths
-        .into_iter()
-        .chain(extra)
-        .all(|len| len == n || len == 0);
-    if !seen_points || !consistent {
-        return Err(at(
-            "not a particle frame of fractum (no points, or arrays of the wrong length)".into(),
-        ));
-    }
-    Ok(f)
-}
-
 /// The grid nodes that carry mass, with their velocity fields (see [`fractum_engine::components`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct GridFrame {
@@ -612,7 +454,9 @@ pub(crate) fn particle_frame_file(
 
 #[cfg(test)]
 mod tests {
+    use super::super::read_particle_frame;
     use super::*;
+    use fractum_geometry::vtk::{self, Encoding};
 
     fn sample() -> ParticleFrame {
         ParticleFrame {

@@ -185,32 +185,83 @@ fn exchange_and_rebuild<D: Dim>(
         .cloned()
         .unwrap_or_default();
     let layout = ownership.layout.clone();
+    let (claimed, per_layer, escaped) = claim::<D>(world, &grid, ownership);
+    // Every rank takes part in the sums and the exchange, whatever it found, so that none
+    // waits for another; the failures are reported after them.
+    let (per_layer, mut failure) = count(world, comm, ownership, &per_layer, &escaped);
+    let (next, peers) = next_layout(&layout, &per_layer, ownership);
+    let (kept, sends) = send(world, &state, (&claimed, ownership.rank), (&next, &peers));
+    let sends: Vec<(usize, Vec<u8>)> = sends
+        .into_iter()
+        .map(|(peer, encoded)| {
+            let bytes = encoded.unwrap_or_else(|e| {
+                failure.get_or_insert(e);
+                Vec::new()
+            });
+            (peer, bytes)
+        })
+        .collect();
+    ownership.sent_bytes += sends.iter().map(|(_, b)| b.len() as u64).sum::<u64>();
+    let received = comm.exchange(&sends);
+    if let Some(failure) = failure {
+        return Err(failure);
+    }
+    let arrived = receive(&peers, received)?;
+    rebuild::<D>(world, &state, &kept, arrived)?;
+    settle::<D>(world, &grid, ownership, (layout, next), &per_layer);
+    Ok(())
+}
+
+/// A particle this rank takes over after the step: its row, entity, id and cell layer.
+type Claimed = (usize, Entity, u32, usize);
+
+/// A particle this rank removed on leaving the grid: its id and position (`Ownership::escaped`).
+type Escaped = (u32, [f64; 3]);
+
+/// The particles this rank takes over: those whose step here was exact (they began near the
+/// slab) and that ended it in the slab. Under `LeaveGrid::Remove` a particle that ended the
+/// step outside the grid is taken over by none, and counted by its owner. Also the claimed
+/// particles per cell layer, with the particles this rank removed in a last slot, and those
+/// removed ones.
+fn claim<D: Dim>(
+    world: &mut World,
+    grid: &Grid<D>,
+    ownership: &mut Ownership,
+) -> (Vec<Claimed>, Vec<f64>, Vec<Escaped>) {
+    let layout = &ownership.layout;
     let me = ownership.rank;
     let removing = world.get_resource::<LeaveGrid>() == Some(&LeaveGrid::Remove);
-    // The particles this rank takes over: those whose step here was exact (they began near
-    // the slab) and that ended it in the slab. Under `LeaveGrid::Remove` a particle that ended
-    // the step outside the grid is taken over by none, and counted by its owner.
     let mut claimed = Vec::new();
     let escaped = std::mem::take(&mut ownership.escaped);
-    // Particles per cell layer, and the particles this rank removed in the last slot.
     let mut per_layer = vec![0.0; layout.cells() + 1];
     per_layer[layout.cells()] = escaped.len() as f64;
     for (row, (entity, id, x)) in rows::<D>(world).into_iter().enumerate() {
         if removing && x.is_finite() && !grid.contains(x) {
             continue;
         }
-        let layer = layer_of::<D>(&layout, &grid, x);
+        let layer = layer_of::<D>(layout, grid, x);
         if ownership.claimable.get(row).copied().unwrap_or(false) && layout.owner(layer) == me {
             claimed.push((row, entity, id, layer));
             per_layer[layer] += 1.0;
         }
     }
-    // Every rank takes part in the sums and the exchange, whatever it found, so that none
-    // waits for another; the failures are reported after them.
-    let mut per_layer: Vec<u64> = comm.sum(&per_layer).iter().map(|&n| n as u64).collect();
+    (claimed, per_layer, escaped)
+}
+
+/// The particles per cell layer over every rank (a collective), the particles removed in the
+/// step recorded, and why the step cannot go on, if it cannot: particles lost between slabs,
+/// or none left.
+fn count(
+    world: &mut World,
+    comm: &dyn Communicator,
+    ownership: &mut Ownership,
+    per_layer: &[f64],
+    escaped: &[Escaped],
+) -> (Vec<u64>, Option<String>) {
+    let mut per_layer: Vec<u64> = comm.sum(per_layer).iter().map(|&n| n as u64).collect();
     let removed = per_layer.pop().unwrap_or(0);
     if removed > 0 {
-        record_removed(world, comm, &escaped, removed);
+        record_removed(world, comm, escaped, removed);
         ownership.total -= removed.min(ownership.total);
     }
     let owned: u64 = per_layer.iter().sum();
@@ -218,7 +269,7 @@ fn exchange_and_rebuild<D: Dim>(
         format!(
             "the ranks own {owned} particles after the step, not the run's {}: a particle moved \
              further in one step than the halo of {} layers allows",
-            ownership.total, layout.halo
+            ownership.total, ownership.layout.halo
         )
     });
     if ownership.total == 0 && failure.is_none() {
@@ -229,18 +280,40 @@ fn exchange_and_rebuild<D: Dim>(
                 .to_string(),
         );
     }
-    let next = rebalanced(&layout, &per_layer, ownership.rebalance_above);
-    let (next, peers) = match next {
+    (per_layer, failure)
+}
+
+/// The slabs after the step (re-cut when the load is out of balance) and the ranks this rank
+/// exchanges particles with: its neighbours, or every rank when the slabs move.
+fn next_layout(layout: &Layout, per_layer: &[u64], ownership: &Ownership) -> (Layout, Vec<usize>) {
+    let me = ownership.rank;
+    match rebalanced(layout, per_layer, ownership.rebalance_above) {
         // The slabs move: any rank may hold what another owned.
         Some(next) => {
             let peers = (0..layout.slabs.len()).filter(|&r| r != me).collect();
             (next, peers)
         }
         None => (layout.clone(), layout.peers(me)),
-    };
+    }
+}
+
+/// A particle kept on this rank or sent to a peer: its row, entity and id.
+type Moved = (usize, Entity, u32);
+
+/// A peer and the block of particles encoded for it (or why it could not be encoded).
+type Encoded = (usize, Result<Vec<u8>, String>);
+
+/// The claimed particles this rank keeps (it holds their layer in the `next` slabs), and each
+/// peer's encoded block of those it holds: the send half of the exchange.
+fn send(
+    world: &mut World,
+    state: &CheckpointState,
+    (claimed, me): (&[Claimed], usize),
+    (next, peers): (&Layout, &[usize]),
+) -> (Vec<Moved>, Vec<Encoded>) {
     let mut kept = Vec::new();
-    let mut outgoing: Vec<Vec<(usize, Entity, u32)>> = vec![Vec::new(); peers.len()];
-    for &(row, entity, id, layer) in &claimed {
+    let mut outgoing: Vec<Vec<Moved>> = vec![Vec::new(); peers.len()];
+    for &(row, entity, id, layer) in claimed {
         for holder in next.holders(layer) {
             if holder == me {
                 kept.push((row, entity, id));
@@ -250,32 +323,41 @@ fn exchange_and_rebuild<D: Dim>(
             }
         }
     }
-    let mut sends = Vec::with_capacity(peers.len());
-    for (peer, rows) in peers.iter().zip(&outgoing) {
-        let encoded = block(world, &state, rows).and_then(|b| {
-            postcard::to_allocvec(&b)
-                .map_err(|e| format!("cannot encode particles for rank {peer}: {e}"))
-        });
-        sends.push((
-            *peer,
-            encoded.unwrap_or_else(|e| {
-                failure.get_or_insert(e);
-                Vec::new()
-            }),
-        ));
-    }
-    ownership.sent_bytes += sends.iter().map(|(_, b)| b.len() as u64).sum::<u64>();
-    let received = comm.exchange(&sends);
-    if let Some(failure) = failure {
-        return Err(failure);
-    }
-    let mut arrived = Vec::with_capacity(peers.len());
-    for (peer, bytes) in peers.iter().zip(received) {
-        let decoded: Block = postcard::from_bytes(&bytes)
-            .map_err(|e| format!("cannot decode the particles rank {peer} sent: {e}"))?;
-        arrived.push(decoded);
-    }
-    rebuild::<D>(world, &state, &kept, arrived)?;
+    let sends = peers
+        .iter()
+        .zip(&outgoing)
+        .map(|(peer, rows)| {
+            let encoded = block(world, state, rows).and_then(|b| {
+                postcard::to_allocvec(&b)
+                    .map_err(|e| format!("cannot encode particles for rank {peer}: {e}"))
+            });
+            (*peer, encoded)
+        })
+        .collect();
+    (kept, sends)
+}
+
+/// The blocks the peers sent, decoded: the receive half of the exchange.
+fn receive(peers: &[usize], received: Vec<Vec<u8>>) -> Result<Vec<Block>, String> {
+    peers
+        .iter()
+        .zip(received)
+        .map(|(peer, bytes)| {
+            postcard::from_bytes(&bytes)
+                .map_err(|e| format!("cannot decode the particles rank {peer} sent: {e}"))
+        })
+        .collect()
+}
+
+/// After the rebuild: the ownership follows the `next` slabs (its nodes when the next step
+/// begins), and records the imbalance and which particles this rank owns.
+fn settle<D: Dim>(
+    world: &mut World,
+    grid: &Grid<D>,
+    ownership: &mut Ownership,
+    (layout, next): (Layout, Layout),
+    per_layer: &[u64],
+) {
     if next != layout {
         // The nodes this step computed stay owned (and held) until the next step begins
         // (`follow_layout`): what is read after the step reads them.
@@ -285,13 +367,12 @@ fn exchange_and_rebuild<D: Dim>(
         ownership.nodes_pending = true;
     }
     ownership.imbalance =
-        fractum_engine::decomposition::imbalance(&slab_loads(&ownership.layout, &per_layer));
+        fractum_engine::decomposition::imbalance(&slab_loads(&ownership.layout, per_layer));
     let layers: Vec<usize> = rows::<D>(world)
         .into_iter()
-        .map(|(_, _, x)| layer_of::<D>(&ownership.layout, &grid, x))
+        .map(|(_, _, x)| layer_of::<D>(&ownership.layout, grid, x))
         .collect();
     ownership.mark(layers.into_iter());
-    Ok(())
 }
 
 /// Adds the `removed` particles that left the grid in this step, over every rank, to the
