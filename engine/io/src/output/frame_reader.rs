@@ -41,16 +41,11 @@ fn read_arrays(
 }
 
 impl ReadArray {
-    fn f64s(&self) -> Result<Vec<f64>, String> {
-        Ok(self.values.clone())
-    }
-
-    fn triples(&self) -> Result<Vec<[f64; 3]>, String> {
-        Ok(self
-            .values
+    fn triples(&self) -> Vec<[f64; 3]> {
+        self.values
             .chunks_exact(3)
             .map(|c| [c[0], c[1], c[2]])
-            .collect())
+            .collect()
     }
 }
 
@@ -104,37 +99,36 @@ pub fn read_particle_frame(path: &Path) -> Result<ParticleFrame, String> {
     let mut f = ParticleFrame::default();
     for a in &field_data {
         if a.name.as_deref() == Some("thickness") {
-            f.thickness = a.f64s().map_err(at)?.first().copied();
+            f.thickness = a.values.first().copied();
         }
     }
     let mut seen_points = false;
-    for a in &arrays {
+    for a in arrays {
         match (a.name.as_deref(), a.components) {
             (None, 3) => {
-                f.position = a.triples().map_err(at)?;
+                f.position = a.triples();
                 seen_points = true;
             }
-            (Some("id"), 1) => f.id = a.f64s().map_err(at)?.iter().map(|&v| v as u32).collect(),
-            (Some("body"), 1) => f.body = a.f64s().map_err(at)?.iter().map(|&v| v as u16).collect(),
+            (Some("id"), 1) => f.id = a.values.iter().map(|&v| v as u32).collect(),
+            (Some("body"), 1) => f.body = a.values.iter().map(|&v| v as u16).collect(),
             (Some("material"), 1) => {
-                f.material = a.f64s().map_err(at)?.iter().map(|&v| v as u16).collect();
+                f.material = a.values.iter().map(|&v| v as u16).collect();
             }
-            (Some("velocity"), 3) => f.velocity = a.triples().map_err(at)?,
-            (Some("mass"), 1) => f.mass = a.f64s().map_err(at)?,
-            (Some("volume"), 1) => f.volume = a.f64s().map_err(at)?,
+            (Some("velocity"), 3) => f.velocity = a.triples(),
+            (Some("mass"), 1) => f.mass = a.values,
+            (Some("volume"), 1) => f.volume = a.values,
             (Some("stress"), 9) => {
                 f.stress = a
-                    .f64s()
-                    .map_err(at)?
+                    .values
                     .chunks_exact(9)
                     .map(|c| c.try_into().expect("9 values"))
                     .collect();
             }
-            (Some("damage"), 1) => f.damage = a.f64s().map_err(at)?,
-            (Some("strain_energy_density"), 1) => f.strain_energy_density = a.f64s().map_err(at)?,
+            (Some("damage"), 1) => f.damage = a.values,
+            (Some("strain_energy_density"), 1) => f.strain_energy_density = a.values,
             (Some("connectivity" | "offsets" | "types"), _) => {}
-            (Some(name), 1) => f.scalars.push((name.to_string(), a.f64s().map_err(at)?)),
-            (Some(name), 3) => f.vectors.push((name.to_string(), a.triples().map_err(at)?)),
+            (Some(name), 1) => f.scalars.push((name.to_string(), a.values)),
+            (Some(name), 3) => f.vectors.push((name.to_string(), a.triples())),
             (name, n) => return Err(at(format!("an array {name:?} of {n} components"))),
         }
     }
