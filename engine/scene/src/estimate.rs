@@ -1,12 +1,16 @@
 //! A scene's memory from counts, before anything is spawned: the bodies' seeds, and what the
 //! pipeline gives each entity and declares per particle, read off an install on a world with
 //! no node and a sample of particles. `build` holds it against what the process may use
-//! before spawning; `fractum check --estimate` prints it ([`Spec::estimate`]).
+//! before spawning; `fractum check --estimate` prints it ([`Spec::estimate`]). The memory
+//! before seeding is bounded from the bodies' boxes.
 
 use super::SceneError;
 use super::budget::{self, MemoryEstimate};
+use super::build::insert_scene_resources;
+use super::pipeline::PipelineBuilder;
 use super::seed::Seeds;
-use super::spec::{Body, Spec};
+use super::seeder::Seeder;
+use super::spec::Spec;
 use bevy_ecs::prelude::World;
 use fractum_engine::decomposition;
 use fractum_engine::dim::{Dim, VectorOps};
@@ -17,13 +21,13 @@ use fractum_engine::resources::Grid;
 use fractum_engine::simulation::step_schedule;
 
 /// What a pipeline installed on a sample of particles tells of the scene's memory.
-pub(super) struct PipelineProbe {
+pub(crate) struct PipelineProbe {
     /// The components it gives every particle and node.
-    pub(super) templates: ComponentTemplates,
+    pub(crate) templates: ComponentTemplates,
     /// The storage it declares per particle.
-    pub(super) declared: budget::ParticleMemory,
+    pub(crate) declared: budget::ParticleMemory,
     /// How far a step reaches, for a distributed run's halo.
-    pub(super) reach: fractum_engine::decomposition::StepReach,
+    pub(crate) reach: fractum_engine::decomposition::StepReach,
 }
 
 /// A scene's memory estimate from counts, before anything is spawned
@@ -60,7 +64,26 @@ pub struct RankSlabs {
     pub held: Vec<(u64, usize, f64)>,
 }
 
-impl<D: Dim> Spec<D> {
+/// The estimator of one spec: seeds, a probe of the pipeline, and the memory and slabs that
+/// follow from them.
+pub(crate) struct Estimator<'s, D: Dim> {
+    spec: &'s Spec<D>,
+}
+
+/// What the estimator found before anything is spawned: the memory the process may use, each
+/// body's seeds, and what the pipeline gives and declares.
+pub(crate) struct Probed<D: Dim> {
+    pub(crate) available: budget::Available,
+    pub(crate) seeds: Vec<Seeds<D>>,
+    pub(crate) probe: PipelineProbe,
+}
+
+impl<'s, D: Dim> Estimator<'s, D> {
+    /// The estimator of `spec`.
+    pub(crate) fn new(spec: &'s Spec<D>) -> Self {
+        Self { spec }
+    }
+
     /// The memory estimate of the scene, from counts alone (nothing is spawned), with what
     /// the process may use: `fractum check --estimate` prints it. Fails on what fails a
     /// build before spawning (a bad spec, a body with no particle, an install error), and on
@@ -68,12 +91,16 @@ impl<D: Dim> Spec<D> {
     ///
     /// With `ranks`, also the slabs a distributed run of that many ranks would own
     /// ([`fractum_engine::decomposition`]).
-    pub fn estimate(
-        self,
+    pub(crate) fn estimate(
+        &self,
         registry: &Registry,
         ranks: Option<usize>,
     ) -> Result<Estimate, SceneError> {
-        let (available, seeds, probe) = self.seeded_and_probed(registry, ranks.unwrap_or(1))?;
+        let Probed {
+            available,
+            seeds,
+            probe,
+        } = self.seeded_and_probed(registry, ranks.unwrap_or(1))?;
         let estimate = self.estimate_from_counts(&seeds, &probe);
         let slabs = match ranks {
             Some(ranks) => Some(self.rank_slabs(&seeds, &probe, ranks)?),
@@ -81,9 +108,10 @@ impl<D: Dim> Spec<D> {
         };
         Ok(Estimate {
             slabs,
-            source: self.source.name().to_string(),
-            nodes: self.grid.node_count(),
+            source: self.spec.source.name().to_string(),
+            nodes: self.spec.grid.node_count(),
             bodies: self
+                .spec
                 .bodies
                 .iter()
                 .zip(&seeds)
@@ -104,42 +132,47 @@ impl<D: Dim> Spec<D> {
     /// What `build` and [`Spec::estimate`] do before anything is spawned: the spec checked,
     /// the memory the process may use, a bound from the bodies' boxes held against it, the
     /// bodies seeded and the pipeline probed.
-    pub(super) fn seeded_and_probed(
+    pub(crate) fn seeded_and_probed(
         &self,
         registry: &Registry,
         ranks: usize,
-    ) -> Result<(budget::Available, Vec<Seeds<D>>, PipelineProbe), SceneError> {
-        self.check()?;
+    ) -> Result<Probed<D>, SceneError> {
+        self.spec.check()?;
         let available = budget::available_memory();
         self.check_memory_before_seeding(available, ranks)?;
-        let seeds = self.seed_bodies()?;
+        let seeds = Seeder::new(self.spec).bodies()?;
         let probe = self.probe_pipeline(registry, &seeds)?;
-        Ok((available, seeds, probe))
+        Ok(Probed {
+            available,
+            seeds,
+            probe,
+        })
     }
 
     /// The pipeline installed on a world with the scene's resources, no node and a sample of
-    /// particles ([`Spec::sample_seeds`]): what it gives every particle and node, and the
+    /// particles ([`Seeder::sample`]): what it gives every particle and node, and the
     /// storage it declares per particle. Installers read a mean particles-per-cell from all
     /// the seeds ([`budget::SeedDensity`]).
-    pub(super) fn probe_pipeline(
+    pub(crate) fn probe_pipeline(
         &self,
         registry: &Registry,
         seeds: &[Seeds<D>],
     ) -> Result<PipelineProbe, SceneError> {
         let mut world = World::new();
         let mut next_id = 0;
-        for ((b, body), seeded) in self.bodies.iter().enumerate().zip(seeds) {
-            let sample = self.sample_seeds(b, body, seeded)?;
-            world.spawn_batch(self.body_particles(b, body, sample, &mut next_id)?);
+        for ((b, body), seeded) in self.spec.bodies.iter().enumerate().zip(seeds) {
+            let seeder = Seeder::new(self.spec);
+            let sample = seeder.sample(b, body, seeded)?;
+            world.spawn_batch(seeder.particles(b, body, sample, &mut next_id)?);
         }
-        self.insert_scene_resources(&mut world, ParticleLoads::<D>::default())?;
+        insert_scene_resources(self.spec, &mut world, ParticleLoads::<D>::default())?;
         world.insert_resource(self.seed_density(seeds));
         let mut schedule = step_schedule();
-        self.install_pipeline(registry, &mut schedule, &mut world)?;
+        PipelineBuilder::new(self.spec).install(registry, &mut schedule, &mut world)?;
         let mut templates = world
             .remove_resource::<ComponentTemplates>()
             .unwrap_or_default();
-        if !self.scaled_bodies().is_empty() {
+        if !Seeder::new(self.spec).scaled_bodies().is_empty() {
             // Every particle carries a strength scale, 1 where no file gives one, so that all
             // of them share one table (and so do those that arrive at a rank later).
             templates
@@ -157,25 +190,13 @@ impl<D: Dim> Spec<D> {
         })
     }
 
-    /// The bodies whose particle file gives a `strength_scale` column, by index.
-    pub(super) fn scaled_bodies(&self) -> Vec<u16> {
-        (self.bodies.iter().enumerate())
-            .filter(|(_, body)| {
-                body.shape
-                    .point_set()
-                    .is_some_and(|s| s.has_strength_scale())
-            })
-            .map(|(b, _)| b as u16)
-            .collect()
-    }
-
     /// The mean number of particles per cell of the smallest width over every seed.
-    pub(super) fn seed_density(&self, seeds: &[Seeds<D>]) -> budget::SeedDensity {
+    pub(crate) fn seed_density(&self, seeds: &[Seeds<D>]) -> budget::SeedDensity {
         let (count, volume) = seeds
             .iter()
             .flatten()
             .fold((0.0, 0.0), |(n, v), &(_, vol)| (n + 1.0, v + vol));
-        let cell = self.grid.spacing.powi(D::N as i32) * self.thickness_factor();
+        let cell = self.spec.grid.spacing.powi(D::N as i32) * self.thickness_factor();
         budget::SeedDensity(if count == 0.0 || volume <= 0.0 {
             0.0
         } else {
@@ -184,37 +205,14 @@ impl<D: Dim> Spec<D> {
     }
 
     /// A 2D scene's thickness (seeded volumes carry it), 1 in 3D.
-    pub(super) fn thickness_factor(&self) -> f64 {
-        if D::N == 2 { self.thickness } else { 1.0 }
-    }
-
-    /// The seeds of `body` a pipeline's install sees in the memory estimate's probe: the first
-    /// of each material, undamaged and damaged, so that what installers check of the
-    /// particles (their contact groups, materials, seeded damage) holds as in the real build.
-    pub(super) fn sample_seeds(
-        &self,
-        b: usize,
-        body: &Body<D>,
-        seeded: &[(D::Vector, f64)],
-    ) -> Result<Vec<(D::Vector, f64)>, SceneError> {
-        let state = self.seed_state(b, body)?;
-        let mut kinds: Vec<(usize, bool)> = Vec::new();
-        let mut sample = Vec::new();
-        for &(x, volume) in seeded {
-            let (material, _, damage) = state(x);
-            let kind = (material, damage > 0.0);
-            if !kinds.contains(&kind) {
-                kinds.push(kind);
-                sample.push((x, volume));
-            }
-        }
-        Ok(sample)
+    pub(crate) fn thickness_factor(&self) -> f64 {
+        if D::N == 2 { self.spec.thickness } else { 1.0 }
     }
 
     /// The slabs of `ranks` ranks: the seeds counted per cell layer along the axis on which
     /// they spread furthest, cut by [`decomposition::cut_slabs`]; with each rank's slab
     /// bounds in metres.
-    pub(super) fn slabs(&self, seeds: &[Seeds<D>], ranks: usize) -> Result<RankSlabs, SceneError> {
+    pub(crate) fn slabs(&self, seeds: &[Seeds<D>], ranks: usize) -> Result<RankSlabs, SceneError> {
         let mut low = [f64::INFINITY; 3];
         let mut high = [f64::NEG_INFINITY; 3];
         for &(x, _) in seeds.iter().flatten() {
@@ -226,21 +224,21 @@ impl<D: Dim> Spec<D> {
         }
         let extent: Vec<f64> = (0..D::N).map(|a| high[a] - low[a]).collect();
         let axis = decomposition::longest_axis(&extent);
-        let mut per_layer = vec![0u64; self.grid.cells[axis]];
+        let mut per_layer = vec![0u64; self.spec.grid.cells[axis]];
         for &(x, _) in seeds.iter().flatten() {
-            if let Some(layer) = self.grid.axis_cell(axis, x[axis]) {
+            if let Some(layer) = self.spec.grid.axis_cell(axis, x[axis]) {
                 per_layer[layer] += 1;
             }
         }
         let slabs = decomposition::cut_slabs(axis, &per_layer, ranks)
-            .map_err(|e| self.source.error("grid.spacing", e))?;
+            .map_err(|e| self.spec.source.error("grid.spacing", e))?;
         let bounds = slabs
             .layers
             .iter()
             .map(|r| {
                 (
-                    self.grid.coordinate(axis, r.start),
-                    self.grid.coordinate(axis, r.end),
+                    self.spec.grid.coordinate(axis, r.start),
+                    self.spec.grid.coordinate(axis, r.end),
                 )
             })
             .collect();
@@ -275,13 +273,13 @@ impl<D: Dim> Spec<D> {
     }
 
     /// The slabs with halos as deep as the probed pipeline's step reaches.
-    pub(super) fn layout(
+    pub(crate) fn layout(
         &self,
         slabs: decomposition::Slabs,
         probe: &PipelineProbe,
     ) -> decomposition::Layout {
-        let narrowest = (0..self.grid.cells[slabs.axis])
-            .map(|i| self.grid.cell_width(slabs.axis, i))
+        let narrowest = (0..self.spec.grid.cells[slabs.axis])
+            .map(|i| self.spec.grid.cell_width(slabs.axis, i))
             .fold(f64::INFINITY, f64::min);
         decomposition::Layout {
             axis: slabs.axis,
@@ -292,23 +290,23 @@ impl<D: Dim> Spec<D> {
 
     /// Node layers beyond a rank's held cell layers that its particles reach: the basis's
     /// support, a step's motion (less than a cell) and a layer for the cut.
-    pub(super) fn node_reach(&self, probe: &PipelineProbe) -> usize {
-        let support = probe.reach.support.unwrap_or(self.grid.spacing);
-        (support / self.grid.spacing).ceil() as usize + 2
+    pub(crate) fn node_reach(&self, probe: &PipelineProbe) -> usize {
+        let support = probe.reach.support.unwrap_or(self.spec.grid.spacing);
+        (support / self.spec.grid.spacing).ceil() as usize + 2
     }
 
     /// The part of the grid rank `rank` of `layout` holds ([`decomposition::rank_grid`]).
-    pub(super) fn rank_grid(
+    pub(crate) fn rank_grid(
         &self,
         layout: &decomposition::Layout,
         rank: usize,
         probe: &PipelineProbe,
     ) -> Grid<D> {
-        decomposition::rank_grid(&self.grid, layout, rank, self.node_reach(probe))
+        decomposition::rank_grid(&self.spec.grid, layout, rank, self.node_reach(probe))
     }
 
     /// The seeds rank `rank` of `layout` holds: those of its slab and its halo.
-    pub(super) fn rank_seeds(
+    pub(crate) fn rank_seeds(
         &self,
         seeds: &[Seeds<D>],
         layout: &decomposition::Layout,
@@ -320,7 +318,10 @@ impl<D: Dim> Spec<D> {
                 body.iter()
                     .copied()
                     .filter(|&(x, _)| {
-                        let layer = self.grid.clamped_axis_cell(layout.axis, x[layout.axis]);
+                        let layer = self
+                            .spec
+                            .grid
+                            .clamped_axis_cell(layout.axis, x[layout.axis]);
                         layout.held(rank).contains(&layer)
                     })
                     .collect()
@@ -331,12 +332,12 @@ impl<D: Dim> Spec<D> {
     /// The memory the scene will need, from counts: its nodes and seeded particles, each with
     /// the engine's bundle and the components the pipeline gives it, the storage the pipeline
     /// declared per particle, and the working buffers of a step.
-    pub(super) fn estimate_from_counts(
+    pub(crate) fn estimate_from_counts(
         &self,
         seeds: &[Seeds<D>],
         probe: &PipelineProbe,
     ) -> MemoryEstimate {
-        self.estimate_with_nodes(seeds, probe, self.grid.node_count())
+        self.estimate_with_nodes(seeds, probe, self.spec.grid.node_count())
     }
 
     /// [`Spec::estimate_from_counts`] for a world holding `nodes` of the grid's nodes.
@@ -367,7 +368,7 @@ impl<D: Dim> Spec<D> {
     /// Refuses a scene whose estimate from counts ([`Spec::estimate_from_counts`]) cannot fit
     /// in `available`, naming the field of its largest part; checked before anything is
     /// spawned. Returns what `fractum check` prints.
-    pub(super) fn check_memory_from_counts(
+    pub(crate) fn check_memory_from_counts(
         &self,
         seeds: &[Seeds<D>],
         probe: &PipelineProbe,
@@ -401,7 +402,67 @@ impl<D: Dim> Spec<D> {
         for part in declared {
             largest = largest_of(largest, part);
         }
-        Err(self.source.error(&largest.0, message))
+        Err(self.spec.source.error(&largest.0, message))
+    }
+
+    /// Refuses a grid or bodies that cannot fit in `available` before any particle is seeded:
+    /// the nodes, and each body's particles bounded by its bounding box's cells (at the
+    /// smallest cell width) times the particles per cell. A cheap bound, so that a mistaken
+    /// spacing is refused before its seeds fill the memory. A rank of `ranks` holds only the
+    /// nodes its particles reach, a share of at least `1/ranks` for the most loaded; it seeds
+    /// every body to find its own particles.
+    fn check_memory_before_seeding(
+        &self,
+        available: budget::Available,
+        ranks: usize,
+    ) -> Result<(), SceneError> {
+        let nodes = (0..D::N)
+            .map(|a| (self.spec.grid.cells[a] + 1) as f64)
+            .product::<f64>()
+            / ranks.max(1) as f64;
+        let share = if ranks > 1 { " (a rank's share)" } else { "" };
+        let mut estimate = MemoryEstimate::default();
+        estimate.add(
+            format!("{} grid nodes{share}", budget::describe_count(nodes)),
+            nodes * budget::node_bytes::<D>(),
+        );
+        let (lo, hi) = (self.spec.grid.min.to_3d(), self.spec.grid.max().to_3d());
+        let mut largest_body = (0, 0.0);
+        for (b, body) in self.spec.bodies.iter().enumerate() {
+            let (min, max) = body.shape.bounds();
+            let cells: f64 = (0..D::N)
+                .map(|a| {
+                    let extent = (max[a].min(hi[a]) - min[a].max(lo[a])).max(0.0);
+                    (extent / self.spec.grid.spacing).ceil() + 1.0
+                })
+                .product();
+            let particles = body
+                .shape
+                .own_particle_bound(body.particles_per_cell)
+                .unwrap_or(cells * f64::from(body.particles_per_cell).powi(D::N as i32));
+            if particles > largest_body.1 {
+                largest_body = (b, particles);
+            }
+            estimate.add(
+                format!(
+                    "up to {} particles of bodies[{b}]",
+                    budget::describe_count(particles)
+                ),
+                particles * budget::particle_bytes::<D>(),
+            );
+        }
+        match estimate.refusal(available) {
+            None => Ok(()),
+            Some(message) => {
+                let node_bytes = estimate.parts[0].1;
+                let field = if node_bytes >= largest_body.1 * budget::particle_bytes::<D>() {
+                    "grid.spacing".to_string()
+                } else {
+                    format!("bodies[{}].particles_per_cell", largest_body.0)
+                };
+                Err(self.spec.source.error(&field, message))
+            }
+        }
     }
 }
 

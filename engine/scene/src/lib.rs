@@ -1,23 +1,31 @@
 //! Scenes: reading a RON file with precise errors, validating it into a checked [`Spec`], and
 //! building a [`fractum_engine::Simulation`] from the spec.
 //!
-//! Three layers, each in its own file:
+//! A [`Spec`] is plain data (`spec/`); its verbs hand it to the phase that does the work, each
+//! an object over the spec in its own files:
 //! - `format.rs`: the file format, plain serde structs;
-//! - `validate.rs`: file → [`Spec`] for the scene's dimension (coordinates, shapes and axes
-//!   that fit the dimension; errors at file:line:col);
-//! - `spec.rs`: the checked, typed scene, with a builder for scenes made in code, and
-//!   `Spec::build`, which checks values against each other and spawns the world and schedule.
+//! - `validate/`: the validator, file → [`Spec`] for the scene's dimension (coordinates,
+//!   shapes and axes that fit the dimension; errors at file:line:col);
+//! - `check.rs`: the checks that need no world (every value in range, every name resolved),
+//!   for specs from files and from code alike;
+//! - `seeder.rs`, `overlap.rs`: each body's seeds and the particles made from them;
+//! - `estimate.rs`: the estimator, the memory and a distributed run's slabs from the seeds
+//!   and a probe of the pipeline, before anything is spawned;
+//! - `pipeline.rs`: the pipeline's systems chosen, checked and installed;
+//! - `build/`: the world builder, split by what it builds: bodies, regions, outputs, ranks;
+//!   `world_checks.rs` checks what only the built world can tell.
 //!
 //! Every error, wherever it is found, names the field path (`bodies[1].shape`); a spec read
 //! from a file turns that path into a place in the text.
 
+mod build;
 mod check;
 mod estimate;
 mod format;
 mod overlap;
 mod pipeline;
 mod seed;
-mod spawn;
+mod seeder;
 mod spec;
 mod validate;
 mod world_checks;

@@ -5,7 +5,9 @@
 //! seeded (an inclusion in a matrix, a bolt through a plate).
 
 use super::SceneError;
-use super::spec::{Body, Spec};
+use super::check::Checks;
+use super::seeder::Seeder;
+use super::spec::Body;
 use fractum_engine::dim::{Dim, VectorOps};
 use glam::DVec3;
 
@@ -49,7 +51,7 @@ fn inside<D: Dim>(body: &Body<D>) -> impl Fn(D::Vector) -> bool + '_ {
     }
 }
 
-impl<D: Dim> Spec<D> {
+impl<D: Dim> Seeder<'_, D> {
     /// The particles `seeded` for body `b` less those inside a body that wins over it. A
     /// particle inside another body that neither body names in `wins_over` is an error at
     /// `bodies[b].shape`.
@@ -58,9 +60,9 @@ impl<D: Dim> Spec<D> {
         b: usize,
         mut seeded: Vec<(D::Vector, f64)>,
     ) -> Result<Vec<(D::Vector, f64)>, SceneError> {
-        let body = &self.bodies[b];
+        let body = &self.spec.bodies[b];
         let seeded_any = !seeded.is_empty();
-        for (a, other) in self.bodies.iter().enumerate() {
+        for (a, other) in self.spec.bodies.iter().enumerate() {
             if a == b || wins_over(body, other) {
                 continue;
             }
@@ -75,7 +77,7 @@ impl<D: Dim> Spec<D> {
             }
         }
         if seeded_any && seeded.is_empty() {
-            return Err(self.source.error(
+            return Err(self.spec.source.error(
                 &format!("bodies[{b}].shape"),
                 format!(
                     "every particle of {} lies inside bodies that win over it (`wins_over`); \
@@ -89,7 +91,7 @@ impl<D: Dim> Spec<D> {
 
     /// Body `b` overlaps body `a` at `x`, reported at `bodies[b].shape`.
     fn overlap_error(&self, b: usize, a: usize, x: D::Vector) -> SceneError {
-        let (body, other) = (&self.bodies[b], &self.bodies[a]);
+        let (body, other) = (&self.spec.bodies[b], &self.spec.bodies[a]);
         let remedy = match (&body.name, &other.name) {
             (Some(mine), Some(theirs)) => format!(
                 "move one of them, or say which keeps the overlap: `wins_over: [\"{theirs}\"]` \
@@ -99,7 +101,7 @@ impl<D: Dim> Spec<D> {
                   `wins_over: [\"<the other's name>\"]`"
                 .to_string(),
         };
-        self.source.error(
+        self.spec.source.error(
             &format!("bodies[{b}].shape"),
             format!(
                 "{} overlaps {}: the particle at {} lies in both shapes, and the overlap would \
@@ -110,36 +112,42 @@ impl<D: Dim> Spec<D> {
             ),
         )
     }
+}
 
+impl<D: Dim> Checks<'_, D> {
     /// Checks body `b`'s `wins_over`: names of other bodies, listed once, not naming a body that
     /// also wins over this one.
-    pub(super) fn check_winners(&self, b: usize) -> Result<(), SceneError> {
-        let body = &self.bodies[b];
+    pub(super) fn winners(&self, b: usize) -> Result<(), SceneError> {
+        let body = &self.spec.bodies[b];
         for (k, name) in body.wins_over.iter().enumerate() {
             let field = format!("bodies[{b}].wins_over[{k}]");
             if body.wins_over[..k].contains(name) {
                 return Err(self
+                    .spec
                     .source
                     .error(&field, format!("\"{name}\" is listed twice")));
             }
             if body.name.as_ref() == Some(name) {
                 return Err(self
+                    .spec
                     .source
                     .error(&field, "a body cannot win over itself; name another body"));
             }
             let Some(a) = self
+                .spec
                 .bodies
                 .iter()
                 .position(|other| other.name.as_ref() == Some(name))
             else {
                 let known: Vec<String> = self
+                    .spec
                     .bodies
                     .iter()
                     .filter_map(|other| other.name.as_ref())
                     .filter(|other| body.name.as_ref() != Some(*other))
                     .map(|other| format!("\"{other}\""))
                     .collect();
-                return Err(self.source.error(
+                return Err(self.spec.source.error(
                     &field,
                     format!(
                         "no body is named \"{name}\"; the other bodies' names: {}",
@@ -151,13 +159,13 @@ impl<D: Dim> Spec<D> {
                     ),
                 ));
             };
-            if wins_over(&self.bodies[a], body) {
-                return Err(self.source.error(
+            if wins_over(&self.spec.bodies[a], body) {
+                return Err(self.spec.source.error(
                     &field,
                     format!(
                         "{} and {} each win over the other; only one can keep the overlap",
                         describe(b, body),
-                        describe(a, &self.bodies[a])
+                        describe(a, &self.spec.bodies[a])
                     ),
                 ));
             }

@@ -12,21 +12,31 @@ use fractum_engine::registry::{
 };
 use fractum_engine::stage::Stage;
 
-impl<D: Dim> Spec<D> {
+/// Installs the pipeline of one spec.
+pub(crate) struct PipelineBuilder<'s, D: Dim> {
+    spec: &'s Spec<D>,
+}
+
+impl<'s, D: Dim> PipelineBuilder<'s, D> {
+    /// The pipeline builder of `spec`.
+    pub(crate) fn new(spec: &'s Spec<D>) -> Self {
+        Self { spec }
+    }
+
     /// Where errors about pipeline entry `k` point: its place in the file when it is the
     /// entry written there, otherwise nowhere in particular.
     pub(super) fn entry_source(&self, entry: &PipelineEntry) -> Source {
         if entry.in_source {
-            self.source.clone()
+            self.spec.source.clone()
         } else {
-            Source::code(self.source.name())
+            Source::code(self.spec.source.name())
         }
     }
 
     /// Installs the chosen systems into `schedule` and `world`, in stage order. The components
     /// installers give every particle or node are left held (`registry/pending.rs`); the caller
     /// inserts them.
-    pub(super) fn install_pipeline(
+    pub(crate) fn install(
         &self,
         registry: &Registry,
         schedule: &mut Schedule,
@@ -53,7 +63,7 @@ impl<D: Dim> Spec<D> {
         order.sort_by_key(|&c| chosen[c].1.stage());
         for c in order {
             let ((k, registration), filter) = (&chosen[c], &filters[c]);
-            let entry = &self.pipeline[*k];
+            let entry = &self.spec.pipeline[*k];
             let source = self.entry_source(entry);
             let params = source.params(entry.params.as_deref(), format!("pipeline[{k}].params"));
             let stage = registration.stage().unwrap_or(Stage::PostStep);
@@ -99,7 +109,7 @@ impl<D: Dim> Spec<D> {
         k: usize,
         registration: &Registration,
     ) -> Result<MaterialFilter, SceneError> {
-        let entry = &self.pipeline[k];
+        let entry = &self.spec.pipeline[k];
         let source = self.entry_source(entry);
         let field = format!("pipeline[{k}].materials");
         let Some(names) = &entry.materials else {
@@ -117,10 +127,11 @@ impl<D: Dim> Spec<D> {
         if names.is_empty() {
             return Err(source.error(&field, "expected at least one material name"));
         }
-        let mut mask = vec![false; self.materials.len()];
+        let mut mask = vec![false; self.spec.materials.len()];
         for (j, name) in names.iter().enumerate() {
-            let Some(i) = self.materials.iter().position(|m| &m.name == name) else {
+            let Some(i) = self.spec.materials.iter().position(|m| &m.name == name) else {
                 let known: Vec<String> = self
+                    .spec
                     .materials
                     .iter()
                     .map(|m| format!("\"{}\"", m.name))
@@ -152,10 +163,11 @@ impl<D: Dim> Spec<D> {
         if entries.iter().all(|&c| filters[c].is_all()) {
             return Ok(());
         }
-        let used = (0..self.materials.len()).filter(|&i| {
-            self.bodies
+        let used = (0..self.spec.materials.len()).filter(|&i| {
+            self.spec
+                .bodies
                 .iter()
-                .any(|b| b.material == self.materials[i].name)
+                .any(|b| b.material == self.spec.materials[i].name)
         });
         for i in used {
             let id = fractum_engine::components::MaterialId(i as u16);
@@ -164,10 +176,10 @@ impl<D: Dim> Spec<D> {
                 .copied()
                 .filter(|&c| filters[c].applies(id))
                 .collect();
-            let name = &self.materials[i].name;
+            let name = &self.spec.materials[i].name;
             if covering.len() > 1 {
                 let (k, registration) = chosen[covering[1]];
-                return Err(self.entry_source(&self.pipeline[k]).error(
+                return Err(self.entry_source(&self.spec.pipeline[k]).error(
                     &format!("pipeline[{k}].materials"),
                     format!(
                         "{} and {} both apply to material \"{name}\"; give the {} systems \
@@ -180,7 +192,7 @@ impl<D: Dim> Spec<D> {
             }
             if covering.is_empty() && stage == Stage::Stress {
                 let (k, _) = chosen[entries[0]];
-                return Err(self.entry_source(&self.pipeline[k]).error(
+                return Err(self.entry_source(&self.spec.pipeline[k]).error(
                     &format!("pipeline[{k}].materials"),
                     format!(
                         "no stress system applies to material \"{name}\"; add it to the \
@@ -199,7 +211,7 @@ impl<D: Dim> Spec<D> {
         registry: &'r Registry,
     ) -> Result<Vec<(usize, &'r Registration)>, SceneError> {
         let mut chosen: Vec<(usize, &Registration)> = Vec::new();
-        for (k, entry) in self.pipeline.iter().enumerate() {
+        for (k, entry) in self.spec.pipeline.iter().enumerate() {
             let field = format!("pipeline[{k}].system");
             let source = self.entry_source(entry);
             let Some(registration) = registry.get(&entry.system) else {
@@ -227,7 +239,7 @@ impl<D: Dim> Spec<D> {
                     .filter(|r| r.stage() == Some(stage))
                     .map(|r| r.name)
                     .collect();
-                return Err(self.source.error(
+                return Err(self.spec.source.error(
                     "pipeline",
                     format!(
                         "the pipeline has no system for the required stage `{stage}`; add one of: {}",
@@ -246,7 +258,7 @@ impl<D: Dim> Spec<D> {
                     None => chosen.iter().any(|(_, r)| r.name == *needed),
                 };
                 if !satisfied {
-                    let source = self.entry_source(&self.pipeline[*k]);
+                    let source = self.entry_source(&self.spec.pipeline[*k]);
                     return Err(source.error(
                         &format!("pipeline[{k}].system"),
                         format!(

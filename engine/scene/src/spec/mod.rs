@@ -2,7 +2,7 @@
 //!
 //! A spec says everything a simulation is built from, in the types of its dimension `D`:
 //! grid, materials, bodies, boundary regions, loads, output, safety and the pipeline. Specs come
-//! from a scene file (`Spec::from_file`, in `validate.rs`) or from code:
+//! from a scene file (`Spec::from_file`, read by the validator in `validate/`) or from code:
 //!
 //! ```
 //! use fractum_engine::prelude::*;
@@ -23,14 +23,16 @@
 //! # let _ = spec;
 //! ```
 //!
-//! `Spec::check` (in `check.rs`) checks every value; `Spec::build` (in `spawn.rs`) checks, spawns
-//! the world and installs the pipeline.
+//! A spec is data; its verbs (`Spec::from_file`, `Spec::check`, `Spec::estimate`,
+//! `Spec::build`) hand it to the phase that does the work: the validator (`validate/`), the
+//! checks (`check.rs`), the estimator (`estimate.rs`), the world builder (`build/`).
 //! Errors name the same field paths as for a file (`bodies[0].shape`); a spec from a file points
 //! them at the text.
 
-use super::Source;
 use super::format::{Placement, Probe};
 use super::shape::Shape;
+
+use super::Source;
 use fractum_engine::boundary::MAX_COMPONENTS;
 use fractum_engine::dim::{Dim, MatrixOps, VectorOps};
 use fractum_engine::health::LeaveGrid;
@@ -38,6 +40,8 @@ use fractum_engine::resources::{Grid, Material};
 use fractum_engine::simulation::{End, Simulation, TimeStep};
 use fractum_engine::stage::Stage;
 use fractum_io::output::OutputPlan;
+
+mod verbs;
 
 /// A checked scene in dimension `D`, ready to build.
 #[derive(Clone, Debug)]
