@@ -1,12 +1,28 @@
 //! SCENES.md documents every field and variant of the scene format: each name declared in
-//! `engine/scene/src/format.rs` (struct fields, enum variants and their fields) must appear in
+//! `engine/scene/src/format/` (struct fields, enum variants and their fields) must appear in
 //! it in backticks, so adding a field without documenting it fails here.
 
 use fractum_suite::repo_root;
 
-/// Field and variant names declared in the format module, read from its source.
+/// Field and variant names declared in the format module, read from the source of each of its
+/// files.
 fn format_names() -> Vec<String> {
-    let source = std::fs::read_to_string(repo_root().join("engine/scene/src/format.rs")).unwrap();
+    let folder = repo_root().join("engine/scene/src/format");
+    let mut files: Vec<_> = std::fs::read_dir(&folder)
+        .unwrap()
+        .map(|entry| entry.unwrap().path())
+        .filter(|path| path.extension().is_some_and(|e| e == "rs"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 2, "the format module's files: {files:?}");
+    files
+        .iter()
+        .flat_map(|path| names_in(&std::fs::read_to_string(path).unwrap()))
+        .collect()
+}
+
+/// Field and variant names declared in one file of the format module.
+fn names_in(source: &str) -> Vec<String> {
     let mut names = Vec::new();
     let mut inside: Option<&str> = None;
     for line in source.lines() {

@@ -36,6 +36,7 @@ pub mod plot;
 pub mod ranks;
 pub mod remedy;
 pub mod reports;
+pub mod resuming;
 pub mod running;
 pub mod snapshot;
 pub mod verify;
@@ -195,9 +196,9 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             Some(Err(code)) => code,
         },
         Command::Resume { out, settings } => match ranks::several_ranks() {
-            None => running::resume_command(&out, &settings.settings(), registry),
+            None => resuming::resume_command(&out, &settings.settings(), registry),
             Some(Ok(comm)) => {
-                running::resume_ranks(&out, &settings.settings(), registry, comm.as_ref())
+                resuming::resume_ranks(&out, &settings.settings(), registry, comm.as_ref())
             }
             Some(Err(code)) => code,
         },

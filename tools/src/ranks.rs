@@ -2,7 +2,7 @@
 //! the communicator of the run.
 //!
 //! `fractum run` and `fractum resume` started as one of several ranks run the scene over them
-//! ([`crate::running::run_ranks`], [`crate::running::resume_ranks`]): built with the `mpi`
+//! ([`crate::running::run_ranks`], [`crate::resuming::resume_ranks`]): built with the `mpi`
 //! feature, the ranks initialise MPI and step together through its communicator
 //! ([`communicator`]). A binary without the feature is refused before the scene is read, by
 //! every rank with the same exit code and the message printed once, by rank 0: otherwise each

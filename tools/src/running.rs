@@ -1,5 +1,5 @@
-//! `fractum run` and `fractum resume`: the output folder's policy, checkpoints, and stopping
-//! cleanly on SIGINT or SIGTERM.
+//! `fractum run`: the output folder's policy, checkpoints, and stopping cleanly on SIGINT or
+//! SIGTERM (`fractum resume` is `resuming.rs`, and runs its steps here).
 //!
 //! A first signal lets the current step finish; the run then writes its outputs and a
 //! checkpoint and exits with [`crate::EXIT_INTERRUPTED`]. A second signal exits at once with
@@ -11,14 +11,9 @@ use crate::{EXIT_RESOURCES, EXIT_USAGE, energy_warning, load, report_scene_error
 use fractum_engine::communicator::Communicator;
 use fractum_engine::energy::EnergyWatch;
 use fractum_engine::registry::Registry;
-use fractum_io::checkpoint::{
-    CHECKPOINT_DIR, CheckpointEvery, CheckpointFile, RankCheckpoint, SceneRecord, list_checkpoints,
-    read_checkpoint,
-};
-use fractum_io::run::{
-    CheckpointPlan, RunError, RunOptions, restore_checkpoint, rewind_outputs, run_with,
-};
-use fractum_scene::{SceneFile, build_simulation};
+use fractum_io::checkpoint::{CHECKPOINT_DIR, CheckpointEvery, SceneRecord, list_checkpoints};
+use fractum_io::run::{CheckpointPlan, RunError, RunOptions, run_with};
+use fractum_scene::SceneFile;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
@@ -185,7 +180,7 @@ pub fn run_command(
 
 /// What rank 0 says of a failure the ranks agreed on: rank 0's own message as it is (what every
 /// rank found, such as a scene's error, is found by rank 0 first), another rank's with its rank.
-fn rank_message(failure: fractum_engine::communicator::RankFailure) -> String {
+pub(crate) fn rank_message(failure: fractum_engine::communicator::RankFailure) -> String {
     if failure.rank == 0 {
         failure.message
     } else {
@@ -250,7 +245,7 @@ pub fn run_ranks(
 /// Gives `sim` its threads and `--steps`, and checks that the run will take a step: all before
 /// any output is touched, so a run or resume refused here leaves the output folder as it was.
 /// `resuming`: `sim` holds a checkpoint. The exit code when refused, after saying why.
-fn make_ready(
+pub(crate) fn make_ready(
     sim: &mut fractum_engine::Simulation,
     settings: &RunSettings,
     resuming: bool,
@@ -262,7 +257,7 @@ fn make_ready(
 }
 
 /// [`make_ready`], with the exit code and the reason when refused, for the caller to say.
-fn ready_to_run(
+pub(crate) fn ready_to_run(
     sim: &mut fractum_engine::Simulation,
     settings: &RunSettings,
     resuming: bool,
@@ -299,217 +294,9 @@ fn ready_to_run(
     Ok(())
 }
 
-/// The newest checkpoint in `out_dir`, read, with its path; why not, with the exit code.
-fn newest_checkpoint(out_dir: &Path) -> Result<(PathBuf, CheckpointFile), (i32, String)> {
-    let Some((_, path)) = list_checkpoints(out_dir).pop() else {
-        return Err((
-            EXIT_IO,
-            format!(
-                "{} has no checkpoint to resume from (checkpoints are written by `fractum run \
-                 --checkpoint-every N`, at its end, and when it is interrupted)",
-                out_dir.join(CHECKPOINT_DIR).display()
-            ),
-        ));
-    };
-    let checkpoint = read_checkpoint(&path).map_err(|e| (EXIT_IO, e))?;
-    Ok((path, checkpoint))
-}
-
-/// The ranks the checkpoint's run went over (1 for one process).
-fn checkpoint_ranks(checkpoint: &CheckpointFile) -> usize {
-    match &checkpoint.ranks {
-        Some(RankCheckpoint::Manifest { ranks, .. } | RankCheckpoint::Piece { ranks, .. }) => {
-            *ranks
-        }
-        None => 1,
-    }
-}
-
-/// Refuses to resume the checkpoint at `path` of a run over `saved` ranks as `ranks`.
-fn same_ranks(path: &Path, out_dir: &Path, saved: usize, ranks: usize) -> Result<(), String> {
-    if saved == ranks {
-        return Ok(());
-    }
-    let how = if saved == 1 {
-        format!("as one process: `fractum resume {}`", out_dir.display())
-    } else {
-        format!(
-            "as {saved} ranks: `mpirun -np {saved} fractum resume {}`",
-            out_dir.display()
-        )
-    };
-    Err(format!(
-        "{} is the checkpoint of a run over {saved} rank{}, and this resume has {ranks}: each \
-         rank holds the particles of its own slab, which another rank count would cut \
-         differently. Resume it {how}",
-        path.display(),
-        if saved == 1 { "" } else { "s" },
-    ))
-}
-
-/// The scene of `checkpoint` (at `path`), from the copy it holds; refused when the scene file
-/// changed since, noted (by `speaks`) when it is gone.
-fn checkpoint_scene(
-    checkpoint: &CheckpointFile,
-    path: &Path,
-    speaks: bool,
-) -> Result<SceneFile, (i32, String)> {
-    let scene_path = Path::new(&checkpoint.scene.path);
-    match std::fs::read_to_string(scene_path) {
-        Ok(text) if text != checkpoint.scene.text => {
-            return Err((
-                EXIT_BAD_SCENE,
-                format!(
-                    "{} changed since the checkpoint {} was written; resuming would mix two \
-                     scenes. Restore the scene to continue the run, or start a new run of the \
-                     edited scene",
-                    scene_path.display(),
-                    path.display()
-                ),
-            ));
-        }
-        Ok(_) => {}
-        Err(_) if speaks => eprintln!(
-            "note: {} is gone; resuming from the copy of it in the checkpoint",
-            scene_path.display()
-        ),
-        Err(_) => {}
-    }
-    SceneFile::parse(&checkpoint.scene.path, checkpoint.scene.text.clone())
-        .map_err(|e| (EXIT_BAD_SCENE, e.to_string()))
-}
-
-/// `fractum resume`.
-pub fn resume_command(out_dir: &Path, settings: &RunSettings, registry: &Registry) -> i32 {
-    let refuse = |(code, message): (i32, String)| {
-        eprintln!("error: {message}");
-        code
-    };
-    let (path, checkpoint) = match newest_checkpoint(out_dir) {
-        Ok(found) => found,
-        Err(refusal) => return refuse(refusal),
-    };
-    if let Err(e) = same_ranks(&path, out_dir, checkpoint_ranks(&checkpoint), 1) {
-        return refuse((EXIT_USAGE, e));
-    }
-    let file = match checkpoint_scene(&checkpoint, &path, true) {
-        Ok(f) => f,
-        Err(refusal) => return refuse(refusal),
-    };
-    let mut built = match build_simulation(&file, registry) {
-        Ok(b) => b,
-        Err(e) => return report_scene_error(&e),
-    };
-    if let Err(e) = restore_checkpoint(&mut built.simulation, &checkpoint) {
-        eprintln!("error: {}: {e}", path.display());
-        return EXIT_IO;
-    }
-    if let Err(code) = make_ready(&mut built.simulation, settings, true) {
-        return code;
-    }
-    let step = built.simulation.clock().step;
-    let outputs = match rewind_outputs(out_dir, &checkpoint, step) {
-        Ok(o) => o,
-        Err(e) => {
-            eprintln!("error: {}: {e}", path.display());
-            return EXIT_IO;
-        }
-    };
-    say_resuming(out_dir, &built.simulation, &path);
-    let scene = checkpoint.scene.clone();
-    execute(built, out_dir, scene, Some(outputs), settings, None)
-}
-
-fn say_resuming(out_dir: &Path, sim: &fractum_engine::Simulation, from: &Path) {
-    let clock = sim.clock();
-    eprintln!(
-        "resuming {} at step {}, t = {:e} s, from {}",
-        out_dir.display(),
-        clock.step,
-        clock.time,
-        from.display()
-    );
-}
-
-/// `fractum resume` as one of the ranks of `comm`, from the newest checkpoint of a run over as
-/// many ranks: each rank restores its own piece into its part of the scene, rank 0 winds the
-/// outputs back, and the ranks go on together ([`run_ranks`]).
-pub fn resume_ranks(
-    out_dir: &Path,
-    settings: &RunSettings,
-    registry: &Registry,
-    comm: &dyn Communicator,
-) -> i32 {
-    let speaks = comm.rank() == 0;
-    let restored = restore_rank(out_dir, settings, registry, comm, speaks);
-    let failure = restored.as_ref().err().map(|(_, message)| message.clone());
-    if let Err(failure) = comm.agree(failure.as_deref()) {
-        // Every rank reads the same manifest and scene: their refusal is every rank's.
-        let code = restored.as_ref().err().map_or(EXIT_IO, |(code, _)| *code);
-        if speaks {
-            eprintln!("error: {}", rank_message(failure));
-        }
-        return code;
-    }
-    let Ok((checkpoint, path, built)) = restored else {
-        return EXIT_IO;
-    };
-    // Every rank has read the series before rank 0 winds the outputs back.
-    let step = built.simulation.clock().step;
-    let outputs = if speaks {
-        rewind_outputs(out_dir, &checkpoint, step)
-    } else {
-        fractum_io::run::resumed_outputs(out_dir, &checkpoint, step)
-    };
-    let failure = outputs.as_ref().err().cloned();
-    if let Err(failure) = comm.agree(failure.as_deref()) {
-        if speaks {
-            eprintln!("error: {}: {failure}", path.display());
-        }
-        return EXIT_IO;
-    }
-    let Ok(outputs) = outputs else {
-        return EXIT_IO;
-    };
-    if speaks {
-        say_resuming(out_dir, &built.simulation, &path);
-    }
-    let mut settings = settings.clone();
-    settings.quiet |= !speaks;
-    let scene = checkpoint.scene.clone();
-    execute(built, out_dir, scene, Some(outputs), &settings, Some(comm))
-}
-
-/// This rank's part of the scene of the newest checkpoint in `out_dir`, with its piece of the
-/// checkpoint put in and ready to run; the manifest and its path with it.
-fn restore_rank(
-    out_dir: &Path,
-    settings: &RunSettings,
-    registry: &Registry,
-    comm: &dyn Communicator,
-    speaks: bool,
-) -> Result<(CheckpointFile, PathBuf, fractum_scene::Built), (i32, String)> {
-    let (rank, ranks) = (comm.rank(), comm.size());
-    let (path, manifest) = newest_checkpoint(out_dir)?;
-    same_ranks(&path, out_dir, checkpoint_ranks(&manifest), ranks).map_err(|e| (EXIT_USAGE, e))?;
-    let Some(RankCheckpoint::Manifest { pieces, .. }) = &manifest.ranks else {
-        return Err((
-            EXIT_IO,
-            format!("{} is not a checkpoint manifest", path.display()),
-        ));
-    };
-    let piece_path = path.with_file_name(&pieces[rank]);
-    let piece = read_checkpoint(&piece_path).map_err(|e| (EXIT_IO, e))?;
-    let file = checkpoint_scene(&manifest, &path, speaks)?;
-    let mut built = fractum_scene::build_rank_simulation(&file, registry, rank, ranks)
-        .map_err(|e| (EXIT_BAD_SCENE, e.to_string()))?;
-    fractum_io::run::distributed::restore_rank_piece(&mut built.simulation, &piece, (rank, ranks))
-        .map_err(|e| (EXIT_IO, format!("{}: {e}", piece_path.display())))?;
-    ready_to_run(&mut built.simulation, settings, true)?;
-    Ok((manifest, path, built))
-}
-
-fn execute(
+/// Steps a built (or restored) simulation to its end, writing its outputs and checkpoints, and
+/// says how it ended; the exit code.
+pub(crate) fn execute(
     mut built: fractum_scene::Built,
     out_dir: &Path,
     scene: SceneRecord,

@@ -23,6 +23,7 @@
 //! - the checkpoint file (format, digest, names, writing and reading) and resuming a run from
 //!   it belong to `fractum-io` (`fractum_io::checkpoint`, `fractum_io::run::resume_from`).
 
+mod codecs;
 pub mod state;
 
 pub use state::*;

@@ -1,0 +1,219 @@
+//! The codecs behind [`CheckpointState`](super::CheckpointState)'s entries: each carried component, column, row
+//! resource and resource saved to postcard bytes and loaded (or picked, row by row, for a
+//! rank's arrivals) back into a world.
+
+use super::state::{CheckpointError, KEEP_ROW, RowState, State};
+use crate::components::Particle;
+use bevy_ecs::prelude::*;
+
+fn codec(what: &str) -> impl FnOnce(postcard::Error) -> CheckpointError + '_ {
+    move |source| CheckpointError::Codec {
+        what: what.to_string(),
+        source,
+    }
+}
+
+pub(super) fn save_component<C: Component + State>(
+    world: &mut World,
+    particles: &[Entity],
+) -> Result<Vec<u8>, CheckpointError> {
+    let values: Vec<Option<&C>> = particles.iter().map(|&e| world.get::<C>(e)).collect();
+    postcard::to_allocvec(&values).map_err(codec(C::KEY))
+}
+
+pub(super) fn load_component<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
+    world: &mut World,
+    particles: &[Entity],
+    bytes: &[u8],
+) -> Result<(), CheckpointError> {
+    let name = C::KEY;
+    let values: Vec<Option<C>> = postcard::from_bytes(bytes).map_err(codec(name))?;
+    if values.len() != particles.len() {
+        return Err(CheckpointError::Mismatch(format!(
+            "{name}: the checkpoint has {} particles, the scene {}",
+            values.len(),
+            particles.len()
+        )));
+    }
+    for (&entity, value) in particles.iter().zip(values) {
+        match (world.get_mut::<C>(entity), value) {
+            (Some(mut slot), Some(value)) => *slot = value,
+            (None, None) => {}
+            _ => {
+                return Err(CheckpointError::Mismatch(format!(
+                    "{name}: the particles that have it differ between the checkpoint and the \
+                     scene"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `C` of particle rows `rows`, encoded as [`save_component`] encodes them, read from the
+/// particles' one table; `None` when the particles (`count` of them) are not all in one table
+/// with `C`.
+pub(super) fn save_column<C: Component + State>(
+    world: &mut World,
+    rows: &[usize],
+    count: usize,
+) -> Option<Result<Vec<u8>, CheckpointError>> {
+    let mut query = world.query_filtered::<&C, With<Particle>>();
+    let mut tables = query.contiguous_iter(world).ok()?;
+    let column: &[C] = tables.next()?;
+    if tables.next().is_some() || column.len() < count {
+        return None;
+    }
+    let values: Option<Vec<Option<&C>>> = rows.iter().map(|&r| column.get(r).map(Some)).collect();
+    Some(postcard::to_allocvec(&values?).map_err(codec(C::KEY)))
+}
+
+/// [`pick_component`] into every particle row in order, through the particles' one table;
+/// `None` when they are not all in one table with `C`.
+pub(super) fn pick_column<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
+    world: &mut World,
+    sources: &[&[u8]],
+    picks: &[(u32, u32)],
+) -> Option<Result<(), CheckpointError>> {
+    let name = C::KEY;
+    let count = world
+        .query_filtered::<(), With<Particle>>()
+        .iter(world)
+        .count();
+    let mut query = world.query_filtered::<&mut C, With<Particle>>();
+    let mut tables = query.contiguous_iter_mut(world).ok()?;
+    let mut column = tables.next()?;
+    if tables.next().is_some() || column.len() != count || count != picks.len() {
+        return None;
+    }
+    let decoded: Result<Vec<Vec<Option<C>>>, _> = sources
+        .iter()
+        .map(|bytes| postcard::from_bytes(bytes).map_err(codec(name)))
+        .collect();
+    let mut decoded = match decoded {
+        Ok(decoded) => decoded,
+        Err(e) => return Some(Err(e)),
+    };
+    let column: &mut [C] = &mut column;
+    for (slot, &(block, index)) in column.iter_mut().zip(picks) {
+        if (block, index) == KEEP_ROW {
+            continue;
+        }
+        let value = picked(&mut decoded, block, index).and_then(Option::take);
+        match value {
+            Some(value) => *slot = value,
+            None => {
+                return Some(Err(CheckpointError::Mismatch(format!(
+                    "{name}: particle {index} of block {block} was not sent with it"
+                ))));
+            }
+        }
+    }
+    Some(Ok(()))
+}
+
+pub(super) fn pick_component<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
+    world: &mut World,
+    targets: &[Entity],
+    sources: &[&[u8]],
+    picks: &[(u32, u32)],
+) -> Result<(), CheckpointError> {
+    let name = C::KEY;
+    let mut decoded: Vec<Vec<Option<C>>> = sources
+        .iter()
+        .map(|bytes| postcard::from_bytes(bytes).map_err(codec(name)))
+        .collect::<Result<_, _>>()?;
+    for (&entity, &(block, index)) in targets.iter().zip(picks) {
+        if (block, index) == KEEP_ROW {
+            continue;
+        }
+        // Each particle is picked once: its value is moved out.
+        let value = picked(&mut decoded, block, index)
+            .map(Option::take)
+            .ok_or_else(|| {
+                CheckpointError::Mismatch(format!(
+                    "{name}: particle {index} of block {block} was not sent"
+                ))
+            })?;
+        match (world.get_mut::<C>(entity), value) {
+            (Some(mut slot), Some(value)) => *slot = value,
+            (None, None) => {}
+            _ => {
+                return Err(CheckpointError::Mismatch(format!(
+                    "{name}: carried by the particle sent and not by the one it fills, or the \
+                     other way round"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The slot of the `index`-th value of block `block`, if it was sent.
+fn picked<T>(decoded: &mut [Vec<Option<T>>], block: u32, index: u32) -> Option<&mut Option<T>> {
+    decoded.get_mut(block as usize)?.get_mut(index as usize)
+}
+
+pub(super) fn save_rows<R: RowState>(
+    world: &World,
+    rows: &[usize],
+) -> Result<Vec<u8>, CheckpointError> {
+    let values: Vec<R::Row> = match world.get_resource::<R>() {
+        Some(resource) => rows.iter().map(|&r| resource.row(r)).collect(),
+        None => Vec::new(),
+    };
+    postcard::to_allocvec(&values).map_err(codec(R::KEY))
+}
+
+pub(super) fn pick_rows<R: RowState>(
+    world: &mut World,
+    sources: &[&[u8]],
+    picks: &[(u32, u32)],
+) -> Result<(), CheckpointError> {
+    let name = R::KEY;
+    if !world.contains_resource::<R>() {
+        return Ok(());
+    }
+    let mut decoded: Vec<Vec<Option<R::Row>>> = sources
+        .iter()
+        .map(|bytes| {
+            postcard::from_bytes::<Vec<R::Row>>(bytes)
+                .map(|rows| rows.into_iter().map(Some).collect())
+                .map_err(codec(name))
+        })
+        .collect::<Result<_, _>>()?;
+    let rows = picks
+        .iter()
+        .map(|&(block, index)| {
+            picked(&mut decoded, block, index)
+                .and_then(Option::take)
+                .ok_or_else(|| {
+                    CheckpointError::Mismatch(format!(
+                        "{name}: row {index} of block {block} was not sent"
+                    ))
+                })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    if let Some(mut resource) = world.get_resource_mut::<R>() {
+        resource.set_rows(rows);
+    }
+    Ok(())
+}
+
+pub(super) fn save_resource<R: Resource + State>(
+    world: &World,
+) -> Result<Option<Vec<u8>>, CheckpointError> {
+    world
+        .get_resource::<R>()
+        .map(|r| postcard::to_allocvec(r).map_err(codec(R::KEY)))
+        .transpose()
+}
+
+pub(super) fn load_resource<R: Resource + State>(
+    world: &mut World,
+    bytes: &[u8],
+) -> Result<(), CheckpointError> {
+    let value: R = postcard::from_bytes(bytes).map_err(codec(R::KEY))?;
+    world.insert_resource(value);
+    Ok(())
+}
