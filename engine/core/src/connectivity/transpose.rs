@@ -242,3 +242,79 @@ impl<D: Dim> Connectivity<D> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::connectivity::Connectivity;
+    use crate::dim::Two;
+    use glam::DVec2;
+
+    /// Rows of a lattice of particles over a grid of `nx` nodes per row, in `order`.
+    fn lattice_rows(nx: usize, order: impl Fn(usize) -> usize) -> Vec<Vec<(u32, f64, DVec2)>> {
+        let particles = 4 * (nx - 1) * (nx - 1);
+        (0..particles)
+            .map(|k| {
+                let p = order(k);
+                let (i, j) = ((p % (2 * (nx - 1))) / 2, p / (4 * (nx - 1)));
+                let corner = i + j * nx;
+                [corner, corner + 1, corner + nx, corner + nx + 1]
+                    .iter()
+                    .map(|&n| (n as u32, 0.25, DVec2::ZERO))
+                    .collect()
+            })
+            .collect()
+    }
+
+    fn transposed(
+        rows: &[Vec<(u32, f64, DVec2)>],
+        nodes: usize,
+        threads: usize,
+    ) -> Connectivity<Two> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut c = Connectivity::default();
+            c.rebuild(rows, nodes);
+            c
+        })
+    }
+
+    #[test]
+    fn the_parallel_transpose_is_the_serial_one() {
+        let nx = 101;
+        let nodes = nx * nx;
+        // Row by row, as bodies are seeded; then scrambled, which takes the serial fallback.
+        let seeded = lattice_rows(nx, |k| k);
+        let particles = seeded.len();
+        let scrambled = lattice_rows(nx, |k| (k * 7919) % particles);
+        let two = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let plan =
+            |rows| two.install(|| transposed(rows, nodes, 1).transpose_plan(nodes).is_some());
+        assert!(plan(&seeded), "seeded rows go in parallel");
+        assert!(!plan(&scrambled), "scrambled rows take the serial sort");
+        for rows in [&seeded, &scrambled] {
+            let one = transposed(rows, nodes, 1);
+            for threads in [2, 3, 8] {
+                let many = transposed(rows, nodes, threads);
+                assert_eq!(many.node_offsets, one.node_offsets, "{threads} threads");
+                assert_eq!(many.node_entries, one.node_entries, "{threads} threads");
+            }
+        }
+        // Every node's entries in particle order.
+        let c = transposed(&seeded, nodes, 4);
+        for node in 0..nodes {
+            let slots = &c.node_entries[c.node_offsets[node]..c.node_offsets[node + 1]];
+            assert!(slots.windows(2).all(|w| w[0].1 < w[1].1));
+            assert!(
+                slots
+                    .iter()
+                    .all(|&(e, _)| c.nodes[e as usize] as usize == node)
+            );
+        }
+    }
+}
