@@ -99,30 +99,7 @@ pub enum Command {
     /// Fragments of runs at one time: connected components of intact material, with size and
     /// speed; writes fragments.csv and fragment_sizes.csv into each run's folder and one PNG
     /// of the cumulative size distributions.
-    Fragments {
-        /// Output folders of runs (several: their distributions on one plot).
-        #[arg(required = true)]
-        out: Vec<PathBuf>,
-        /// Time of the frame to analyse (the nearest written) [default: the last frame].
-        #[arg(long)]
-        time: Option<f64>,
-        /// Particles with damage below this are intact material.
-        #[arg(long, default_value_t = 0.5)]
-        damage_below: f64,
-        /// Link length (m) joining intact particles [default: 1.5 particle spacings].
-        #[arg(long)]
-        link: Option<f64>,
-        /// The scene's thickness (m) for 2D runs [default: the one the frames record].
-        #[arg(long)]
-        thickness: Option<f64>,
-        /// Only these bodies, by index in the scene's order (e.g. the specimen, not its
-        /// platens) [default: all].
-        #[arg(long, value_delimiter = ',')]
-        body: Vec<u16>,
-        /// Output PNG [default: fragment_sizes.png in the first run's folder].
-        #[arg(long)]
-        output: Option<PathBuf>,
-    },
+    Fragments(FragmentsArgs),
     /// A crack from a notch: its tip against time (crack.csv in the run's folder), initial
     /// angle and speed, beside the Rayleigh speed of the material.
     Crack(CrackArgs),
@@ -131,48 +108,83 @@ pub enum Command {
     Verify(crate::verify::VerifyArgs),
     /// A picture (PNG) of a frame's particles coloured by a field, with a colour bar, the
     /// bodies' outlines and a scale bar.
-    Snapshot {
-        /// A particle frame (frames/particles_NNNNNNNN.vtu).
-        frame: PathBuf,
-        /// The field (damage, velocity, velocity_x, stress_xy, pressure, a system's column...).
-        #[arg(long, default_value = "damage")]
-        field: String,
-        /// The plane a 3D frame is seen in.
-        #[arg(long, value_enum, default_value = "xy")]
-        view: crate::snapshot::View,
-        /// Width of the particle area in pixels.
-        #[arg(long, default_value_t = 900, value_parser = clap::value_parser!(u32).range(50..=8000))]
-        width: u32,
-        /// Colour range MIN,MAX [default: the field's range in the frame].
-        #[arg(long, value_delimiter = ',', num_args = 2)]
-        range: Vec<f64>,
-        /// Output PNG [default: the frame's name with .png, field appended].
-        #[arg(long)]
-        output: Option<PathBuf>,
-    },
+    Snapshot(SnapshotArgs),
     /// Measure particle-steps per second of the stock pipelines on a generated scene.
-    Bench {
-        /// Pipelines to measure.
-        #[arg(long, value_enum, value_delimiter = ',', default_values = ["linear-usl", "lme-newmark"])]
-        pipeline: Vec<BenchPipeline>,
-        /// Dimensions of the block (2 and/or 3).
-        #[arg(long, value_delimiter = ',', default_values = ["2", "3"], value_parser = clap::value_parser!(u8).range(2..=3))]
-        dimensions: Vec<u8>,
-        /// Particle counts.
-        #[arg(long, value_delimiter = ',', default_values = ["10000", "100000", "1000000"])]
-        particles: Vec<usize>,
-        /// Thread counts.
-        #[arg(long, value_delimiter = ',', default_values = ["1", "2"])]
-        threads: Vec<usize>,
-        /// Timed steps per measurement [default: about 2 million particle-steps, at least 5].
-        #[arg(long)]
-        steps: Option<u64>,
-        /// Also time each stage, count the bytes a particle-step moves, measure the memory
-        /// bandwidth (a STREAM triad at each thread count) and report the roofline and the
-        /// serial fraction of the step.
-        #[arg(long)]
-        profile: bool,
-    },
+    Bench(BenchArgs),
+}
+
+/// The arguments of `fractum fragments`.
+#[derive(Debug, clap::Args)]
+pub struct FragmentsArgs {
+    /// Output folders of runs (several: their distributions on one plot).
+    #[arg(required = true)]
+    pub out: Vec<PathBuf>,
+    /// Time of the frame to analyse (the nearest written) [default: the last frame].
+    #[arg(long)]
+    pub time: Option<f64>,
+    /// Particles with damage below this are intact material.
+    #[arg(long, default_value_t = 0.5)]
+    pub damage_below: f64,
+    /// Link length (m) joining intact particles [default: 1.5 particle spacings].
+    #[arg(long)]
+    pub link: Option<f64>,
+    /// The scene's thickness (m) for 2D runs [default: the one the frames record].
+    #[arg(long)]
+    pub thickness: Option<f64>,
+    /// Only these bodies, by index in the scene's order (e.g. the specimen, not its
+    /// platens) [default: all].
+    #[arg(long, value_delimiter = ',')]
+    pub body: Vec<u16>,
+    /// Output PNG [default: fragment_sizes.png in the first run's folder].
+    #[arg(long)]
+    pub output: Option<PathBuf>,
+}
+
+/// The arguments of `fractum snapshot`.
+#[derive(Debug, clap::Args)]
+pub struct SnapshotArgs {
+    /// A particle frame (frames/particles_NNNNNNNN.vtu).
+    pub frame: PathBuf,
+    /// The field (damage, velocity, velocity_x, stress_xy, pressure, a system's column...).
+    #[arg(long, default_value = "damage")]
+    pub field: String,
+    /// The plane a 3D frame is seen in.
+    #[arg(long, value_enum, default_value = "xy")]
+    pub view: crate::snapshot::View,
+    /// Width of the particle area in pixels.
+    #[arg(long, default_value_t = 900, value_parser = clap::value_parser!(u32).range(50..=8000))]
+    pub width: u32,
+    /// Colour range MIN,MAX [default: the field's range in the frame].
+    #[arg(long, value_delimiter = ',', num_args = 2)]
+    pub range: Vec<f64>,
+    /// Output PNG [default: the frame's name with .png, field appended].
+    #[arg(long)]
+    pub output: Option<PathBuf>,
+}
+
+/// The arguments of `fractum bench`.
+#[derive(Debug, clap::Args)]
+pub struct BenchArgs {
+    /// Pipelines to measure.
+    #[arg(long, value_enum, value_delimiter = ',', default_values = ["linear-usl", "lme-newmark"])]
+    pub pipeline: Vec<BenchPipeline>,
+    /// Dimensions of the block (2 and/or 3).
+    #[arg(long, value_delimiter = ',', default_values = ["2", "3"], value_parser = clap::value_parser!(u8).range(2..=3))]
+    pub dimensions: Vec<u8>,
+    /// Particle counts.
+    #[arg(long, value_delimiter = ',', default_values = ["10000", "100000", "1000000"])]
+    pub particles: Vec<usize>,
+    /// Thread counts.
+    #[arg(long, value_delimiter = ',', default_values = ["1", "2"])]
+    pub threads: Vec<usize>,
+    /// Timed steps per measurement [default: about 2 million particle-steps, at least 5].
+    #[arg(long)]
+    pub steps: Option<u64>,
+    /// Also time each stage, count the bytes a particle-step moves, measure the memory
+    /// bandwidth (a STREAM triad at each thread count) and report the roofline and the
+    /// serial fraction of the step.
+    #[arg(long)]
+    pub profile: bool,
 }
 
 /// The options `run` and `resume` share.

@@ -45,7 +45,6 @@ pub use cli::{Cli, Command, CrackArgs, RunArgs};
 pub use reports::{check_report, energy_warning, summary_report, systems_report};
 
 use clap::Parser;
-use fractum_engine::dim::Dimension;
 use fractum_engine::registry::Registry;
 use fractum_scene::{Built, SceneError, SceneFile, build_simulation, estimate_memory};
 use std::ffi::OsString;
@@ -98,62 +97,10 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
         } => commands::plot::plot_command(&csv, &x, &columns, bar.as_deref(), output),
         Command::Curve { csv, x, y, from } => commands::curve::curve_command(&csv, &x, &y, from),
         Command::Crack(args) => commands::crack::crack_command(&args, registry),
-        Command::Fragments {
-            out,
-            time,
-            damage_below,
-            link,
-            thickness,
-            body,
-            output,
-        } => {
-            let options = fragments::FragmentOptions {
-                damage_below,
-                link,
-                thickness,
-                bodies: body,
-            };
-            commands::fragments::fragments_command(&out, time, &options, output)
-        }
-        Command::Bench {
-            pipeline,
-            dimensions,
-            particles,
-            threads,
-            steps,
-            profile,
-        } => {
-            let dimensions: Vec<Dimension> = dimensions
-                .iter()
-                .filter_map(|d| Dimension::of_count(*d as usize))
-                .collect();
-            let grid = commands::bench::BenchGrid {
-                pipelines: &pipeline,
-                dimensions: &dimensions,
-                particles: &particles,
-                threads: &threads,
-                steps,
-                profile,
-            };
-            commands::bench::bench_command(&grid, registry)
-        }
+        Command::Fragments(args) => commands::fragments::fragments_command(&args),
+        Command::Bench(args) => commands::bench::bench_command(&args, registry),
         Command::Verify(args) => verify::verify_command(&args),
-        Command::Snapshot {
-            frame,
-            field,
-            view,
-            width,
-            range,
-            output,
-        } => {
-            let options = snapshot::SnapshotOptions {
-                field,
-                view,
-                width,
-                range: (range.len() == 2).then(|| (range[0], range[1])),
-            };
-            commands::snapshot::snapshot_command(&frame, &options, output)
-        }
+        Command::Snapshot(args) => commands::snapshot::snapshot_command(&args),
         Command::Check {
             scene,
             estimate: true,

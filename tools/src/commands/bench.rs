@@ -4,6 +4,7 @@ use crate::EXIT_BLOWUP;
 use crate::bench::{
     BenchCase, BenchPipeline, default_steps, measure, profile_report, table, triad_bandwidth,
 };
+use crate::cli::BenchArgs;
 use fractum_engine::dim::Dimension;
 use fractum_engine::registry::Registry;
 
@@ -40,7 +41,21 @@ impl BenchGrid<'_> {
     }
 }
 
-pub(crate) fn bench_command(grid: &BenchGrid, registry: &Registry) -> i32 {
+/// `fractum bench` with `args`; the exit code.
+pub(crate) fn bench_command(args: &BenchArgs, registry: &Registry) -> i32 {
+    let dimensions: Vec<Dimension> = args
+        .dimensions
+        .iter()
+        .filter_map(|d| Dimension::of_count(*d as usize))
+        .collect();
+    let grid = &BenchGrid {
+        pipelines: &args.pipeline,
+        dimensions: &dimensions,
+        particles: &args.particles,
+        threads: &args.threads,
+        steps: args.steps,
+        profile: args.profile,
+    };
     let mut results = Vec::new();
     for case in grid.cases() {
         match measure(registry, case) {

@@ -1,14 +1,17 @@
 //! `fractum fragments`: the fragments of runs' frames and their size distributions.
 
+use crate::cli::FragmentsArgs;
 use crate::{EXIT_IO, fragments};
-use std::path::PathBuf;
 
-pub(crate) fn fragments_command(
-    dirs: &[PathBuf],
-    time: Option<f64>,
-    options: &fragments::FragmentOptions,
-    output: Option<PathBuf>,
-) -> i32 {
+/// `fractum fragments` with `args`; the exit code.
+pub(crate) fn fragments_command(args: &FragmentsArgs) -> i32 {
+    let options = &fragments::FragmentOptions {
+        damage_below: args.damage_below,
+        link: args.link,
+        thickness: args.thickness,
+        bodies: args.body.clone(),
+    };
+    let (dirs, time, output) = (&args.out, args.time, args.output.clone());
     let result = (|| {
         let mut runs = Vec::new();
         for dir in dirs {

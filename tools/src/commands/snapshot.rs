@@ -1,16 +1,20 @@
 //! `fractum snapshot`: a PNG of one frame's particles coloured by a field.
 
 use crate::EXIT_IO;
+use crate::cli::SnapshotArgs;
 use crate::snapshot::{SnapshotOptions, snapshot};
 use fractum_io::output::read_particle_frame;
-use std::path::{Path, PathBuf};
 
-pub(crate) fn snapshot_command(
-    frame: &Path,
-    options: &SnapshotOptions,
-    output: Option<PathBuf>,
-) -> i32 {
-    let output = output.unwrap_or_else(|| {
+/// `fractum snapshot` with `args`; the exit code.
+pub(crate) fn snapshot_command(args: &SnapshotArgs) -> i32 {
+    let options = &SnapshotOptions {
+        field: args.field.clone(),
+        view: args.view,
+        width: args.width,
+        range: (args.range.len() == 2).then(|| (args.range[0], args.range[1])),
+    };
+    let frame = args.frame.as_path();
+    let output = args.output.clone().unwrap_or_else(|| {
         let stem = frame
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
