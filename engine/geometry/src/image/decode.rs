@@ -222,6 +222,51 @@ fn unpack(bytes: &[u8], width: usize, height: usize, bits: u8, big_endian: bool)
     samples
 }
 
+/// A decoded TIFF page's samples as numbers, with the kind of sample they were (`8-bit`,
+/// `32-bit float`, …), from a picture with `bits` bits per grey sample; why not, when its
+/// samples are of a kind the reader does not take.
+fn tiff_samples(
+    data: &tiff::decoder::DecodingResult,
+    (width, height, bits): (usize, usize, u8),
+) -> Result<(Vec<f64>, String), String> {
+    use tiff::decoder::DecodingResult;
+    Ok(match data {
+        DecodingResult::U8(v) if bits < 8 => {
+            (unpack(v, width, height, bits, true), format!("{bits}-bit"))
+        }
+        DecodingResult::U8(v) => (v.iter().map(|&g| f64::from(g)).collect(), "8-bit".into()),
+        DecodingResult::U16(v) => (v.iter().map(|&g| f64::from(g)).collect(), "16-bit".into()),
+        DecodingResult::U32(v) => (v.iter().map(|&g| f64::from(g)).collect(), "32-bit".into()),
+        DecodingResult::I8(v) => (
+            v.iter().map(|&g| f64::from(g)).collect(),
+            "signed 8-bit".into(),
+        ),
+        DecodingResult::I16(v) => (
+            v.iter().map(|&g| f64::from(g)).collect(),
+            "signed 16-bit".into(),
+        ),
+        DecodingResult::I32(v) => (
+            v.iter().map(|&g| f64::from(g)).collect(),
+            "signed 32-bit".into(),
+        ),
+        DecodingResult::F32(v) => (
+            v.iter().map(|&g| f64::from(g)).collect(),
+            "32-bit float".into(),
+        ),
+        DecodingResult::F64(v) => (v.clone(), "64-bit float".into()),
+        other => {
+            return Err(format!(
+                "the page's samples are {}; expected 1 to 32-bit integers or 32 or \
+                     64-bit floats",
+                match other {
+                    DecodingResult::U64(_) | DecodingResult::I64(_) => "64-bit integers",
+                    _ => "16-bit floats",
+                }
+            ));
+        }
+    })
+}
+
 fn read_tiff(
     reader: BufReader<std::fs::File>,
     bytes: u64,
@@ -249,44 +294,8 @@ fn read_tiff(
         decoder
             .read_image_to_buffer(&mut data)
             .map_err(tiff_error(k))?;
-        let (samples, kind): (Vec<f64>, String) = match &data {
-            DecodingResult::U8(v) if bits < 8 => {
-                (unpack(v, width, height, bits, true), format!("{bits}-bit"))
-            }
-            DecodingResult::U8(v) => (v.iter().map(|&g| f64::from(g)).collect(), "8-bit".into()),
-            DecodingResult::U16(v) => (v.iter().map(|&g| f64::from(g)).collect(), "16-bit".into()),
-            DecodingResult::U32(v) => (v.iter().map(|&g| f64::from(g)).collect(), "32-bit".into()),
-            DecodingResult::I8(v) => (
-                v.iter().map(|&g| f64::from(g)).collect(),
-                "signed 8-bit".into(),
-            ),
-            DecodingResult::I16(v) => (
-                v.iter().map(|&g| f64::from(g)).collect(),
-                "signed 16-bit".into(),
-            ),
-            DecodingResult::I32(v) => (
-                v.iter().map(|&g| f64::from(g)).collect(),
-                "signed 32-bit".into(),
-            ),
-            DecodingResult::F32(v) => (
-                v.iter().map(|&g| f64::from(g)).collect(),
-                "32-bit float".into(),
-            ),
-            DecodingResult::F64(v) => (v.clone(), "64-bit float".into()),
-            other => {
-                return Err(fail(
-                    at(k),
-                    format!(
-                        "the page's samples are {}; expected 1 to 32-bit integers or 32 or \
-                         64-bit floats",
-                        match other {
-                            DecodingResult::U64(_) | DecodingResult::I64(_) => "64-bit integers",
-                            _ => "16-bit floats",
-                        }
-                    ),
-                ));
-            }
-        };
+        let (samples, kind) =
+            tiff_samples(&data, (width, height, bits)).map_err(|e| fail(at(k), e))?;
         if samples.len() < width * height {
             return Err(fail(
                 at(k),

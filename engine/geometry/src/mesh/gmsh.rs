@@ -319,6 +319,36 @@ struct NodeIndex {
 }
 
 impl NodeIndex {
+    /// Gives node tag `tag` the index `k`; an error when the tag lies outside the table's range
+    /// (up to `max`, the header's largest tag) or was given before.
+    fn insert(&mut self, tag: u64, k: u32, max: u64) -> Result<(), String> {
+        let fresh = if self.table.is_empty() {
+            self.map.insert(tag, k).is_none()
+        } else {
+            match tag
+                .checked_sub(self.min)
+                .and_then(|i| self.table.get_mut(i as usize))
+            {
+                Some(slot) if *slot == u32::MAX => {
+                    *slot = k;
+                    true
+                }
+                Some(_) => false,
+                None => {
+                    let min = self.min;
+                    return Err(format!(
+                        "node tag {tag} is outside the header's range {min} to {max}"
+                    ));
+                }
+            }
+        };
+        if fresh {
+            Ok(())
+        } else {
+            Err(format!("node tag {tag} is given twice"))
+        }
+    }
+
     fn get(&self, tag: u64) -> Option<u32> {
         if self.table.is_empty() {
             self.map.get(&tag).copied()
@@ -380,32 +410,9 @@ fn read_nodes(c: &mut Cursor, mesh: &mut RawMesh, index: &mut NodeIndex) -> Resu
             }
             let k = mesh.nodes.len() as u32;
             mesh.nodes.push(x);
-            let fresh = if index.table.is_empty() {
-                index.map.insert(tag, k).is_none()
-            } else {
-                match tag
-                    .checked_sub(min)
-                    .and_then(|i| index.table.get_mut(i as usize))
-                {
-                    Some(slot) if *slot == u32::MAX => {
-                        *slot = k;
-                        true
-                    }
-                    Some(_) => false,
-                    None => {
-                        return Err(fail(
-                            place.to_string(),
-                            format!("node tag {tag} is outside the header's range {min} to {max}"),
-                        ));
-                    }
-                }
-            };
-            if !fresh {
-                return Err(fail(
-                    place.to_string(),
-                    format!("node tag {tag} is given twice"),
-                ));
-            }
+            index
+                .insert(tag, k, max)
+                .map_err(|e| fail(place.to_string(), e))?;
         }
         read += mesh.nodes.len() - first;
     }

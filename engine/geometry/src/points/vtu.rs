@@ -135,6 +135,84 @@ fn encoding(text: &str) -> Result<Encoding, FileError> {
     })
 }
 
+/// The columns of one piece of a particle file: each point's coordinates (x, y, z), its
+/// volume, and the velocities, damage, strength scales and materials the piece gives.
+struct PieceColumns {
+    coordinates: Vec<f64>,
+    volumes: Vec<f64>,
+    velocities: Option<Vec<f64>>,
+    damage: Option<Vec<f64>>,
+    strength_scale: Option<Vec<f64>>,
+    materials: Option<Vec<f64>>,
+}
+
+/// The columns of the piece of `count` points between `start` and `end` in `text`; a piece
+/// without points or volumes, or with velocities of other than 3 components, is an error at
+/// its line.
+fn piece_columns(
+    text: &str,
+    encoding: &Encoding,
+    (start, end): (usize, usize),
+    count: usize,
+) -> Result<PieceColumns, FileError> {
+    let section = |name: &str| -> Option<(usize, usize)> {
+        let a = text[start..end].find(&format!("<{name}"))? + start;
+        let b = text[a..end].find(&format!("</{name}>"))? + a;
+        Some((a, b))
+    };
+    let (points_from, points_to) = section("Points")
+        .ok_or_else(|| fail(line_of(text, start), "a Piece without its Points"))?;
+    let points = arrays(text, points_from, points_to)?;
+    let coordinates = points
+        .first()
+        .ok_or_else(|| fail(line_of(text, points_from), "Points without a DataArray"))?
+        .values(text, &encoding, count)?;
+    let data = match section("PointData") {
+        Some((a, b)) => arrays(text, a, b)?,
+        None => Vec::new(),
+    };
+    let named = |name: &str| data.iter().find(|a| a.name() == name);
+    let Some(volume) = named("volume") else {
+        let names: Vec<&str> = data.iter().map(DataArray::name).collect();
+        return Err(fail(
+            line_of(text, start),
+            format!(
+                "no point data named `volume` (the piece has {}); a particle's volume is \
+                 never guessed: add a `volume` array (m³; in 2D the area times the scene's \
+                 thickness)",
+                if names.is_empty() {
+                    "none".to_string()
+                } else {
+                    names.join(", ")
+                }
+            ),
+        ));
+    };
+    let volumes = volume.values(text, &encoding, count)?;
+    let optional = |name: &str| -> Result<Option<Vec<f64>>, FileError> {
+        named(name)
+            .map(|a| a.values(text, &encoding, count))
+            .transpose()
+    };
+    let velocities = optional("velocity")?;
+    if let Some(v) = named("velocity")
+        && v.components() != 3
+    {
+        return Err(fail(
+            line_of(text, v.at),
+            "DataArray `velocity` needs 3 components",
+        ));
+    }
+    Ok(PieceColumns {
+        coordinates,
+        volumes,
+        velocities,
+        damage: optional("damage")?,
+        strength_scale: optional("strength_scale")?,
+        materials: optional("material")?,
+    })
+}
+
 /// Parses a VTU (or VTP) particle file.
 pub fn parse_vtu(text: &str, file: &str) -> Result<PointSet, FileError> {
     let encoding = encoding(text)?;
@@ -151,57 +229,14 @@ pub fn parse_vtu(text: &str, file: &str) -> Result<PointSet, FileError> {
         let count: usize = attribute(tag, "NumberOfPoints")
             .and_then(|n| n.parse().ok())
             .ok_or_else(|| fail(line_of(text, start), "a Piece without NumberOfPoints"))?;
-        let section = |name: &str| -> Option<(usize, usize)> {
-            let a = text[start..end].find(&format!("<{name}"))? + start;
-            let b = text[a..end].find(&format!("</{name}>"))? + a;
-            Some((a, b))
-        };
-        let (points_from, points_to) = section("Points")
-            .ok_or_else(|| fail(line_of(text, start), "a Piece without its Points"))?;
-        let points = arrays(text, points_from, points_to)?;
-        let coordinates = points
-            .first()
-            .ok_or_else(|| fail(line_of(text, points_from), "Points without a DataArray"))?
-            .values(text, &encoding, count)?;
-        let data = match section("PointData") {
-            Some((a, b)) => arrays(text, a, b)?,
-            None => Vec::new(),
-        };
-        let named = |name: &str| data.iter().find(|a| a.name() == name);
-        let Some(volume) = named("volume") else {
-            let names: Vec<&str> = data.iter().map(DataArray::name).collect();
-            return Err(fail(
-                line_of(text, start),
-                format!(
-                    "no point data named `volume` (the piece has {}); a particle's volume is \
-                     never guessed: add a `volume` array (m³; in 2D the area times the scene's \
-                     thickness)",
-                    if names.is_empty() {
-                        "none".to_string()
-                    } else {
-                        names.join(", ")
-                    }
-                ),
-            ));
-        };
-        let volumes = volume.values(text, &encoding, count)?;
-        let optional = |name: &str| -> Result<Option<Vec<f64>>, FileError> {
-            named(name)
-                .map(|a| a.values(text, &encoding, count))
-                .transpose()
-        };
-        let velocities = optional("velocity")?;
-        if let Some(v) = named("velocity")
-            && v.components() != 3
-        {
-            return Err(fail(
-                line_of(text, v.at),
-                "DataArray `velocity` needs 3 components",
-            ));
-        }
-        let damage = optional("damage")?;
-        let strength_scale = optional("strength_scale")?;
-        let materials = optional("material")?;
+        let PieceColumns {
+            coordinates,
+            volumes,
+            velocities,
+            damage,
+            strength_scale,
+            materials,
+        } = piece_columns(text, &encoding, (start, end), count)?;
         let three_d = coordinates.chunks_exact(3).any(|c| c[2] != 0.0);
         let set = set.get_or_insert_with(|| {
             let columns = OptionalColumns {

@@ -104,34 +104,51 @@ pub fn read_particle_frame(path: &Path) -> Result<ParticleFrame, String> {
     }
     let mut seen_points = false;
     for a in arrays {
-        match (a.name.as_deref(), a.components) {
-            (None, 3) => {
-                f.position = a.triples();
-                seen_points = true;
-            }
-            (Some("id"), 1) => f.id = a.values.iter().map(|&v| v as u32).collect(),
-            (Some("body"), 1) => f.body = a.values.iter().map(|&v| v as u16).collect(),
-            (Some("material"), 1) => {
-                f.material = a.values.iter().map(|&v| v as u16).collect();
-            }
-            (Some("velocity"), 3) => f.velocity = a.triples(),
-            (Some("mass"), 1) => f.mass = a.values,
-            (Some("volume"), 1) => f.volume = a.values,
-            (Some("stress"), 9) => {
-                f.stress = a
-                    .values
-                    .chunks_exact(9)
-                    .map(|c| c.try_into().expect("9 values"))
-                    .collect();
-            }
-            (Some("damage"), 1) => f.damage = a.values,
-            (Some("strain_energy_density"), 1) => f.strain_energy_density = a.values,
-            (Some("connectivity" | "offsets" | "types"), _) => {}
-            (Some(name), 1) => f.scalars.push((name.to_string(), a.values)),
-            (Some(name), 3) => f.vectors.push((name.to_string(), a.triples())),
-            (name, n) => return Err(at(format!("an array {name:?} of {n} components"))),
-        }
+        seen_points |= place_array(&mut f, a).map_err(at)?;
     }
+    let consistent = lengths_agree(&f);
+    if !seen_points || !consistent {
+        return Err(at(
+            "not a particle frame of fractum (no points, or arrays of the wrong length)".into(),
+        ));
+    }
+    Ok(f)
+}
+
+/// Puts array `a` of a frame file where it belongs in `f`; whether it was the points.
+fn place_array(f: &mut ParticleFrame, a: ReadArray) -> Result<bool, String> {
+    match (a.name.as_deref(), a.components) {
+        (None, 3) => {
+            f.position = a.triples();
+            return Ok(true);
+        }
+        (Some("id"), 1) => f.id = a.values.iter().map(|&v| v as u32).collect(),
+        (Some("body"), 1) => f.body = a.values.iter().map(|&v| v as u16).collect(),
+        (Some("material"), 1) => {
+            f.material = a.values.iter().map(|&v| v as u16).collect();
+        }
+        (Some("velocity"), 3) => f.velocity = a.triples(),
+        (Some("mass"), 1) => f.mass = a.values,
+        (Some("volume"), 1) => f.volume = a.values,
+        (Some("stress"), 9) => {
+            f.stress = a
+                .values
+                .chunks_exact(9)
+                .map(|c| c.try_into().expect("9 values"))
+                .collect();
+        }
+        (Some("damage"), 1) => f.damage = a.values,
+        (Some("strain_energy_density"), 1) => f.strain_energy_density = a.values,
+        (Some("connectivity" | "offsets" | "types"), _) => {}
+        (Some(name), 1) => f.scalars.push((name.to_string(), a.values)),
+        (Some(name), 3) => f.vectors.push((name.to_string(), a.triples())),
+        (name, n) => return Err(format!("an array {name:?} of {n} components")),
+    }
+    Ok(false)
+}
+
+/// Whether every array of `f` has a value per point, or none.
+fn lengths_agree(f: &ParticleFrame) -> bool {
     let n = f.position.len();
     let lengths = [
         f.id.len(),
@@ -146,14 +163,8 @@ pub fn read_particle_frame(path: &Path) -> Result<ParticleFrame, String> {
     ];
     let extra = f.scalars.iter().map(|(_, v)| v.len());
     let extra = extra.chain(f.vectors.iter().map(|(_, v)| v.len()));
-    let consistent = lengths
+    lengths
         .into_iter()
         .chain(extra)
-        .all(|len| len == n || len == 0);
-    if !seen_points || !consistent {
-        return Err(at(
-            "not a particle frame of fractum (no points, or arrays of the wrong length)".into(),
-        ));
-    }
-    Ok(f)
+        .all(|len| len == n || len == 0)
 }

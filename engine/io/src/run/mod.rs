@@ -216,16 +216,7 @@ pub fn run_with(
     let resume = options.resume.take();
     let opened = open_outputs(sim, plan, out_dir, options.checkpoints, resume, comm);
     let (mut outputs, mut schedule) = agreed(comm, opened)?;
-    let particles = match comm {
-        Some(comm) => comm.sum(&[owned_particles(sim) as f64])[0] as usize,
-        None => sim.particle_count(),
-    };
-    let started = Instant::now();
-    let first_step = sim.clock().step;
-    let sent_before = (sim
-        .world
-        .get_resource::<fractum_engine::decomposition::Ownership>())
-    .map_or(0, |o| o.sent_bytes);
+    let started = Started::now(sim, comm);
     if !resumed {
         if let Some(comm) = comm {
             // Each rank's watch starts from the floor of the particles it owns: the run's is
@@ -258,14 +249,7 @@ pub fn run_with(
         }
         let recorded = outputs.record(sim, false);
         agreed(comm, recorded)?;
-        interrupted = options
-            .interrupt
-            .is_some_and(|flag| flag.load(Ordering::SeqCst));
-        if let Some(comm) = comm {
-            // A signal reaches the ranks at different steps: they stop at the first step after
-            // any of them saw it.
-            interrupted = comm.max(f64::from(u8::from(interrupted))) > 0.0;
-        }
+        interrupted = interrupt_seen(&options, comm);
         let last = sim.finished() || interrupted;
         let wanted = options.checkpoints.is_some() || interrupted;
         if wanted && (schedule.due(sim.clock()) || last) {
@@ -286,6 +270,60 @@ pub fn run_with(
             break;
         }
     }
+    finish(sim, comm, &mut outputs, started, interrupted, checkpoint)
+}
+
+/// Whether an interrupt was seen: here, or on any rank of a distributed run.
+fn interrupt_seen(options: &RunOptions, comm: Option<&dyn Communicator>) -> bool {
+    let seen = options
+        .interrupt
+        .is_some_and(|flag| flag.load(Ordering::SeqCst));
+    match comm {
+        // A signal reaches the ranks at different steps: they stop at the first step after
+        // any of them saw it.
+        Some(comm) => comm.max(f64::from(u8::from(seen))) > 0.0,
+        None => seen,
+    }
+}
+
+/// Where a run started: its particles (every rank's), the wall clock, the step, and what
+/// this rank had sent before (a resumed run's earlier steps).
+struct Started {
+    particles: usize,
+    at: Instant,
+    first_step: u64,
+    sent_before: u64,
+}
+
+impl Started {
+    /// A run starting now from the state of `sim`.
+    fn now(sim: &mut Simulation, comm: Option<&dyn Communicator>) -> Self {
+        let particles = match comm {
+            Some(comm) => comm.sum(&[owned_particles(sim) as f64])[0] as usize,
+            None => sim.particle_count(),
+        };
+        let sent_before = (sim
+            .world
+            .get_resource::<fractum_engine::decomposition::Ownership>())
+        .map_or(0, |o| o.sent_bytes);
+        Self {
+            particles,
+            at: Instant::now(),
+            first_step: sim.clock().step,
+            sent_before,
+        }
+    }
+}
+
+/// Ends a run whose loop has stopped: its files made safe and listed, then its summary.
+fn finish(
+    sim: &mut Simulation,
+    comm: Option<&dyn Communicator>,
+    outputs: &mut Outputs,
+    started: Started,
+    interrupted: bool,
+    checkpoint: Option<PathBuf>,
+) -> Result<RunSummary, RunError> {
     // The run ends only when its files are safe.
     let settled = outputs.settle();
     agreed(comm, settled)?;
@@ -302,12 +340,12 @@ pub fn run_with(
     });
     let clock = sim.clock();
     Ok(RunSummary {
-        steps: clock.step - first_step,
+        steps: clock.step - started.first_step,
         time: clock.time,
-        particles,
+        particles: started.particles,
         threads: sim.threads(),
         threads_asked: sim.threads_asked(),
-        wall: started.elapsed(),
+        wall: started.at.elapsed(),
         frames: outputs.frames.len(),
         removed: sim
             .world
@@ -320,7 +358,14 @@ pub fn run_with(
         interrupted,
         never_split: split == Some(false),
         checkpoint,
-        ranks: comm.map(|comm| rank_report(sim, comm, clock.step - first_step, sent_before)),
+        ranks: comm.map(|comm| {
+            rank_report(
+                sim,
+                comm,
+                clock.step - started.first_step,
+                started.sent_before,
+            )
+        }),
     })
 }
 
