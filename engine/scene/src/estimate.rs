@@ -1,24 +1,17 @@
 //! A scene's memory from counts, before anything is spawned: the bodies' seeds, and what the
 //! pipeline gives each entity and declares per particle, read off an install on a world with
-//! no node and a sample of particles. `build` holds it against what the process may use
-//! before spawning; `fractum check --estimate` prints it ([`Spec::estimate`]). The memory
-//! before seeding is bounded from the bodies' boxes.
+//! no node and a sample of particles (`build/probe.rs`). `build` holds it against what the
+//! process may use before spawning; `fractum check --estimate` prints it ([`Spec::estimate`]).
+//! The memory before seeding is bounded from the bodies' boxes.
 
 use super::SceneError;
 use super::budget::{self, MemoryEstimate};
-use super::build::insert_scene_resources;
-use super::pipeline::PipelineBuilder;
 use super::seed::Seeds;
-use super::seeder::Seeder;
 use super::spec::Spec;
-use bevy_ecs::prelude::World;
 use fractum_engine::decomposition;
 use fractum_engine::dim::{Dim, VectorOps};
-use fractum_engine::loads::ParticleLoads;
-use fractum_engine::registry::Registry;
 use fractum_engine::registry::templates::ComponentTemplates;
 use fractum_engine::resources::Grid;
-use fractum_engine::simulation::step_schedule;
 
 /// What a pipeline installed on a sample of particles tells of the scene's memory.
 pub(crate) struct PipelineProbe {
@@ -93,14 +86,14 @@ impl<'s, D: Dim> Estimator<'s, D> {
     /// ([`fractum_engine::decomposition`]).
     pub(crate) fn estimate(
         &self,
-        registry: &Registry,
+        probed: Probed<D>,
         ranks: Option<usize>,
     ) -> Result<Estimate, SceneError> {
         let Probed {
             available,
             seeds,
             probe,
-        } = self.seeded_and_probed(registry, ranks.unwrap_or(1))?;
+        } = probed;
         let estimate = self.estimate_from_counts(&seeds, &probe);
         let slabs = match ranks {
             Some(ranks) => Some(self.rank_slabs(&seeds, &probe, ranks)?),
@@ -127,86 +120,6 @@ impl<'s, D: Dim> Estimator<'s, D> {
             estimate,
             available,
         })
-    }
-
-    /// What `build` and [`Spec::estimate`] do before anything is spawned: the spec checked,
-    /// the memory the process may use, a bound from the bodies' boxes held against it, the
-    /// bodies seeded and the pipeline probed.
-    pub(crate) fn seeded_and_probed(
-        &self,
-        registry: &Registry,
-        ranks: usize,
-    ) -> Result<Probed<D>, SceneError> {
-        self.spec.check()?;
-        let available = budget::available_memory();
-        self.check_memory_before_seeding(available, ranks)?;
-        let seeds = Seeder::new(self.spec).bodies()?;
-        let probe = self.probe_pipeline(registry, &seeds)?;
-        Ok(Probed {
-            available,
-            seeds,
-            probe,
-        })
-    }
-
-    /// The pipeline installed on a world with the scene's resources, no node and a sample of
-    /// particles ([`Seeder::sample`]): what it gives every particle and node, and the
-    /// storage it declares per particle. Installers read a mean particles-per-cell from all
-    /// the seeds ([`budget::SeedDensity`]).
-    pub(crate) fn probe_pipeline(
-        &self,
-        registry: &Registry,
-        seeds: &[Seeds<D>],
-    ) -> Result<PipelineProbe, SceneError> {
-        let mut world = World::new();
-        let mut next_id = 0;
-        for ((b, body), seeded) in self.spec.bodies.iter().enumerate().zip(seeds) {
-            let seeder = Seeder::new(self.spec);
-            let sample = seeder.sample(b, body, seeded)?;
-            world.spawn_batch(seeder.particles(b, body, sample, &mut next_id)?);
-        }
-        insert_scene_resources(self.spec, &mut world, ParticleLoads::<D>::default())?;
-        world.insert_resource(self.seed_density(seeds));
-        let mut schedule = step_schedule();
-        PipelineBuilder::new(self.spec).install(registry, &mut schedule, &mut world)?;
-        let mut templates = world
-            .remove_resource::<ComponentTemplates>()
-            .unwrap_or_default();
-        if !Seeder::new(self.spec).scaled_bodies().is_empty() {
-            // Every particle carries a strength scale, 1 where no file gives one, so that all
-            // of them share one table (and so do those that arrive at a rank later).
-            templates
-                .particles
-                .record(&fractum_engine::components::StrengthScale(1.0));
-        }
-        Ok(PipelineProbe {
-            templates,
-            declared: world
-                .remove_resource::<budget::ParticleMemory>()
-                .unwrap_or_default(),
-            reach: world
-                .remove_resource::<fractum_engine::decomposition::StepReach>()
-                .unwrap_or_default(),
-        })
-    }
-
-    /// The mean number of particles per cell of the smallest width over every seed.
-    pub(crate) fn seed_density(&self, seeds: &[Seeds<D>]) -> budget::SeedDensity {
-        let (count, volume) = seeds
-            .iter()
-            .flatten()
-            .fold((0.0, 0.0), |(n, v), &(_, vol)| (n + 1.0, v + vol));
-        let cell = self.spec.grid.spacing.powi(D::N as i32) * self.thickness_factor();
-        budget::SeedDensity(if count == 0.0 || volume <= 0.0 {
-            0.0
-        } else {
-            cell / (volume / count)
-        })
-    }
-
-    /// A 2D scene's thickness (seeded volumes carry it), 1 in 3D.
-    pub(crate) fn thickness_factor(&self) -> f64 {
-        if D::N == 2 { self.spec.thickness } else { 1.0 }
     }
 
     /// The slabs of `ranks` ranks: the seeds counted per cell layer along the axis on which
@@ -411,7 +324,7 @@ impl<'s, D: Dim> Estimator<'s, D> {
     /// spacing is refused before its seeds fill the memory. A rank of `ranks` holds only the
     /// nodes its particles reach, a share of at least `1/ranks` for the most loaded; it seeds
     /// every body to find its own particles.
-    fn check_memory_before_seeding(
+    pub(crate) fn check_memory_before_seeding(
         &self,
         available: budget::Available,
         ranks: usize,

@@ -321,6 +321,35 @@ const SEPARABLE_EVERYWHERE: NodeFieldDamage = NodeFieldDamage {
     max: [1.0; MAX_FIELDS],
 };
 
+/// Each velocity field's normal at a node (its mass gradient, unit length; zero where the
+/// field has none) and, when the integrator needs them, its force from the particles of
+/// `entries` (the node's entries of the transposed table).
+fn field_normals_and_forces<D: Dim>(
+    c: &Connectivity<D>,
+    slices: &ParticleSlices<D>,
+    step: &ContactStep<D::Vector>,
+    entries: &[(u32, u32)],
+) -> ([D::Vector; MAX_FIELDS], [D::Vector; MAX_FIELDS]) {
+    let mut gradient = [D::Vector::ZERO; MAX_FIELDS];
+    let mut force = [D::Vector::ZERO; MAX_FIELDS];
+    for &(e, p) in entries {
+        let (e, p) = (e as usize, p as usize);
+        gradient[c.field(e)] += c.gradient(e, p) * slices.mass[p].0;
+        if step.integration.needs_stress_forces() {
+            force[c.field(e)] += force_contribution(c, slices, step.body_force, e, p);
+        }
+    }
+    let normals = gradient.map(|g| {
+        let length = g.length();
+        if length > 0.0 {
+            g / length
+        } else {
+            D::Vector::ZERO
+        }
+    });
+    (normals, force)
+}
+
 /// The contact law at shared node `i`: its fields' normals and impulses.
 fn node_contact<D: Dim>(
     c: &Connectivity<D>,
@@ -334,23 +363,7 @@ fn node_contact<D: Dim>(
         Some(&[from, to]) => &c.node_entries[from..to],
         _ => &[],
     };
-    let mut gradient = [D::Vector::ZERO; MAX_FIELDS];
-    let mut force = [D::Vector::ZERO; MAX_FIELDS];
-    for &(e, p) in entries {
-        let (e, p) = (e as usize, p as usize);
-        gradient[c.field(e)] += c.gradient(e, p) * slices.mass[p].0;
-        if integration.needs_stress_forces() {
-            force[c.field(e)] += force_contribution(c, slices, step.body_force, e, p);
-        }
-    }
-    let normals = gradient.map(|g| {
-        let length = g.length();
-        if length > 0.0 {
-            g / length
-        } else {
-            D::Vector::ZERO
-        }
-    });
+    let (normals, force) = field_normals_and_forces(c, slices, step, entries);
     // The end-of-step velocity the contact acts on.
     let (mass, velocity) = (&nodes.mass[i].0, &nodes.velocity[i].0);
     let states = std::array::from_fn(|k| FieldState {
@@ -380,15 +393,18 @@ fn node_contact<D: Dim>(
             step.dt,
         )
     });
-    let impulses = node_impulses(
-        &nodes.fields[i],
-        &states,
-        stats,
-        params,
-        held,
-        merge_below,
-        gaps.as_ref(),
-    );
+    let impulses_of = |states: &[FieldState<D::Vector>; MAX_FIELDS]| {
+        node_impulses(
+            &nodes.fields[i],
+            states,
+            stats,
+            params,
+            held,
+            merge_below,
+            gaps.as_ref(),
+        )
+    };
+    let impulses = impulses_of(&states);
     // Newmark: the part of the impulse that a collision of the predicted velocities asks
     // for, when the pair is in contact at all.
     let splits = matches!(integration, GridIntegration::PredictorCorrector { .. });
@@ -397,15 +413,7 @@ fn node_contact<D: Dim>(
             velocity: velocity[k],
             ..states[k]
         });
-        node_impulses(
-            &nodes.fields[i],
-            &predicted,
-            stats,
-            params,
-            held,
-            merge_below,
-            gaps.as_ref(),
-        )
+        impulses_of(&predicted)
     } else {
         [D::Vector::ZERO; MAX_FIELDS]
     };

@@ -321,11 +321,7 @@ pub fn node_impulses<V: VectorOps>(
                     can_separate,
                     params.normals,
                 );
-                for (c, is_held) in held.iter().enumerate() {
-                    if *is_held {
-                        dp[c] = 0.0;
-                    }
-                }
+                hold_components(&mut dp, held);
                 if dp == V::ZERO {
                     continue;
                 }
@@ -333,9 +329,7 @@ pub fn node_impulses<V: VectorOps>(
                 // another sweep, and after the first not worth applying. (Two fields take one
                 // pass and every impulse.)
                 if sweeps > 1 {
-                    let scale = (current[a].velocity * current[a].mass).length()
-                        + (current[b].velocity * current[b].mass).length();
-                    let round_off = dp.length() <= 1e-14 * scale;
+                    let round_off = is_round_off(dp, &current[a], &current[b]);
                     if round_off && sweep > 0 {
                         continue;
                     }
@@ -352,6 +346,21 @@ pub fn node_impulses<V: VectorOps>(
         }
     }
     impulses
+}
+
+/// Zeroes the components of an impulse that the node's boundary holds.
+fn hold_components<V: VectorOps>(dp: &mut V, held: &[bool]) {
+    for (c, is_held) in held.iter().enumerate() {
+        if *is_held {
+            dp[c] = 0.0;
+        }
+    }
+}
+
+/// Whether impulse `dp` between two fields is round-off of their momenta.
+fn is_round_off<V: VectorOps>(dp: V, a: &FieldState<V>, b: &FieldState<V>) -> bool {
+    let scale = (a.velocity * a.mass).length() + (b.velocity * b.mass).length();
+    dp.length() <= 1e-14 * scale
 }
 
 /// Newmark's split of a field's contact impulse `Δp` into the kick `J` that acts on the

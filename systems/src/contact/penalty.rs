@@ -504,35 +504,16 @@ pub fn penalty_contact<D: Dim>(
         particles: &states,
         groups,
     };
-    // The grid's corner and the scene's widest particle place the bins.
-    let widest = inputs.widest.as_ref().map_or_else(
-        || states.iter().map(|p| p.width).fold(0.0, f64::max),
-        |w| w.0,
-    );
-    let min = inputs.grid.min.to_3d();
-    let frame = BinFrame {
-        origin: std::array::from_fn(|a| if a < D::N { min[a] } else { 0.0 }),
-        widest,
-    };
+    let frame = bin_frame(&inputs, &states);
     let forces = particle_contacts(&set, &inputs.params, &law, frame);
     let held = inputs.bcs.held_mask(node_mass.len());
     node_forces(c, &forces, &held, &mut contact);
     if integration == GridIntegration::UpdateStressLast {
-        let kicks: (&mut [NodeVelocity<D>], &mut [NodeAcceleration<D>]) =
-            (&mut velocity, &mut acceleration);
-        kicks
-            .0
-            .par_iter_mut()
-            .zip(kicks.1.par_iter_mut())
-            .zip(node_mass.par_iter().zip(contact.par_iter()))
-            .for_each(|((v, a), (m, f))| {
-                for k in 0..MAX_FIELDS {
-                    if m.0[k] > 0.0 {
-                        v.0[k] += f.0[k] * (dt / m.0[k]);
-                        a.0[k] += f.0[k] / m.0[k];
-                    }
-                }
-            });
+        kick_nodes(
+            (&mut velocity, &mut acceleration),
+            (node_mass, &contact),
+            dt,
+        );
     }
     // Sequential sums in particle order: the same bits for any thread count. A rank of a
     // distributed run sums the particles it owns.
@@ -543,6 +524,41 @@ pub fn penalty_contact<D: Dim>(
     let slots = *inputs.slots;
     inputs.columns.values[slots.energy] = energy;
     inputs.columns.values[slots.friction] += power * dt;
+}
+
+/// Where the contact bins lie: from the grid's corner, as wide as the scene's widest particle
+/// (this process's widest when no scene-wide one is kept).
+fn bin_frame<D: Dim>(inputs: &PenaltyInputs<D>, states: &[ContactParticle<D::Vector>]) -> BinFrame {
+    let widest = inputs.widest.as_ref().map_or_else(
+        || states.iter().map(|p| p.width).fold(0.0, f64::max),
+        |w| w.0,
+    );
+    let min = inputs.grid.min.to_3d();
+    BinFrame {
+        origin: std::array::from_fn(|a| if a < D::N { min[a] } else { 0.0 }),
+        widest,
+    }
+}
+
+/// Update-stress-last: the contact forces' kick of each node's velocity and acceleration
+/// (Newmark's corrector applies them itself).
+fn kick_nodes<D: Dim>(
+    (velocity, acceleration): (&mut [NodeVelocity<D>], &mut [NodeAcceleration<D>]),
+    (node_mass, contact): (&[NodeMass], &[NodeContactForce<D>]),
+    dt: f64,
+) {
+    velocity
+        .par_iter_mut()
+        .zip(acceleration.par_iter_mut())
+        .zip(node_mass.par_iter().zip(contact.par_iter()))
+        .for_each(|((v, a), (m, f))| {
+            for k in 0..MAX_FIELDS {
+                if m.0[k] > 0.0 {
+                    v.0[k] += f.0[k] * (dt / m.0[k]);
+                    a.0[k] += f.0[k] / m.0[k];
+                }
+            }
+        });
 }
 
 #[cfg(test)]

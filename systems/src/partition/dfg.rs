@@ -408,9 +408,17 @@ pub fn dfg_partition<D: Spatial>(
     let Some((fields, mut stats)) = single_table(nodes.contiguous_iter_mut(), "nodes") else {
         return;
     };
-    let c = &*connectivity;
-    // Only a node with two fields or more has a pair to separate.
-    let stats: &mut [NodeFieldDamage] = &mut stats;
+    node_field_damage(&connectivity, (fields, mass, effective), &mut stats);
+}
+
+/// Each node's damage statistics per velocity field (Algorithm 2's inputs) from the
+/// particles' mass-weighted effective damage; only a node with two fields or more has a pair
+/// to separate.
+fn node_field_damage<D: Dim>(
+    c: &Connectivity<D>,
+    (fields, mass, effective): (&[NodeFields], &[Mass], &[f64]),
+    stats: &mut [NodeFieldDamage],
+) {
     stats.par_iter_mut().enumerate().for_each(|(node, out)| {
         match c.node_offsets.get(node..node + 2) {
             Some(&[from, to]) if fields[node].count >= 2 => {

@@ -2,7 +2,7 @@
 //! resource and resource saved to postcard bytes and loaded (or picked, row by row, for a
 //! rank's arrivals) back into a world.
 
-use super::state::{CheckpointError, KEEP_ROW, RowState, State};
+use super::keys::{CheckpointError, KEEP_ROW, RowState, State};
 use crate::components::Particle;
 use bevy_ecs::prelude::*;
 

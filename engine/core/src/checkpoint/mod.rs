@@ -18,12 +18,15 @@
 //! matched by [`ParticleId`](crate::components::ParticleId); particles removed on leaving the grid are removed again in the
 //! order they went, so the storage order, and with it every sum's order, is the original.
 //!
-//! - [`state`]: what is carried ([`State`] and its keys, [`CheckpointState`]) and the capture
-//!   and restore of a world;
+//! - `keys.rs`: what can be carried ([`State`], [`RowState`]) and the keys of the engine's
+//!   own state; [`state`]: what a world carries ([`CheckpointState`]) and the capture and
+//!   restore of a world;
 //! - the checkpoint file (format, digest, names, writing and reading) and resuming a run from
 //!   it belong to `fractum-io` (`fractum_io::checkpoint`, `fractum_io::run::resume_from`).
 
 mod codecs;
+mod keys;
 pub mod state;
 
+pub use keys::*;
 pub use state::*;

@@ -41,7 +41,7 @@ impl<D: Dim> WorldBuilder<'_, D> {
             let scales = strength_scales(body, &bundles);
             let entities = templates.spawn(world, bundles);
             for (k, scale) in scales {
-                // Spawned with a scale of 1 (`Estimator::probe_pipeline`): set in place, in the
+                // Spawned with a scale of 1 (`probe::probe_pipeline`): set in place, in the
                 // same table.
                 if let Some(mut given) =
                     world.get_mut::<fractum_engine::components::StrengthScale>(entities[k])

@@ -7,8 +7,10 @@
 
 mod bodies;
 mod outputs;
+pub(crate) mod probe;
 mod ranks;
 mod regions;
+mod resources;
 
 use super::SceneError;
 use super::estimate::{Estimator, Probed};
@@ -18,15 +20,13 @@ use super::spec::{Built, PipelineSummary, SceneSummary, Spec};
 use super::world_checks::WorldChecks;
 use bevy_ecs::prelude::World;
 use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule};
-use fractum_engine::boundary::{BoundaryConditions, Reactions};
-use fractum_engine::connectivity::Connectivity;
+use fractum_engine::boundary::BoundaryConditions;
 use fractum_engine::decomposition::{Layout, Ownership};
-use fractum_engine::dim::{Dim, VectorOps};
+use fractum_engine::dim::Dim;
 use fractum_engine::health::{LeaveGrid, mark_escaped_particles, remove_escaped_particles};
 use fractum_engine::loads::{ParticleLoads, apply_loads};
 use fractum_engine::registry::Registry;
 use fractum_engine::registry::templates::ComponentTemplates;
-use fractum_engine::resources::{BodyForce, Materials, SimClock, Thickness};
 use fractum_engine::series::SeriesColumns;
 use fractum_engine::simulation::{Simulation, add_stage_checks, step_schedule};
 use fractum_engine::stage::{Stage, StageCheck, StepSet};
@@ -75,7 +75,7 @@ impl<'r, D: Dim> WorldBuilder<'r, D> {
             available,
             seeds,
             probe,
-        } = self.estimator().seeded_and_probed(self.registry, ranks)?;
+        } = probe::seeded_and_probed(&self.spec, self.registry, ranks)?;
         let plan = match rank {
             Some((rank, ranks, layout)) => {
                 Some(self.rank_plan(&seeds, &probe, rank, ranks, layout)?)
@@ -140,7 +140,7 @@ impl<'r, D: Dim> WorldBuilder<'r, D> {
     }
 
     /// The world with the pipeline installed, each entity spawned with the components the
-    /// pipeline gives it (`templates`, recorded by [`Estimator::probe_pipeline`]; why:
+    /// pipeline gives it (`templates`, recorded by [`probe::probe_pipeline`]; why:
     /// `registry/templates.rs`), each body's particles from its `seeds`.
     fn spawn_and_install(
         &self,
@@ -183,7 +183,7 @@ impl<'r, D: Dim> WorldBuilder<'r, D> {
             let ownership = self.ownership(&mut world, plan);
             world.insert_resource(ownership);
         }
-        insert_scene_resources(&self.spec, &mut world, loads)?;
+        resources::insert_scene_resources(&self.spec, &mut world, loads)?;
         if let Some(nodes) = world.get_resource::<Ownership>().map(|o| o.nodes.clone()) {
             // Each rank measures the reactions at the nodes it owns.
             world.resource_mut::<BoundaryConditions>().measured_nodes = Some(nodes);
@@ -282,29 +282,4 @@ impl<'r, D: Dim> WorldBuilder<'r, D> {
             time_step: Some(self.spec.time_step),
         }
     }
-}
-
-/// The resources every world of the scene has, its particles' `loads` among them.
-pub(crate) fn insert_scene_resources<D: Dim>(
-    spec: &Spec<D>,
-    world: &mut World,
-    loads: ParticleLoads<D>,
-) -> Result<(), SceneError> {
-    let boundaries = regions::boundary_conditions(spec)?;
-    world.insert_resource(spec.grid.clone());
-    world.insert_resource(D::DIMENSION);
-    world.insert_resource(Thickness(spec.thickness));
-    world.insert_resource(loads);
-    world.insert_resource(Materials(spec.materials.clone()));
-    world.insert_resource(BodyForce::<D>(spec.body_force));
-    world.insert_resource(Reactions::<D>(vec![
-        D::Vector::ZERO;
-        boundaries.regions.len()
-    ]));
-    world.insert_resource(boundaries);
-    world.insert_resource(SimClock::default());
-    world.insert_resource(spec.on_leave_grid);
-    world.init_resource::<Connectivity<D>>();
-    fractum_io::checkpoint::carry_engine_state::<D>(world);
-    Ok(())
 }

@@ -4,6 +4,7 @@
 
 use super::{Built, Spec};
 use crate::build::WorldBuilder;
+use crate::build::probe::seeded_and_probed;
 use crate::check::{Checks, quoted};
 use crate::estimate::{Estimate, Estimator};
 use crate::validate::Validator;
@@ -34,7 +35,8 @@ impl<D: Dim> Spec<D> {
         registry: &Registry,
         ranks: Option<usize>,
     ) -> Result<Estimate, SceneError> {
-        Estimator::new(&self).estimate(registry, ranks)
+        let probed = seeded_and_probed(&self, registry, ranks.unwrap_or(1))?;
+        Estimator::new(&self).estimate(probed, ranks)
     }
 
     /// Checks the spec, builds the world and the step schedule with systems from `registry`,

@@ -1,0 +1,104 @@
+//! What a checkpoint can carry: the [`State`] and [`RowState`] traits, the keys of the
+//! engine's own state, and the errors of capturing and restoring it.
+
+use bevy_ecs::prelude::Resource;
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+
+/// Data a checkpoint can carry: serde both ways, safe to share between threads, and stored
+/// under an explicit [`State::KEY`].
+pub trait State: Serialize + DeserializeOwned + Send + Sync + 'static {
+    /// The name the value is stored under: stable across builds and compilers (never derived
+    /// from the type's Rust path), unique among everything a run carries. Stock keys are
+    /// `particle/…`, `engine/…` and `<system>/…`; a user's crate should prefix its own.
+    const KEY: &'static str;
+}
+
+/// A carried resource that keeps a value per particle row (a Newton warm start, a cached
+/// neighbour list): in a distributed run, each row's value goes with its particle to the ranks
+/// that hold it ([`CheckpointState::row_resource`](super::CheckpointState::row_resource)). Rows are storage rows, the rows of every
+/// particle slice.
+pub trait RowState: Resource<Mutability = bevy_ecs::component::Mutable> + State {
+    /// What one row carries to another rank (`()` for a cache that is simply rebuilt).
+    type Row: Serialize + DeserializeOwned;
+
+    /// Row `row`'s value.
+    fn row(&self, row: usize) -> Self::Row;
+
+    /// Makes `rows` the rows, in order: the particles' rows after they were rebuilt. Cached
+    /// data that is not carried must be marked for rebuilding here.
+    fn set_rows(&mut self, rows: Vec<Self::Row>);
+}
+
+/// Implements [`State`] for types with explicit keys: `checkpoint_keys! { MyTotal => "my/total" }`.
+/// A generic type is written out by hand (`impl<D: Dim> State for MyState<D> { … }`).
+#[macro_export]
+macro_rules! checkpoint_keys {
+    ($($ty:ty => $key:literal),* $(,)?) => {
+        $(impl $crate::checkpoint::State for $ty {
+            const KEY: &'static str = $key;
+        })*
+    };
+}
+
+/// Implements [`State`] for generic-over-`D` engine types.
+macro_rules! dim_keys {
+    ($($ty:ident => $key:literal),* $(,)?) => {
+        $(impl<D: crate::dim::Dim> State for crate::components::$ty<D> {
+            const KEY: &'static str = $key;
+        })*
+    };
+}
+
+dim_keys! {
+    Position => "particle/position",
+    Velocity => "particle/velocity",
+    Acceleration => "particle/acceleration",
+    DeformationGradient => "particle/deformation_gradient",
+    Stress => "particle/stress",
+    Strain => "particle/strain",
+    ExternalForce => "particle/external_force",
+    DamageGradient => "particle/damage_gradient",
+}
+
+checkpoint_keys! {
+    crate::components::Mass => "particle/mass",
+    crate::components::Volume => "particle/volume",
+    crate::components::InitialVolume => "particle/initial_volume",
+    crate::components::StrainEnergyDensity => "particle/strain_energy_density",
+    crate::components::WaveSpeed => "particle/wave_speed",
+    crate::components::Damage => "particle/damage",
+    crate::components::DamageHistory => "particle/damage_history",
+    crate::components::MaterialId => "particle/material",
+    crate::components::BodyId => "particle/body",
+    crate::components::ContactGroup => "particle/contact_group",
+    crate::components::Strength => "particle/strength",
+    crate::components::CrackOpening => "particle/crack_opening",
+    crate::components::SurfaceFlag => "particle/surface_flag",
+    crate::loads::LoadShare => "particle/load_share",
+    crate::resources::SimClock => "engine/clock",
+    crate::energy::EnergyAccount => "engine/energy_account",
+    crate::energy::EnergyWatch => "engine/energy_watch",
+    crate::series::ForceProbeMemory => "engine/force_probes",
+    crate::health::EscapedParticles => "engine/escaped_particles",
+    crate::series::SeriesColumns => "engine/series_columns",
+}
+
+/// Why a checkpoint could not be written or restored.
+#[derive(Debug, thiserror::Error)]
+pub enum CheckpointError {
+    /// A value could not be encoded or decoded.
+    #[error("cannot encode or decode {what}: {source}")]
+    Codec {
+        /// The component or resource.
+        what: String,
+        /// The cause.
+        source: postcard::Error,
+    },
+    /// The checkpoint does not fit the world rebuilt from the scene.
+    #[error("{0}")]
+    Mismatch(String),
+}
+
+/// A pick ([`CheckpointState::load_picked_rows`](super::CheckpointState::load_picked_rows)) that leaves its row as it is.
+pub const KEEP_ROW: (u32, u32) = (u32::MAX, u32::MAX);
