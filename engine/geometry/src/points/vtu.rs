@@ -166,7 +166,7 @@ fn piece_columns(
     let coordinates = points
         .first()
         .ok_or_else(|| fail(line_of(text, points_from), "Points without a DataArray"))?
-        .values(text, &encoding, count)?;
+        .values(text, encoding, count)?;
     let data = match section("PointData") {
         Some((a, b)) => arrays(text, a, b)?,
         None => Vec::new(),
@@ -188,10 +188,10 @@ fn piece_columns(
             ),
         ));
     };
-    let volumes = volume.values(text, &encoding, count)?;
+    let volumes = volume.values(text, encoding, count)?;
     let optional = |name: &str| -> Result<Option<Vec<f64>>, FileError> {
         named(name)
-            .map(|a| a.values(text, &encoding, count))
+            .map(|a| a.values(text, encoding, count))
             .transpose()
     };
     let velocities = optional("velocity")?;
