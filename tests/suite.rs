@@ -14,6 +14,7 @@ mod distributed;
 mod distributed_run;
 mod edge_cracked_panel;
 mod fracture;
+mod house_rules;
 mod images;
 mod materials;
 mod meshes;

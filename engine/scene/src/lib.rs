@@ -3,7 +3,7 @@
 //!
 //! A [`Spec`] is plain data (`spec/`); its verbs hand it to the phase that does the work, each
 //! an object over the spec in its own files:
-//! - `format.rs`: the file format, plain serde structs;
+//! - `format/`: the file format, plain serde structs;
 //! - `validate/`: the validator, file → [`Spec`] for the scene's dimension (coordinates,
 //!   shapes and axes that fit the dimension; errors at file:line:col);
 //! - `check.rs`: the checks that need no world (every value in range, every name resolved),

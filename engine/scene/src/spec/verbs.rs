@@ -14,7 +14,7 @@ use fractum_engine::dim::Dim;
 use fractum_engine::registry::Registry;
 
 /// What a spec is checked and built by: each verb hands the spec to the phase that does it
-/// (`validate.rs`, `check.rs`, `estimate.rs`, `build/`).
+/// (`validate/`, `check.rs`, `estimate.rs`, `build/`).
 impl<D: Dim> Spec<D> {
     /// Reads a scene file of this dimension into a spec: the file's values validated, each error
     /// at the file's line and column.
