@@ -1,9 +1,11 @@
-//! From a checked [`Spec`] to a [`Simulation`]: the world builder. It spawns the nodes and the
-//! bodies' particles (`bodies.rs`), resolves the boundary regions (`regions.rs`), plans the
-//! frames, series and probes (`outputs.rs`), cuts a distributed run's world to a rank
-//! (`ranks.rs`), and adds the engine's own systems. The pipeline is installed by
-//! `pipeline.rs`; what only the built world can tell is checked by `world_checks.rs`; the
-//! seeds and the memory come from the estimator (`estimate.rs`).
+//! From a checked [`Spec`] to a [`Simulation`]: the world builder. It seeds the bodies and
+//! probes the pipeline on a sample world (`probe.rs`, which the estimator starts from too),
+//! spawns the nodes and the bodies' particles (`bodies.rs`) into a world with the scene's
+//! resources (`resources.rs`), resolves the boundary regions (`regions.rs`), plans the frames,
+//! series and probes (`outputs.rs`), cuts a distributed run's world to a rank (`ranks.rs`),
+//! and adds the engine's own systems. The pipeline is installed by `pipeline.rs`; what only
+//! the built world can tell is checked by `world_checks.rs`; the memory and a rank's slabs
+//! come from the estimator (`estimate.rs`).
 
 mod bodies;
 mod outputs;
