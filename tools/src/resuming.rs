@@ -147,7 +147,7 @@ fn say_resuming(out_dir: &Path, sim: &fractum_engine::Simulation, from: &Path) {
 
 /// `fractum resume` as one of the ranks of `comm`, from the newest checkpoint of a run over as
 /// many ranks: each rank restores its own piece into its part of the scene, rank 0 winds the
-/// outputs back, and the ranks go on together ([`run_ranks`]).
+/// outputs back, and the ranks go on together ([`run_ranks`](crate::running::run_ranks)).
 pub fn resume_ranks(
     out_dir: &Path,
     settings: &RunSettings,

@@ -127,7 +127,7 @@ impl CheckpointState {
     /// Component by component into each column when every particle has the component, entity
     /// by entity otherwise. With `same_rows` (every row holds the particle it held), the
     /// [`RowState`] resources keep their rows as they are: their cached lists stay valid; and a
-    /// row picked as [`KEEP_ROW`] keeps its components.
+    /// row picked as [`KEEP_ROW`](super::KEEP_ROW) keeps its components.
     pub fn load_picked_rows(
         &self,
         world: &mut World,
