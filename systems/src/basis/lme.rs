@@ -23,10 +23,10 @@
 //! - Writes the [`Connectivity`] tables; keeps λ and the candidate lists in [`LmeState`].
 
 use super::lme_graded::graded_rows;
-use super::lme_kernel::{LmeSettings, lme_row_map, lme_solve, support_radius};
+use super::lme_kernel::{LmeSettings, largest_locality, lme_row_map, lme_solve, support_radius};
 pub use super::lme_rows::{
     LmeParams, LmeRow, LmeState, NodeCloud, RowScratch, RowSlices, Solved, keep_solutions,
-    non_convergence, write_nodes_and_values, write_row,
+    non_convergence, too_few_nodes, write_nodes_and_values, write_row,
 };
 use crate::spatial::Spatial;
 use fractum_engine::budget::cells_in_ball;
@@ -44,7 +44,9 @@ pub const REGISTRATION: Registration = Registration {
             name: "gamma",
             ty: "f64",
             default: Some("3.5"),
-            doc: "dimensionless locality γ̂ = β h²; larger is more local (→ linear as γ̂ → ∞)",
+            doc: "dimensionless locality γ̂ = β h²; larger is more local (→ linear as γ̂ → ∞); at most \
+                  −ln(support_tolerance) / (1 + (d − 1)/4), 11.05 in 2D and 9.21 in 3D at the \
+                  default tolerance, so that every particle lies inside its nodes' hull",
         },
         ParamDoc {
             name: "support_tolerance",
@@ -85,9 +87,20 @@ fn install<D: Spatial>(installer: &mut Installer, params: &Params) -> Result<(),
     if parsed.max_iterations == 0 {
         return Err(params.error("max_iterations", "expected at least 1"));
     }
+    let d = installer.dimension().count();
+    let largest = largest_locality(d, parsed.support_tolerance);
+    params.require(
+        "gamma",
+        parsed.gamma <= largest,
+        &format!(
+            "expected γ̂ ≤ {largest:.3} in {d}D with support_tolerance {:e}: a larger γ̂ \
+             shrinks the support, r = h √(−ln tol / γ̂), below the √(1 + (d − 1)/4) h that keeps \
+             every particle inside the convex hull of its nodes, where the LME weights exist",
+            parsed.support_tolerance
+        ),
+    )?;
     // The support radius in cells of the smallest width, r/h = √(−ln tol / γ̂); its nodes are
     // the connectivity, and the candidate lists hold those within the radius plus the skin.
-    let d = installer.dimension().count();
     let reach = support_radius(parsed.gamma, parsed.support_tolerance);
     let nodes = cells_in_ball(d, reach);
     let candidates = cells_in_ball(d, 1.25 * reach);
@@ -159,6 +172,9 @@ pub fn particle_row<D: Spatial>(
         }
     }
     debug_assert_eq!(scratch.support.len(), nodes.len());
+    if let Some(message) = too_few_nodes::<D>(scratch.positions.len()) {
+        return Err(message);
+    }
     match lme_solve::<D>(
         x,
         &scratch.positions,
@@ -537,6 +553,32 @@ mod tests {
             let x = DVec2::new(0.02 + u * (lx - 0.04), 0.02 + v * (ly - 0.04));
             graded_rows_are_consistent(grid, &[x], gamma);
         }
+    }
+
+    /// A support that holds too few nodes (here γ̂ = 1000, past the range the install
+    /// allows, which a fuzzed scene once used) stops the run naming the particle, instead of
+    /// leaving it without weights and still.
+    #[test]
+    fn a_particle_with_too_few_nodes_in_its_support_stops_the_run_naming_it() {
+        let mut world = tiny_world::<Two>(4, 0.25, 1e-3);
+        world.insert_resource(LmeParams {
+            gamma: 1000.0,
+            ..LmeParams::default()
+        });
+        world.insert_resource(LmeState::<Two>::default());
+        spawn_particle(&mut world, DVec2::new(0.3, 0.4), DVec2::ZERO, 1.0, 0.01);
+        run_system(&mut world, lme_basis::<Two>);
+        let failure = world
+            .resource::<Health>()
+            .failure
+            .clone()
+            .expect("a failure");
+        assert_eq!(failure.stage, Stage::Basis);
+        assert!(
+            failure.message.starts_with("particle 0 at (3e-1, 4e-1): only 0 grid node(s)"),
+            "{}",
+            failure.message
+        );
     }
 
     #[test]

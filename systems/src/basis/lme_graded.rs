@@ -9,7 +9,7 @@
 use super::lme_kernel::{LmeSettings, lme_gradient, lme_solve, support_radius};
 use super::lme_rows::{
     LmeParams, LmeState, NodeCloud, RowScratch, RowSlices, Solved, keep_solutions, non_convergence,
-    write_row,
+    too_few_nodes, write_row,
 };
 use crate::spatial::Spatial;
 use fractum_engine::prelude::*;
@@ -66,6 +66,9 @@ fn graded_row<D: Spatial>(
             scratch.support.push(i);
             scratch.positions.push((xi - x) / scale);
         }
+    }
+    if let Some(message) = too_few_nodes::<D>(scratch.positions.len()) {
+        return Err(message);
     }
     let (lambda, j_inverse, _) = lme_solve::<D>(
         D::Vector::ZERO,

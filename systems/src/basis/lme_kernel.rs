@@ -374,9 +374,41 @@ pub fn support_radius(beta: f64, tolerance: f64) -> f64 {
     (-tolerance.ln() / beta).sqrt()
 }
 
+/// The largest locality γ̂ for which every particle of a uniform grid in `dimensions`
+/// dimensions lies inside the convex hull of the nodes in its support (truncated at
+/// `tolerance`), which the LME weights need. The hardest place is beside a node on a cell's
+/// edge, half a cell from its ends: in the cell's own units it needs a node one cell across and
+/// half a cell along each other axis, at √(1 + (d − 1)/4) (1 in 1D, √1.25 in 2D, √1.5 in 3D);
+/// the support radius √(−ln tol / γ̂) ([`support_radius`] with β = γ̂) reaches it while
+/// γ̂ ≤ −ln tol / (1 + (d − 1)/4).
+pub fn largest_locality(dimensions: usize, tolerance: f64) -> f64 {
+    -tolerance.ln() / (1.0 + (dimensions as f64 - 1.0) / 4.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// At the largest locality the support of a particle beside a node on a cell's edge still
+    /// reaches a node across the cell (it lies inside its nodes' hull); a little more locality
+    /// and it does not.
+    #[test]
+    fn the_largest_locality_keeps_an_edge_particle_inside_its_nodes() {
+        let tolerance = 1e-6;
+        for d in 1..=3usize {
+            let largest = largest_locality(d, tolerance);
+            // The particle at (ε, ½, ½, …) in cell units; the nearest node with a larger x.
+            let epsilon: f64 = 1e-9;
+            let across = ((1.0 - epsilon).powi(2) + (d - 1) as f64 * 0.25).sqrt();
+            assert!(
+                support_radius(largest * (1.0 - 1e-6), tolerance) >= across,
+                "{d}D"
+            );
+            assert!(support_radius(largest * 1.01, tolerance) < across, "{d}D");
+        }
+        assert!((largest_locality(2, 1e-6) - 11.052).abs() < 1e-3);
+        assert!((largest_locality(3, 1e-6) - 9.210).abs() < 1e-3);
+    }
     use fractum_engine::dim::lattice_range;
     use fractum_engine::prelude::{DMat2, DVec2, DVec3, Lattice, Three, Two};
     use proptest::prelude::*;

@@ -202,6 +202,19 @@ pub fn keep_solutions<D: Dim>(
     Ok(())
 }
 
+/// Why a row of `count` nodes cannot be solved, when it has fewer than the `D + 1` a particle
+/// needs around it (the LME weights exist only inside the convex hull of the nodes): none, when
+/// it has enough. Without this check a row of no node solves trivially to no weights, and the
+/// particle silently stops moving.
+pub fn too_few_nodes<D: Dim>(count: usize) -> Option<String> {
+    (count <= D::N).then(|| {
+        format!(
+            "only {count} grid node(s) lie within the LME support, and a particle needs at least              {} around it (it must lie inside their convex hull): the support is too small for              the grid (lower `gamma` or `support_tolerance`), or the particle is outside the grid",
+            D::N + 1
+        )
+    })
+}
+
 /// The message of a solve that did not converge.
 pub fn non_convergence(f: &super::lme_kernel::LmeFailure) -> String {
     format!(
