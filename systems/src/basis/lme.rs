@@ -575,7 +575,9 @@ mod tests {
             .expect("a failure");
         assert_eq!(failure.stage, Stage::Basis);
         assert!(
-            failure.message.starts_with("particle 0 at (3e-1, 4e-1): only 0 grid node(s)"),
+            failure
+                .message
+                .starts_with("particle 0 at (3e-1, 4e-1): only 0 grid node(s)"),
             "{}",
             failure.message
         );
