@@ -375,6 +375,17 @@ mod tests {
     }
     use fractum_engine::testing::*;
 
+    /// The failure the run stopped with, which must be the basis stage's.
+    fn basis_failure(world: &World) -> Blowup {
+        let failure = world
+            .resource::<Health>()
+            .failure
+            .clone()
+            .expect("a failure");
+        assert_eq!(failure.stage, Stage::Basis);
+        failure
+    }
+
     /// Runs `basis/lme` alone on a tiny world with particles at `xs` and checks each row.
     fn rows_are_consistent<D: Spatial>(xs: &[D::Vector], support: std::ops::RangeInclusive<usize>)
     where
@@ -521,12 +532,7 @@ mod tests {
         spawn_particle(&mut world, DVec2::new(0.3, 0.2), DVec2::ZERO, 1.0, 0.01);
         spawn_particle(&mut world, DVec2::new(-0.02, 0.2), DVec2::ZERO, 1.0, 0.01);
         run_system(&mut world, lme_basis::<Two>);
-        let failure = world
-            .resource::<Health>()
-            .failure
-            .clone()
-            .expect("a failure");
-        assert_eq!(failure.stage, Stage::Basis);
+        let failure = basis_failure(&world);
         assert!(
             failure.message.starts_with("particle 1 at (-2e-2, 2e-1): "),
             "{}",
@@ -568,12 +574,7 @@ mod tests {
         world.insert_resource(LmeState::<Two>::default());
         spawn_particle(&mut world, DVec2::new(0.3, 0.4), DVec2::ZERO, 1.0, 0.01);
         run_system(&mut world, lme_basis::<Two>);
-        let failure = world
-            .resource::<Health>()
-            .failure
-            .clone()
-            .expect("a failure");
-        assert_eq!(failure.stage, Stage::Basis);
+        let failure = basis_failure(&world);
         assert!(
             failure
                 .message
@@ -591,12 +592,7 @@ mod tests {
         spawn_particle(&mut world, DVec2::new(0.5, 0.5), DVec2::ZERO, 1.0, 0.01);
         spawn_particle(&mut world, DVec2::new(-0.01, -0.01), DVec2::ZERO, 1.0, 0.01);
         run_system(&mut world, lme_basis::<Two>);
-        let failure = world
-            .resource::<Health>()
-            .failure
-            .clone()
-            .expect("a failure");
-        assert_eq!(failure.stage, Stage::Basis);
+        let failure = basis_failure(&world);
         assert!(
             failure
                 .message
