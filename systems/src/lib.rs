@@ -23,6 +23,7 @@ pub mod transfer;
 pub const ALL: &[Registration] = &[
     neighbour::kdtree::REGISTRATION,
     neighbour::node_linked::REGISTRATION,
+    basis::bspline::REGISTRATION,
     basis::gimp::REGISTRATION,
     basis::linear::REGISTRATION,
     basis::lme::REGISTRATION,

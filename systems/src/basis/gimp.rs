@@ -24,6 +24,7 @@
 //!   `Σ ∇S̄ = 0`, `Σ x_I ⊗ ∇S̄_I = I`). A particle whose support would reach past the grid stops
 //!   the run with a message naming it.
 
+use super::tensor::{AxisFactors, Row, axis_factors, tensor_row, write_tensor_row};
 use fractum_engine::health::{Blowup, Health, fmt_vector};
 use fractum_engine::prelude::*;
 
@@ -79,106 +80,17 @@ pub fn half_width(initial_volume: f64, thickness: f64, dimensions: usize, h: f64
     super::domain_half_width(initial_volume, thickness, dimensions).min(0.5 * h)
 }
 
-/// One particle's connectivity row: `(node, S̄, ∇S̄)` per node.
-pub type Row<D> = Vec<(u32, f64, <D as Dim>::Vector)>;
-
 /// The GIMP row of a particle at `x` with half-width `l` (an allocating convenience over
-/// [`gimp_axes`] and [`write_gimp_row`]).
+/// [`gimp_axes`] and [`write_tensor_row`]).
 pub fn gimp_row<D: Dim>(grid: &Grid<D>, x: D::Vector, l: f64) -> Result<Row<D>, usize> {
-    let axes = gimp_axes(grid, x, l)?;
-    let width = axes.width(D::N);
-    let mut nodes = vec![0; width];
-    let mut weights = vec![0.0; width];
-    let mut gradients = vec![D::Vector::ZERO; width];
-    write_gimp_row(grid, &axes, (&mut nodes, &mut weights, &mut gradients));
-    Ok(nodes
-        .into_iter()
-        .zip(weights)
-        .zip(gradients)
-        .map(|((i, w), g)| (i, w, g))
-        .collect())
-}
-
-/// Along each axis, the nodes with a positive weight (two or three, consecutive): lattice index,
-/// `S` and `dS/dr`.
-#[derive(Clone, Copy, Debug)]
-pub struct GimpAxes {
-    nodes: [[(usize, f64, f64); 3]; 3],
-    count: [usize; 3],
-}
-
-impl GimpAxes {
-    /// Entries of the row: the product of the per-axis counts.
-    pub fn width(&self, dimensions: usize) -> usize {
-        self.count[..dimensions].iter().product()
-    }
+    Ok(tensor_row(grid, &gimp_axes(grid, x, l)?))
 }
 
 /// The per-axis factors of the GIMP row of a particle at `x` with half-width `l`, or the first
-/// axis along which the support leaves the grid.
-pub fn gimp_axes<D: Dim>(grid: &Grid<D>, x: D::Vector, l: f64) -> Result<GimpAxes, usize> {
+/// axis along which the support leaves the grid: two or three nodes per axis.
+pub fn gimp_axes<D: Dim>(grid: &Grid<D>, x: D::Vector, l: f64) -> Result<AxisFactors, usize> {
     let h = grid.spacing;
-    let nodes = grid.nodes_per_axis();
-    let mut axes = GimpAxes {
-        nodes: [[(0usize, 0.0, 0.0); 3]; 3],
-        count: [0; 3],
-    };
-    for a in 0..D::N {
-        let s = (x[a] - grid.min[a]) / h;
-        let low = (s - (1.0 + l / h)).ceil() as isize;
-        for k in 0..3 {
-            let node = low + k as isize;
-            let r = x[a] - (grid.min[a] + node as f64 * h);
-            let (weight, slope) = gimp_1d(r, h, l);
-            if weight > 0.0 {
-                if node < 0 || node as usize >= nodes[a] {
-                    return Err(a);
-                }
-                axes.nodes[a][axes.count[a]] = (node as usize, weight, slope);
-                axes.count[a] += 1;
-            }
-        }
-        if axes.count[a] == 0 {
-            break;
-        }
-    }
-    Ok(axes)
-}
-
-/// Writes the tensor product of `axes` (first axis fastest, lattice order) into a row of
-/// `axes.width()` entries: node, `S̄`, `∇S̄`.
-pub fn write_gimp_row<D: Dim>(
-    grid: &Grid<D>,
-    axes: &GimpAxes,
-    (nodes, weights, gradients): (&mut [u32], &mut [f64], &mut [D::Vector]),
-) {
-    if axes.width(D::N) == 0 {
-        return;
-    }
-    let axis = &axes.nodes;
-    let mut digit = [0usize; 3];
-    for k in 0.. {
-        weights[k] = (0..D::N).fold(1.0, |w, a| w * axis[a][digit[a]].1);
-        gradients[k] = D::Vector::from_fn(|a| {
-            (0..D::N).fold(1.0, |g, b| {
-                let (_, s, ds) = axis[b][digit[b]];
-                g * if b == a { ds } else { s }
-            })
-        });
-        nodes[k] = grid.node_index(D::Cell::from_fn(|a| axis[a][digit[a]].0)) as u32;
-        let mut a = 0;
-        loop {
-            digit[a] += 1;
-            if digit[a] < axes.count[a] {
-                break;
-            }
-            digit[a] = 0;
-            a += 1;
-            if a == D::N {
-                return;
-            }
-        }
-    }
+    axis_factors(grid, x, 1.0 + l / h, |r| gimp_1d(r, h, l))
 }
 
 /// The `basis/gimp` system: rebuilds the connectivity for the current positions.
@@ -206,7 +118,7 @@ pub fn gimp_basis<D: Dim>(
         || (),
         |_, p, nodes, weights, gradients| {
             let axes = axes(p)?;
-            write_gimp_row(grid, &axes, (nodes, weights, gradients));
+            write_tensor_row(grid, &axes, (nodes, weights, gradients));
             Ok(())
         },
     );

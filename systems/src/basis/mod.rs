@@ -1,10 +1,12 @@
 //! Basis stage: shape functions and particle–node connectivity.
+pub mod bspline;
 pub mod gimp;
 pub mod linear;
 pub mod lme;
 mod lme_graded;
 pub mod lme_kernel;
 pub mod lme_rows;
+pub mod tensor;
 
 use fractum_engine::budget::{connectivity_entry_bytes, describe_count};
 use fractum_engine::prelude::*;

@@ -1,0 +1,116 @@
+//! Rows of tensor-product shape functions on a uniform grid: along each axis a few consecutive
+//! nodes with their one-dimensional weight and slope, and the row their product makes. Shared
+//! by `basis/gimp` and `basis/bspline`, which differ only in the one-dimensional function.
+
+use fractum_engine::prelude::*;
+
+/// Most nodes along one axis of a row (a cubic B-spline's four).
+pub const MAX_AXIS_NODES: usize = 4;
+
+/// Along each axis, the nodes with a positive weight (consecutive): lattice index, weight `S`
+/// and slope `dS/dr`.
+#[derive(Clone, Copy, Debug)]
+pub struct AxisFactors {
+    nodes: [[(usize, f64, f64); MAX_AXIS_NODES]; 3],
+    count: [usize; 3],
+}
+
+impl AxisFactors {
+    /// Entries of the row: the product of the per-axis counts.
+    pub fn width(&self, dimensions: usize) -> usize {
+        self.count[..dimensions].iter().product()
+    }
+}
+
+/// The per-axis factors of the row of a particle at `x` on uniform `grid`, from the
+/// one-dimensional function `shape(r) = (S, dS/dr)` of the signed distance `r` from a node,
+/// which is zero from `reach` cells on; or the first axis along which the support leaves the
+/// grid.
+pub fn axis_factors<D: Dim>(
+    grid: &Grid<D>,
+    x: D::Vector,
+    reach: f64,
+    shape: impl Fn(f64) -> (f64, f64),
+) -> Result<AxisFactors, usize> {
+    let h = grid.spacing;
+    let nodes = grid.nodes_per_axis();
+    let mut factors = AxisFactors {
+        nodes: [[(0usize, 0.0, 0.0); MAX_AXIS_NODES]; 3],
+        count: [0; 3],
+    };
+    let candidates = (2.0 * reach).ceil() as usize + 1;
+    for a in 0..D::N {
+        let s = (x[a] - grid.min[a]) / h;
+        let low = (s - reach).ceil() as isize;
+        for k in 0..candidates {
+            let node = low + k as isize;
+            let r = x[a] - (grid.min[a] + node as f64 * h);
+            let (weight, slope) = shape(r);
+            if weight > 0.0 && factors.count[a] < MAX_AXIS_NODES {
+                if node < 0 || node as usize >= nodes[a] {
+                    return Err(a);
+                }
+                factors.nodes[a][factors.count[a]] = (node as usize, weight, slope);
+                factors.count[a] += 1;
+            }
+        }
+        if factors.count[a] == 0 {
+            break;
+        }
+    }
+    Ok(factors)
+}
+
+/// Writes the tensor product of `factors` (first axis fastest, lattice order) into a row of
+/// `factors.width()` entries: node, weight, gradient.
+pub fn write_tensor_row<D: Dim>(
+    grid: &Grid<D>,
+    factors: &AxisFactors,
+    (nodes, weights, gradients): (&mut [u32], &mut [f64], &mut [D::Vector]),
+) {
+    if factors.width(D::N) == 0 {
+        return;
+    }
+    let axis = &factors.nodes;
+    let mut digit = [0usize; 3];
+    for k in 0.. {
+        weights[k] = (0..D::N).fold(1.0, |w, a| w * axis[a][digit[a]].1);
+        gradients[k] = D::Vector::from_fn(|a| {
+            (0..D::N).fold(1.0, |g, b| {
+                let (_, s, ds) = axis[b][digit[b]];
+                g * if b == a { ds } else { s }
+            })
+        });
+        nodes[k] = grid.node_index(D::Cell::from_fn(|a| axis[a][digit[a]].0)) as u32;
+        let mut a = 0;
+        loop {
+            digit[a] += 1;
+            if digit[a] < factors.count[a] {
+                break;
+            }
+            digit[a] = 0;
+            a += 1;
+            if a == D::N {
+                return;
+            }
+        }
+    }
+}
+
+/// One particle's connectivity row: `(node, weight, gradient)` per node.
+pub type Row<D> = Vec<(u32, f64, <D as Dim>::Vector)>;
+
+/// The row of `factors` as a vector (an allocating convenience for tests and tools).
+pub fn tensor_row<D: Dim>(grid: &Grid<D>, factors: &AxisFactors) -> Row<D> {
+    let width = factors.width(D::N);
+    let mut nodes = vec![0; width];
+    let mut weights = vec![0.0; width];
+    let mut gradients = vec![D::Vector::ZERO; width];
+    write_tensor_row(grid, factors, (&mut nodes, &mut weights, &mut gradients));
+    nodes
+        .into_iter()
+        .zip(weights)
+        .zip(gradients)
+        .map(|((i, w), g)| (i, w, g))
+        .collect()
+}
