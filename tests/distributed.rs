@@ -242,6 +242,13 @@ fn newmark_with_gimp_on_one_to_four_ranks_is_the_single_process_bit_for_bit() {
 }
 
 #[test]
+fn newmark_with_b_splines_on_one_to_four_ranks_is_the_single_process_bit_for_bit() {
+    // The quadratic splines reach 1½ cells: the halo the basis declares must hold them.
+    let splines = NEWMARK_GIMP.replace(r#"(system: "basis/gimp")"#, r#"(system: "basis/bspline")"#);
+    assert_ranks_match_serial(&splines, 300);
+}
+
+#[test]
 fn lme_with_neighbour_lists_on_one_to_four_ranks_is_the_single_process_bit_for_bit() {
     // LME's Newton warm starts go with their particles; its and the kd-tree's cached lists are
     // rebuilt on every rank after each step.
