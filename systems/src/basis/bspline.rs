@@ -202,6 +202,7 @@ pub fn bspline_basis<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::basis::tensor::assert_consistent_row;
     use crate::basis::tensor::tensor_row;
     use fractum_engine::testing::*;
 
@@ -217,20 +218,7 @@ mod tests {
         let params = BsplineParams { order };
         let row = tensor_row(grid, &spline_axes(grid, x, &params).unwrap());
         assert_eq!(row.len(), nodes, "{row:?}");
-        let sum: f64 = row.iter().map(|e| e.1).sum();
-        let first: D::Vector = row
-            .iter()
-            .map(|e| grid.node_position(e.0 as usize) * e.1)
-            .sum();
-        let grad_sum: D::Vector = row.iter().map(|e| e.2).sum();
-        let jacobian = row.iter().fold(D::Matrix::ZERO, |acc, e| {
-            acc + D::Matrix::outer(grid.node_position(e.0 as usize), e.2)
-        });
-        assert!((sum - 1.0).abs() < 1e-14, "{sum}");
-        assert!((first - x).length() < 1e-13);
-        assert!(grad_sum.length() < 1e-12);
-        assert!((jacobian - D::Matrix::IDENTITY).max_abs() < 1e-12);
-        assert!(row.iter().all(|e| e.1 > 0.0));
+        assert_consistent_row(grid, x, &row, 1e-13);
     }
 
     #[test]

@@ -114,3 +114,28 @@ pub fn tensor_row<D: Dim>(grid: &Grid<D>, factors: &AxisFactors) -> Row<D> {
         .map(|((i, w), g)| (i, w, g))
         .collect()
 }
+
+/// Test check of a row at `x`: partition of unity, linear reproduction (to `reproduction`),
+/// `Σ ∇N = 0`, `Σ x_I ⊗ ∇N_I = I`, and every weight positive.
+#[cfg(test)]
+pub fn assert_consistent_row<D: Dim>(
+    grid: &Grid<D>,
+    x: D::Vector,
+    row: &Row<D>,
+    reproduction: f64,
+) {
+    let sum: f64 = row.iter().map(|e| e.1).sum();
+    let first: D::Vector = row
+        .iter()
+        .map(|e| grid.node_position(e.0 as usize) * e.1)
+        .sum();
+    let grad_sum: D::Vector = row.iter().map(|e| e.2).sum();
+    let jacobian = row.iter().fold(D::Matrix::ZERO, |acc, e| {
+        acc + D::Matrix::outer(grid.node_position(e.0 as usize), e.2)
+    });
+    assert!((sum - 1.0).abs() < 1e-14, "{sum}");
+    assert!((first - x).length() < reproduction);
+    assert!(grad_sum.length() < 1e-12);
+    assert!((jacobian - D::Matrix::IDENTITY).max_abs() < 1e-12);
+    assert!(row.iter().all(|e| e.1 > 0.0));
+}
