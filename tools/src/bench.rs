@@ -28,6 +28,9 @@ pub enum BenchPipeline {
     LinearUsl,
     /// `basis/gimp` + update-stress-last + linear elasticity: the cost of GIMP's wider rows.
     GimpUsl,
+    /// `basis/bspline` (quadratic) + update-stress-last + linear elasticity: nine nodes per
+    /// particle in 2D, as GIMP's widest rows, always.
+    BsplineUsl,
     /// `basis/lme` (γ̂ = 3.5) + Newmark predictor-corrector + linear elasticity.
     LmeNewmark,
     /// `linear-usl` plus `neighbour/kdtree` and `damage/eigensoftening` (strength too high to
@@ -51,6 +54,7 @@ impl BenchPipeline {
         match self {
             BenchPipeline::LinearUsl => "linear+usl",
             BenchPipeline::GimpUsl => "gimp+usl",
+            BenchPipeline::BsplineUsl => "bspline+usl",
             BenchPipeline::LmeNewmark => "lme+newmark",
             BenchPipeline::KdtreeSoftening => "linear+usl+kdtree+eigensoftening",
             BenchPipeline::NodeLinkedSoftening => "linear+usl+node_linked+eigensoftening",
@@ -94,6 +98,7 @@ impl BenchPipeline {
             BenchPipeline::DfgContact => newmark(spec, true),
             BenchPipeline::LinearUsl => usl(spec),
             BenchPipeline::GimpUsl => usl_on(spec, "basis/gimp"),
+            BenchPipeline::BsplineUsl => usl_on(spec, "basis/bspline"),
             BenchPipeline::LmeNewmark => spec
                 .system_with("basis/lme", "(gamma: 3.5)")
                 .system("predictor/newmark")
@@ -452,6 +457,7 @@ mod tests {
         for pipeline in [
             BenchPipeline::LinearUsl,
             BenchPipeline::GimpUsl,
+            BenchPipeline::BsplineUsl,
             BenchPipeline::LmeNewmark,
             BenchPipeline::KdtreeSoftening,
             BenchPipeline::NodeLinkedSoftening,

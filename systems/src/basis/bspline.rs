@@ -17,17 +17,21 @@
 //!   shows damage where the stress never reached the strength.
 //! - Rows are partitions of unity that reproduce linear fields (`Σ N = 1`, `Σ N x_I = x_p`,
 //!   `Σ ∇N = 0`, `Σ x_I ⊗ ∇N_I = I`): the cardinal splines on a uniform lattice do.
-//! - The grid's edges: the splines are the uniform ones everywhere, none modified at the
-//!   boundary. The grid's outer cells are the ghost layer: every particle must stay ½ cell
-//!   (quadratic) or 1 cell (cubic) inside the grid, `(order − 1)/2`, so that every node its
-//!   support reaches exists; a particle whose support would leave the grid stops the run with a
-//!   message naming it. A body resting on a held boundary therefore needs the grid extended
-//!   past that boundary. A graded grid is refused (the splines here need one spacing).
+//! - The grid's edges: boundary-modified splines, as in the B-spline MPM literature (Steffen,
+//!   Kirby & Berzins 2008). The spline of a node one cell beyond the grid's face is folded
+//!   onto the face's nodes by linear extrapolation of the nodal field (`v₋₁ = 2 v₀ − v₁`):
+//!   the edge node's weight is 1 on the face (the basis interpolates there, so a boundary
+//!   condition held on the face's nodes holds at the face, as with the tents), rows stay
+//!   partitions of unity that reproduce linear fields with no negative weight, and only the
+//!   first half cell (quadratic) or cell (cubic) from the face differs from the cardinal
+//!   splines. So particles may fill the grid up to its faces, as with every other basis; no
+//!   ghost layer is needed. A condition held on nodes inside the grid acts over the splines'
+//!   whole support (three or four node layers), not on one plane: put held boundaries on the
+//!   grid's faces. A graded grid is refused (the splines here need one spacing).
 //! - Weights and gradients are computed once per particle per step into the connectivity
 //!   tables, which every transfer of the step reads.
 
-use super::tensor::{AxisFactors, axis_factors, write_tensor_row};
-use fractum_engine::health::{Blowup, Health, fmt_vector};
+use super::tensor::{AxisFactors, write_tensor_row};
 use fractum_engine::prelude::*;
 use serde::Deserialize;
 
@@ -40,8 +44,7 @@ pub const REGISTRATION: Registration = Registration {
         name: "order",
         ty: "u32",
         default: Some("2"),
-        doc: "2 (quadratic, 3 nodes per axis) or 3 (cubic, 4 nodes per axis); particles must \
-              stay (order - 1)/2 cells inside the grid",
+        doc: "2 (quadratic, 3 nodes per axis) or 3 (cubic, 4 nodes per axis)",
     }],
     requires: &[],
     install: generic_install!(install),
@@ -147,56 +150,79 @@ pub fn spline_1d(order: u32, r: f64, h: f64) -> (f64, f64) {
     (value, slope / h)
 }
 
-/// The per-axis factors of the row of a particle at `x`, or the first axis along which its
-/// support leaves the grid.
-pub fn spline_axes<D: Dim>(
-    grid: &Grid<D>,
-    x: D::Vector,
-    params: &BsplineParams,
-) -> Result<AxisFactors, usize> {
+/// The per-axis factors of the row of a particle at `x`: the cardinal splines of the nodes
+/// whose support holds it, with the spline of a node one beyond the grid's edge folded onto the
+/// edge (see [`fold_ghost`]). No node at all (width 0) when `x` lies outside the grid, as the
+/// tents give none there: the engine's health check then stops the run or removes the particle.
+pub fn spline_axes<D: Dim>(grid: &Grid<D>, x: D::Vector, params: &BsplineParams) -> AxisFactors {
     let h = grid.spacing;
-    axis_factors(grid, x, params.reach(), |r| spline_1d(params.order, r, h))
+    let reach = params.reach();
+    let lattice = grid.nodes_per_axis();
+    let candidates = (2.0 * reach).ceil() as usize + 1;
+    let mut factors = AxisFactors::empty();
+    for a in 0..D::N {
+        let s = (x[a] - grid.min[a]) / h;
+        let last = lattice[a] as isize - 1;
+        if !(0.0..=last as f64).contains(&s) {
+            return AxisFactors::empty();
+        }
+        let low = (s - reach).ceil() as isize;
+        for node in (low..).take(candidates) {
+            let r = x[a] - (grid.min[a] + node as f64 * h);
+            let (weight, slope) = spline_1d(params.order, r, h);
+            if weight > 0.0 {
+                for (target, share) in fold_ghost(node, last) {
+                    factors.add(a, target, share * weight, share * slope);
+                }
+            }
+        }
+    }
+    factors
+}
+
+/// Where the spline of lattice index `node` goes on an axis whose last node is `last`: to
+/// itself inside the grid; from the ghost one beyond an edge (index `−1` or `last + 1`) to the
+/// edge node twice and its neighbour inside minus once, the linear extrapolation
+/// `v_ghost = 2 v_edge − v_inner` of the nodal field. This keeps the partition of unity and
+/// the linear reproduction, makes every weight at the face interpolate (`N_edge = 1` there,
+/// so a condition held on the edge nodes holds on the face), and leaves the weights positive
+/// and C¹ (quadratic) or C² (cubic) inside: only the first half cell (quadratic) or cell
+/// (cubic) from the face changes, where the edge node's spline becomes `1 − ξ` (quadratic).
+/// A particle inside the grid never reaches an index further out.
+pub fn fold_ghost(node: isize, last: isize) -> impl Iterator<Item = (usize, f64)> {
+    let folded = if node < 0 {
+        [(0, 2.0), (1, -1.0)]
+    } else if node > last {
+        [(last, 2.0), (last - 1, -1.0)]
+    } else {
+        [(node, 1.0), (node, 0.0)]
+    };
+    folded
+        .into_iter()
+        .filter(|(_, share)| *share != 0.0)
+        .map(|(target, share)| (target as usize, share))
 }
 
 /// The `basis/bspline` system: rebuilds the connectivity for the current positions.
 pub fn bspline_basis<D: Dim>(
-    clock: Res<SimClock>,
     grid: Res<Grid<D>>,
     params: Res<BsplineParams>,
-    mut health: ResMut<Health>,
     mut connectivity: ResMut<Connectivity<D>>,
-    particles: Query<(&ParticleId, &Position<D>), With<Particle>>,
+    particles: Query<&Position<D>, With<Particle>>,
 ) {
-    let (ids, positions) =
-        single_table(particles.contiguous_iter(), "particles").unwrap_or((&[], &[]));
+    let positions = single_table(particles.contiguous_iter(), "particles").unwrap_or(&[]);
     let (grid, params) = (&*grid, &*params);
-    // The rows go straight into the connectivity tables (a failed particle gets none).
-    let results: Vec<Result<(), usize>> = connectivity.fill_rows(
+    // The rows go straight into the connectivity tables; a particle outside the grid gets none.
+    connectivity.fill_rows(
         positions.len(),
         grid.node_count(),
-        |p| spline_axes(grid, positions[p].0, params).map_or(0, |a| a.width(D::N)),
+        |p| spline_axes(grid, positions[p].0, params).width(D::N),
         || (),
         |_, p, nodes, weights, gradients| {
-            let axes = spline_axes(grid, positions[p].0, params)?;
+            let axes = spline_axes(grid, positions[p].0, params);
             write_tensor_row(grid, &axes, (nodes, weights, gradients));
-            Ok(())
         },
     );
-    if let Some((p, Err(axis))) = results.iter().enumerate().find(|(_, r)| r.is_err()) {
-        health.fail(Blowup::new(
-            clock.step + 1,
-            Stage::Basis,
-            format!(
-                "particle {} at {}: its {} B-spline support reaches past the grid along axis \
-                 {axis}; the grid's outer cells are the splines' ghost layer, so particles must \
-                 stay {} cell(s) inside it: extend the grid",
-                ids[p].0,
-                fmt_vector(positions[p].0, D::N),
-                params.name(),
-                params.reach() - 1.0
-            ),
-        ));
-    }
 }
 
 #[cfg(test)]
@@ -216,7 +242,7 @@ mod tests {
     /// Partition of unity, linear reproduction, Σ∇N = 0 and Σ x_I ⊗ ∇N_I = I for a row.
     fn check_consistency<D: Dim>(grid: &Grid<D>, x: D::Vector, order: u32, nodes: usize) {
         let params = BsplineParams { order };
-        let row = tensor_row(grid, &spline_axes(grid, x, &params).unwrap());
+        let row = tensor_row(grid, &spline_axes(grid, x, &params));
         assert_eq!(row.len(), nodes, "{row:?}");
         assert_consistent_row(grid, x, &row, 1e-13);
     }
@@ -249,6 +275,78 @@ mod tests {
         check_consistency(&grid, DVec3::new(0.3, 3.3, 2.1), 3, 64);
     }
 
+    /// Near and on the grid's faces the folded splines are still consistent rows, with fewer
+    /// nodes along the folded axis, on a grid of one cell along an axis too (where they are
+    /// the tents).
+    #[test]
+    fn rows_stay_consistent_up_to_the_grid_faces() {
+        let grid = Grid::<Two> {
+            min: DVec2::new(-1.0, 2.0),
+            spacing: 0.5,
+            cells: [8, 1],
+            graded: None,
+            window: None,
+        };
+        // (x, quadratic nodes, cubic nodes): the lower face (where the cubic spline of the
+        // third node ends), inside the folded half cell (quadratic) and cell (cubic), just past
+        // them, and by the upper face; y on the single cell's axis (its 2 nodes).
+        for (x, quadratic, cubic) in [
+            (-1.0, 2, 2),
+            (-0.9, 2, 3),
+            (-0.7, 3, 3),
+            (-0.4, 3, 4),
+            (2.95, 2, 3),
+            (3.0, 2, 2),
+        ] {
+            for y in [2.0, 2.1, 2.5] {
+                check_consistency(&grid, DVec2::new(x, y), 2, 2 * quadratic);
+                check_consistency(&grid, DVec2::new(x, y), 3, 2 * cubic);
+            }
+        }
+    }
+
+    /// On the face the edge node's weight is one (a held face holds there); inside, the folded
+    /// quadratic spline is `1 − ξ` over the first half cell and the cardinal one from there on,
+    /// with value and slope continuous where they meet; outside the grid a particle gets no
+    /// node.
+    #[test]
+    fn folded_splines_interpolate_on_the_face_and_join_the_cardinal_ones() {
+        let grid = Grid::<Two> {
+            min: DVec2::ZERO,
+            spacing: 1.0,
+            cells: [6, 6],
+            graded: None,
+            window: None,
+        };
+        let edge_node = |x: f64, order: u32| {
+            let row = tensor_row(
+                &grid,
+                &spline_axes(&grid, DVec2::new(x, 3.0), &BsplineParams { order }),
+            );
+            let node = grid.node_index([0, 3]) as u32;
+            let spline_at_y = spline_1d(order, 0.0, 1.0).0;
+            row.iter()
+                .find(|e| e.0 == node)
+                .map_or((0.0, 0.0), |e| (e.1 / spline_at_y, e.2.x / spline_at_y))
+        };
+        for order in [2, 3] {
+            assert!((edge_node(0.0, order).0 - 1.0).abs() < 1e-15);
+        }
+        for x in [0.0, 0.1, 0.3, 0.49] {
+            let (weight, slope) = edge_node(x, 2);
+            assert!((weight - (1.0 - x)).abs() < 1e-14 && (slope + 1.0).abs() < 1e-14);
+        }
+        let (below, above) = (edge_node(0.5 - 1e-9, 2), edge_node(0.5 + 1e-9, 2));
+        assert!((below.0 - above.0).abs() < 1e-8 && (below.1 - above.1).abs() < 1e-8);
+        assert!((edge_node(0.8, 2).0 - quadratic(0.8).0).abs() < 1e-15);
+        let (below, above) = (edge_node(1.0 - 1e-9, 3), edge_node(1.0 + 1e-9, 3));
+        assert!((below.0 - above.0).abs() < 1e-8 && (below.1 - above.1).abs() < 1e-8);
+        for outside in [-1e-9, 6.0 + 1e-9] {
+            let axes = spline_axes(&grid, DVec2::new(outside, 3.0), &BsplineParams::default());
+            assert_eq!(axes.width(2), 0);
+        }
+    }
+
     /// The weights and slopes are continuous where the tents' slopes jump: at every breakpoint
     /// of each spline, and so wherever a particle crosses a cell face.
     #[test]
@@ -274,10 +372,7 @@ mod tests {
         };
         let params = BsplineParams::default();
         let gradient_at = |x: f64| {
-            let row = tensor_row(
-                &grid,
-                &spline_axes(&grid, DVec2::new(x, 4.3), &params).unwrap(),
-            );
+            let row = tensor_row(&grid, &spline_axes(&grid, DVec2::new(x, 4.3), &params));
             let node = grid.node_index([4, 4]) as u32;
             row.iter()
                 .find(|e| e.0 == node)
@@ -287,49 +382,40 @@ mod tests {
     }
 
     /// The system alone on a tiny world, in both dimensions: each particle's row sums to one,
-    /// and a particle whose support would reach past the grid stops the run at the basis stage.
-    fn the_system_builds_rows_and_reports_a_support_outside_the_grid<D: Dim>()
+    /// within the folded half cell by the grid's face too (with two nodes along that axis), and
+    /// a particle outside the grid gets no row, as with the tents.
+    fn the_system_builds_rows_up_to_the_grid_faces<D: Dim>()
     where
         D::Vector: SpaceVector,
     {
         let mut world = tiny_world::<D>(8, 0.25, 1e-3);
         world.insert_resource(BsplineParams::default());
-        let inside = spawn_particle(
-            &mut world,
-            D::Vector::splat(1.1),
-            D::Vector::ZERO,
-            1.0,
-            0.015625,
-        );
+        let mut near_face = D::Vector::splat(1.1);
+        near_face[D::N - 1] = 0.1;
+        let mut outside = D::Vector::splat(1.1);
+        outside[0] = -0.01;
+        for x in [D::Vector::splat(1.1), near_face, outside] {
+            spawn_particle(&mut world, x, D::Vector::ZERO, 1.0, 0.015625);
+        }
         run_system(&mut world, bspline_basis::<D>);
         let connectivity = world.resource::<Connectivity<D>>();
-        assert_eq!(connectivity.row(0).len(), 3usize.pow(D::N as u32));
-        let sum: f64 = connectivity.weights[connectivity.row(0)].iter().sum();
-        assert!((sum - 1.0).abs() < 1e-14);
-        assert!(world.resource::<Health>().failure.is_none());
-        // Within half a cell of the grid's edge along the last axis, the spline of the node a
-        // cell beyond the edge is not zero there.
-        let mut edge = D::Vector::splat(1.1);
-        edge[D::N - 1] = 0.1;
-        world.get_mut::<Position<D>>(inside).unwrap().0 = edge;
-        run_system(&mut world, bspline_basis::<D>);
-        let failure = world.resource::<Health>().failure.clone().unwrap();
-        assert_eq!(failure.stage, Stage::Basis);
-        assert!(
-            failure.message.contains(&format!("axis {}", D::N - 1))
-                && failure.message.contains("quadratic B-spline"),
-            "{}",
-            failure.message
-        );
+        let widths = [3usize.pow(D::N as u32), 2 * 3usize.pow(D::N as u32 - 1), 0];
+        for (p, width) in widths.into_iter().enumerate() {
+            assert_eq!(connectivity.row(p).len(), width, "particle {p}");
+            if width > 0 {
+                let sum: f64 = connectivity.weights[connectivity.row(p)].iter().sum();
+                assert!((sum - 1.0).abs() < 1e-14);
+            }
+        }
     }
 
     #[test]
-    fn the_system_builds_rows_and_reports_a_support_outside_the_grid_in_2d() {
-        the_system_builds_rows_and_reports_a_support_outside_the_grid::<Two>();
+    fn the_system_builds_rows_up_to_the_grid_faces_in_2d() {
+        the_system_builds_rows_up_to_the_grid_faces::<Two>();
     }
 
     #[test]
-    fn the_system_builds_rows_and_reports_a_support_outside_the_grid_in_3d() {
-        the_system_builds_rows_and_reports_a_support_outside_the_grid::<Three>();
+    fn the_system_builds_rows_up_to_the_grid_faces_in_3d() {
+        the_system_builds_rows_up_to_the_grid_faces::<Three>();
     }
 }
