@@ -244,6 +244,8 @@ const STOCK_KEYS: &[&str] = &[
     "particle/stress",
     "particle/surface_flag",
     "particle/velocity",
+    "particle/viscous_dissipation",
+    "particle/viscous_pressure",
     "particle/volume",
     "particle/wave_speed",
 ];

@@ -161,6 +161,7 @@ impl Plain {
             stress: &self.stress,
             damage: &self.damage,
             external: &self.external,
+            viscous: None,
             damage_scales_force: true,
         };
         self.sums.resize(grid.node_count(), NodeSums::default());

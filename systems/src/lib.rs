@@ -31,6 +31,7 @@ pub const ALL: &[Registration] = &[
     predictor::newmark::REGISTRATION,
     stress::linear_elastic::REGISTRATION,
     stress::neo_hookean::REGISTRATION,
+    stress::shock_viscosity::REGISTRATION,
     damage::eigenerosion::REGISTRATION,
     damage::eigensoftening::REGISTRATION,
     damage::rankine::REGISTRATION,

@@ -38,6 +38,8 @@ type ForceColumns<'w, 's, D> = Query<
 #[derive(SystemParam)]
 pub struct ForceSources<'w, 's, D: Dim> {
     query: ForceColumns<'w, 's, D>,
+    /// The viscous pressures of a shock viscosity, on no particle without one.
+    viscous: Query<'w, 's, &'static ViscousPressure, With<Particle>>,
     damage_in_stress: Option<Res<'w, DamageInStress>>,
 }
 
@@ -202,6 +204,9 @@ pub struct ParticleSlices<'a, D: Dim> {
     pub damage: &'a [Damage],
     /// Forces of scene loads.
     pub external: &'a [ExternalForce<D>],
+    /// Viscous pressures of a shock viscosity (`stress/shock_viscosity`), when the pipeline has
+    /// one: the internal force then uses `σ − q I`.
+    pub viscous: Option<&'a [ViscousPressure]>,
     /// Whether the internal force is scaled by `1 − D` (false where the damage system has
     /// degraded the stress itself, [`DamageInStress`]).
     pub damage_scales_force: bool,
@@ -212,6 +217,7 @@ impl<'a, D: Dim> ParticleSlices<'a, D> {
     pub fn of(sources: &'a ForceSources<'_, '_, D>) -> Option<Self> {
         let (mass, velocity, volume, stress, damage, external) =
             single_table(sources.query.contiguous_iter(), "particles")?;
+        let viscous = single_table(sources.viscous.contiguous_iter(), "particles");
         Some(Self {
             mass,
             velocity,
@@ -219,6 +225,7 @@ impl<'a, D: Dim> ParticleSlices<'a, D> {
             stress,
             damage,
             external,
+            viscous,
             damage_scales_force: sources.damage_in_stress.is_none(),
         })
     }
@@ -248,7 +255,8 @@ pub fn field_velocity<D: Dim>(sums: &NodeSums<D>, k: usize, min_mass: f64) -> D:
     }
 }
 
-/// Internal, body and load force of connectivity entry `e` of particle `p` on its node.
+/// Internal, body and load force of connectivity entry `e` of particle `p` on its node: with a
+/// shock viscosity the internal force uses `σ − q I`.
 #[inline(always)]
 pub fn force_contribution<D: Dim>(
     c: &Connectivity<D>,
@@ -263,8 +271,13 @@ pub fn force_contribution<D: Dim>(
         1.0
     };
     let n = c.weights[e];
+    let gradient = c.gradient(e, p);
+    let traction = match particles.viscous {
+        Some(q) => particles.stress[p].0.dot(gradient) - gradient * q[p].0,
+        None => particles.stress[p].0.dot(gradient),
+    };
     body_force * (n * particles.mass[p].0) + particles.external[p].0 * n
-        - particles.stress[p].0.dot(c.gradient(e, p)) * (intact * particles.volume[p].0)
+        - traction * (intact * particles.volume[p].0)
 }
 
 /// Per-field force sums `Σ N (m b + f_ext) − Σ (1 − D) V σ·∇N` (without `1 − D` under

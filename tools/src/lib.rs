@@ -27,6 +27,7 @@ macro_rules! outln {
 }
 
 pub mod bench;
+pub mod cell_crossing;
 pub mod cli;
 mod commands;
 pub mod crack;

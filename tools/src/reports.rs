@@ -210,12 +210,25 @@ pub fn check_report(built: &mut Built) -> String {
 }
 
 /// The warning printed when a run first creates more energy than the watch allows.
-pub fn energy_warning(first: &EnergyCreation) -> String {
+/// `cells_moved`: under `basis/linear`, the farthest any particle has moved, in cells; past one
+/// cell the warning names cell crossing as a likely cause.
+pub fn energy_warning(first: &EnergyCreation, cells_moved: Option<f64>) -> String {
+    let crossing = match cells_moved {
+        Some(cells) if cells > 1.0 => format!(
+            " Likely cause here: cell crossing. Under basis/linear particles have moved up to \
+             {cells:.1} cells, and a particle's weight gradients, so its internal force, jump at \
+             every cell face it crosses; basis/bspline (or basis/gimp) has no such jump, and \
+             stress/shock_viscosity damps a struck body's ringing (SCENES.md, \"Impact and \
+             waves\")."
+        ),
+        _ => String::new(),
+    };
     format!(
         "at step {} (t = {:.4e} s) the scheme has created {:.4e} J, {:.1}% of the energy in play \
          (the total energy above external_work in series.csv). An explicit run that creates energy is usually heading \
-         for a blow-up: a smaller CFL factor, or a smoother basis (basis/gimp) than the linear \
-         tents where a stiff contact or a steep stress moves particles across cells, usually cures it",
+         for a blow-up: a smaller CFL factor, or a smoother basis (basis/bspline, basis/gimp) than \
+         the linear tents where a stiff contact or a steep stress moves particles across cells, \
+         usually cures it.{crossing}",
         first.step,
         first.time,
         first.created,
@@ -360,5 +373,28 @@ fn slabs_report(ranks: &fractum_scene::RankSlabs, out: &mut String) {
             fractum_engine::budget::describe_count(*nodes as f64),
             fractum_engine::budget::describe_bytes(*bytes)
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The watch's warning names cell crossing only when the tents' particles have moved past
+    /// a cell.
+    #[test]
+    fn the_energy_warning_names_cell_crossing_past_one_cell_under_the_tents() {
+        let first = EnergyCreation {
+            step: 120,
+            time: 1.5e-3,
+            created: 2.0,
+            fraction: 0.08,
+        };
+        let crossing = "Likely cause here: cell crossing";
+        assert!(energy_warning(&first, Some(2.5)).contains(crossing));
+        assert!(energy_warning(&first, Some(2.5)).contains("up to 2.5 cells"));
+        assert!(!energy_warning(&first, Some(0.4)).contains(crossing));
+        assert!(!energy_warning(&first, None).contains(crossing));
+        assert!(energy_warning(&first, None).contains("8.0% of the energy in play"));
     }
 }

@@ -6,6 +6,7 @@
 //! [`crate::EXIT_ABANDONED`] (the last checkpoint and the outputs written so far are intact:
 //! every file is replaced atomically).
 
+use crate::cell_crossing::StartPositions;
 use crate::{EXIT_ABANDONED, EXIT_BAD_SCENE, EXIT_BLOWUP, EXIT_INTERRUPTED, EXIT_IO};
 use crate::{EXIT_RESOURCES, EXIT_USAGE, energy_warning, load, report_scene_error, summary_report};
 use fractum_engine::communicator::Communicator;
@@ -326,6 +327,11 @@ pub(crate) fn execute(
     let mut last_draw = Instant::now();
     // Every rank watches the run's energy alike; rank 0 says so.
     let mut warned = comm.is_some_and(|c| c.rank() != 0);
+    let start = if warned {
+        None
+    } else {
+        StartPositions::of_linear_basis(&sim.world, &built.pipeline)
+    };
     let result = run_with(sim, &built.output, out_dir, options, |sim| {
         if !warned
             && let Some(first) = sim
@@ -334,7 +340,8 @@ pub(crate) fn execute(
                 .and_then(|w| w.first)
         {
             warned = true;
-            bar.suspend(|| eprintln!("warning: {}", energy_warning(&first)));
+            let cells = start.as_ref().map(|s| s.cells_moved(&sim.world));
+            bar.suspend(|| eprintln!("warning: {}", energy_warning(&first, cells)));
         }
         if last_draw.elapsed() > Duration::from_millis(100) || sim.finished() {
             last_draw = Instant::now();

@@ -31,6 +31,19 @@ impl Capability for HyperelasticStress {
                                        recomputed every step, with its energy density";
 }
 
+/// The entry leaves every output of its stage that later stages require something of (the
+/// stress stage's stress, strain, deformation gradient, volume and energy density) as the other
+/// entries of the stage made them, and writes only state of its own: a requirement of every
+/// entry of a stage ([`Installer::require_from`](crate::registry::Installer::require_from))
+/// passes it by. `stress/shock_viscosity` provides it: its viscous pressure acts in the
+/// internal force alone.
+#[derive(Clone, Copy, Debug)]
+pub struct Bystander;
+
+impl Capability for Bystander {
+    const DESCRIPTION: &'static str = "nothing of its stage's outputs changed";
+}
+
 /// Which pipeline entries provided which capability, as they installed.
 #[derive(Resource, Clone, Debug, Default)]
 pub struct Capabilities {

@@ -177,6 +177,17 @@ pub struct StrainEnergyDensity(pub f64);
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct WaveSpeed(pub f64);
 
+/// Viscous pressure `q ≥ 0` of a shock viscosity (Pa), added to the material's pressure in the
+/// internal force only: the transfers use `σ − q I`, while [`Stress`] stays the material's own
+/// stress. On every particle when the pipeline has a shock viscosity, on none otherwise.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ViscousPressure(pub f64);
+
+/// Energy a particle's viscous pressure has dissipated since the start (J; per scene thickness
+/// in 2D), accumulated by the shock viscosity.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ViscousDissipation(pub f64);
+
 /// Damage in `[0, 1]`: 0 intact, 1 fully failed. Internal force is scaled by `1 − damage`.
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Damage(pub f64);

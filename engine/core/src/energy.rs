@@ -1,6 +1,7 @@
 //! The energy account of a run: the work the loads do on the system, so that `series.csv` can
-//! close the balance `W_ext = ΔK + ΔU + D + R` (kinetic, stored, dissipated by damage, and the
-//! residual R, the energy the numerical scheme itself dissipates or creates).
+//! close the balance `W_ext = ΔK + ΔU + D + R` (kinetic, stored, dissipated by damage and by a
+//! shock viscosity, and the residual R, the energy the numerical scheme itself dissipates or
+//! creates).
 //!
 //! The engine's `account_work` system runs after every step (after the post-step stage and its
 //! check) and adds the step's work:
@@ -14,7 +15,8 @@
 //!
 //! `series.csv` gets `external_work` (accumulated since the start) and `energy_residual`
 //! `= W_ext − (E − E₀) − D`, with `E` the total (kinetic + stored) energy and `D` the sum of the
-//! damage systems' `dissipated_energy` column when there is one.
+//! damage systems' `dissipated_energy` column and the shock viscosity's `viscous_dissipation`,
+//! where the pipeline has them.
 //!
 //! A total energy above the work done, `W_ext − (E − E₀) < 0`, is energy the scheme created.
 //! An explicit scheme that creates energy is usually on its way to a blow-up (a time step too

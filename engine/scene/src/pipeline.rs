@@ -6,6 +6,7 @@ use super::spec::{PipelineEntry, PipelineSummary, Spec};
 use super::{SceneError, Source};
 use bevy_ecs::prelude::World;
 use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule};
+use fractum_engine::capability::{Bystander, Capabilities};
 use fractum_engine::dim::Dim;
 use fractum_engine::registry::{
     Installer, MaterialFilter, PipelineEntrySet, Registration, Registry,
@@ -55,7 +56,10 @@ impl<'s, D: Dim> PipelineBuilder<'s, D> {
             }
         }
         let names: Vec<&'static str> = chosen.iter().map(|(_, r)| r.name).collect();
-        let filters = self.material_filters(&chosen)?;
+        let filters = chosen
+            .iter()
+            .map(|&(k, registration)| self.entry_filter(k, registration))
+            .collect::<Result<Vec<_>, _>>()?;
         // Installed in stage order (the scene's order within a stage), so an installer can read
         // what the stages before it published: a grid law reads the predictor's integration, a
         // damage law the stress system's capabilities.
@@ -82,24 +86,30 @@ impl<'s, D: Dim> PipelineBuilder<'s, D> {
                 schedule.configure_sets(PipelineEntrySet(*ka).before(PipelineEntrySet(*kb)));
             }
         }
+        self.check_material_coverage(&chosen, &filters, world)?;
         Ok(summary)
     }
 
-    /// Each chosen entry's [`MaterialFilter`], checked: known names, only on stress and damage
-    /// systems, no material shared by two entries of a stage, and a stress system for every
-    /// material a body uses.
-    fn material_filters(
+    /// The installed entries' [`MaterialFilter`]s, checked: no material shared by two entries
+    /// of the stress or the damage stage, and a stress system for every material a body uses.
+    /// Checked once the entries have installed, so that an entry that said it changes none of
+    /// its stage's outputs ([`Bystander`], a shock viscosity) is passed by.
+    fn check_material_coverage(
         &self,
         chosen: &[(usize, &Registration)],
-    ) -> Result<Vec<MaterialFilter>, SceneError> {
-        let filters = chosen
-            .iter()
-            .map(|&(k, registration)| self.entry_filter(k, registration))
-            .collect::<Result<Vec<_>, _>>()?;
+        filters: &[MaterialFilter],
+        world: &World,
+    ) -> Result<(), SceneError> {
+        let capabilities = world.get_resource::<Capabilities>();
+        let bystander =
+            |c: usize| capabilities.is_some_and(|k| k.provides::<Bystander>(chosen[c].0));
         for stage in [Stage::Stress, Stage::Damage] {
-            self.check_coverage(stage, chosen, &filters)?;
+            let entries: Vec<usize> = (0..chosen.len())
+                .filter(|&c| chosen[c].1.stage() == Some(stage) && !bystander(c))
+                .collect();
+            self.check_coverage(stage, &entries, chosen, filters)?;
         }
-        Ok(filters)
+        Ok(())
     }
 
     /// The filter of entry `k`: all materials without `materials`, else the named ones, which
@@ -149,17 +159,15 @@ impl<'s, D: Dim> PipelineBuilder<'s, D> {
         Ok(MaterialFilter::only(mask))
     }
 
-    /// No material a body uses is claimed by two entries of `stage`, and, for the stress stage,
-    /// each is claimed by one (checked only when some entry of the stage is limited).
+    /// No material a body uses is claimed by two of `entries` (of `stage`), and, for the
+    /// stress stage, each is claimed by one (checked only when some entry is limited).
     fn check_coverage(
         &self,
         stage: Stage,
+        entries: &[usize],
         chosen: &[(usize, &Registration)],
         filters: &[MaterialFilter],
     ) -> Result<(), SceneError> {
-        let entries: Vec<usize> = (0..chosen.len())
-            .filter(|&c| chosen[c].1.stage() == Some(stage))
-            .collect();
         if entries.iter().all(|&c| filters[c].is_all()) {
             return Ok(());
         }

@@ -74,6 +74,8 @@ checkpoint_keys! {
     crate::components::ContactGroup => "particle/contact_group",
     crate::components::Strength => "particle/strength",
     crate::components::CrackOpening => "particle/crack_opening",
+    crate::components::ViscousPressure => "particle/viscous_pressure",
+    crate::components::ViscousDissipation => "particle/viscous_dissipation",
     crate::components::SurfaceFlag => "particle/surface_flag",
     crate::loads::LoadShare => "particle/load_share",
     crate::resources::SimClock => "engine/clock",

@@ -211,6 +211,10 @@ pub fn must_be_finite(plan: &OutputPlan, i: usize) -> bool {
     }
 }
 
+/// The columns whose sum the energy residual takes out as dissipated: the damage laws' and the
+/// shock viscosity's.
+pub const DISSIPATION_COLUMNS: [&str; 2] = ["dissipated_energy", "viscous_dissipation"];
+
 fn series_parts_of<D: Dim>(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
     let t = totals(world);
     let layout = SeriesParts::of(plan);
@@ -228,7 +232,10 @@ fn series_parts_of<D: Dim>(world: &mut World, plan: &OutputPlan) -> Vec<f64> {
                 .iter()
                 .map(|name| extra.value(name).unwrap_or(f64::NAN)),
         );
-        dissipated = extra.value("dissipated_energy").unwrap_or(0.0);
+        dissipated = DISSIPATION_COLUMNS
+            .iter()
+            .map(|name| extra.value(name).unwrap_or(0.0))
+            .sum();
     }
     let (work, initial) = world
         .get_resource::<fractum_engine::energy::EnergyAccount>()

@@ -63,6 +63,11 @@ impl<'a> Installer<'a> {
         self
     }
 
+    /// The names of every system in the scene's pipeline, in the scene's order.
+    pub fn pipeline(&self) -> &[&'static str] {
+        &self.pipeline
+    }
+
     /// Whether the scene's pipeline has a system whose name starts with `prefix` (a stage such
     /// as `"damage/"`, or a full name).
     pub fn pipeline_has(&self, prefix: &str) -> bool {

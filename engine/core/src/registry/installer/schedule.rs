@@ -101,7 +101,8 @@ impl Installer<'_> {
     }
 
     /// Checks that every pipeline entry of `stage` (an earlier stage than this installer's)
-    /// provides capability `C`, and that there is one. The error says what is missing and
+    /// provides capability `C`, and that there is one; an entry that provides
+    /// [`Bystander`](crate::capability::Bystander) is passed by. The error says what is missing and
     /// which entry lacks it; place it with [`Params::error`](crate::registry::Params::error).
     pub fn require_from<C: Capability>(&self, stage: Stage) -> Result<(), String> {
         let me = self
@@ -119,6 +120,9 @@ impl Installer<'_> {
         let capabilities = self.world.get_resource::<Capabilities>();
         let mut any = false;
         for (k, name) in of_stage {
+            if capabilities.is_some_and(|c| c.provides::<crate::capability::Bystander>(k)) {
+                continue;
+            }
             any = true;
             if !capabilities.is_some_and(|c| c.provides::<C>(k)) {
                 return Err(format!(
