@@ -20,6 +20,7 @@ mod materials;
 mod meshes;
 mod out_of_tree;
 mod overlap;
+mod patch;
 mod pipeline_order;
 mod points;
 mod scene_reference;

@@ -10,7 +10,7 @@
 //! - Writes every velocity field (each pair's field from the connectivity); clears the nodal
 //!   force, contact force and acceleration, which the contact and corrector stages fill.
 
-use crate::transfer::{NodeSums, NodeTransferQuery, field_velocity};
+use crate::transfer::{GridStepInputs, NodeSums, NodeTransferQuery, field_velocity};
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -109,26 +109,45 @@ type ParticleQuery<'w, 's, D> = Query<
     (
         &'static Mass,
         &'static Velocity<D>,
-        &'static Acceleration<D>,
+        &'static mut Acceleration<D>,
+        &'static ExternalForce<D>,
     ),
     With<Particle>,
 >;
 
+/// The acceleration a particle starts with, `b + f_ext / m`: the body force and its share of
+/// the loads at the first step. The predictor's `(1 − γ) Δt a_p` needs an `a₀`; zero would make
+/// a body falling under gravity lag `(1 − γ) g Δt` behind free fall for the whole run. Internal
+/// forces start at zero (no scene gives an initial stress); a held boundary corrects the nodes
+/// it holds within the step, as it does every step.
+pub fn starting_acceleration<D: Dim>(
+    body_force: D::Vector,
+    external: D::Vector,
+    mass: f64,
+) -> D::Vector {
+    body_force + external / mass
+}
+
 /// The `predictor/newmark` system.
 pub fn newmark_predictor<D: Dim>(
-    clock: Res<SimClock>,
+    inputs: GridStepInputs<D>,
     params: Res<NewmarkParams>,
-    bcs: Res<BoundaryConditions>,
-    connectivity: Res<Connectivity<D>>,
-    particles: ParticleQuery<D>,
+    mut particles: ParticleQuery<D>,
     mut nodes: NodeTransferQuery<D>,
     mut sums: Local<Vec<NodeSums<D>>>,
 ) {
-    let Some((mass, velocity, acceleration)) =
-        single_table(particles.contiguous_iter(), "particles")
+    let Some((mass, velocity, mut acceleration, external)) =
+        single_table(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };
+    let (clock, bcs, connectivity) = (&inputs.clock, &inputs.bcs, &inputs.connectivity);
+    if clock.step == 0 {
+        for ((a, m), f) in acceleration.iter_mut().zip(mass).zip(external) {
+            a.0 = starting_acceleration::<D>(inputs.body_force.0, f.0, m.0);
+        }
+    }
+    let acceleration: &[Acceleration<D>] = &acceleration;
     let Some((mut node_mass, mut momentum, mut node_velocity, mut node_acceleration, mut force)) =
         single_table(nodes.contiguous_iter_mut(), "nodes")
     else {
@@ -140,7 +159,7 @@ pub fn newmark_predictor<D: Dim>(
     connectivity.accumulate_to_nodes(&mut sums, |sum, e, p| {
         add_predictor_contribution(
             sum,
-            &connectivity,
+            connectivity,
             (mass, velocity, acceleration),
             gamma_dt,
             e,
@@ -187,6 +206,8 @@ mod tests {
     fn predictor_carries_momentum_plus_the_old_acceleration_impulse() {
         let mut world = tiny_world::<Two>(2, 0.5, 0.1);
         world.insert_resource(NewmarkParams { gamma: 0.5 });
+        // A step after the first, so that the particle's acceleration is the last step's.
+        world.resource_mut::<SimClock>().step = 1;
         let p = spawn_particle(
             &mut world,
             DVec2::new(0.3, 0.6),
@@ -225,6 +246,7 @@ mod tests {
     fn predictor_carries_the_z_component_in_3d() {
         let mut world = tiny_world::<Three>(2, 0.5, 0.1);
         world.insert_resource(NewmarkParams { gamma: 0.5 });
+        world.resource_mut::<SimClock>().step = 1;
         let p = spawn_particle(&mut world, DVec3::new(0.3, 0.6, 0.8), DVec3::Z, 2.0, 0.1);
         world.get_mut::<Acceleration<Three>>(p).unwrap().0 = DVec3::new(0.0, 0.0, 4.0);
         run_system(
@@ -241,6 +263,35 @@ mod tests {
         // 2 kg at (0, 0, 1 + 0.5·0.1·4).
         assert!(
             (momentum - DVec3::new(0.0, 0.0, 2.4)).length() < 1e-14,
+            "{momentum}"
+        );
+    }
+
+    /// At the first step the particle's acceleration is the body force and its load per mass,
+    /// whatever it held: a body at rest under gravity predicts `(1 − γ) Δt g` on its nodes.
+    #[test]
+    fn the_first_step_starts_from_the_body_force_and_the_loads() {
+        let mut world = tiny_world::<Two>(2, 0.5, 0.1);
+        world.insert_resource(NewmarkParams { gamma: 0.5 });
+        world.insert_resource(BodyForce::<Two>(DVec2::new(0.0, -10.0)));
+        let p = spawn_particle(&mut world, DVec2::new(0.3, 0.6), DVec2::ZERO, 2.0, 0.1);
+        world.get_mut::<Acceleration<Two>>(p).unwrap().0 = DVec2::new(7.0, 7.0);
+        world.get_mut::<ExternalForce<Two>>(p).unwrap().0 = DVec2::new(4.0, 0.0);
+        run_system(
+            &mut world,
+            (linear_basis::<Two>, newmark_predictor::<Two>).chain(),
+        );
+        let start = DVec2::new(2.0, -10.0);
+        assert_eq!(world.get::<Acceleration<Two>>(p).unwrap().0, start);
+        let masses = node_values::<NodeMass>(&mut world);
+        let velocities = node_values::<NodeVelocity<Two>>(&mut world);
+        let momentum: DVec2 = masses
+            .iter()
+            .zip(&velocities)
+            .map(|(m, v)| v.0[0] * m.0[0])
+            .sum();
+        assert!(
+            (momentum - start * (2.0 * 0.5 * 0.1)).length() < 1e-14,
             "{momentum}"
         );
     }
