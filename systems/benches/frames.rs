@@ -1,5 +1,5 @@
 //! What a frame costs the writer thread: encoding and writing one particle frame of the
-//! Kalthoff–Winkler plate (`scenes/kalthoff_winkler_dfg.ron`, 49 200 particles, every field)
+//! Kalthoff–Winkler plate (`scenes/kalthoff_winkler_dfg_tents.ron`, 49 200 particles, every field)
 //! after 400 steps, uncompressed and zlib-compressed. Run with
 //! `cargo bench -p fractum-systems --bench frames`; the sizes print before the timings.
 
@@ -11,7 +11,7 @@ use std::time::Duration;
 
 fn plate_frame() -> ParticleFrame {
     let scene =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes/kalthoff_winkler_dfg.ron");
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenes/kalthoff_winkler_dfg_tents.ron");
     let file = SceneFile::read(&scene).expect("the shipped scene reads");
     let mut built = build_simulation(&file, &fractum_systems::stock_registry()).expect("it builds");
     for _ in 0..400 {

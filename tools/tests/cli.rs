@@ -397,7 +397,7 @@ fn check_estimate_divides_a_scene_over_ranks_in_balanced_slabs() {
         "--estimate",
         "--ranks",
         "4",
-        "scenes/kalthoff_winkler_dfg.ron",
+        "scenes/kalthoff_winkler_dfg_tents.ron",
     ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let report = text(&out.stdout);

@@ -174,7 +174,7 @@ fn under_mpirun_three_ranks_run_and_resume_a_scene_as_the_single_process_does() 
     let _ = std::fs::remove_dir_all(&scratch);
 }
 
-/// Starts `scenes/kalthoff_winkler_dfg.ron` under `mpirun -np ranks`, sends the launcher a
+/// Starts `scenes/kalthoff_winkler_dfg_tents.ron` under `mpirun -np ranks`, sends the launcher a
 /// SIGTERM once steps are under way, and resumes the run three steps further from the
 /// checkpoint every rank wrote on the way out.
 fn sigterm_ends_the_ranks_with_a_checkpoint_that_resumes(ranks: usize) {
@@ -187,7 +187,7 @@ fn sigterm_ends_the_ranks_with_a_checkpoint_that_resumes(ranks: usize) {
         .arg(env!("CARGO_BIN_EXE_fractum"))
         .args([
             "run",
-            "scenes/kalthoff_winkler_dfg.ron",
+            "scenes/kalthoff_winkler_dfg_tents.ron",
             "--quiet",
             "--threads",
             "1",
@@ -278,7 +278,7 @@ fn under_mpirun_two_to_four_ranks_step_scenes_as_the_single_process_does() {
     // pipeline on its 49 200 particles for a few steps.
     for (scene, steps) in [
         ("scenes/two_disks_contact.ron", "1800"),
-        ("scenes/kalthoff_winkler_dfg.ron", "6"),
+        ("scenes/kalthoff_winkler_dfg_tents.ron", "6"),
     ] {
         let serial = std::process::Command::new(program)
             .args([scene, steps, "--serial"])
@@ -329,7 +329,7 @@ fn under_mpirun_a_scene_too_large_for_one_process_runs_on_ranks_whose_parts_fit(
     let dir = out_dir.to_str().unwrap();
     let args = [
         "run",
-        "scenes/kalthoff_winkler_dfg.ron",
+        "scenes/kalthoff_winkler_dfg_tents.ron",
         "--out",
         dir,
         "--steps",

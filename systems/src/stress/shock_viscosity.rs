@@ -9,7 +9,7 @@
 //!   with `L_p = Σ_I v_I ⊗ ∇N_Ip` this step's velocity gradient (dfg-partitioning-mpm.md eq. 7),
 //!   `ρ = m/V` the particle's current density, `c` its dilatational wave speed
 //!   ([`WaveSpeed`]) and `ℓ` the grid's smallest cell width. The defaults `C_L = 0.2`,
-//!   `C_Q = 2.0` are Uintah's and NairnMPM's (LS-DYNA's element defaults are 0.06 and 1.5).
+//!   `C_Q = 2.0` are Uintah's MPM defaults (LS-DYNA's element defaults are 0.06 and 1.5).
 //! - Where it acts: the internal force of every transfer uses `σ − q I`
 //!   (`transfer::force_contribution`, scaled by `1 − D` as the stress is). The material's own
 //!   stress ([`Stress`]) is left as it is, so the constitutive update, the damage laws and the
