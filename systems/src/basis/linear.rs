@@ -124,20 +124,7 @@ mod tests {
     /// Partition of unity, linear reproduction, Σ∇N = 0 and Σ x_I ⊗ ∇N_I = I at `x`.
     fn check_consistency<D: Dim>(grid: &Grid<D>, x: D::Vector) {
         let row = multilinear_row(grid, x).unwrap();
-        let sum: f64 = row.iter().map(|e| e.1).sum();
-        let first: D::Vector = row
-            .iter()
-            .map(|e| grid.node_position(e.0 as usize) * e.1)
-            .sum();
-        let grad_sum: D::Vector = row.iter().map(|e| e.2).sum();
-        let jacobian = row.iter().fold(D::Matrix::ZERO, |acc, e| {
-            acc + D::Matrix::outer(grid.node_position(e.0 as usize), e.2)
-        });
-        assert!((sum - 1.0).abs() < 1e-14);
-        assert!((first - x).length() < 1e-14);
-        assert!(grad_sum.length() < 1e-12);
-        assert!((jacobian - D::Matrix::IDENTITY).max_abs() < 1e-12);
-        assert!(row.iter().all(|e| e.1 >= 0.0));
+        crate::basis::tensor::assert_consistent_row(grid, x, &row, 1e-14);
     }
 
     #[test]
