@@ -29,6 +29,11 @@
 //!     stress stage takes the velocity gradient from the corrected velocities. Every pair is
 //!     separable there: the field assignment has already kept inseparable sides of a group in
 //!     one field, from the damage at the start of the step as the paper's partition does.
+//! - Pairs (`between`). `All` acts between every pair of fields at a node, as Algorithm 3 is
+//!   published. `CrackFaces` acts between the two sides of one contact group only (the crack
+//!   faces and self-contact surfaces `partition/dfg` opens) and leaves the fields of different
+//!   groups to `contact/penalty`, listed after this entry: that law keeps energy and lets a body
+//!   roll, where the nodal projection collides the fields plastically at every step.
 //! - Publishes the `series.csv` column `contact_work`: the work the contact law has done on the
 //!   node fields since the start, `Σ_steps Σ_nodes Σ_k (Δp_k · v_k + |Δp_k|² / 2m_k)` with `v_k`
 //!   the end-of-step velocity before contact and `Δp_k` the field's whole impulse (kick and
@@ -46,7 +51,8 @@
 //!   functions' cell-crossing instability, which `basis/gimp` does not have.
 
 pub use super::frictional_law::{
-    ContactDetection, ContactNormals, FieldState, FrictionalParams, PairFriction, PairGaps,
+    ContactDetection, ContactNormals, ContactPairs, FieldState, FrictionalParams, PairFriction,
+    PairGaps,
 };
 use super::frictional_law::{domain_reach, node_impulses, split_newmark_impulse};
 use crate::transfer::{ForceSources, ParticleSlices, force_contribution};
@@ -97,6 +103,14 @@ pub const REGISTRATION: Registration = Registration {
                   fields' particle domains at the node touch within the step",
         },
         ParamDoc {
+            name: "between",
+            ty: "All | CrackFaces",
+            default: Some("All"),
+            doc: "which pairs of fields the law acts between: All (Algorithm 3 as published), \
+                  or CrackFaces, the two sides of one group only, with contact/penalty listed \
+                  after this entry for the pairs of different groups",
+        },
+        ParamDoc {
             name: "sliver_fraction",
             ty: "f64",
             default: Some("1e-4"),
@@ -138,6 +152,14 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
         parsed.sliver_fraction >= 0.0 && parsed.sliver_fraction < 0.5,
         "expected a fraction in [0, 0.5)",
     )?;
+    if parsed.between == ContactPairs::CrackFaces && !installer.pipeline_has("contact/penalty") {
+        return Err(params.error(
+            "between",
+            "`between: CrackFaces` leaves the fields of different contact groups to \
+             contact/penalty, which the pipeline lacks: add it after this entry, or use \
+             `between: All`",
+        ));
+    }
     // The field assignment keeps inseparable sides of a group in one field with this D̄_min.
     installer.insert_resource(fractum_engine::fields::Separability(parsed.separability));
     installer.insert_resource(parsed);

@@ -62,6 +62,31 @@ pub struct FrictionalParams {
     /// When an approaching pair of separable fields is in contact.
     #[serde(default)]
     pub detection: ContactDetection,
+    /// Which pairs of a node's fields the law acts between.
+    #[serde(default)]
+    pub between: ContactPairs,
+}
+
+/// Which pairs of a node's fields the law acts between (`between`).
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+pub enum ContactPairs {
+    /// Every pair: fields of different contact groups, and the two sides of one group that a
+    /// DFG partition opens (Algorithm 3 as published).
+    #[default]
+    All,
+    /// Only the two sides of one group (crack faces, self-contact): the fields of different
+    /// groups are left to the contact law listed after this one (`contact/penalty`).
+    CrackFaces,
+}
+
+impl ContactPairs {
+    /// Whether the law acts between the fields keyed `a` and `b`.
+    pub fn includes(self, a: FieldKey, b: FieldKey) -> bool {
+        match self {
+            Self::All => true,
+            Self::CrackFaces => a.group() == b.group(),
+        }
+    }
 }
 
 /// When a separable pair of fields at a node is in contact (`detection`).
@@ -189,6 +214,7 @@ impl Default for FrictionalParams {
             min_mass_fraction: default_min_mass_fraction(),
             sliver_fraction: default_sliver_fraction(),
             detection: ContactDetection::default(),
+            between: ContactPairs::default(),
         }
     }
 }
@@ -291,6 +317,9 @@ pub fn node_impulses<V: VectorOps>(
         let mut acted = false;
         for a in 0..count {
             for b in a + 1..count {
+                if !params.between.includes(fields.keys[a], fields.keys[b]) {
+                    continue;
+                }
                 let lighter = states[a].mass.min(states[b].mass);
                 let merged = lighter > 0.0 && lighter < merge_below * total;
                 let takes_part = merged || (present(a) && present(b));
@@ -549,6 +578,47 @@ pub(crate) mod tests {
         // Particle velocities under Newmark (twice the impulse): about an elastic bounce (52 J
         // here, with the tilted normals and friction), where the summed pairs give 440 J.
         assert!(energy(2.0) < 1.1 * before, "{} vs {before}", energy(2.0));
+    }
+
+    /// `between: CrackFaces` at a node with both sides of a cracked group 0 and a field of
+    /// group 1, all approaching: only the pair of group 0's sides takes an impulse (the pairs
+    /// with group 1 are `contact/penalty`'s), and momentum is conserved.
+    #[test]
+    fn crack_faces_only_leaves_the_groups_alone() {
+        let fields = NodeFields {
+            count: 3,
+            keys: [FieldKey(0), FieldKey(1), FieldKey(2), FieldKey(0)],
+        };
+        let mut states = [state(0.0, DVec2::ZERO, DVec2::ZERO); MAX_FIELDS];
+        states[0] = state(1.0, DVec2::new(1.0, 0.0), DVec2::X);
+        states[1] = state(1.0, DVec2::new(-1.0, 0.0), -DVec2::X);
+        states[2] = state(1.0, DVec2::new(0.0, -1.0), -DVec2::Y);
+        let damage = NodeFieldDamage {
+            mean: [1.0; MAX_FIELDS],
+            max: [1.0; MAX_FIELDS],
+        };
+        let params = FrictionalParams {
+            between: ContactPairs::CrackFaces,
+            ..FrictionalParams::default()
+        };
+        let dp = node_impulses(&fields, &states, &damage, &params, &[false; 2], 0.0, None);
+        assert_eq!(dp[2], DVec2::ZERO);
+        assert!(dp[0].x < 0.0 && dp[1].x > 0.0, "{dp:?}");
+        assert_eq!(dp[0] + dp[1], DVec2::ZERO);
+        // Every pair, as published: the group-1 field is stopped too.
+        let all = node_impulses(
+            &fields,
+            &states,
+            &damage,
+            &FrictionalParams::default(),
+            &[false; 2],
+            0.0,
+            None,
+        );
+        assert_ne!(all[2], DVec2::ZERO);
+        assert!(ContactPairs::All.includes(FieldKey::new(0, 0), FieldKey::new(1, 0)));
+        assert!(!ContactPairs::CrackFaces.includes(FieldKey::new(0, 0), FieldKey::new(1, 0)));
+        assert!(ContactPairs::CrackFaces.includes(FieldKey::new(2, 0), FieldKey::new(2, 1)));
     }
 
     #[test]

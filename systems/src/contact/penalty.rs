@@ -2,9 +2,17 @@
 //! positions on a smoothed surface, applied to each group's velocity field through the shape
 //! functions.
 //!
-//! - Stage: contact. Registration name: `contact/penalty`. Needs `partition/bodies` (one
-//!   velocity field per contact group, which alone would let the bodies pass through each
-//!   other: this system is then their only interaction).
+//! - Stage: contact. Registration name: `contact/penalty`. Needs a partition system:
+//!   - `partition/bodies`: one velocity field per contact group, which alone would let the
+//!     bodies pass through each other; this system is then their only interaction.
+//!   - `partition/dfg`: the groups' fields as with `partition/bodies`, and within a group the
+//!     two sides of a crack (or of a self-contact surface) as two more fields. This system acts
+//!     between the groups, and the pipeline must list `contact/frictional` with
+//!     `between: CrackFaces` before it for the crack faces (Algorithm 3 between the two sides of
+//!     one group; the particles of one group carry no surface of their own for a potential to
+//!     act on until the crack opens). The two laws then touch disjoint pairs of fields; this
+//!     system runs after the nodal law and adds its forces to the node columns the nodal law
+//!     wrote.
 //! - The law is `contact::penalty_law` (penalty contact in MPM on the smoothed surface of each
 //!   body's particles; see its header for the potential, the stiffness and the friction). It is
 //!   the energy-conserving alternative to `contact/frictional` (dfg-partitioning-mpm.md §1.1.1,
@@ -37,6 +45,7 @@
 //!   `contact_energy`; the column `friction_work` accumulates the friction's work on the pairs'
 //!   relative motion (≤ 0, the energy friction has dissipated).
 
+use super::frictional_law::{ContactPairs, FrictionalParams};
 pub use super::penalty_law::{ContactParticle, PairContact, PairLaw, PenaltyParams};
 use super::penalty_law::{
     KERNEL_REACH, depth_energy, depth_slope, kernel, pair_force, penalty_modulus,
@@ -75,9 +84,15 @@ pub const REGISTRATION: Registration = Registration {
                   `friction`",
         },
     ],
-    requires: &["partition/bodies"],
+    requires: &["partition/*"],
     install: generic_install!(install),
 };
+
+/// Whether a nodal law (`contact/frictional`, between the sides of one group) runs before
+/// this system in the same step: its forces are then in the node columns, and this system adds
+/// its own to them rather than replacing them.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AddsToNodalContact(pub bool);
 
 /// Upper bound of a pair's stiffness factor: beyond it a pair vibrates faster than the
 /// material's fastest mode by more than the stable step allows (`√(2κ)` times a particle's
@@ -100,6 +115,8 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
         "expected a friction coefficient μ >= 0",
     )?;
     super::check_pairs(installer, params, &parsed.pairs)?;
+    let after_nodal_law = check_partner_law(installer, params)?;
+    installer.insert_resource(AddsToNodalContact(after_nodal_law));
     let moduli = ContactModuli(
         installer
             .world()
@@ -131,8 +148,47 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
         });
         installer.add_node_component(NodeContactForce::<D>::default());
         installer.add_node_component(NodeContactImpulse::<D>::default());
-        installer.add_impulse_systems(penalty_contact::<D>)
+        if after_nodal_law {
+            installer.add_impulse_systems(
+                penalty_contact::<D>.after(super::frictional::frictional_contact::<D>),
+            )
+        } else {
+            installer.add_impulse_systems(penalty_contact::<D>)
+        }
     }
+}
+
+/// The contact law for the fields this system leaves alone: under `partition/dfg`, the two
+/// sides of one group need `contact/frictional` with `between: CrackFaces`, installed (listed)
+/// before this entry. Returns whether that law is there.
+fn check_partner_law(installer: &Installer, params: &Params) -> Result<bool, SceneError> {
+    if let Some(nodal) = installer.world().get_resource::<FrictionalParams>() {
+        if nodal.between != ContactPairs::CrackFaces {
+            return Err(params.error(
+                "",
+                "the pipeline's contact/frictional acts between contact groups as well (its \
+                 `between` is All): give it `between: CrackFaces`, so that the fields of \
+                 different groups meet through contact/penalty alone",
+            ));
+        }
+        return Ok(true);
+    }
+    if installer.pipeline_has("contact/frictional") {
+        return Err(params.error(
+            "",
+            "contact/penalty is listed before contact/frictional: list the nodal law first, so \
+             that contact/penalty runs after it and adds its forces to the ones it writes",
+        ));
+    }
+    if installer.pipeline_has("partition/dfg") {
+        return Err(params.error(
+            "",
+            "under partition/dfg, contact/penalty acts between contact groups only: list \
+             `contact/frictional` with `between: CrackFaces` before it, for the crack faces \
+             within a group",
+        ));
+    }
+    Ok(false)
 }
 
 /// The widest contact particle of the whole scene, which sizes the bins that find each
@@ -393,6 +449,15 @@ pub fn node_forces<D: Dim>(
     });
 }
 
+/// Adds `own` to the node contact forces another law wrote this step.
+fn add_forces<D: Dim>(contact: &mut [NodeContactForce<D>], own: &[NodeContactForce<D>]) {
+    contact.par_iter_mut().zip(own).for_each(|(total, f)| {
+        for (t, f) in total.0.iter_mut().zip(f.0) {
+            *t += f;
+        }
+    });
+}
+
 /// The grid velocity of each particle's field, `Σ N_Ip v_Ik` (the field of each entry).
 fn grid_velocities<D: Dim>(c: &Connectivity<D>, velocity: &[NodeVelocity<D>]) -> Vec<D::Vector> {
     (0..c.particle_count())
@@ -421,6 +486,7 @@ pub struct PenaltyInputs<'w, D: Dim> {
     grid: Res<'w, Grid<D>>,
     widest: Option<Res<'w, SceneWidestParticle>>,
     owned: OwnedRows<'w>,
+    adds: Option<Res<'w, AddsToNodalContact>>,
 }
 
 type ParticleQuery<'w, 's, D> = Query<
@@ -507,13 +573,15 @@ pub fn penalty_contact<D: Dim>(
     let frame = bin_frame(&inputs, &states);
     let forces = particle_contacts(&set, &inputs.params, &law, frame);
     let held = inputs.bcs.held_mask(node_mass.len());
-    node_forces(c, &forces, &held, &mut contact);
+    let mut own = vec![NodeContactForce::<D>::default(); node_mass.len()];
+    node_forces(c, &forces, &held, &mut own);
     if integration == GridIntegration::UpdateStressLast {
-        kick_nodes(
-            (&mut velocity, &mut acceleration),
-            (node_mass, &contact),
-            dt,
-        );
+        kick_nodes((&mut velocity, &mut acceleration), (node_mass, &own), dt);
+    }
+    if inputs.adds.as_ref().is_some_and(|a| a.0) {
+        add_forces(&mut contact, &own);
+    } else {
+        contact.copy_from_slice(&own);
     }
     // Sequential sums in particle order: the same bits for any thread count. A rank of a
     // distributed run sums the particles it owns.
@@ -675,6 +743,34 @@ mod tests {
         assert_eq!(columns.value("contact_energy"), Some(potential));
         let momentum_change = total::<NodeContactForce<Two>>(&mut world, |f| f.0);
         assert!(momentum_change.length() < 1e-14);
+    }
+
+    /// After a nodal law (`contact/frictional` with `between: CrackFaces` under DFG): the
+    /// pair's forces are added to the node forces that law left, which stay; alone, this
+    /// system replaces last step's.
+    #[test]
+    fn after_a_nodal_law_the_forces_add_to_its_own() {
+        let nodal = DVec2::new(0.25, -2.0);
+        let mut runs = Vec::new();
+        for adds in [false, true] {
+            let mut world = overlapping_pair(
+                crate::predictor::newmark::newmark_predictor::<Two>,
+                GridIntegration::PredictorCorrector { gamma: 0.5 },
+            );
+            world.insert_resource(AddsToNodalContact(adds));
+            let mut query = world.query::<&mut NodeContactForce<Two>>();
+            for mut force in query.iter_mut(&mut world) {
+                force.0[0] = nodal;
+            }
+            let nodes = node_values::<NodeContactForce<Two>>(&mut world).len() as f64;
+            run_system(&mut world, penalty_contact::<Two>);
+            runs.push((total::<NodeContactForce<Two>>(&mut world, |f| f.0), nodes));
+        }
+        let ((alone, _), (added, nodes)) = (runs[0], runs[1]);
+        // The pair's forces are equal and opposite: alone they sum to zero, added they leave
+        // the nodal law's.
+        assert!(alone.length() < 1e-14, "{alone}");
+        assert!((added - nodal * nodes).length() < 1e-12, "{added}");
     }
 
     /// Update-stress-last: the force changes the end-of-step velocities of the two fields in
