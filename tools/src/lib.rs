@@ -27,6 +27,7 @@ macro_rules! outln {
 }
 
 pub mod bench;
+pub mod body_motion;
 pub mod cell_crossing;
 pub mod cli;
 mod commands;

@@ -2,6 +2,7 @@
 //! use: `series.csv` columns, `curve`'s load-curve summary, `crack`'s angle and speed,
 //! `fragments`' statistics. Every measure gives one number in SI units.
 
+use crate::body_motion::{least_squares_slope, motion_history, rates};
 use crate::crossing::{CrossingLine, crack_crossing};
 use crate::{crack, fragments, plot};
 use serde::Deserialize;
@@ -105,6 +106,42 @@ pub enum Measure {
     /// Where a crack crosses a line at the frame nearest `time` (the last when absent): the
     /// centre of its band there (m, [`crossing`](crate::crossing)).
     CrackCrossing(CrossingAt),
+    /// The least-squares acceleration of a body's centre of mass along a direction, over the
+    /// particle frames from `from` on (m/s², [`body_motion`](crate::body_motion)).
+    BodyAcceleration(BodyMotionAt),
+    /// The least-squares angular acceleration of a body about the z axis through its centre
+    /// of mass, counter-clockwise positive, over the particle frames from `from` on (rad/s²).
+    BodySpinAcceleration(BodyMotionAt),
+}
+
+/// Which body's rigid motion, and over which frames.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct BodyMotionAt {
+    /// The body (index in the scene's order).
+    pub body: u16,
+    /// Frames before this time are left out (s).
+    #[serde(default)]
+    pub from: f64,
+    /// The direction of the acceleration, 2 or 3 coordinates (x when absent).
+    #[serde(default)]
+    pub direction: Option<Vec<f64>>,
+}
+
+impl BodyMotionAt {
+    /// The body's acceleration along the direction and its angular acceleration.
+    fn rates(&self, dir: &Path) -> Result<(f64, f64), String> {
+        let history = motion_history(dir, self.body, self.from)?;
+        let along = self.direction.as_deref().unwrap_or(&[1.0, 0.0]);
+        let direction = std::array::from_fn(|a| along.get(a).copied().unwrap_or(0.0));
+        rates(&history, direction).ok_or_else(|| {
+            format!(
+                "{} frames from {} s on, or no direction: no rates",
+                history.len(),
+                self.from
+            )
+        })
+    }
 }
 
 /// A crack's crossing of a line at one frame.
@@ -161,6 +198,14 @@ impl Measure {
                 Ok(())
             }
             Measure::CrackCrossing(at) => at.line.validate(),
+            Measure::BodyAcceleration(at) | Measure::BodySpinAcceleration(at) => {
+                match at.direction.as_deref() {
+                    Some(d) if !matches!(d.len(), 2 | 3) || d.iter().all(|x| *x == 0.0) => {
+                        Err("the direction takes 2 or 3 coordinates, not all zero".into())
+                    }
+                    _ => Ok(()),
+                }
+            }
             Measure::SeriesSlope { from, to, .. } if to <= from || to.is_nan() || from.is_nan() => {
                 Err("the window needs `to` after `from`".into())
             }
@@ -199,6 +244,8 @@ impl Measure {
             Measure::CrackCrossing(at) => {
                 crack_crossing(&crate::snapshot::frame_near(dir, at.time)?, &at.line)
             }
+            Measure::BodyAcceleration(at) => at.rates(dir).map(|r| r.0),
+            Measure::BodySpinAcceleration(at) => at.rates(dir).map(|r| r.1),
             series_measure => series_measure.of_series(&read_series(dir)?),
         }
     }
@@ -283,19 +330,6 @@ fn window(time: &[f64], values: &[f64], from: f64, to: f64) -> Vec<(f64, f64)> {
         .filter(|(t, _)| **t >= from && **t <= to)
         .map(|(t, v)| (*t, *v))
         .collect()
-}
-
-fn least_squares_slope(points: &[(f64, f64)]) -> Option<f64> {
-    if points.len() < 2 {
-        return None;
-    }
-    let n = points.len() as f64;
-    let (mx, my) = points
-        .iter()
-        .fold((0.0, 0.0), |(a, b), p| (a + p.0 / n, b + p.1 / n));
-    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
-    let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-    (sxx > 0.0).then(|| sxy / sxx)
 }
 
 /// Times where `values` changes sign, by linear interpolation.
