@@ -403,6 +403,29 @@ fn two_disks_under_dfg_keep_their_energy_with_penalty_contact() {
     assert!(penalty.worst_momentum < 1e-13, "{}", penalty.worst_momentum);
     assert!(penalty.monotone, "contact pulled the disks back (tension)");
     assert!(penalty.closest > 0.25 * spacing, "{}", penalty.closest);
+    // Update-stress-last on GIMP: both laws act in the grid update, the penalty after the
+    // nodal law.
+    let usl = run(pipeline(&[
+        ("basis/gimp", None),
+        ("predictor/usl", None),
+        ("stress/neo_hookean", None),
+        (
+            "damage/rankine",
+            Some("(tensile_strength: 1.0e4, fracture_energy: 1.0e4)"),
+        ),
+        ("partition/dfg", None),
+        DFG_PENALTY[0],
+        DFG_PENALTY[1],
+        ("advection/usl", None),
+    ]));
+    println!(
+        "two disks under DFG, USL on GIMP, penalty between the groups: {}, momentum {:.1e}",
+        percent(&usl),
+        usl.worst_momentum
+    );
+    assert!(usl.worst_momentum < 1e-13, "{}", usl.worst_momentum);
+    assert!(usl.monotone, "contact pulled the disks back (tension)");
+    assert!(usl.closest > 0.25 * spacing, "{}", usl.closest);
 }
 
 /// The same collision as two spheres in 3D, with Newmark.
@@ -631,6 +654,22 @@ fn surface_detection_reproduces_two_group_contact() {
     assert!(self_contact.worst_momentum < 1e-13);
     assert!(self_contact.monotone);
     assert!((self_contact.kinetic_back / two_groups.kinetic_back - 1.0).abs() < 0.02);
+    // The same with Algorithm 3 for the sides of one group and the penalty between groups:
+    // with one group there is nothing for the penalty, and the sides meet exactly as before.
+    let mut spec = scene::<Two>("two_disks_contact.ron");
+    spec.bodies[1].contact_group = 0;
+    let laws = spec
+        .pipeline
+        .iter()
+        .position(|e| e.system == "contact/frictional")
+        .unwrap();
+    spec.pipeline[partition] = entry("partition/dfg", Some("(surface: 0.8)"));
+    spec.pipeline[laws] = entry("contact/frictional", Some("(between: CrackFaces)"));
+    spec.pipeline
+        .insert(laws + 1, entry("contact/penalty", None));
+    let beside_penalty = collide(spec);
+    assert_eq!(beside_penalty.kinetic_back, self_contact.kinetic_back);
+    assert_eq!(beside_penalty.closest, self_contact.closest);
 }
 
 /// Largest reaction at the fixed left end of a bar pulled at its right end, with a band of
