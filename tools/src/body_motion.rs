@@ -25,7 +25,7 @@ pub fn rigid_motion(frame: &ParticleFrame, body: u16, time: f64) -> Option<Rigid
         .filter(|&p| frame.body[p] == body)
         .collect();
     let mass: f64 = members.iter().map(|&p| frame.mass[p]).sum();
-    if members.is_empty() || !(mass > 0.0) {
+    if members.is_empty() || mass.is_nan() || mass <= 0.0 {
         return None;
     }
     let mean = |of: &[[f64; 3]]| -> [f64; 3] {
@@ -97,7 +97,7 @@ pub fn least_squares_slope(points: &[(f64, f64)]) -> Option<f64> {
 /// `history`.
 pub fn rates(history: &[RigidMotion], direction: [f64; 3]) -> Option<(f64, f64)> {
     let length = direction.iter().map(|d| d * d).sum::<f64>().sqrt();
-    if !(length > 0.0) {
+    if length.is_nan() || length <= 0.0 {
         return None;
     }
     let along: Vec<(f64, f64)> = history
