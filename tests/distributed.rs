@@ -236,6 +236,17 @@ fn two_disks_colliding_on_one_to_four_ranks_are_the_single_process_bit_for_bit()
     assert_worlds_rebuilt(&nodes);
 }
 
+/// Modified update-stress-last maps the updated particle velocities back to the grid: a second
+/// round trip, which the halo must hold.
+#[test]
+fn musl_on_one_to_four_ranks_is_the_single_process_bit_for_bit() {
+    let musl = USL.replace(
+        r#"(system: "predictor/usl")"#,
+        r#"(system: "predictor/usl", params: (scheme: Musl))"#,
+    );
+    assert_ranks_match_serial(&musl, 300);
+}
+
 #[test]
 fn newmark_with_gimp_on_one_to_four_ranks_is_the_single_process_bit_for_bit() {
     assert_ranks_match_serial(NEWMARK_GIMP, 300);

@@ -4,6 +4,7 @@ pub mod frictional;
 pub mod frictional_law;
 pub mod penalty;
 pub mod penalty_law;
+pub mod penalty_pairs;
 
 use fractum_engine::prelude::*;
 use frictional_law::PairFriction;

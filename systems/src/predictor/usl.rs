@@ -21,7 +21,16 @@
 //!   the support, so it has no such term, nor has the Newmark predictor-corrector (its stress
 //!   uses the predicted velocity `Σ N m v / m`; docs/history/development-log.md has the measured block). Use
 //!   `basis/gimp` (or `basis/lme`) with this integrator when stressed surfaces move across
-//!   the grid, as in sliding contact.
+//!   the grid, as in sliding contact, or `scheme: Musl`.
+//! - `scheme: Musl`, modified update-stress-last (Sulsky, Zhou & Schreyer 1995): after eq. 6
+//!   the particles' updated velocities `v_p + Δt Σ N_Ip a_I` are mapped back to the nodes and
+//!   that velocity, `Σ N_Ip m_p v_p' / m_I`, replaces eq. 5's `v̄_I` for the rest of the step
+//!   (the contact correction, the stress's velocity gradient, the motion). A node a particle
+//!   has just reached then moves with that particle. With the tents, a disk translating or
+//!   spinning rigidly across cells stays rigid (`tests/patch.rs`), where eq. 5's velocity
+//!   amplifies round-off at each crossing until the run stops (a translating disk at step
+//!   379). It costs one more particle-to-grid pass, and a distributed run's halo one more
+//!   round trip.
 
 use crate::transfer::{
     ForceSources, GridStepInputs, NodeSums, NodeTransferQuery, ParticleSlices, add_contribution,
@@ -35,12 +44,22 @@ use serde::Deserialize;
 pub const REGISTRATION: Registration = Registration {
     name: "predictor/usl",
     summary: "USL grid update: P2G of mass and momentum, nodal forces, v̄ = v + Δt f/m (eqs. 1-6)",
-    params: &[ParamDoc {
-        name: "min_node_mass",
-        ty: "f64",
-        default: Some("0.0"),
-        doc: "nodes with less mass (kg) are treated as empty: zero velocity and acceleration",
-    }],
+    params: &[
+        ParamDoc {
+            name: "min_node_mass",
+            ty: "f64",
+            default: Some("0.0"),
+            doc: "nodes with less mass (kg) are treated as empty: zero velocity and acceleration",
+        },
+        ParamDoc {
+            name: "scheme",
+            ty: "Usl | Musl",
+            default: Some("Usl"),
+            doc: "Usl: the stress takes its velocity gradient from v̄ = v + Δt f/m (eqs. 5-7); \
+                  Musl: from the velocities mapped back from the updated particle velocities, \
+                  which keeps a body moving across cells stable with the tents",
+        },
+    ],
     requires: &["advection/usl"],
     install: generic_install!(install),
 };
@@ -52,6 +71,22 @@ pub struct UslPredictorParams {
     /// Nodes with no more mass than this are empty.
     #[serde(default)]
     pub min_node_mass: f64,
+    /// Which end-of-step grid velocity the stress and the motion read.
+    #[serde(default)]
+    pub scheme: UslScheme,
+}
+
+/// The end-of-step grid velocity of `predictor/usl` (`scheme`).
+#[derive(Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum UslScheme {
+    /// `v̄_I = v_I + Δt f_I / m_I` (eq. 5), as the paper writes it.
+    #[default]
+    Usl,
+    /// Modified update-stress-last (Sulsky et al.): the particles' updated velocities
+    /// `v_p + Δt Σ N_Ip a_I`, mapped back to the nodes, `v̄_I = Σ N_Ip m_p v_p' / m_I`. A node a
+    /// particle has just reached then moves with that particle, where eq. 5's velocity grows
+    /// as `1/N` (see the module header).
+    Musl,
 }
 
 fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
@@ -65,6 +100,10 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
     installer.insert_resource(GridIntegration::UpdateStressLast);
     // Mass, momentum and forces to the nodes, read back by the stress and the advection.
     installer.declare_grid_round_trip();
+    if parsed.scheme == UslScheme::Musl {
+        // The particles' updated velocities to the nodes, read back by the stress.
+        installer.declare_grid_round_trip();
+    }
     installer.add_systems(usl_predictor::<D>);
     Ok(())
 }
@@ -192,6 +231,55 @@ pub fn usl_predictor<D: Dim>(
         force: &mut force,
     };
     grid_update(&sums, &ctx, columns, &mut reactions);
+    if params.scheme == UslScheme::Musl {
+        remap_velocities(
+            &connectivity,
+            &slices,
+            &ctx,
+            (&node_mass, &acceleration),
+            &mut node_velocity,
+        );
+    }
+}
+
+/// Modified update-stress-last: the end-of-step velocity of each field mapped back from the
+/// particles' updated velocities, `v̄_Ik = Σ N_Ip m_p (v_p + Δt Σ_J N_Jp a_J) / m_Ik` over the
+/// particles of field `k`, the boundary conditions held on it again (their reactions are the
+/// grid update's). The accelerations stay eq. 6's, which the advection adds to the particles.
+pub fn remap_velocities<D: Dim>(
+    c: &Connectivity<D>,
+    slices: &ParticleSlices<D>,
+    ctx: &StepContext,
+    (mass, acceleration): (&[NodeMass], &[NodeAcceleration<D>]),
+    velocity: &mut [NodeVelocity<D>],
+) {
+    let updated: Vec<D::Vector> = (0..c.particle_count())
+        .into_par_iter()
+        .map(|p| {
+            let a = c.row(p).fold(D::Vector::ZERO, |a, e| {
+                a + acceleration[c.nodes[e] as usize].0[c.field(e)] * c.weights[e]
+            });
+            slices.velocity[p].0 + a * ctx.dt
+        })
+        .collect();
+    let mut momenta = vec![[D::Vector::ZERO; MAX_FIELDS]; mass.len()];
+    c.accumulate_to_nodes(&mut momenta, |sum, e, p| {
+        sum[c.field(e)] += updated[p] * (slices.mass[p].0 * c.weights[e]);
+    });
+    velocity
+        .par_iter_mut()
+        .zip(momenta.par_iter().zip(mass.par_iter()))
+        .for_each(|(v, (p, m))| {
+            v.0 = std::array::from_fn(|k| {
+                let occupied = m.0[k] > ctx.min_node_mass && m.0[k] > 0.0;
+                if occupied {
+                    p[k] / m.0[k]
+                } else {
+                    D::Vector::ZERO
+                }
+            });
+        });
+    ctx.bcs.enforce(ctx.time + ctx.dt, mass, velocity, None);
 }
 
 #[cfg(test)]
@@ -239,6 +327,56 @@ mod tests {
         assert!((momentum - expected).length() < 1e-12, "{momentum:?}");
         assert!((impulse - g * 5.0).length() < 1e-10);
         assert!(masses.iter().all(|m| m.0[1] == 0.0));
+    }
+
+    /// Modified update-stress-last: every node a lone particle reaches moves with the
+    /// particle's updated velocity `v + Δt g`, however little of its mass the node holds,
+    /// where eq. 5 gives each node `v + Δt g` too only because a lone particle carries no
+    /// stress; under a stress a node holding `N ≈ 0` of the mass gets `Δt f / (N m)`.
+    #[test]
+    fn musl_nodes_move_with_the_particles_updated_velocity() {
+        for scheme in [UslScheme::Usl, UslScheme::Musl] {
+            let mut world = tiny_world::<Two>(2, 0.5, 0.01);
+            world.insert_resource(UslPredictorParams {
+                scheme,
+                ..UslPredictorParams::default()
+            });
+            let g = DVec2::new(0.0, -10.0);
+            world.insert_resource(BodyForce::<Two>(g));
+            // Just inside the cell [0.5, 1] along x: the nodes at x = 1 hold 2% of its mass.
+            let v = DVec2::new(1.0, 2.0);
+            let p = spawn_particle(&mut world, DVec2::new(0.51, 0.3), v, 2.0, 0.1);
+            world.entity_mut(p).insert(Stress::<Two>(SymTensor2 {
+                xx: 1.0e3,
+                ..SymTensor2::default()
+            }));
+            run_system(
+                &mut world,
+                (linear_basis::<Two>, usl_predictor::<Two>).chain(),
+            );
+            let masses = node_values::<NodeMass>(&mut world);
+            let velocities = node_values::<NodeVelocity<Two>>(&mut world);
+            let accelerations = node_values::<NodeAcceleration<Two>>(&mut world);
+            let reached: Vec<usize> = (0..masses.len())
+                .filter(|&i| masses[i].0[0] > 0.0)
+                .collect();
+            assert_eq!(reached.len(), 4);
+            // The particle's updated velocity, from the nodes' accelerations.
+            let c = world.resource::<Connectivity<Two>>();
+            let a: DVec2 = c
+                .row(0)
+                .map(|e| accelerations[c.nodes[e] as usize].0[0] * c.weights[e])
+                .sum();
+            let updated = v + a * 0.01;
+            let spread = reached
+                .iter()
+                .map(|&i| (velocities[i].0[0] - updated).length())
+                .fold(0.0, f64::max);
+            match scheme {
+                UslScheme::Musl => assert!(spread < 1e-12, "{spread}"),
+                UslScheme::Usl => assert!(spread > 1.0, "{spread}"),
+            }
+        }
     }
 
     #[test]

@@ -1,0 +1,197 @@
+//! The particle pairs of `contact/penalty`: the bins that find each particle's partners in the
+//! other contact groups, and each particle's summed force, energy and friction power over its
+//! pairs.
+//!
+//! - Stage: contact (used by the `contact/penalty` system; not a registration itself).
+//! - The law of one pair is `contact::penalty_law`; this file only finds the pairs and sums
+//!   them, in a fixed order, so that the sums are the same for any thread count and on every
+//!   rank of a distributed run ([`BinFrame`]).
+
+use super::penalty_law::{
+    ContactParticle, KERNEL_REACH, PairLaw, PenaltyParams, depth_energy, depth_slope, kernel,
+    pair_force, penalty_modulus,
+};
+use fractum_engine::prelude::*;
+use rayon::prelude::*;
+use std::collections::HashMap;
+
+/// What the contact gives each particle: the summed force of its pairs, its contact energy, and
+/// its share of the pairs' friction power (half of each pair's, so that the sum over particles
+/// is the pairs' sum).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ParticleContact<V> {
+    /// Summed force of the particle's pairs on it.
+    pub force: V,
+    /// Its contact energy `½ K_p (S_p − s₀)₊²`.
+    pub energy: f64,
+    /// Half the friction power of its pairs.
+    pub friction_power: f64,
+}
+
+/// The particles of the contact, in particle-row order.
+pub struct ContactSet<'a, V> {
+    /// Each particle's state for the law.
+    pub particles: &'a [ContactParticle<V>],
+    /// Each particle's contact group.
+    pub groups: &'a [ContactGroup],
+}
+
+/// Where the bins that find each particle's partners lie: their corner and the widest
+/// particle, whose kernel reach is their side. Fixed by the scene (the grid's corner, the
+/// scene's widest particle) rather than by the particles at hand, so that a rank of a
+/// distributed run, holding some of them, visits an owned particle's partners in the order one
+/// process does.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BinFrame {
+    /// The corner of bin (0, 0, 0) (x, y, z; unused axes zero).
+    pub origin: [f64; 3],
+    /// The widest particle's width.
+    pub widest: f64,
+}
+
+impl BinFrame {
+    /// The frame of `set` alone: its lowest corner and its widest particle.
+    pub fn of<V: VectorOps>(set: &ContactSet<V>) -> Self {
+        let mut origin = [f64::INFINITY; 3];
+        for p in set.particles {
+            let x = p.position.to_3d();
+            for a in 0..3 {
+                origin[a] = origin[a].min(x[a]);
+            }
+        }
+        let widest = set.particles.iter().map(|p| p.width).fold(0.0, f64::max);
+        Self { origin, widest }
+    }
+}
+
+/// Bins of side the largest kernel reach: a particle's partners lie in its own bin or the
+/// adjacent ones. Each bin lists its particles in row order and whether it holds more than one
+/// contact group.
+struct Bins {
+    side: f64,
+    origin: [f64; 3],
+    cells: HashMap<[i64; 3], Bin>,
+}
+
+struct Bin {
+    rows: Vec<u32>,
+    group: u8,
+    mixed: bool,
+}
+
+impl Bins {
+    fn new<V: VectorOps>(set: &ContactSet<V>, frame: BinFrame) -> Option<Self> {
+        let side = KERNEL_REACH * frame.widest;
+        if !(side > 0.0 && side.is_finite() && frame.origin.iter().all(|x| x.is_finite())) {
+            return None;
+        }
+        let mut bins = Self {
+            side,
+            origin: frame.origin,
+            cells: HashMap::new(),
+        };
+        for (row, (p, group)) in set.particles.iter().zip(set.groups).enumerate() {
+            let bin = bins.cells.entry(bins.key(p.position)).or_insert(Bin {
+                rows: Vec::new(),
+                group: group.0,
+                mixed: false,
+            });
+            bin.mixed |= bin.group != group.0;
+            bin.rows.push(row as u32);
+        }
+        Some(bins)
+    }
+
+    fn key<V: VectorOps>(&self, x: V) -> [i64; 3] {
+        let x = x.to_3d();
+        std::array::from_fn(|a| ((x[a] - self.origin[a]) / self.side).floor() as i64)
+    }
+
+    /// The bins around `x` (its own and the adjacent ones, in a fixed order).
+    fn around<V: VectorOps>(&self, x: V, dimension: usize) -> impl Iterator<Item = &Bin> + '_ {
+        let centre = self.key(x);
+        let span = move |a: usize| if a < dimension { -1..=1 } else { 0..=0 };
+        span(0)
+            .flat_map(move |i| span(1).flat_map(move |j| span(2).map(move |k| [i, j, k])))
+            .filter_map(move |d| {
+                self.cells
+                    .get(&[centre[0] + d[0], centre[1] + d[1], centre[2] + d[2]])
+            })
+    }
+}
+
+impl Bins {
+    /// Calls `visit(q)` for every particle `q` of another group than `row`'s within reach of
+    /// it, in a fixed order.
+    fn partners<V: VectorOps>(
+        &self,
+        set: &ContactSet<V>,
+        row: usize,
+        dimension: usize,
+        mut visit: impl FnMut(usize),
+    ) {
+        let group = set.groups[row].0;
+        for bin in self.around(set.particles[row].position, dimension) {
+            if !bin.mixed && bin.group == group {
+                continue;
+            }
+            for &other in &bin.rows {
+                if set.groups[other as usize].0 != group {
+                    visit(other as usize);
+                }
+            }
+        }
+    }
+}
+
+/// Each particle's contact with the particles of other groups (see [`ParticleContact`]), with
+/// the friction coefficient of each pair of groups from `params`: first each particle's depth
+/// `S_p` in the other groups' material, then the pair forces. Partners are visited from both
+/// sides, each side in a fixed order (bins placed by `frame`, rows in order), so the sums are the
+/// same for any thread count.
+pub fn particle_contacts<V: VectorOps>(
+    set: &ContactSet<V>,
+    params: &PenaltyParams,
+    law: &PairLaw,
+    frame: BinFrame,
+) -> Vec<ParticleContact<V>> {
+    let Some(bins) = Bins::new(set, frame) else {
+        return vec![ParticleContact::default(); set.particles.len()];
+    };
+    let d = law.dimension;
+    let particles = set.particles;
+    // K_p and the depth S_p of every particle.
+    let depths: Vec<(f64, f64)> = (0..particles.len())
+        .into_par_iter()
+        .map(|row| {
+            let me = &particles[row];
+            let mut depth = 0.0;
+            bins.partners(set, row, d, |q| {
+                depth += kernel(me.position - particles[q].position, particles[q].width, d);
+            });
+            (penalty_modulus(me, law), depth)
+        })
+        .collect();
+    let slopes: Vec<f64> = depths.iter().map(|&(k, s)| depth_slope(k, s)).collect();
+    (0..particles.len())
+        .into_par_iter()
+        .map(|row| {
+            let (me, group) = (&particles[row], set.groups[row].0);
+            let mut sum = ParticleContact {
+                energy: depth_energy(depths[row].0, depths[row].1),
+                ..ParticleContact::default()
+            };
+            bins.partners(set, row, d, |q| {
+                let pair = PairLaw {
+                    friction: params.friction_between(group, set.groups[q].0),
+                    ..*law
+                };
+                if let Some(c) = pair_force((me, slopes[row]), (&particles[q], slopes[q]), &pair) {
+                    sum.force += c.force;
+                    sum.friction_power += 0.5 * c.friction_power;
+                }
+            });
+            sum
+        })
+        .collect()
+}
