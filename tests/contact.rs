@@ -328,22 +328,36 @@ fn two_disks_keep_their_energy_with_penalty_contact() {
     assert!(penalty.kinetic_back > 0.75, "{}", penalty.kinetic_back);
 }
 
-/// Newmark with DFG partitioning, as a fracture scene runs it: neo-Hookean stress and Rankine
-/// damage (here with a strength the disks never reach), and `contact` for the fields.
-fn newmark_dfg(contact: &[(&'static str, Option<&'static str>)]) -> Vec<PipelineEntry> {
+/// Newmark as a fracture scene runs it, on `basis`: neo-Hookean stress, Rankine damage with
+/// the `rankine` parameters (a strength the bodies here never reach), `partition`, the contact
+/// entries `contact`, and the corrector and advection.
+fn fracture_newmark(
+    basis: &'static str,
+    rankine: &'static str,
+    partition: &'static str,
+    contact: &[(&'static str, Option<&'static str>)],
+) -> Vec<(&'static str, Option<&'static str>)> {
     let mut entries = vec![
-        ("basis/linear", None),
+        (basis, None),
         ("predictor/newmark", None),
         ("stress/neo_hookean", None),
-        (
-            "damage/rankine",
-            Some("(tensile_strength: 1.0e4, fracture_energy: 1.0e4)"),
-        ),
-        ("partition/dfg", None),
+        ("damage/rankine", Some(rankine)),
+        (partition, None),
     ];
     entries.extend_from_slice(contact);
     entries.extend([("corrector/newmark", None), ("advection/newmark", None)]);
-    pipeline(&entries)
+    entries
+}
+
+/// Newmark on the tents with DFG partitioning and `contact`: the two disks' fracture pipeline.
+fn newmark_dfg(contact: &[(&'static str, Option<&'static str>)]) -> Vec<PipelineEntry> {
+    let rankine = "(tensile_strength: 1.0e4, fracture_energy: 1.0e4)";
+    pipeline(&fracture_newmark(
+        "basis/linear",
+        rankine,
+        "partition/dfg",
+        contact,
+    ))
 }
 
 /// The contact a DFG user picks for energy: Algorithm 3 between the sides of a crack, the
@@ -1467,25 +1481,13 @@ fn a_pushed_block_slides_at_the_friction_law_s_rate() {
     }
 }
 
-/// Newmark on GIMP with neo-Hookean stress and Rankine damage (a strength the disk never
-/// reaches), partitioned by `partition`, with the contact entries `contact`.
+/// Newmark on GIMP as a fracture scene runs it, partitioned by `partition`, with `contact`.
 fn rolling_pipeline(
     partition: &'static str,
     contact: &[(&'static str, Option<&'static str>)],
 ) -> Vec<(&'static str, Option<&'static str>)> {
-    let mut entries = vec![
-        ("basis/gimp", None),
-        ("predictor/newmark", None),
-        ("stress/neo_hookean", None),
-        (
-            "damage/rankine",
-            Some("(tensile_strength: 1.0e6, fracture_energy: 1.0e3)"),
-        ),
-        (partition, None),
-    ];
-    entries.extend_from_slice(contact);
-    entries.extend([("corrector/newmark", None), ("advection/newmark", None)]);
-    entries
+    let rankine = "(tensile_strength: 1.0e6, fracture_energy: 1.0e3)";
+    fracture_newmark("basis/gimp", rankine, partition, contact)
 }
 
 /// The disk on the 30° incline under DFG partitioning, with Algorithm 3 for crack faces and
