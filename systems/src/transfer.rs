@@ -6,6 +6,9 @@
 //! - Grid to particle: `Σ N_Ip a_I` and `Σ N_Ip v_I` (eqs. 9–10; Appendix A step 9).
 //!
 //! - Velocity gradient `L_p = Σ v_I ⊗ ∇N_Ip` (eq. 7).
+//! - The affine transfer (APIC, an advection's `transfer: Apic`): the grid-to-particle
+//!   `C_p = B_p D_p⁻¹` ([`affine_interpolation`]) and the particle-to-grid share
+//!   `N m C_p (x_I − x_p)` ([`add_affine_momentum`]).
 //!
 //! Every transfer reads the velocity field of each particle–node pair from the connectivity
 //! (`Connectivity::field`), so a partitioned run and a single-field run share this code: a
@@ -321,4 +324,96 @@ pub fn velocity_gradient<D: Dim>(
         .fold(D::Matrix::ZERO, |l, (e, gradient)| {
             l + D::Matrix::outer(node_velocity[c.nodes[e] as usize].0[c.field(e)], gradient)
         })
+}
+
+/// What the grid gives one particle under the affine transfer (APIC): the interpolated
+/// acceleration and velocity, and the affine velocity of the field the next predictor carries.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AffineMotion<V, M> {
+    /// `Σ N a_I`.
+    pub acceleration: V,
+    /// `Σ N v_I`.
+    pub velocity: V,
+    /// `C_p = B_p D_p⁻¹` of the carried field `w_I = v_I + carry a_I`.
+    pub affine: M,
+}
+
+/// The affine grid-to-particle transfer of particle row `p` at `x_p` (Jiang et al. 2015's APIC,
+/// with the inertia-like tensor of any basis):
+/// `B_p = Σ N w_I ⊗ (x_I − x_p)`, `D_p = Σ N (x_I − x_p) ⊗ (x_I − x_p)`, `C_p = B_p D_p⁻¹`,
+/// with `w_I = v_I + carry a_I` the field the next particle-to-grid transfer rebuilds
+/// (`carry = (1 − γ) Δt` under Newmark's predictor). `D_p` is `h²/4 I` for quadratic B-splines;
+/// for the tents it vanishes along an axis where the particle sits on a node line, and so does
+/// `B_p` there, so the inverse is regularised by `10⁻¹² tr D_p` and such a column of `C_p` is
+/// zero.
+pub fn affine_interpolation<D: Dim>(
+    c: &Connectivity<D>,
+    grid: &Grid<D>,
+    (acceleration, velocity): (&[NodeAcceleration<D>], &[NodeVelocity<D>]),
+    (p, x_p): (usize, D::Vector),
+    carry: f64,
+) -> AffineMotion<D::Vector, D::Matrix> {
+    let mut motion = AffineMotion {
+        acceleration: D::Vector::ZERO,
+        velocity: D::Vector::ZERO,
+        affine: D::Matrix::ZERO,
+    };
+    let mut inertia = D::Matrix::ZERO;
+    for e in c.row(p) {
+        let (node, k, n) = (c.nodes[e] as usize, c.field(e), c.weights[e]);
+        let (a, v) = (acceleration[node].0[k], velocity[node].0[k]);
+        let offset = grid.node_position(node) - x_p;
+        motion.acceleration += a * n;
+        motion.velocity += v * n;
+        motion.affine += D::Matrix::outer((v + a * carry) * n, offset);
+        inertia += D::Matrix::outer(offset * n, offset);
+    }
+    let regularised = inertia + D::Matrix::IDENTITY * (1e-12 * inertia.trace());
+    if regularised.determinant() > 0.0 {
+        motion.affine = motion.affine * regularised.inverse();
+    } else {
+        motion.affine = D::Matrix::ZERO;
+    }
+    motion
+}
+
+/// The particles' affine velocities and positions, on particles only where the advection uses
+/// `transfer: Apic` (read by the predictors).
+pub type AffineSources<'w, 's, D> =
+    Query<'w, 's, (&'static Position<D>, &'static AffineVelocity<D>), With<Particle>>;
+
+/// What a predictor reads for the affine transfer: the grid (node positions) and the
+/// particles' positions and affine velocities, where they carry them.
+#[derive(SystemParam)]
+pub struct AffineInputs<'w, 's, D: Dim> {
+    grid: Res<'w, Grid<D>>,
+    particles: AffineSources<'w, 's, D>,
+}
+
+/// The affine transfer's columns for a particle-to-grid pass: the grid, positions and affine
+/// velocities, or `None` where the particles carry none (a FLIP run).
+pub type AffineColumns<'a, D> = (&'a Grid<D>, &'a [Position<D>], &'a [AffineVelocity<D>]);
+
+impl<'w, 's, D: Dim> AffineInputs<'w, 's, D> {
+    /// The columns, or `None` without the affine transfer.
+    pub fn columns(&self) -> Option<AffineColumns<'_, D>> {
+        let (position, affine) = single_table(self.particles.contiguous_iter(), "particles")?;
+        Some((&self.grid, position, affine))
+    }
+}
+
+/// The affine transfer's share of entry `e` of particle `p`: `N m C_p (x_I − x_p)` to the
+/// momentum of its field (an advection's `transfer: Apic`).
+#[inline(always)]
+pub fn add_affine_momentum<D: Dim>(
+    sums: &mut NodeSums<D>,
+    c: &Connectivity<D>,
+    mass: &[Mass],
+    (grid, position, affine): AffineColumns<D>,
+    e: usize,
+    p: usize,
+) {
+    let node = c.nodes[e] as usize;
+    let offset = grid.node_position(node) - position[p].0;
+    sums.momentum[c.field(e)] += affine[p].0 * offset * (c.weights[e] * mass[p].0);
 }

@@ -125,6 +125,19 @@ pub struct Velocity<D: Dim>(pub D::Vector);
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Acceleration<D: Dim>(pub D::Vector);
 
+/// Affine velocity `C_p` of the affine particle-in-cell transfer (APIC): the particle carries
+/// the velocity field `v_p + C_p (x − x_p)` around itself, which the next particle-to-grid
+/// transfer hands to its nodes, so the transfers keep angular momentum. On every particle when
+/// the pipeline's advection uses `transfer: Apic`, on none otherwise.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AffineVelocity<D: Dim>(pub D::Matrix);
+
+impl<D: Dim> Default for AffineVelocity<D> {
+    fn default() -> Self {
+        Self(D::Matrix::ZERO)
+    }
+}
+
 /// Mass (constant).
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Mass(pub f64);

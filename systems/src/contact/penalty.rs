@@ -49,6 +49,7 @@ use super::frictional_law::{ContactPairs, FrictionalParams};
 use super::penalty_law::KERNEL_REACH;
 pub use super::penalty_law::{ContactParticle, PairContact, PairLaw, PenaltyParams};
 pub use super::penalty_pairs::{BinFrame, ContactSet, ParticleContact, particle_contacts};
+use crate::transfer::velocity_gradient;
 use bevy_ecs::system::SystemParam;
 use fractum_engine::decomposition::{Owned, OwnedRows, RankMaximum};
 use fractum_engine::energy::ContactPotential;
@@ -239,8 +240,9 @@ pub struct PenaltyColumns {
     pub friction: usize,
 }
 
-/// The contact force on each field of each node, `f_Ik = Σ_p N_Ip f_p` over the particles of
-/// field `k` (node-major, in particle order), with held components cleared.
+/// The contact force on each field of each node, `f_Ik = Σ_p (N_Ip f_p + M_p ∇N_Ip)` over the
+/// particles of field `k` (node-major, in particle order), with `M_p = Σ f_t ⊗ a` the moment of
+/// the particle's friction about it, and held components cleared.
 pub fn node_forces<D: Dim>(
     c: &Connectivity<D>,
     forces: &[ParticleContact<D::Vector>],
@@ -252,7 +254,11 @@ pub fn node_forces<D: Dim>(
         if let Some(&[from, to]) = c.node_offsets.get(i..i + 2) {
             for &(e, p) in &c.node_entries[from..to] {
                 let (e, p) = (e as usize, p as usize);
-                f[c.field(e)] += forces[p].force * c.weights[e];
+                let contact = &forces[p];
+                f[c.field(e)] += contact.force * c.weights[e];
+                if contact.moment.iter().any(|m| *m != D::Vector::ZERO) {
+                    f[c.field(e)] += contact.moment_force(c.gradient(e, p));
+                }
             }
         }
         for fk in &mut f {
@@ -273,6 +279,36 @@ fn add_forces<D: Dim>(contact: &mut [NodeContactForce<D>], own: &[NodeContactFor
             *t += f;
         }
     });
+}
+
+/// The grid's spin at each particle, the skew part `Ω = ½ (L − Lᵀ)` of its velocity gradient
+/// `L = Σ v_Ik ⊗ ∇N_Ip`, by rows (see [`ContactParticle::velocity_gradient`]); all zero unless
+/// friction acts at the contact point (`wanted`), which alone reads it. The friction's moment reaches the nodes as a pure moment
+/// (`ParticleContact::moment_force`), whose work-conjugate velocity at the contact point is
+/// `v + Ω a`.
+fn grid_gradients<D: Dim>(
+    c: &Connectivity<D>,
+    velocity: &[NodeVelocity<D>],
+    wanted: bool,
+) -> Vec<[D::Vector; 3]> {
+    if !wanted {
+        return vec![[D::Vector::ZERO; 3]; c.particle_count()];
+    }
+    (0..c.particle_count())
+        .into_par_iter()
+        .map(|p| {
+            let l = velocity_gradient(c, velocity, p);
+            std::array::from_fn(|i| {
+                D::Vector::from_fn(|j| {
+                    if i < D::N && j < D::N {
+                        0.5 * (l.get(i, j) - l.get(j, i))
+                    } else {
+                        0.0
+                    }
+                })
+            })
+        })
+        .collect()
 }
 
 /// The grid velocity of each particle's field, `Σ N_Ip v_Ik` (the field of each entry).
@@ -335,6 +371,7 @@ type NodeQuery<'w, 's, D> = Query<
 pub fn penalty_contact<D: Dim>(
     mut inputs: PenaltyInputs<D>,
     particles: ParticleQuery<D>,
+    affine: Query<(), (With<Particle>, With<AffineVelocity<D>>)>,
     mut nodes: NodeQuery<D>,
 ) {
     let Some((positions, mass, volume, material, groups)) =
@@ -355,6 +392,11 @@ pub fn penalty_contact<D: Dim>(
         1.0
     };
     let grid_velocity = grid_velocities(c, &velocity);
+    let friction =
+        inputs.params.friction > 0.0 || inputs.params.pairs.iter().any(|p| p.friction > 0.0);
+    // Friction at the contact point only where the transfers carry its moment (APIC).
+    let at_contact_point = friction && !affine.is_empty();
+    let grid_gradient = grid_gradients(c, &velocity, at_contact_point);
     // Newmark's stress sees the predicted configuration; update-stress-last's grid update
     // the start-of-step one.
     let lookahead = match integration {
@@ -366,6 +408,7 @@ pub fn penalty_contact<D: Dim>(
         .map(|p| ContactParticle {
             position: positions[p].0 + grid_velocity[p] * lookahead,
             velocity: grid_velocity[p],
+            velocity_gradient: grid_gradient[p],
             width: contact_width(volume[p].0, thickness, D::N),
             mass: mass[p].0,
             modulus: inputs
@@ -382,6 +425,7 @@ pub fn penalty_contact<D: Dim>(
         thickness,
         dimension: D::N,
         window: integration.force_window(dt),
+        at_contact_point,
     };
     let set = ContactSet {
         particles: &states,
@@ -509,6 +553,7 @@ mod tests {
         let at = |x: f64| ContactParticle {
             position: DVec2::new(x, 0.3),
             velocity: DVec2::ZERO,
+            velocity_gradient: [DVec2::ZERO; 3],
             width: 0.5,
             mass: 1.0,
             modulus: 100.0,
@@ -519,6 +564,7 @@ mod tests {
             thickness: 1.0,
             dimension: 2,
             window: 1e-3,
+            at_contact_point: false,
         };
         let set = ContactSet {
             particles: &[at(0.3), at(0.7)],
@@ -624,6 +670,7 @@ mod tests {
         let state = |x: f64| ContactParticle {
             position: DVec2::new(x, 0.0),
             velocity: DVec2::ZERO,
+            velocity_gradient: [DVec2::ZERO; 3],
             width: 1.0,
             mass: 1.0,
             modulus: 1.0,
@@ -634,6 +681,7 @@ mod tests {
             thickness: 1.0,
             dimension: 2,
             window: 1.0,
+            at_contact_point: false,
         };
         let particles = [state(0.0), state(0.2), state(0.9)];
         let alone = ContactSet {
@@ -660,5 +708,39 @@ mod tests {
         assert!(forces[0].force.x < 0.0 && forces[1].force.x < 0.0 && forces[2].force.x > 0.0);
         let net: DVec2 = forces.iter().map(|f| f.force).sum();
         assert!(net.length() < 1e-15);
+    }
+    /// A particle's friction moment reaches the nodes as a moment: the node forces sum to the
+    /// particle's force, and their moment about the origin is that of the friction at the
+    /// contact point, `x_p × f + a × f_t`.
+    #[test]
+    fn the_friction_moment_turns_the_nodes_about_the_contact_point() {
+        let mut world = tiny_world::<Two>(3, 0.5, 1e-3);
+        let x = DVec2::new(0.6, 0.8);
+        spawn_particle(&mut world, x, DVec2::ZERO, 1.0, 0.25);
+        run_system(&mut world, crate::basis::linear::linear_basis::<Two>);
+        let (friction, lever) = (DVec2::new(0.0, -2.0), DVec2::new(0.2, 0.05));
+        let force = DVec2::new(-3.0, 0.0) + friction;
+        let contact = ParticleContact {
+            force,
+            moment: [friction * lever.x, friction * lever.y, DVec2::ZERO],
+            ..ParticleContact::default()
+        };
+        let grid = world.resource::<Grid<Two>>().clone();
+        let c = world.resource::<Connectivity<Two>>();
+        let mut nodes = vec![NodeContactForce::<Two>::default(); grid.node_count()];
+        node_forces(c, &[contact], &grid_held(grid.node_count()), &mut nodes);
+        let sum: DVec2 = nodes.iter().map(|f| f.0[0]).sum();
+        let moment: f64 = nodes
+            .iter()
+            .enumerate()
+            .map(|(i, f)| grid.node_position(i).perp_dot(f.0[0]))
+            .sum();
+        assert!((sum - force).length() < 1e-14, "{sum}");
+        let expected = x.perp_dot(force) + lever.perp_dot(friction);
+        assert!((moment - expected).abs() < 1e-13, "{moment} {expected}");
+    }
+
+    fn grid_held(count: usize) -> Vec<[bool; fractum_engine::boundary::MAX_COMPONENTS]> {
+        vec![[false; fractum_engine::boundary::MAX_COMPONENTS]; count]
     }
 }

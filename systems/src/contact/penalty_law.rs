@@ -29,6 +29,18 @@
 //!   velocity `v_t`, and never more than the force that stops `v_t` of the two particles alone
 //!   over the integrator's force window `w` (`m_red ‖v_t‖ / w`): below the Coulomb limit the
 //!   pair sticks, so a body can roll, and friction can only remove energy.
+//! - Where friction acts ([`contact_point`], with the affine transfer only:
+//!   [`PairLaw::at_contact_point`]). The pair's contact point is the point between
+//!   the two particles where their domains meet, `c = x_p + (x_q − x_p) ℓ_p / (ℓ_p + ℓ_q)`.
+//!   The slip is the relative velocity of the two particles' material at `c`,
+//!   `v_p + L_p (c − x_p) − v_q − L_q (c − x_q)` with `L` the grid's velocity gradient at each
+//!   particle, and the friction force acts at `c`: besides the force at `x_p` the particle
+//!   carries its moment about `x_p`, `f_t ⊗ (c − x_p)` ([`PairContact::lever`]), which the
+//!   system hands to the nodes as `(f_t ⊗ a) ∇N_Ip`. A rolling disk's rim then turns about its
+//!   radius, not about the radius of its outermost particles (a quarter of a cell less with two
+//!   particles per cell), and the pair's friction has no moment of its own: both particles
+//!   take it at the same point. The normal force stays at the particles' centres, where the
+//!   potential's gradient puts it (elsewhere it would do work the energy does not count).
 
 use super::frictional_law::PairFriction;
 use fractum_engine::prelude::*;
@@ -80,6 +92,9 @@ pub struct ContactParticle<V> {
     pub position: V,
     /// Velocity for the friction (the grid's velocity at the particle).
     pub velocity: V,
+    /// The grid's velocity gradient at the particle, by rows (`(L a)_i = rows[i] · a`; the
+    /// rows beyond the dimension unused): the friction's slip is taken at the contact point.
+    pub velocity_gradient: [V; 3],
     /// Spacing `ℓ = 2r` of the particle's domain, the width of its kernel.
     pub width: f64,
     /// Mass.
@@ -102,6 +117,10 @@ pub struct PairLaw {
     pub dimension: usize,
     /// The time over which the integrator applies a force to the end-of-step velocity.
     pub window: f64,
+    /// Whether friction acts at the pair's contact point (the slip there, the moment about the
+    /// particles): only where the transfers carry a moment to the particles (APIC); with FLIP
+    /// the moment would be lost in the grid-to-particle transfer while the slip still read it.
+    pub at_contact_point: bool,
 }
 
 /// `S` at a particle whose domain just touches a flat face of another body's lattice: the
@@ -182,8 +201,35 @@ pub fn depth_slope(modulus: f64, depth: f64) -> f64 {
 pub struct PairContact<V> {
     /// Force on `p` (normal and friction); `q` takes its negative.
     pub force: V,
-    /// Power of the friction force on the pair's relative motion, `f_t · (v_p − v_q)` (≤ 0).
+    /// Power of the friction force on the pair's relative motion at the contact point,
+    /// `f_t · (v_cp − v_cq)` (≤ 0).
     pub friction_power: f64,
+    /// The friction part `f_t` of `force`.
+    pub friction: V,
+    /// The contact point's offset from `p`, `c − x_p`, where `friction` acts.
+    pub lever: V,
+}
+
+/// The offsets from `p` and from `q` of the pair's contact point
+/// `c = x_p + (x_q − x_p) ℓ_p / (ℓ_p + ℓ_q)`: where their domains meet when they touch.
+pub fn contact_point<V: VectorOps>(p: &ContactParticle<V>, q: &ContactParticle<V>) -> (V, V) {
+    let span = p.width + q.width;
+    (
+        (q.position - p.position) * (p.width / span),
+        (p.position - q.position) * (q.width / span),
+    )
+}
+
+/// The velocity of a particle's material at offset `a` from it, `v + L a`.
+pub fn velocity_at<V: VectorOps>(p: &ContactParticle<V>, a: V) -> V {
+    p.velocity
+        + V::from_fn(|i| {
+            if i < 3 {
+                p.velocity_gradient[i].dot(a)
+            } else {
+                0.0
+            }
+        })
 }
 
 /// The force of the pair `(p, q)` on `p`, given each one's `dU/dS` (`slope_p`, `slope_q`,
@@ -209,25 +255,32 @@ pub fn pair_force<V: VectorOps>(
     if magnitude == 0.0 {
         return None;
     }
-    let mut force = normal;
-    let mut friction_power = 0.0;
+    let (lever, lever_q) = if law.at_contact_point {
+        contact_point(p, q)
+    } else {
+        (V::ZERO, V::ZERO)
+    };
+    let mut contact = PairContact {
+        force: normal,
+        friction_power: 0.0,
+        friction: V::ZERO,
+        lever,
+    };
     if law.friction > 0.0 {
         let n = normal / magnitude;
-        let relative = p.velocity - q.velocity;
+        let relative = velocity_at(p, lever) - velocity_at(q, lever_q);
         let slip = relative - n * relative.dot(n);
         let speed = slip.length();
         if speed > 0.0 {
             let reduced = p.mass * q.mass / (p.mass + q.mass);
             let limit = (law.friction * magnitude).min(reduced * speed / law.window);
             let friction = slip * (-limit / speed);
-            friction_power = friction.dot(relative);
-            force += friction;
+            contact.friction_power = friction.dot(relative);
+            contact.friction = friction;
+            contact.force += friction;
         }
     }
-    Some(PairContact {
-        force,
-        friction_power,
-    })
+    Some(contact)
 }
 
 #[cfg(test)]
@@ -240,12 +293,14 @@ mod tests {
         thickness: 0.1,
         dimension: 2,
         window: 0.01,
+        at_contact_point: true,
     };
 
     fn particle(x: DVec2, v: DVec2) -> ContactParticle<DVec2> {
         ContactParticle {
             position: x,
             velocity: v,
+            velocity_gradient: [DVec2::ZERO; 3],
             width: 1.0,
             mass: 2.0,
             modulus: 100.0,
@@ -368,5 +423,37 @@ mod tests {
         let stick = pair_force((&slow, 10.0), (&q, 10.0), &law).unwrap();
         // m_red v_t / w = 1 · 1e-6 / 0.01.
         assert!((stick.force.y + 1e-4).abs() < 1e-16);
+    }
+    /// Friction takes the slip at the contact point: a particle whose material there moves
+    /// with its partner's (a rim turning as it rolls) is not resisted, though the centres slip;
+    /// and both particles take the friction at that one point, so the pair's friction has no
+    /// moment.
+    #[test]
+    fn friction_acts_at_the_contact_point() {
+        let law = PairLaw {
+            friction: 0.5,
+            ..LAW
+        };
+        let q = particle(DVec2::new(0.9, 0.0), DVec2::ZERO);
+        // The contact point is halfway, 0.45 from each; v + ω × a = 0 there for ω = −v/0.45.
+        let (v, omega) = (0.2, -0.2 / 0.45);
+        let mut rolling = particle(DVec2::ZERO, DVec2::new(0.0, v));
+        rolling.velocity_gradient = [DVec2::new(0.0, -omega), DVec2::new(omega, 0.0), DVec2::ZERO];
+        let stuck = pair_force((&rolling, 10.0), (&q, 10.0), &law).unwrap();
+        assert_eq!(stuck.friction, DVec2::ZERO);
+        assert_eq!(stuck.lever, DVec2::new(0.45, 0.0));
+        let sliding = particle(DVec2::ZERO, DVec2::new(0.0, v));
+        let resisted = pair_force((&sliding, 10.0), (&q, 10.0), &law).unwrap();
+        assert!(resisted.friction.y < 0.0);
+        // An oblique pair, both sides: the friction's moments about the origin cancel.
+        let p = particle(DVec2::new(0.1, 0.2), DVec2::new(0.3, -0.7));
+        let mut q = particle(DVec2::new(0.83, 0.71), DVec2::new(-0.11, 0.05));
+        q.width = 0.9;
+        let on_p = pair_force((&p, 3.7), (&q, 1.3), &law).unwrap();
+        let on_q = pair_force((&q, 1.3), (&p, 3.7), &law).unwrap();
+        let moment = (p.position + on_p.lever).perp_dot(on_p.friction)
+            + (q.position + on_q.lever).perp_dot(on_q.friction);
+        assert!(moment.abs() < 1e-15, "{moment}");
+        assert!((p.position + on_p.lever - q.position - on_q.lever).length() < 1e-15);
     }
 }

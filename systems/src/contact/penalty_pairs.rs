@@ -26,6 +26,32 @@ pub struct ParticleContact<V> {
     pub energy: f64,
     /// Half the friction power of its pairs.
     pub friction_power: f64,
+    /// The moment of its pairs' friction about it, `Σ f_t ⊗ a` by columns (column `j` is
+    /// `Σ f_t a_j`; the columns beyond the dimension zero): the nodes take `Σ_j col_j ∂_j N`.
+    pub moment: [V; 3],
+}
+
+impl<V: VectorOps> ParticleContact<V> {
+    /// The moment's share of node force for shape-function gradient `gradient`:
+    /// `W ∇N` with `W = ½ (M − Mᵀ)` the skew part of `M = Σ f_t ⊗ a`, a pure moment (its
+    /// symmetric part would be a stress on the particle, which a surface force is not).
+    pub fn moment_force(&self, gradient: V) -> V {
+        let g = gradient.to_3d();
+        let by_columns = (0..3).fold(V::ZERO, |sum, j| sum + self.moment[j] * g[j]);
+        let by_rows = V::from_fn(|i| {
+            if i < 3 {
+                self.moment[i]
+                    .to_3d()
+                    .iter()
+                    .zip(g)
+                    .map(|(m, g)| m * g)
+                    .sum()
+            } else {
+                0.0
+            }
+        });
+        (by_columns - by_rows) * 0.5
+    }
 }
 
 /// The particles of the contact, in particle-row order.
@@ -189,6 +215,10 @@ pub fn particle_contacts<V: VectorOps>(
                 if let Some(c) = pair_force((me, slopes[row]), (&particles[q], slopes[q]), &pair) {
                     sum.force += c.force;
                     sum.friction_power += 0.5 * c.friction_power;
+                    let lever = c.lever.to_3d();
+                    for (column, a) in sum.moment.iter_mut().zip(lever) {
+                        *column += c.friction * a;
+                    }
                 }
             });
             sum

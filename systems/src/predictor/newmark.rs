@@ -7,10 +7,15 @@
 //!   `m_I = Σ N_Ip m_p`, `ṽ_I = Σ N_Ip m_p (v_p + (1 − γ) Δt a_p) / m_I`, then the essential
 //!   boundary conditions are held on `ṽ_I`. The stress stage that follows computes the strain
 //!   increment from `ṽ_I` (step 4).
+//! - With `advection/newmark`'s `transfer: Apic` the particles carry an affine velocity `C_p`
+//!   and each node's momentum gains `Σ N_Ip m_p C_p (x_I − x_p)` (the affine particle-in-cell
+//!   transfer; see `advection/newmark`).
 //! - Writes every velocity field (each pair's field from the connectivity); clears the nodal
 //!   force, contact force and acceleration, which the contact and corrector stages fill.
 
-use crate::transfer::{GridStepInputs, NodeSums, NodeTransferQuery, field_velocity};
+use crate::transfer::{
+    AffineInputs, GridStepInputs, NodeSums, NodeTransferQuery, add_affine_momentum, field_velocity,
+};
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -133,9 +138,11 @@ pub fn newmark_predictor<D: Dim>(
     inputs: GridStepInputs<D>,
     params: Res<NewmarkParams>,
     mut particles: ParticleQuery<D>,
+    affine: AffineInputs<D>,
     mut nodes: NodeTransferQuery<D>,
     mut sums: Local<Vec<NodeSums<D>>>,
 ) {
+    let affine = affine.columns();
     let Some((mass, velocity, mut acceleration, external)) =
         single_table(particles.contiguous_iter_mut(), "particles")
     else {
@@ -164,7 +171,10 @@ pub fn newmark_predictor<D: Dim>(
             gamma_dt,
             e,
             p,
-        )
+        );
+        if let Some(affine) = affine {
+            add_affine_momentum(sum, connectivity, mass, affine, e, p);
+        }
     });
     // One `&mut *column` per column: indexing bevy's column in the loop would mark it changed on
     // every access.

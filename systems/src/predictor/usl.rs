@@ -22,6 +22,8 @@
 //!   uses the predicted velocity `Σ N m v / m`; docs/history/development-log.md has the measured block). Use
 //!   `basis/gimp` (or `basis/lme`) with this integrator when stressed surfaces move across
 //!   the grid, as in sliding contact, or `scheme: Musl`.
+//! - With `advection/usl`'s `transfer: Apic` the particles carry an affine velocity `C_p` and
+//!   each node's momentum gains `Σ N_Ip m_p C_p (x_I − x_p)` (see `advection/usl`).
 //! - `scheme: Musl`, modified update-stress-last (Sulsky, Zhou & Schreyer 1995): after eq. 6
 //!   the particles' updated velocities `v_p + Δt Σ N_Ip a_I` are mapped back to the nodes and
 //!   that velocity, `Σ N_Ip m_p v_p' / m_I`, replaces eq. 5's `v̄_I` for the rest of the step
@@ -33,8 +35,8 @@
 //!   round trip.
 
 use crate::transfer::{
-    ForceSources, GridStepInputs, NodeSums, NodeTransferQuery, ParticleSlices, add_contribution,
-    field_velocity,
+    AffineInputs, ForceSources, GridStepInputs, NodeSums, NodeTransferQuery, ParticleSlices,
+    add_affine_momentum, add_contribution, field_velocity,
 };
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
@@ -193,9 +195,11 @@ pub fn usl_predictor<D: Dim>(
     mut reactions: ResMut<Reactions<D>>,
     params: Res<UslPredictorParams>,
     particles: ForceSources<D>,
+    affine: AffineInputs<D>,
     mut nodes: NodeTransferQuery<D>,
     mut sums: Local<Vec<NodeSums<D>>>,
 ) {
+    let affine = affine.columns();
     let GridStepInputs {
         clock,
         body_force,
@@ -213,7 +217,10 @@ pub fn usl_predictor<D: Dim>(
     // Every slot is overwritten by the transfer: the buffer is only resized, never cleared.
     sums.resize(node_mass.len(), NodeSums::default());
     connectivity.accumulate_to_nodes(&mut sums, |sum, e, p| {
-        add_contribution(sum, &connectivity, &slices, body_force.0, e, p)
+        add_contribution(sum, &connectivity, &slices, body_force.0, e, p);
+        if let Some(affine) = affine {
+            add_affine_momentum(sum, &connectivity, slices.mass, affine, e, p);
+        }
     });
     let ctx = StepContext {
         bcs: &bcs,

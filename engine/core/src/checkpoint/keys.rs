@@ -59,6 +59,7 @@ dim_keys! {
     Strain => "particle/strain",
     ExternalForce => "particle/external_force",
     DamageGradient => "particle/damage_gradient",
+    AffineVelocity => "particle/affine_velocity",
 }
 
 checkpoint_keys! {
