@@ -225,6 +225,7 @@ const STOCK_KEYS: &[&str] = &[
     "kdtree/candidates",
     "lme/state",
     "particle/acceleration",
+    "particle/affine_velocity",
     "particle/body",
     "particle/contact_group",
     "particle/crack_opening",

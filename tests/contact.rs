@@ -1277,18 +1277,6 @@ const NEWMARK_GIMP_PENALTY: &[(&str, Option<&str>)] = &[
     ("advection/newmark", None),
 ];
 
-/// [`NEWMARK_GIMP_PENALTY`] with the affine transfer (`advection/newmark`'s `transfer: Apic`),
-/// under which the penalty's friction acts at each pair's contact point.
-const NEWMARK_GIMP_PENALTY_APIC: &[(&str, Option<&str>)] = &[
-    ("basis/gimp", None),
-    ("predictor/newmark", None),
-    ("stress/linear_elastic", None),
-    ("partition/bodies", None),
-    ("contact/penalty", None),
-    ("corrector/newmark", None),
-    ("advection/newmark", Some("(transfer: Apic)")),
-];
-
 /// The disk on the 30° incline with `contact/penalty`, Newmark on GIMP, seeded in rings
 /// (`placement: Rings`): with μ = 0.1 it slides at g (sin θ − μ cos θ) within 2% and never
 /// leaves the substrate, and it spins up under the friction torque; with μ = 0.5 it rolls. The
@@ -1356,10 +1344,13 @@ fn a_disk_slides_down_an_incline_with_penalty_contact() {
             );
             // The affine transfer carries the friction's moment to the particles, and the
             // friction acts at the contact point: the spin-up's error at least halves.
+            // NEWMARK_GIMP_PENALTY with `advection/newmark`'s `transfer: Apic`.
+            let mut apic = NEWMARK_GIMP_PENALTY.to_vec();
+            apic[6] = ("advection/newmark", Some("(transfer: Apic)"));
             let affine = roll_with(
                 angle,
                 h,
-                NEWMARK_GIMP_PENALTY_APIC,
+                &apic,
                 entry("contact/penalty", Some("(friction: 0.1)")),
                 Placement::Rings,
             );

@@ -382,6 +382,50 @@ pub fn affine_interpolation<D: Dim>(
 pub type AffineSources<'w, 's, D> =
     Query<'w, 's, (&'static Position<D>, &'static AffineVelocity<D>), With<Particle>>;
 
+/// Particle state the affine grid-to-particle transfer moves.
+pub type AffineAdvectedQuery<'w, 's, D> = Query<
+    'w,
+    's,
+    (
+        &'static mut Position<D>,
+        &'static mut Velocity<D>,
+        &'static mut Acceleration<D>,
+        &'static mut AffineVelocity<D>,
+    ),
+    With<Particle>,
+>;
+
+/// The affine grid-to-particle update of every particle in parallel ([`affine_interpolation`]
+/// with `carry`): `v_p = Σ N v_I`, `a_p = Σ N a_I`, `C_p`, and `x_p += Δt (v_p − lag a_p)`, the
+/// position moved by the velocity the step's stress saw (`lag = γ Δt` under Newmark's
+/// predictor, 0 for update-stress-last).
+pub fn advect_particles_affine<D: Dim>(
+    (connectivity, grid): (&Connectivity<D>, &Grid<D>),
+    nodes: &NodeMotionQuery<D>,
+    particles: &mut AffineAdvectedQuery<D>,
+    (dt, carry, lag): (f64, f64, f64),
+) {
+    let node_columns = single_table(nodes.contiguous_iter(), "nodes").unwrap_or((&[], &[]));
+    let Some((mut position, mut velocity, mut acceleration, mut affine)) =
+        single_table(particles.contiguous_iter_mut(), "particles")
+    else {
+        return;
+    };
+    position
+        .par_iter_mut()
+        .zip(velocity.par_iter_mut())
+        .zip(acceleration.par_iter_mut())
+        .zip(affine.par_iter_mut())
+        .enumerate()
+        .for_each(|(p, (((x, v), a), c))| {
+            let motion = affine_interpolation(connectivity, grid, node_columns, (p, x.0), carry);
+            x.0 += (motion.velocity - motion.acceleration * lag) * dt;
+            v.0 = motion.velocity;
+            a.0 = motion.acceleration;
+            c.0 = motion.affine;
+        });
+}
+
 /// What a predictor reads for the affine transfer: the grid (node positions) and the
 /// particles' positions and affine velocities, where they carry them.
 #[derive(SystemParam)]

@@ -36,7 +36,8 @@
 //!   already in `v_I`.
 
 use crate::transfer::{
-    AdvectedQuery, GridMotion, NodeMotionQuery, advect_particles_with_kicks, affine_interpolation,
+    AdvectedQuery, AffineAdvectedQuery, GridMotion, NodeMotionQuery, advect_particles_affine,
+    advect_particles_with_kicks,
 };
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
@@ -136,19 +137,6 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
     Ok(())
 }
 
-/// Particle columns the affine transfer writes.
-type AffineQuery<'w, 's, D> = Query<
-    'w,
-    's,
-    (
-        &'static mut Position<D>,
-        &'static mut Velocity<D>,
-        &'static mut Acceleration<D>,
-        &'static mut AffineVelocity<D>,
-    ),
-    With<Particle>,
->;
-
 /// The `advection/newmark` system with `transfer: Apic`: `v_p = Σ N v_I`, `a_p = Σ N a_I`,
 /// `x_p += Δt Σ N ṽ_I` and `C_p` of `v_I + (1 − γ) Δt a_I`.
 pub fn apic_advection<D: Dim>(
@@ -157,39 +145,19 @@ pub fn apic_advection<D: Dim>(
     grid: Res<Grid<D>>,
     connectivity: Res<Connectivity<D>>,
     nodes: NodeMotionQuery<D>,
-    mut particles: AffineQuery<D>,
+    mut particles: AffineAdvectedQuery<D>,
 ) {
     let dt = clock.dt;
     let gamma = match integration.as_deref() {
         Some(&GridIntegration::PredictorCorrector { gamma }) => gamma,
         _ => 0.5,
     };
-    let node_columns = single_table(nodes.contiguous_iter(), "nodes").unwrap_or((&[], &[]));
-    let Some((mut position, mut velocity, mut acceleration, mut affine)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
-    else {
-        return;
-    };
-    let (connectivity, grid) = (&*connectivity, &*grid);
-    position
-        .par_iter_mut()
-        .zip(velocity.par_iter_mut())
-        .zip(acceleration.par_iter_mut())
-        .zip(affine.par_iter_mut())
-        .enumerate()
-        .for_each(|(p, (((x, v), a), c))| {
-            let motion = affine_interpolation(
-                connectivity,
-                grid,
-                node_columns,
-                (p, x.0),
-                (1.0 - gamma) * dt,
-            );
-            x.0 += (motion.velocity - motion.acceleration * (gamma * dt)) * dt;
-            v.0 = motion.velocity;
-            a.0 = motion.acceleration;
-            c.0 = motion.affine;
-        });
+    advect_particles_affine(
+        (&connectivity, &grid),
+        &nodes,
+        &mut particles,
+        (dt, (1.0 - gamma) * dt, gamma * dt),
+    );
 }
 
 /// Node columns for the contact kicks: field masses and the contact stage's impulses.

@@ -15,9 +15,10 @@
 
 pub use super::Transfer;
 use crate::predictor::usl::{UslPredictorParams, UslScheme};
-use crate::transfer::{AdvectedQuery, NodeMotionQuery, advect_particles, affine_interpolation};
+use crate::transfer::{
+    AdvectedQuery, AffineAdvectedQuery, NodeMotionQuery, advect_particles, advect_particles_affine,
+};
 use fractum_engine::prelude::*;
-use rayon::prelude::*;
 use serde::Deserialize;
 
 /// Registration of `advection/usl`.
@@ -70,19 +71,6 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
     Ok(())
 }
 
-/// Particle columns the affine transfer writes.
-type AffineQuery<'w, 's, D> = Query<
-    'w,
-    's,
-    (
-        &'static mut Position<D>,
-        &'static mut Velocity<D>,
-        &'static mut Acceleration<D>,
-        &'static mut AffineVelocity<D>,
-    ),
-    With<Particle>,
->;
-
 /// The `advection/usl` system with `transfer: Apic`: `v_p = Σ N v̄_I`, `a_p = Σ N a_I`,
 /// `x_p += Δt v_p` and `C_p` of `v̄_I`.
 pub fn usl_apic_advection<D: Dim>(
@@ -90,29 +78,10 @@ pub fn usl_apic_advection<D: Dim>(
     grid: Res<Grid<D>>,
     connectivity: Res<Connectivity<D>>,
     nodes: NodeMotionQuery<D>,
-    mut particles: AffineQuery<D>,
+    mut particles: AffineAdvectedQuery<D>,
 ) {
-    let dt = clock.dt;
-    let node_columns = single_table(nodes.contiguous_iter(), "nodes").unwrap_or((&[], &[]));
-    let Some((mut position, mut velocity, mut acceleration, mut affine)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
-    else {
-        return;
-    };
-    let (connectivity, grid) = (&*connectivity, &*grid);
-    position
-        .par_iter_mut()
-        .zip(velocity.par_iter_mut())
-        .zip(acceleration.par_iter_mut())
-        .zip(affine.par_iter_mut())
-        .enumerate()
-        .for_each(|(p, (((x, v), a), c))| {
-            let motion = affine_interpolation(connectivity, grid, node_columns, (p, x.0), 0.0);
-            x.0 += motion.velocity * dt;
-            v.0 = motion.velocity;
-            a.0 = motion.acceleration;
-            c.0 = motion.affine;
-        });
+    let steps = (clock.dt, 0.0, 0.0);
+    advect_particles_affine((&connectivity, &grid), &nodes, &mut particles, steps);
 }
 
 /// The `advection/usl` system.

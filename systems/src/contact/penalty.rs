@@ -367,6 +367,43 @@ type NodeQuery<'w, 's, D> = Query<
     With<Node>,
 >;
 
+/// The particle columns the law's states are built from: positions, masses, initial volumes
+/// and materials.
+type ParticleColumns<'a, D> = (
+    &'a [Position<D>],
+    &'a [Mass],
+    &'a [InitialVolume],
+    &'a [MaterialId],
+);
+
+/// Each particle's state for the law: its position `lookahead` ahead along the grid's velocity
+/// at it, that velocity (and the grid's spin at it where friction acts at the contact point),
+/// its domain's width and its material's modulus.
+fn contact_states<D: Dim>(
+    (c, velocity): (&Connectivity<D>, &[NodeVelocity<D>]),
+    (positions, mass, volume, material): ParticleColumns<D>,
+    moduli: &ContactModuli,
+    (thickness, lookahead, at_contact_point): (f64, f64, bool),
+) -> Vec<ContactParticle<D::Vector>> {
+    let grid_velocity = grid_velocities(c, velocity);
+    let grid_gradient = grid_gradients(c, velocity, at_contact_point);
+    (0..positions.len())
+        .into_par_iter()
+        .map(|p| ContactParticle {
+            position: positions[p].0 + grid_velocity[p] * lookahead,
+            velocity: grid_velocity[p],
+            velocity_gradient: grid_gradient[p],
+            width: contact_width(volume[p].0, thickness, D::N),
+            mass: mass[p].0,
+            modulus: moduli
+                .0
+                .get(usize::from(material[p].0))
+                .copied()
+                .unwrap_or(0.0),
+        })
+        .collect()
+}
+
 /// The `contact/penalty` system, with either integrator (see the module header).
 pub fn penalty_contact<D: Dim>(
     mut inputs: PenaltyInputs<D>,
@@ -391,34 +428,22 @@ pub fn penalty_contact<D: Dim>(
     } else {
         1.0
     };
-    let grid_velocity = grid_velocities(c, &velocity);
     let friction =
         inputs.params.friction > 0.0 || inputs.params.pairs.iter().any(|p| p.friction > 0.0);
     // Friction at the contact point only where the transfers carry its moment (APIC).
     let at_contact_point = friction && !affine.is_empty();
-    let grid_gradient = grid_gradients(c, &velocity, at_contact_point);
     // Newmark's stress sees the predicted configuration; update-stress-last's grid update
     // the start-of-step one.
     let lookahead = match integration {
         GridIntegration::PredictorCorrector { .. } => dt,
         GridIntegration::UpdateStressLast => 0.0,
     };
-    let states: Vec<ContactParticle<D::Vector>> = (0..positions.len())
-        .into_par_iter()
-        .map(|p| ContactParticle {
-            position: positions[p].0 + grid_velocity[p] * lookahead,
-            velocity: grid_velocity[p],
-            velocity_gradient: grid_gradient[p],
-            width: contact_width(volume[p].0, thickness, D::N),
-            mass: mass[p].0,
-            modulus: inputs
-                .moduli
-                .0
-                .get(usize::from(material[p].0))
-                .copied()
-                .unwrap_or(0.0),
-        })
-        .collect();
+    let states = contact_states(
+        (c, &velocity),
+        (positions, mass, volume, material),
+        &inputs.moduli,
+        (thickness, lookahead, at_contact_point),
+    );
     let law = PairLaw {
         stiffness: inputs.params.stiffness,
         friction: inputs.params.friction,
