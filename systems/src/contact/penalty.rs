@@ -282,17 +282,18 @@ fn add_forces<D: Dim>(contact: &mut [NodeContactForce<D>], own: &[NodeContactFor
 }
 
 /// The grid's spin at each particle, the skew part `Ω = ½ (L − Lᵀ)` of its velocity gradient
-/// `L = Σ v_Ik ⊗ ∇N_Ip`, by rows (see [`ContactParticle::velocity_gradient`]); all zero unless
-/// friction acts at the contact point (`wanted`), which alone reads it. The friction's moment reaches the nodes as a pure moment
-/// (`ParticleContact::moment_force`), whose work-conjugate velocity at the contact point is
-/// `v + Ω a`.
+/// `L = Σ v_Ik ⊗ ∇N_Ip`, by rows (see [`ContactParticle::velocity_gradient`]); empty (every
+/// particle's spin zero) unless friction acts at the contact point (`wanted`), which alone
+/// reads it, so that a FLIP run pays nothing for it. The friction's moment reaches the nodes
+/// as a pure moment (`ParticleContact::moment_force`), whose work-conjugate velocity at the
+/// contact point is `v + Ω a`.
 fn grid_gradients<D: Dim>(
     c: &Connectivity<D>,
     velocity: &[NodeVelocity<D>],
     wanted: bool,
 ) -> Vec<[D::Vector; 3]> {
     if !wanted {
-        return vec![[D::Vector::ZERO; 3]; c.particle_count()];
+        return Vec::new();
     }
     (0..c.particle_count())
         .into_par_iter()
@@ -392,7 +393,10 @@ fn contact_states<D: Dim>(
         .map(|p| ContactParticle {
             position: positions[p].0 + grid_velocity[p] * lookahead,
             velocity: grid_velocity[p],
-            velocity_gradient: grid_gradient[p],
+            velocity_gradient: grid_gradient
+                .get(p)
+                .copied()
+                .unwrap_or([D::Vector::ZERO; 3]),
             width: contact_width(volume[p].0, thickness, D::N),
             mass: mass[p].0,
             modulus: moduli
