@@ -239,6 +239,7 @@ const STOCK_KEYS: &[&str] = &[
     "particle/mass",
     "particle/material",
     "particle/position",
+    "particle/reference_position",
     "particle/strain",
     "particle/strain_energy_density",
     "particle/strength",

@@ -138,6 +138,12 @@ impl<D: Dim> Default for AffineVelocity<D> {
     }
 }
 
+/// Where the particle was at the start of the run. On every particle when the pipeline's
+/// `contact/penalty` acts between the faces a damage-gradient partition opens within a body
+/// (`between: All`): two such faces touch where their particles lay while the body was whole.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ReferencePosition<D: Dim>(pub D::Vector);
+
 /// Mass (constant).
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Mass(pub f64);

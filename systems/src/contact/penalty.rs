@@ -47,8 +47,10 @@
 
 use super::frictional_law::{ContactPairs, FrictionalParams};
 use super::penalty_law::KERNEL_REACH;
-pub use super::penalty_law::{ContactParticle, PairContact, PairLaw, PenaltyParams};
-pub use super::penalty_pairs::{BinFrame, ContactSet, ParticleContact, particle_contacts};
+pub use super::penalty_law::{ContactParticle, PairContact, PairLaw, PenaltyPairs, PenaltyParams};
+pub use super::penalty_pairs::{
+    BinFrame, ContactSet, CrackFaces, FaceSides, ParticleContact, particle_contacts,
+};
 use crate::transfer::velocity_gradient;
 use bevy_ecs::system::SystemParam;
 use fractum_engine::decomposition::{Owned, OwnedRows, RankMaximum};
@@ -82,6 +84,24 @@ pub const REGISTRATION: Registration = Registration {
             doc: "friction coefficients for particular pairs of contact groups; other pairs use \
                   `friction`",
         },
+        ParamDoc {
+            name: "between",
+            ty: "Groups | All",
+            default: Some("Groups"),
+            doc: "which particles the contact acts between: Groups (different contact groups; \
+                  under partition/dfg, contact/frictional with `between: CrackFaces` listed \
+                  before this entry takes the crack faces), or All, the groups and the two \
+                  sides of the faces partition/dfg opens within a group (crack faces, \
+                  self-contact), with no nodal law",
+        },
+        ParamDoc {
+            name: "separability",
+            ty: "f64",
+            default: Some("0.25"),
+            doc: "D̄_min in (0, 1), with `between: All`: the two sides of a group at a node \
+                  separate only when both sides' mean damage there exceeds it (and some particle \
+                  there has failed)",
+        },
     ],
     requires: &["partition/*"],
     install: generic_install!(install),
@@ -114,7 +134,19 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
         "expected a friction coefficient μ >= 0",
     )?;
     super::check_pairs(installer, params, &parsed.pairs)?;
-    let after_nodal_law = check_partner_law(installer, params)?;
+    params.require(
+        "separability",
+        parsed.separability > 0.0 && parsed.separability < 1.0,
+        "expected D̄_min in (0, 1)",
+    )?;
+    let after_nodal_law = match parsed.between {
+        PenaltyPairs::Groups => check_partner_law(installer, params)?,
+        PenaltyPairs::All => {
+            check_no_nodal_law(installer, params)?;
+            install_crack_faces::<D>(installer, parsed.separability);
+            false
+        }
+    };
     installer.insert_resource(AddsToNodalContact(after_nodal_law));
     let moduli = ContactModuli(
         installer
@@ -188,6 +220,32 @@ fn check_partner_law(installer: &Installer, params: &Params) -> Result<bool, Sce
         ));
     }
     Ok(false)
+}
+
+/// With `between: All` this law alone takes the faces a partition opens within a group: a
+/// nodal law in the same pipeline would act on them too.
+fn check_no_nodal_law(installer: &Installer, params: &Params) -> Result<(), SceneError> {
+    if installer.pipeline_has("contact/frictional") {
+        return Err(params.error(
+            "between",
+            "`between: All` acts on crack faces and between contact groups, and so would the \
+             pipeline's contact/frictional: remove contact/frictional, or give this entry \
+             `between: Groups` and contact/frictional `between: CrackFaces`",
+        ));
+    }
+    Ok(())
+}
+
+/// What the crack faces need: the separability condition's D̄_min for the field assignment
+/// (no nodal law publishes it here) and each particle's position at the start of the run, where
+/// the faces touch ([`ReferencePosition`]).
+fn install_crack_faces<D: Dim>(installer: &mut Installer, separability: f64) {
+    installer.insert_resource(fractum_engine::fields::Separability(separability));
+    installer.add_particle_component_with(ReferencePosition::<D>::default(), |particle| {
+        particle
+            .get::<Position<D>>()
+            .map(|x| ReferencePosition::<D>(x.0))
+    });
 }
 
 /// The widest contact particle of the whole scene, which sizes the bins that find each
@@ -414,6 +472,7 @@ pub fn penalty_contact<D: Dim>(
     particles: ParticleQuery<D>,
     affine: Query<(), (With<Particle>, With<AffineVelocity<D>>)>,
     mut nodes: NodeQuery<D>,
+    faces: FaceQueries<D>,
 ) {
     let Some((positions, mass, volume, material, groups)) =
         single_table(particles.contiguous_iter(), "particles")
@@ -456,9 +515,18 @@ pub fn penalty_contact<D: Dim>(
         window: integration.force_window(dt),
         at_contact_point,
     };
+    let sides = crack_face_sides(&inputs.params, c, &faces, groups);
+    let reference = sides.as_ref().and_then(|_| {
+        single_table(faces.references.contiguous_iter(), "particles")
+            .map(|x| x.iter().map(|x| x.0).collect::<Vec<_>>())
+    });
     let set = ContactSet {
         particles: &states,
         groups,
+        faces: sides
+            .as_ref()
+            .zip(reference.as_deref())
+            .map(|(sides, reference)| CrackFaces { sides, reference }),
     };
     let frame = bin_frame(&inputs, &states);
     let forces = particle_contacts(&set, &inputs.params, &law, frame);
@@ -482,6 +550,32 @@ pub fn penalty_contact<D: Dim>(
     let slots = *inputs.slots;
     inputs.columns.values[slots.energy] = energy;
     inputs.columns.values[slots.friction] += power * dt;
+}
+
+/// What the crack faces are read from: the fields each node holds, and each particle's
+/// position at the start of the run.
+#[derive(SystemParam)]
+pub struct FaceQueries<'w, 's, D: Dim> {
+    fields: Query<'w, 's, &'static NodeFields, With<Node>>,
+    references: Query<'w, 's, &'static ReferencePosition<D>, With<Particle>>,
+}
+
+/// Each particle's sides at the nodes where its group is split, when the law acts on crack
+/// faces (`between: All`) and some node is split this step.
+fn crack_face_sides<D: Dim>(
+    params: &PenaltyParams,
+    c: &Connectivity<D>,
+    faces: &FaceQueries<D>,
+    groups: &[ContactGroup],
+) -> Option<FaceSides> {
+    if params.between != PenaltyPairs::All {
+        return None;
+    }
+    let fields = single_table(faces.fields.contiguous_iter(), "nodes")?;
+    fields
+        .iter()
+        .any(fractum_engine::fields::splits_a_group)
+        .then(|| FaceSides::new(c, fields, groups))
 }
 
 /// Where the contact bins lie: from the grid's corner, as wide as the scene's widest particle
@@ -538,6 +632,19 @@ mod tests {
         predictor: impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, M>,
         integration: GridIntegration,
     ) -> World {
+        pair_world(predictor, integration, |world, [a, b]| {
+            world.entity_mut(a).insert(ContactGroup(0));
+            world.entity_mut(b).insert(ContactGroup(1));
+        })
+    }
+
+    /// The two particles of [`overlapping_pair`], given their groups and whatever else by
+    /// `setup` before the basis and the field assignment run.
+    fn pair_world<M>(
+        predictor: impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, M>,
+        integration: GridIntegration,
+        setup: impl FnOnce(&mut World, [Entity; 2]),
+    ) -> World {
         let mut world = tiny_world::<Two>(2, 0.5, 1e-3);
         world.insert_resource(PenaltyParams::default());
         world.insert_resource(ContactModuli(vec![100.0]));
@@ -555,8 +662,7 @@ mod tests {
         // Volume 0.25 m² at unit thickness: half-width 0.25.
         let a = spawn_particle(&mut world, DVec2::new(0.3, 0.3), DVec2::ZERO, 1.0, 0.25);
         let b = spawn_particle(&mut world, DVec2::new(0.7, 0.3), DVec2::ZERO, 1.0, 0.25);
-        world.entity_mut(a).insert(ContactGroup(0));
-        world.entity_mut(b).insert(ContactGroup(1));
+        setup(&mut world, [a, b]);
         run_system(&mut world, crate::basis::linear::linear_basis::<Two>);
         run_system(
             &mut world,
@@ -598,6 +704,7 @@ mod tests {
         let set = ContactSet {
             particles: &[at(0.3), at(0.7)],
             groups: &[ContactGroup(0), ContactGroup(1)],
+            faces: None,
         };
         particle_contacts(&set, &PenaltyParams::default(), &law, BinFrame::of(&set))
     }
@@ -635,6 +742,75 @@ mod tests {
         assert_eq!(columns.value("contact_energy"), Some(potential));
         let momentum_change = total::<NodeContactForce<Two>>(&mut world, |f| f.0);
         assert!(momentum_change.length() < 1e-14);
+    }
+
+    /// The pair of [`overlapping_pair`] in one group, failed, on the two sides of a crack
+    /// between them (damage gradients pointing at each other), with `between: All` and the
+    /// start-of-run positions `reference`; returns the contact force on each particle, read
+    /// back from its fields at its nodes, and the contact energy.
+    fn crack_face_pair(reference: [f64; 2]) -> ([DVec2; 2], f64) {
+        let mut world = pair_world(
+            crate::predictor::newmark::newmark_predictor::<Two>,
+            GridIntegration::PredictorCorrector { gamma: 0.5 },
+            |world, particles| {
+                world.insert_resource(fractum_engine::fields::Separability(0.25));
+                let towards_the_crack = [1.0, -1.0];
+                for (p, (x, g)) in particles
+                    .into_iter()
+                    .zip(reference.iter().zip(towards_the_crack))
+                {
+                    world.entity_mut(p).insert((
+                        ContactGroup(0),
+                        Damage(1.0),
+                        DamageGradient::<Two>(DVec2::new(g, 0.0)),
+                        ReferencePosition::<Two>(DVec2::new(*x, 0.3)),
+                    ));
+                }
+            },
+        );
+        world.insert_resource(PenaltyParams {
+            between: PenaltyPairs::All,
+            ..PenaltyParams::default()
+        });
+        run_system(&mut world, penalty_contact::<Two>);
+        let forces = node_values::<NodeContactForce<Two>>(&mut world);
+        let c = world.resource::<Connectivity<Two>>();
+        // Each particle's force: its field's share at each of its nodes. The two particles
+        // share the nodes at x = 0.5, where they must then hold different fields.
+        let on = |p: usize| {
+            c.row(p).fold(DVec2::ZERO, |sum, e| {
+                sum + forces[c.nodes[e] as usize].0[c.field(e)]
+            })
+        };
+        let shared = c
+            .row(0)
+            .filter(|&e| c.row(1).any(|f| c.nodes[f] == c.nodes[e]));
+        assert!(shared.clone().count() > 0);
+        for e in shared {
+            let f = c.row(1).find(|&f| c.nodes[f] == c.nodes[e]).unwrap();
+            assert_ne!(c.field(e), c.field(f));
+        }
+        ([on(0), on(1)], world.resource::<ContactPotential>().0)
+    }
+
+    /// `between: All`: two particles of one body on the two sides of a crack press on each
+    /// other as two bodies do, once they are closer than they lay when the body was whole,
+    /// and not before. Laid 0.5 apart (their domains just touching), 0.4 apart now: the pair's
+    /// force and energy are the two groups' of [`pair_at_rest`]. Laid where they are now:
+    /// nothing, though their domains overlap.
+    #[test]
+    fn crack_faces_press_only_closer_than_they_lay() {
+        let expected = pair_at_rest();
+        let (pressed, energy) = crack_face_pair([0.25, 0.75]);
+        assert!(
+            (pressed[0] - expected[0].force).length() < 1e-12,
+            "{pressed:?}"
+        );
+        assert!((pressed[0] + pressed[1]).length() < 1e-14);
+        assert_eq!(energy, expected[0].energy + expected[1].energy);
+        let (resting, energy) = crack_face_pair([0.3, 0.7]);
+        assert_eq!(resting, [DVec2::ZERO; 2]);
+        assert_eq!(energy, 0.0);
     }
 
     /// After a nodal law (`contact/frictional` with `between: CrackFaces` under DFG): the
@@ -716,6 +892,7 @@ mod tests {
         let alone = ContactSet {
             particles: &particles[..2],
             groups: &[ContactGroup(3), ContactGroup(3)],
+            faces: None,
         };
         let forces = particle_contacts(
             &alone,
@@ -732,6 +909,7 @@ mod tests {
         let set = ContactSet {
             particles: &particles,
             groups: &groups,
+            faces: None,
         };
         let forces = particle_contacts(&set, &PenaltyParams::default(), &law, BinFrame::of(&set));
         assert!(forces[0].force.x < 0.0 && forces[1].force.x < 0.0 && forces[2].force.x > 0.0);

@@ -59,6 +59,33 @@ pub struct PenaltyParams {
     /// Coefficients for particular pairs of contact groups.
     #[serde(default)]
     pub pairs: Vec<PairFriction>,
+    /// Which particles the contact acts between.
+    #[serde(default)]
+    pub between: PenaltyPairs,
+    /// D̄_min of the separability condition (dfg-partitioning-mpm.md §2.3), published for the
+    /// field assignment when this law acts on crack faces (`between: All`): the two sides of a
+    /// body at a node stay separate fields, and meet through this law, only where both sides'
+    /// mean damage exceeds it.
+    #[serde(default = "default_separability")]
+    pub separability: f64,
+}
+
+/// Which particles `contact/penalty` acts between (`between`).
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+pub enum PenaltyPairs {
+    /// Particles of different contact groups; under `partition/dfg` the sides of a crack within
+    /// a group are left to `contact/frictional` with `between: CrackFaces`.
+    #[default]
+    Groups,
+    /// Particles of different contact groups, and the particles of one group that a damage
+    /// gradient partition puts on the two sides of a node (crack faces and self-contact
+    /// surfaces), which then touch where they lay while the body was whole
+    /// ([`face_touch_level`]).
+    All,
+}
+
+fn default_separability() -> f64 {
+    0.25
 }
 
 fn default_stiffness() -> f64 {
@@ -71,6 +98,8 @@ impl Default for PenaltyParams {
             stiffness: default_stiffness(),
             friction: 0.0,
             pairs: Vec::new(),
+            between: PenaltyPairs::Groups,
+            separability: default_separability(),
         }
     }
 }
@@ -185,15 +214,27 @@ pub fn penalty_modulus<V>(p: &ContactParticle<V>, law: &PairLaw) -> f64 {
     2.0 * law.stiffness * p.modulus * face * p.width
 }
 
-/// A particle's contact energy `½ K (S − s₀)₊²` at depth `S`.
-pub fn depth_energy(modulus: f64, depth: f64) -> f64 {
-    let excess = (depth - TOUCH_LEVEL).max(0.0);
+/// A particle's contact energy `½ K (S − s)₊²` at depth `S`, for touch level `s` (`s₀`, or
+/// [`face_touch_level`] for a particle on a crack face).
+pub fn depth_energy(modulus: f64, depth: f64, touch: f64) -> f64 {
+    let excess = (depth - touch).max(0.0);
     0.5 * modulus * excess * excess
 }
 
-/// `dU/dS = K (S − s₀)₊`.
-pub fn depth_slope(modulus: f64, depth: f64) -> f64 {
-    modulus * (depth - TOUCH_LEVEL).max(0.0)
+/// `dU/dS = K (S − s)₊`.
+pub fn depth_slope(modulus: f64, depth: f64, touch: f64) -> f64 {
+    modulus * (depth - touch).max(0.0)
+}
+
+/// The touch level of a particle with partners across a crack face of its own body:
+/// `max(s₀, S⁰)`, with `S⁰ = Σ_q φ_q(X_p − X_q)` its depth among those partners at their
+/// positions `X` at the start of the run. The two faces of a crack were one material: where the
+/// particles lay then, the faces touch, and a lattice split along a staircase (a crack inclined
+/// to the particle rows) reaches deeper than a flat face's `s₀` without any overlap. The
+/// potential so stays zero as a crack opens, and pushes back only once the faces press further
+/// together than the body's particles were.
+pub fn face_touch_level(reference_depth: f64) -> f64 {
+    reference_depth.max(TOUCH_LEVEL)
 }
 
 /// The force of one pair on `p`, and the friction's power on the pair's relative motion.
@@ -336,14 +377,14 @@ mod tests {
         let energy = |x: DVec2| {
             let p = particle(x, DVec2::ZERO);
             let (kp, kq) = (penalty_modulus(&p, &LAW), penalty_modulus(&q, &LAW));
-            depth_energy(kp, kernel(x - q.position, q.width, 2))
-                + depth_energy(kq, kernel(q.position - x, p.width, 2))
+            depth_energy(kp, kernel(x - q.position, q.width, 2), TOUCH_LEVEL)
+                + depth_energy(kq, kernel(q.position - x, p.width, 2), TOUCH_LEVEL)
         };
         let x = DVec2::new(0.05, -0.1);
         let p = particle(x, DVec2::ZERO);
         let k = penalty_modulus(&p, &LAW);
-        let slope_p = depth_slope(k, kernel(x - q.position, 1.0, 2));
-        let slope_q = depth_slope(k, kernel(q.position - x, 1.0, 2));
+        let slope_p = depth_slope(k, kernel(x - q.position, 1.0, 2), TOUCH_LEVEL);
+        let slope_q = depth_slope(k, kernel(q.position - x, 1.0, 2), TOUCH_LEVEL);
         let force = pair_force((&p, slope_p), (&q, slope_q), &LAW)
             .unwrap()
             .force;
@@ -372,11 +413,11 @@ mod tests {
                 .sum::<f64>()
         };
         let p = &upper[3];
-        let slope_p = depth_slope(k, depth(p.position, &lower));
+        let slope_p = depth_slope(k, depth(p.position, &lower), TOUCH_LEVEL);
         let push: DVec2 = lower
             .iter()
             .filter_map(|q| {
-                let slope_q = depth_slope(k, depth(q.position, &upper));
+                let slope_q = depth_slope(k, depth(q.position, &upper), TOUCH_LEVEL);
                 pair_force((p, slope_p), (q, slope_q), &LAW)
             })
             .map(|c| c.force)

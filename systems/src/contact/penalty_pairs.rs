@@ -8,8 +8,8 @@
 //!   rank of a distributed run ([`BinFrame`]).
 
 use super::penalty_law::{
-    ContactParticle, KERNEL_REACH, PairLaw, PenaltyParams, depth_energy, depth_slope, kernel,
-    pair_force, penalty_modulus,
+    ContactParticle, KERNEL_REACH, PairLaw, PenaltyParams, depth_energy, depth_slope,
+    face_touch_level, kernel, pair_force, penalty_modulus,
 };
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
@@ -60,6 +60,97 @@ pub struct ContactSet<'a, V> {
     pub particles: &'a [ContactParticle<V>],
     /// Each particle's contact group.
     pub groups: &'a [ContactGroup],
+    /// The faces a partition opens within the groups, when the law acts on them.
+    pub faces: Option<CrackFaces<'a, V>>,
+}
+
+/// The crack faces of a contact set: which particles lie on two sides of a node of their own
+/// group, and where each particle lay at the start of the run.
+pub struct CrackFaces<'a, V> {
+    /// Each particle's sides at the nodes where its group is split.
+    pub sides: &'a FaceSides,
+    /// Each particle's position at the start of the run.
+    pub reference: &'a [V],
+}
+
+/// For each particle row, the nodes where a partition has split its contact group into two
+/// fields and the particle's side there, sorted by node: two particles of one group lie across
+/// a face when some node they share holds them on different sides. The partition only splits a
+/// node where both sides could separate (the separability condition), so intact material is
+/// never across a face, and this law acts exactly where the fields move apart.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct FaceSides {
+    offsets: Vec<u32>,
+    entries: Vec<(u32, u8)>,
+}
+
+impl FaceSides {
+    /// The sides of every particle row of `c` under the node fields `fields` (by node index),
+    /// for particles of the groups `groups` (by row).
+    pub fn new<D: Dim>(
+        c: &Connectivity<D>,
+        fields: &[NodeFields],
+        groups: &[ContactGroup],
+    ) -> Self {
+        let rows: Vec<Vec<(u32, u8)>> = (0..c.particle_count())
+            .into_par_iter()
+            .map(|p| {
+                let group = groups[p].0;
+                let mut sides: Vec<(u32, u8)> = c
+                    .row(p)
+                    .filter_map(|e| {
+                        let node = c.nodes[e];
+                        let keys = fields[node as usize].active();
+                        let split = keys.iter().filter(|k| k.group() == group).count() > 1;
+                        split.then(|| (node, keys[c.field(e)].side()))
+                    })
+                    .collect();
+                sides.sort_unstable();
+                sides
+            })
+            .collect();
+        Self::from_rows(rows)
+    }
+
+    /// The sides given row by row: each row's (node, side) pairs, sorted by node.
+    pub fn from_rows(rows: Vec<Vec<(u32, u8)>>) -> Self {
+        let mut offsets = Vec::with_capacity(rows.len() + 1);
+        offsets.push(0);
+        let mut entries = Vec::new();
+        for row in rows {
+            entries.extend(row);
+            offsets.push(entries.len() as u32);
+        }
+        Self { offsets, entries }
+    }
+
+    /// The nodes (sorted) where row `p`'s group is split, with its side at each.
+    pub fn of(&self, p: usize) -> &[(u32, u8)] {
+        match self.offsets.get(p..p + 2) {
+            Some(&[from, to]) => &self.entries[from as usize..to as usize],
+            _ => &[],
+        }
+    }
+
+    /// Whether rows `p` and `q` lie on different sides of a node they share.
+    pub fn across(&self, p: usize, q: usize) -> bool {
+        let (a, b) = (self.of(p), self.of(q));
+        let (mut i, mut j) = (0, 0);
+        while i < a.len() && j < b.len() {
+            match a[i].0.cmp(&b[j].0) {
+                std::cmp::Ordering::Less => i += 1,
+                std::cmp::Ordering::Greater => j += 1,
+                std::cmp::Ordering::Equal => {
+                    if a[i].1 != b[j].1 {
+                        return true;
+                    }
+                    i += 1;
+                    j += 1;
+                }
+            }
+        }
+        false
+    }
 }
 
 /// Where the bins that find each particle's partners lie: their corner and the widest
@@ -147,8 +238,8 @@ impl Bins {
 }
 
 impl Bins {
-    /// Calls `visit(q)` for every particle `q` of another group than `row`'s within reach of
-    /// it, in a fixed order.
+    /// Calls `visit(q)` for every particle `q` within reach of `row` that is of another group,
+    /// or of its own group across a face ([`FaceSides::across`]), in a fixed order.
     fn partners<V: VectorOps>(
         &self,
         set: &ContactSet<V>,
@@ -157,13 +248,16 @@ impl Bins {
         mut visit: impl FnMut(usize),
     ) {
         let group = set.groups[row].0;
+        let faces = set.faces.as_ref().filter(|f| !f.sides.of(row).is_empty());
         for bin in self.around(set.particles[row].position, dimension) {
-            if !bin.mixed && bin.group == group {
+            if faces.is_none() && !bin.mixed && bin.group == group {
                 continue;
             }
             for &other in &bin.rows {
-                if set.groups[other as usize].0 != group {
-                    visit(other as usize);
+                let other = other as usize;
+                if set.groups[other].0 != group || faces.is_some_and(|f| f.sides.across(row, other))
+                {
+                    visit(other);
                 }
             }
         }
@@ -186,25 +280,35 @@ pub fn particle_contacts<V: VectorOps>(
     };
     let d = law.dimension;
     let particles = set.particles;
-    // K_p and the depth S_p of every particle.
-    let depths: Vec<(f64, f64)> = (0..particles.len())
+    // K_p, the depth S_p and the touch level of every particle.
+    let depths: Vec<(f64, f64, f64)> = (0..particles.len())
         .into_par_iter()
         .map(|row| {
-            let me = &particles[row];
-            let mut depth = 0.0;
+            let (me, group) = (&particles[row], set.groups[row].0);
+            let (mut depth, mut reference_depth) = (0.0, 0.0);
             bins.partners(set, row, d, |q| {
-                depth += kernel(me.position - particles[q].position, particles[q].width, d);
+                let width = particles[q].width;
+                depth += kernel(me.position - particles[q].position, width, d);
+                if let Some(faces) = set.faces.as_ref().filter(|_| set.groups[q].0 == group) {
+                    let r = faces.reference[row] - faces.reference[q];
+                    reference_depth += kernel(r, width, d);
+                }
             });
-            (penalty_modulus(me, law), depth)
+            let touch = face_touch_level(reference_depth);
+            (penalty_modulus(me, law), depth, touch)
         })
         .collect();
-    let slopes: Vec<f64> = depths.iter().map(|&(k, s)| depth_slope(k, s)).collect();
+    let slopes: Vec<f64> = depths
+        .iter()
+        .map(|&(k, s, touch)| depth_slope(k, s, touch))
+        .collect();
     (0..particles.len())
         .into_par_iter()
         .map(|row| {
             let (me, group) = (&particles[row], set.groups[row].0);
+            let (modulus, depth, touch) = depths[row];
             let mut sum = ParticleContact {
-                energy: depth_energy(depths[row].0, depths[row].1),
+                energy: depth_energy(modulus, depth, touch),
                 ..ParticleContact::default()
             };
             bins.partners(set, row, d, |q| {
@@ -224,4 +328,117 @@ pub fn particle_contacts<V: VectorOps>(
             sum
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn law() -> PairLaw {
+        PairLaw {
+            stiffness: 1.0,
+            friction: 0.0,
+            thickness: 1.0,
+            dimension: 2,
+            window: 1e-3,
+            at_contact_point: false,
+        }
+    }
+
+    /// A 6 × 6 lattice of unit spacing in one group, cut into two sides by `side(i, j)`, every
+    /// particle sharing node 0, moved by `shift(side)` from the lattice; each particle's contact
+    /// for start-of-run positions `reference(x)`.
+    fn cut_lattice(
+        side: impl Fn(usize, usize) -> u8,
+        shift: impl Fn(u8) -> DVec2,
+        reference: impl Fn(DVec2) -> DVec2,
+    ) -> (Vec<u8>, Vec<ParticleContact<DVec2>>) {
+        let (mut particles, mut sides, mut references) = (Vec::new(), Vec::new(), Vec::new());
+        for i in 0..6 {
+            for j in 0..6 {
+                let x = DVec2::new(i as f64, j as f64);
+                let s = side(i, j);
+                particles.push(ContactParticle {
+                    position: x + shift(s),
+                    velocity: DVec2::ZERO,
+                    velocity_gradient: [DVec2::ZERO; 3],
+                    width: 1.0,
+                    mass: 1.0,
+                    modulus: 1.0,
+                });
+                sides.push(s);
+                references.push(reference(x));
+            }
+        }
+        let rows = sides.iter().map(|&s| vec![(0, s)]).collect();
+        let face_sides = FaceSides::from_rows(rows);
+        let groups = vec![ContactGroup(0); particles.len()];
+        let set = ContactSet {
+            particles: &particles,
+            groups: &groups,
+            faces: Some(CrackFaces {
+                sides: &face_sides,
+                reference: &references,
+            }),
+        };
+        let contacts =
+            particle_contacts(&set, &PenaltyParams::default(), &law(), BinFrame::of(&set));
+        (sides, contacts)
+    }
+
+    fn energy(contacts: &[ParticleContact<DVec2>]) -> f64 {
+        contacts.iter().map(|c| c.energy).sum()
+    }
+
+    /// Crack faces touch where the body's particles lay. A lattice cut between two rows is a
+    /// flat face: its particles sit at `s₀` whatever the reference. Cut along a staircase (a
+    /// crack at 45° to the rows), the faces reach deeper than `s₀` with no overlap at all: the
+    /// touch level taken from the start-of-run positions keeps that lattice at rest, where
+    /// `s₀` alone would push it apart.
+    #[test]
+    fn a_cut_lattice_rests_at_its_reference() {
+        let none = |_| DVec2::ZERO;
+        let far = |x: DVec2| x * 10.0;
+        let flat = |i: usize, _: usize| u8::from(i >= 3);
+        let stair = |i: usize, j: usize| u8::from(i + j >= 6);
+        assert_eq!(energy(&cut_lattice(flat, none, far).1), 0.0);
+        assert_eq!(energy(&cut_lattice(stair, none, |x| x).1), 0.0);
+        assert!(
+            cut_lattice(stair, none, |x| x)
+                .1
+                .iter()
+                .all(|c| c.force == DVec2::ZERO)
+        );
+        assert!(energy(&cut_lattice(stair, none, far).1) > 0.0);
+    }
+
+    /// Pressed together, the two sides of a cut push apart, equal and opposite.
+    #[test]
+    fn pressed_faces_push_apart() {
+        let stair = |i: usize, j: usize| u8::from(i + j >= 6);
+        let press = |s: u8| DVec2::new(-0.1, -0.1) * f64::from(s);
+        let (sides, contacts) = cut_lattice(stair, press, |x| x);
+        assert!(energy(&contacts) > 0.0);
+        let mut on_side = [DVec2::ZERO; 2];
+        for (s, c) in sides.iter().zip(&contacts) {
+            on_side[usize::from(*s)] += c.force;
+        }
+        assert!((on_side[0] + on_side[1]).length() < 1e-12, "{on_side:?}");
+        assert!(on_side[1].x > 0.0 && on_side[1].y > 0.0, "{on_side:?}");
+    }
+
+    /// Two rows share a node on different sides only where their lists meet on that node.
+    #[test]
+    fn across_needs_a_shared_node_on_different_sides() {
+        let sides = FaceSides::from_rows(vec![
+            vec![(1, 0), (4, 0)],
+            vec![(2, 1), (4, 1)],
+            vec![(1, 0), (2, 1)],
+            vec![],
+        ]);
+        assert!(sides.across(0, 1));
+        assert!(!sides.across(0, 2));
+        assert!(sides.across(1, 0) && sides.across(2, 0) == sides.across(0, 2));
+        assert!(!sides.across(0, 3) && !sides.across(3, 3));
+    }
 }

@@ -60,6 +60,7 @@ dim_keys! {
     ExternalForce => "particle/external_force",
     DamageGradient => "particle/damage_gradient",
     AffineVelocity => "particle/affine_velocity",
+    ReferencePosition => "particle/reference_position",
 }
 
 checkpoint_keys! {
