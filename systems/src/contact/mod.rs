@@ -3,6 +3,7 @@
 pub mod frictional;
 pub mod frictional_law;
 pub mod penalty;
+pub mod penalty_faces;
 pub mod penalty_law;
 pub mod penalty_pairs;
 

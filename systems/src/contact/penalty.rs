@@ -1,18 +1,27 @@
-//! Penalty contact between particles of different contact groups: a potential of the particles'
-//! positions on a smoothed surface, applied to each group's velocity field through the shape
-//! functions.
+//! Penalty contact between particles of different contact groups, and between the faces a
+//! damage-gradient partition opens within a group: a potential of the particles' positions on a
+//! smoothed surface, applied to each field through the shape functions.
 //!
 //! - Stage: contact. Registration name: `contact/penalty`. Needs a partition system:
 //!   - `partition/bodies`: one velocity field per contact group, which alone would let the
 //!     bodies pass through each other; this system is then their only interaction.
 //!   - `partition/dfg`: the groups' fields as with `partition/bodies`, and within a group the
-//!     two sides of a crack (or of a self-contact surface) as two more fields. This system acts
-//!     between the groups, and the pipeline must list `contact/frictional` with
-//!     `between: CrackFaces` before it for the crack faces (Algorithm 3 between the two sides of
-//!     one group; the particles of one group carry no surface of their own for a potential to
-//!     act on until the crack opens). The two laws then touch disjoint pairs of fields; this
-//!     system runs after the nodal law and adds its forces to the node columns the nodal law
-//!     wrote.
+//!     two sides of a crack (or of a self-contact surface) as two more fields. `between` says
+//!     who meets those sides:
+//!     - `Groups` (the default): this system acts between the groups, and the pipeline lists
+//!       `contact/frictional` with `between: CrackFaces` before it for the crack faces
+//!       (Algorithm 3 between the two sides of one group). The two laws then touch disjoint
+//!       pairs of fields; this system runs after the nodal law and adds its forces to the node
+//!       columns the nodal law wrote.
+//!     - `All`: this system alone, with no nodal law, acts on the crack faces too. Two
+//!       particles of one group are partners when some node they share holds them on
+//!       different sides (`penalty_faces::FaceSides`): the partition splits a node only where
+//!       both sides could separate (the separability condition, dfg-partitioning-mpm.md §2.3,
+//!       with this system's `separability` as D̄_min), so intact material never is. The faces
+//!       touch where their particles lay at the start of the run (`ReferencePosition`, and
+//!       `penalty_law::face_touch_level`): a crack that opens feels nothing, and one pressed
+//!       shut is pushed back from where the body was whole, even along a staircase of particle
+//!       rows. Self-contact surfaces found by `surface` detection are faces of the same kind.
 //! - The law is `contact::penalty_law` (penalty contact in MPM on the smoothed surface of each
 //!   body's particles; see its header for the potential, the stiffness and the friction). It is
 //!   the energy-conserving alternative to `contact/frictional` (dfg-partitioning-mpm.md §1.1.1,
@@ -46,11 +55,11 @@
 //!   relative motion (≤ 0, the energy friction has dissipated).
 
 use super::frictional_law::{ContactPairs, FrictionalParams};
+pub use super::penalty_faces::{CrackFaces, FaceData, FaceQueries, FaceSides, crack_faces};
+use super::penalty_faces::{check_no_nodal_law, install_crack_faces};
 use super::penalty_law::KERNEL_REACH;
 pub use super::penalty_law::{ContactParticle, PairContact, PairLaw, PenaltyPairs, PenaltyParams};
-pub use super::penalty_pairs::{
-    BinFrame, ContactSet, CrackFaces, FaceSides, ParticleContact, particle_contacts,
-};
+pub use super::penalty_pairs::{BinFrame, ContactSet, ParticleContact, particle_contacts};
 use crate::transfer::velocity_gradient;
 use bevy_ecs::system::SystemParam;
 use fractum_engine::decomposition::{Owned, OwnedRows, RankMaximum};
@@ -220,32 +229,6 @@ fn check_partner_law(installer: &Installer, params: &Params) -> Result<bool, Sce
         ));
     }
     Ok(false)
-}
-
-/// With `between: All` this law alone takes the faces a partition opens within a group: a
-/// nodal law in the same pipeline would act on them too.
-fn check_no_nodal_law(installer: &Installer, params: &Params) -> Result<(), SceneError> {
-    if installer.pipeline_has("contact/frictional") {
-        return Err(params.error(
-            "between",
-            "`between: All` acts on crack faces and between contact groups, and so would the \
-             pipeline's contact/frictional: remove contact/frictional, or give this entry \
-             `between: Groups` and contact/frictional `between: CrackFaces`",
-        ));
-    }
-    Ok(())
-}
-
-/// What the crack faces need: the separability condition's D̄_min for the field assignment
-/// (no nodal law publishes it here) and each particle's position at the start of the run, where
-/// the faces touch ([`ReferencePosition`]).
-fn install_crack_faces<D: Dim>(installer: &mut Installer, separability: f64) {
-    installer.insert_resource(fractum_engine::fields::Separability(separability));
-    installer.add_particle_component_with(ReferencePosition::<D>::default(), |particle| {
-        particle
-            .get::<Position<D>>()
-            .map(|x| ReferencePosition::<D>(x.0))
-    });
 }
 
 /// The widest contact particle of the whole scene, which sizes the bins that find each
@@ -515,18 +498,11 @@ pub fn penalty_contact<D: Dim>(
         window: integration.force_window(dt),
         at_contact_point,
     };
-    let sides = crack_face_sides(&inputs.params, c, &faces, groups);
-    let reference = sides.as_ref().and_then(|_| {
-        single_table(faces.references.contiguous_iter(), "particles")
-            .map(|x| x.iter().map(|x| x.0).collect::<Vec<_>>())
-    });
+    let faces = crack_faces(inputs.params.between, c, &faces, groups);
     let set = ContactSet {
         particles: &states,
         groups,
-        faces: sides
-            .as_ref()
-            .zip(reference.as_deref())
-            .map(|(sides, reference)| CrackFaces { sides, reference }),
+        faces: faces.as_ref().map(FaceData::view),
     };
     let frame = bin_frame(&inputs, &states);
     let forces = particle_contacts(&set, &inputs.params, &law, frame);
@@ -550,32 +526,6 @@ pub fn penalty_contact<D: Dim>(
     let slots = *inputs.slots;
     inputs.columns.values[slots.energy] = energy;
     inputs.columns.values[slots.friction] += power * dt;
-}
-
-/// What the crack faces are read from: the fields each node holds, and each particle's
-/// position at the start of the run.
-#[derive(SystemParam)]
-pub struct FaceQueries<'w, 's, D: Dim> {
-    fields: Query<'w, 's, &'static NodeFields, With<Node>>,
-    references: Query<'w, 's, &'static ReferencePosition<D>, With<Particle>>,
-}
-
-/// Each particle's sides at the nodes where its group is split, when the law acts on crack
-/// faces (`between: All`) and some node is split this step.
-fn crack_face_sides<D: Dim>(
-    params: &PenaltyParams,
-    c: &Connectivity<D>,
-    faces: &FaceQueries<D>,
-    groups: &[ContactGroup],
-) -> Option<FaceSides> {
-    if params.between != PenaltyPairs::All {
-        return None;
-    }
-    let fields = single_table(faces.fields.contiguous_iter(), "nodes")?;
-    fields
-        .iter()
-        .any(fractum_engine::fields::splits_a_group)
-        .then(|| FaceSides::new(c, fields, groups))
 }
 
 /// Where the contact bins lie: from the grid's corner, as wide as the scene's widest particle

@@ -7,6 +7,7 @@
 //!   them, in a fixed order, so that the sums are the same for any thread count and on every
 //!   rank of a distributed run ([`BinFrame`]).
 
+pub use super::penalty_faces::{CrackFaces, FaceSides};
 use super::penalty_law::{
     ContactParticle, KERNEL_REACH, PairLaw, PenaltyParams, depth_energy, depth_slope,
     face_touch_level, kernel, pair_force, penalty_modulus,
@@ -62,95 +63,6 @@ pub struct ContactSet<'a, V> {
     pub groups: &'a [ContactGroup],
     /// The faces a partition opens within the groups, when the law acts on them.
     pub faces: Option<CrackFaces<'a, V>>,
-}
-
-/// The crack faces of a contact set: which particles lie on two sides of a node of their own
-/// group, and where each particle lay at the start of the run.
-pub struct CrackFaces<'a, V> {
-    /// Each particle's sides at the nodes where its group is split.
-    pub sides: &'a FaceSides,
-    /// Each particle's position at the start of the run.
-    pub reference: &'a [V],
-}
-
-/// For each particle row, the nodes where a partition has split its contact group into two
-/// fields and the particle's side there, sorted by node: two particles of one group lie across
-/// a face when some node they share holds them on different sides. The partition only splits a
-/// node where both sides could separate (the separability condition), so intact material is
-/// never across a face, and this law acts exactly where the fields move apart.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct FaceSides {
-    offsets: Vec<u32>,
-    entries: Vec<(u32, u8)>,
-}
-
-impl FaceSides {
-    /// The sides of every particle row of `c` under the node fields `fields` (by node index),
-    /// for particles of the groups `groups` (by row).
-    pub fn new<D: Dim>(
-        c: &Connectivity<D>,
-        fields: &[NodeFields],
-        groups: &[ContactGroup],
-    ) -> Self {
-        let rows: Vec<Vec<(u32, u8)>> = (0..c.particle_count())
-            .into_par_iter()
-            .map(|p| {
-                let group = groups[p].0;
-                let mut sides: Vec<(u32, u8)> = c
-                    .row(p)
-                    .filter_map(|e| {
-                        let node = c.nodes[e];
-                        let keys = fields[node as usize].active();
-                        let split = keys.iter().filter(|k| k.group() == group).count() > 1;
-                        split.then(|| (node, keys[c.field(e)].side()))
-                    })
-                    .collect();
-                sides.sort_unstable();
-                sides
-            })
-            .collect();
-        Self::from_rows(rows)
-    }
-
-    /// The sides given row by row: each row's (node, side) pairs, sorted by node.
-    pub fn from_rows(rows: Vec<Vec<(u32, u8)>>) -> Self {
-        let mut offsets = Vec::with_capacity(rows.len() + 1);
-        offsets.push(0);
-        let mut entries = Vec::new();
-        for row in rows {
-            entries.extend(row);
-            offsets.push(entries.len() as u32);
-        }
-        Self { offsets, entries }
-    }
-
-    /// The nodes (sorted) where row `p`'s group is split, with its side at each.
-    pub fn of(&self, p: usize) -> &[(u32, u8)] {
-        match self.offsets.get(p..p + 2) {
-            Some(&[from, to]) => &self.entries[from as usize..to as usize],
-            _ => &[],
-        }
-    }
-
-    /// Whether rows `p` and `q` lie on different sides of a node they share.
-    pub fn across(&self, p: usize, q: usize) -> bool {
-        let (a, b) = (self.of(p), self.of(q));
-        let (mut i, mut j) = (0, 0);
-        while i < a.len() && j < b.len() {
-            match a[i].0.cmp(&b[j].0) {
-                std::cmp::Ordering::Less => i += 1,
-                std::cmp::Ordering::Greater => j += 1,
-                std::cmp::Ordering::Equal => {
-                    if a[i].1 != b[j].1 {
-                        return true;
-                    }
-                    i += 1;
-                    j += 1;
-                }
-            }
-        }
-        false
-    }
 }
 
 /// Where the bins that find each particle's partners lie: their corner and the widest
@@ -425,20 +337,5 @@ mod tests {
         }
         assert!((on_side[0] + on_side[1]).length() < 1e-12, "{on_side:?}");
         assert!(on_side[1].x > 0.0 && on_side[1].y > 0.0, "{on_side:?}");
-    }
-
-    /// Two rows share a node on different sides only where their lists meet on that node.
-    #[test]
-    fn across_needs_a_shared_node_on_different_sides() {
-        let sides = FaceSides::from_rows(vec![
-            vec![(1, 0), (4, 0)],
-            vec![(2, 1), (4, 1)],
-            vec![(1, 0), (2, 1)],
-            vec![],
-        ]);
-        assert!(sides.across(0, 1));
-        assert!(!sides.across(0, 2));
-        assert!(sides.across(1, 0) && sides.across(2, 0) == sides.across(0, 2));
-        assert!(!sides.across(0, 3) && !sides.across(3, 3));
     }
 }
