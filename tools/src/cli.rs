@@ -253,4 +253,13 @@ pub struct CrackArgs {
     /// record].
     #[arg(long)]
     pub thickness: Option<f64>,
+    /// A time window FROM,TO (s) to report the crack's speed over as well, as papers report it
+    /// (Kalthoff–Winkler: 40e-6,50e-6).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "FROM,TO",
+        allow_negative_numbers = true
+    )]
+    pub window: Option<Vec<f64>>,
 }

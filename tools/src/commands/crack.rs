@@ -100,7 +100,27 @@ fn crack_report(request: &CrackArgs, registry: &Registry) -> Result<String, Stri
         .map(|s| scene_rayleigh_speed(s, request.material.as_deref(), registry))
         .transpose()?;
     report.push_str(&speed_report(&history, rayleigh));
+    if let Some(window) = &request.window {
+        report.push_str(&window_report(&history, window)?);
+    }
     Ok(report)
+}
+
+/// The crack's speed over the window `[from, to]` of `--window`.
+fn window_report(history: &[crack::TipAt], window: &[f64]) -> Result<String, String> {
+    let &[from, to] = window else {
+        return Err("--window takes two comma-separated times, FROM,TO".into());
+    };
+    if !(to > from) {
+        return Err(format!("--window {from},{to}: TO must come after FROM"));
+    }
+    Ok(match crack::crack_speed_between(history, from, to) {
+        Some(speed) => format!(
+            "\ncrack speed {speed:e} m/s from {from:e} to {to:e} s (least squares over the frames \
+             in the window)"
+        ),
+        None => format!("\nno crack speed from {from:e} to {to:e} s: fewer than two frames there"),
+    })
 }
 
 /// 1.5 particle spacings of the run's first frame.

@@ -169,6 +169,11 @@ pub struct CrackAt {
     /// Crack length at which the angle is taken (m) [default: 8 link lengths].
     #[serde(default)]
     pub angle_length: Option<f64>,
+    /// The speed's time window `[from, to]` (s): the least-squares speed over the frames in it,
+    /// as a paper reports a crack's speed over part of its growth; over the whole growth when
+    /// absent.
+    #[serde(default)]
+    pub window: Option<[f64; 2]>,
 }
 
 /// Which fragments (as `fractum fragments` takes them).
@@ -195,7 +200,12 @@ impl Measure {
                 if !matches!(dims, (2, 2) | (3, 3)) {
                     return Err("notch and direction take 2 or 3 coordinates each".into());
                 }
-                Ok(())
+                match c.window {
+                    Some([from, to]) if !(to > from) => {
+                        Err("the crack's window needs `to` after `from`".into())
+                    }
+                    _ => Ok(()),
+                }
             }
             Measure::CrackCrossing(at) => at.line.validate(),
             Measure::BodyAcceleration(at) | Measure::BodySpinAcceleration(at) => {
@@ -228,9 +238,13 @@ impl Measure {
             }
             Measure::CrackSpeed(at) => {
                 let history = crack_history(dir, at)?.0;
-                crack::crack_speed(&history)
-                    .map(|(mean, _)| mean)
-                    .ok_or_else(|| "the crack did not grow between frames".into())
+                match at.window {
+                    Some([from, to]) => crack::crack_speed_between(&history, from, to)
+                        .ok_or_else(|| format!("fewer than two frames from {from:e} to {to:e} s")),
+                    None => crack::crack_speed(&history)
+                        .map(|(mean, _)| mean)
+                        .ok_or_else(|| "the crack did not grow between frames".into()),
+                }
             }
             Measure::FragmentCount(at) => {
                 let found = fragments_at(dir, at)?;
@@ -496,7 +510,21 @@ mod tests {
             direction: vec![1.0, 0.0, 0.0],
             damage_above: 0.5,
             angle_length: None,
+            window: None,
         });
         assert!(bad.validate().is_err());
+        let backwards = Measure::CrackSpeed(CrackAt {
+            notch: vec![0.0, 1.0],
+            direction: vec![1.0, 0.0],
+            damage_above: 0.5,
+            angle_length: None,
+            window: Some([50e-6, 40e-6]),
+        });
+        assert!(
+            backwards
+                .validate()
+                .unwrap_err()
+                .contains("`to` after `from`")
+        );
     }
 }
