@@ -111,7 +111,7 @@ fn window_report(history: &[crack::TipAt], window: &[f64]) -> Result<String, Str
     let &[from, to] = window else {
         return Err("--window takes two comma-separated times, FROM,TO".into());
     };
-    if !(to > from) {
+    if to <= from || to.is_nan() || from.is_nan() {
         return Err(format!("--window {from},{to}: TO must come after FROM"));
     }
     Ok(match crack::crack_speed_between(history, from, to) {

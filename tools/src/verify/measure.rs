@@ -201,7 +201,7 @@ impl Measure {
                     return Err("notch and direction take 2 or 3 coordinates each".into());
                 }
                 match c.window {
-                    Some([from, to]) if !(to > from) => {
+                    Some([from, to]) if to <= from || to.is_nan() || from.is_nan() => {
                         Err("the crack's window needs `to` after `from`".into())
                     }
                     _ => Ok(()),
