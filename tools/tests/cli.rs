@@ -273,6 +273,21 @@ fn crack_follows_the_tip_from_the_notch_and_compares_its_speed_with_rayleigh() {
         .map(|w| (w[1][4] - w[0][4]) / (w[1][0] - w[0][0]))
         .fold(0.0, f64::max);
     assert!(fastest < 588.0, "{fastest} m/s");
+    // Over a window of the growth: the least-squares speed there, which a crack that never
+    // outruns 588 m/s between frames cannot exceed.
+    let (from, to) = (rows[rows.len() / 4][0], rows[3 * rows.len() / 4][0]);
+    let window = format!("{from},{to}");
+    let out = fractum(&["crack", dir, "--notch", "0.1,0.2", "--window", &window]);
+    let report = text(&out.stdout);
+    let line = report
+        .lines()
+        .find(|l| l.contains("s (least squares over the frames in the window)"))
+        .unwrap_or_else(|| panic!("{report}"));
+    let speed: f64 = line.split_whitespace().nth(2).unwrap().parse().unwrap();
+    assert!(speed > 0.0 && speed <= fastest, "{line}");
+    let backwards = fractum(&["crack", dir, "--notch", "0.1,0.2", "--window", "2,1"]);
+    assert_eq!(backwards.status.code(), Some(4));
+    assert!(text(&backwards.stderr).contains("TO must come after FROM"));
     let bad = fractum(&["crack", dir, "--notch", "0.1"]);
     assert_eq!(bad.status.code(), Some(4));
     assert!(text(&bad.stderr).contains("--notch takes 2 or 3"));
