@@ -90,8 +90,12 @@ fn summary(catalogue: &Catalogue, results: &Results) -> String {
          (also run by `cargo test`); `fractum verify --tier paper` the release runs at the \
          published resolutions; a case whose scene, checks and solver are unchanged keeps its \
          result. An expected miss is a published number Fractum does not reproduce; its reason \
-         is on the case's page.\n",
+         is on the case's page. A check whose source is a `case` holds a finer run against \
+         Fractum's own coarser one: a regression baseline, marked `baseline:` in the status \
+         column and counted apart from the checks against analytic solutions, papers and \
+         experiments.\n",
     );
+    text.push_str(&tally(catalogue, results));
     for tier in [Tier::Quick, Tier::Paper] {
         let _ = write!(
             text,
@@ -123,12 +127,56 @@ fn summary(catalogue: &Catalogue, results: &Results) -> String {
                     source_text(&check.source),
                     record::with_unit(e.measured, &check.unit),
                     record::tolerance_text(check),
-                    e.status.word(),
+                    status_text(&check.source, &e.status),
                 );
             }
         }
     }
     text
+}
+
+/// The status as the tables print it: `baseline:` before the word for a check against another
+/// case of Fractum's own, which is a regression baseline, not a verification.
+fn status_text(source: &Source, status: &Status) -> String {
+    match source {
+        Source::Case(_) => format!("baseline: {}", status.word()),
+        _ => status.word().to_string(),
+    }
+}
+
+/// How many checks stand where, the checks against outside references (analytic solutions,
+/// papers, experiments) apart from the regression baselines.
+fn tally(catalogue: &Catalogue, results: &Results) -> String {
+    // pass, expected miss, failed or not measured, not run.
+    let mut counts = [[0usize; 4]; 2];
+    for case in &catalogue.cases {
+        for check in &case.checks {
+            let status = record::evaluate(catalogue, results, case, check).status;
+            let column = match status {
+                Status::Pass | Status::UnexpectedPass => 0,
+                Status::ExpectedMiss(_) => 1,
+                Status::Fail(_) | Status::Error(_) => 2,
+                Status::Pending => 3,
+            };
+            counts[usize::from(matches!(check.source, Source::Case(_)))][column] += 1;
+        }
+    }
+    let line = |c: [usize; 4]| {
+        format!(
+            "{} checks: {} pass, {} expected misses, {} failed or not measured, {} not run",
+            c.iter().sum::<usize>(),
+            c[0],
+            c[1],
+            c[2],
+            c[3]
+        )
+    };
+    format!(
+        "\n- Against analytic solutions, papers and experiments: {}.\n- Regression baselines \
+         (a run against Fractum's own coarser run): {}.\n",
+        line(counts[0]),
+        line(counts[1])
+    )
 }
 
 fn source_text(source: &Source) -> String {
@@ -175,7 +223,7 @@ fn page(catalogue: &Catalogue, results: &Results, case: &Case) -> String {
             source_text(&check.source).replace("(verification/", "("),
             record::with_unit(e.measured, &check.unit),
             record::tolerance_text(check),
-            e.status.word()
+            status_text(&check.source, &e.status)
         );
         if !matches!(e.status, Status::Pass | Status::Pending) {
             notes.push((record::describe(check, &e), Vec::new()));
@@ -277,5 +325,61 @@ mod tests {
         );
         assert!(text.contains("- Expected miss, top: it branches"), "{text}");
         assert_eq!(text.matches("the path moves").count(), 1, "{text}");
+    }
+
+    /// A finer run held against Fractum's own coarser one is a regression baseline: the tables
+    /// say so, and the tally counts it apart from the checks against outside references.
+    #[test]
+    fn a_check_against_another_case_is_a_baseline() {
+        let case = |name: &str, source: Source| Case {
+            name: name.into(),
+            title: name.into(),
+            about: "A bar.".into(),
+            tier: Tier::Paper,
+            scene: "../scenes/bar.ron".into(),
+            edits: Vec::new(),
+            steps: None,
+            cost: 1.0,
+            checks: vec![Check {
+                expected_miss: None,
+                source,
+                ..check("length", "")
+            }],
+            figures: Vec::new(),
+        };
+        let coarse = case("coarse", Source::Analytic("L".into()));
+        let fine = case("fine", Source::Case("coarse".into()));
+        let catalogue = Catalogue {
+            cases: vec![coarse, fine.clone()],
+            root: Default::default(),
+        };
+        let record = |length: f64| record::CaseRecord {
+            key: String::new(),
+            outcome: record::Outcome::Completed,
+            values: [("length".to_string(), length)].into(),
+            measure_errors: Default::default(),
+            wall_s: 1.0,
+            threads: 1,
+            date: "2026-11-29".into(),
+            commit: "abcdef0".into(),
+            machine: "test".into(),
+            figures: Vec::new(),
+        };
+        let results = Results {
+            cases: [
+                ("coarse".to_string(), record(1.5)),
+                ("fine".to_string(), record(1.6)),
+            ]
+            .into(),
+        };
+        let text = summary(&catalogue, &results);
+        assert!(text.contains("| baseline: pass |"), "{text}");
+        assert!(text.contains("| pass |"), "{text}");
+        assert!(
+            text.contains("analytic solutions, papers and experiments: 1 checks: 1 pass"),
+            "{text}"
+        );
+        assert!(text.contains("coarser run): 1 checks: 1 pass"), "{text}");
+        assert!(page(&catalogue, &results, &fine).contains("| baseline: pass |"));
     }
 }
