@@ -194,28 +194,19 @@ mod tests {
     /// they had, for any velocity field, here with GIMP.
     #[test]
     fn apic_round_trip_keeps_the_grids_angular_momentum() {
+        use crate::advection::round_trip::{
+            grid_angular_momentum, scatter_affine_particles, set_grid_field,
+        };
         use crate::basis::gimp::gimp_basis;
         use crate::predictor::usl::{UslPredictorParams, usl_predictor};
         let mut world = tiny_world::<Two>(6, 0.5, 1e-3);
         world.insert_resource(UslPredictorParams::default());
-        for k in 0..12 {
-            let x = DVec2::new(0.6 + 0.17 * k as f64, 0.7 + 0.13 * ((5 * k) % 11) as f64);
-            let p = spawn_particle(&mut world, x, DVec2::ZERO, 1.0 + 0.1 * k as f64, 0.01);
-            world.entity_mut(p).insert(AffineVelocity::<Two>::default());
-        }
+        scatter_affine_particles(&mut world, 0.01);
         run_system(
             &mut world,
             (gimp_basis::<Two>, usl_predictor::<Two>).chain(),
         );
-        let grid = world.resource::<Grid<Two>>().clone();
-        let field = |x: DVec2| DVec2::new((3.0 * x.y).sin(), (2.0 * x.x).cos() + x.x * x.y);
-        let mut query = world.query::<(&NodeIndex, &NodeMass, &mut NodeVelocity<Two>)>();
-        let mut before = 0.0;
-        for (i, m, mut v) in query.iter_mut(&mut world) {
-            let x = grid.node_position(i.0 as usize);
-            v.0[0] = if m.0[0] > 0.0 { field(x) } else { DVec2::ZERO };
-            before += m.0[0] * x.perp_dot(v.0[0]);
-        }
+        let before = set_grid_field(&mut world);
         world.resource_mut::<SimClock>().dt = 0.0;
         run_system(&mut world, usl_apic_advection::<Two>);
         world.resource_mut::<SimClock>().dt = 1e-3;
@@ -223,11 +214,7 @@ mod tests {
             &mut world,
             (gimp_basis::<Two>, usl_predictor::<Two>).chain(),
         );
-        let mut query = world.query::<(&NodeIndex, &NodeMomentum<Two>)>();
-        let after: f64 = query
-            .iter(&world)
-            .map(|(i, p)| grid.node_position(i.0 as usize).perp_dot(p.0[0]))
-            .sum();
+        let after = grid_angular_momentum(&mut world);
         assert!(
             (after - before).abs() < 1e-10 * before.abs(),
             "{before} {after}"

@@ -643,14 +643,7 @@ mod tests {
             mass: 1.0,
             modulus: 100.0,
         };
-        let law = PairLaw {
-            stiffness: 1.0,
-            friction: 0.0,
-            thickness: 1.0,
-            dimension: 2,
-            window: 1e-3,
-            at_contact_point: false,
-        };
+        let law = crate::contact::penalty_law::plane_test_law();
         let set = ContactSet {
             particles: &[at(0.3), at(0.7)],
             groups: &[ContactGroup(0), ContactGroup(1)],

@@ -324,6 +324,20 @@ pub fn pair_force<V: VectorOps>(
     Some(contact)
 }
 
+/// The law of the penalty tests: κ 1, frictionless, 2D at unit thickness, a 1 ms window, the
+/// friction at the particles' centres.
+#[cfg(test)]
+pub(crate) fn plane_test_law() -> PairLaw {
+    PairLaw {
+        stiffness: 1.0,
+        friction: 0.0,
+        thickness: 1.0,
+        dimension: 2,
+        window: 1e-3,
+        at_contact_point: false,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

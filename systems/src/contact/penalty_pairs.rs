@@ -246,17 +246,6 @@ pub fn particle_contacts<V: VectorOps>(
 mod tests {
     use super::*;
 
-    fn law() -> PairLaw {
-        PairLaw {
-            stiffness: 1.0,
-            friction: 0.0,
-            thickness: 1.0,
-            dimension: 2,
-            window: 1e-3,
-            at_contact_point: false,
-        }
-    }
-
     /// A 6 × 6 lattice of unit spacing in one group, cut into two sides by `side(i, j)`, every
     /// particle sharing node 0, moved by `shift(side)` from the lattice; each particle's contact
     /// for start-of-run positions `reference(x)`.
@@ -293,8 +282,12 @@ mod tests {
                 reference: &references,
             }),
         };
-        let contacts =
-            particle_contacts(&set, &PenaltyParams::default(), &law(), BinFrame::of(&set));
+        let contacts = particle_contacts(
+            &set,
+            &PenaltyParams::default(),
+            &crate::contact::penalty_law::plane_test_law(),
+            BinFrame::of(&set),
+        );
         (sides, contacts)
     }
 
