@@ -23,6 +23,7 @@ mod overlap;
 mod patch;
 mod pipeline_order;
 mod points;
+mod quasi_static;
 mod scene_reference;
 mod scenes;
 mod surfaces;

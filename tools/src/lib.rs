@@ -44,7 +44,7 @@ pub mod snapshot;
 pub mod verify;
 
 pub use cli::{Cli, Command, CrackArgs, RunArgs};
-pub use reports::{check_report, energy_warning, summary_report, systems_report};
+pub use reports::{check_report, energy_warning, kinetic_warning, summary_report, systems_report};
 
 use clap::Parser;
 use fractum_engine::registry::Registry;

@@ -2,6 +2,7 @@
 
 use fractum_engine::dim::{Dim, Dimension};
 use fractum_engine::energy::EnergyCreation;
+use fractum_engine::quasi_static::{KineticExcess, QuasiStatic};
 use fractum_engine::registry::Registry;
 use fractum_engine::resources::{Grid, Materials, Thickness};
 use fractum_engine::simulation::{End, TimeStep};
@@ -94,12 +95,24 @@ fn memory_and_materials(world: &fractum_engine::prelude::World, out: &mut String
             memory.available.describe()
         );
     }
+    // A quasi-static run's world holds the scaled densities: the line shows the scene's too.
+    let scaling = world
+        .get_resource::<QuasiStatic>()
+        .map_or(1.0, |q| q.mass_scaling);
     for m in &world.resource::<Materials>().0 {
+        let density = if scaling > 1.0 {
+            format!(
+                "{} kg/m3 ({} scaled {scaling} times)",
+                m.density,
+                m.density / scaling
+            )
+        } else {
+            format!("{} kg/m3", m.density)
+        };
         let _ = writeln!(
             out,
-            "material   {}: density {} kg/m3, E {} Pa, nu {}, wave speed {:.4e} m/s",
+            "material   {}: density {density}, E {} Pa, nu {}, wave speed {:.4e} m/s",
             m.name,
-            m.density,
             m.youngs_modulus,
             m.poisson_ratio,
             m.wave_speed()
@@ -189,6 +202,9 @@ pub fn check_report(built: &mut Built) -> String {
     if let Some(step) = summary.time_step {
         let _ = writeln!(out, "time       {}; {end}", describe_step(step, limit));
     }
+    if let Some(q) = sim.world.get_resource::<QuasiStatic>() {
+        let _ = writeln!(out, "{}", quasi_static_line(q));
+    }
     for (name, condition) in &summary.boundaries {
         let _ = writeln!(out, "boundary   {name}: {condition}");
     }
@@ -207,6 +223,41 @@ pub fn check_report(built: &mut Built) -> String {
     );
     out.push_str("ok\n");
     out
+}
+
+/// The `fractum check` line of a quasi-static scene.
+fn quasi_static_line(q: &QuasiStatic) -> String {
+    let scaling = if q.mass_scaling > 1.0 {
+        format!(
+            "mass scaled {} times (densities, so the wave speeds fall and the stable step grows \
+             {:.3} times; weights as the scene gives them)",
+            q.mass_scaling,
+            q.mass_scaling.sqrt()
+        )
+    } else {
+        "no mass scaling".to_string()
+    };
+    format!(
+        "quasi-static {scaling}; warns where kinetic_fraction passes {} near the peak of the \
+         loading",
+        q.kinetic_limit
+    )
+}
+
+/// The warning printed when a quasi-static run's loading ends (the stored energy falls below
+/// 90% of its peak) with a kinetic fraction past the limit over the upper half of the loading.
+pub fn kinetic_warning(first: &KineticExcess, limit: f64) -> String {
+    format!(
+        "the loading has ended (the stored energy fell below 90% of its peak); near its peak, at \
+         step {} (t = {:.4e} s), the kinetic energy was {:.1}% of the stored energy, past the \
+         quasi-static limit of {:.1}% (kinetic_fraction in series.csv): inertia shaped this \
+         run's answer. Load more slowly, ramp the load in over a longer time, or scale the mass \
+         less (time.quasi_static.mass_scaling).",
+        first.step,
+        first.time,
+        100.0 * first.fraction,
+        100.0 * limit
+    )
 }
 
 /// The warning printed when a run first creates more energy than the watch allows.
@@ -261,6 +312,15 @@ pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
             worst.time
         )
     });
+    let kinetic = s.kinetic_excess.map_or(String::new(), |worst| {
+        format!(
+            "quasi-static: the kinetic energy reached {:.1}% of the stored energy near the peak \
+             of the loading, at step {}, t = {:.4e} s (kinetic_fraction in series.csv)\n",
+            100.0 * worst.fraction,
+            worst.step,
+            worst.time
+        )
+    });
     let never_split = if s.never_split {
         "partition: no node was split in this run (a node splits only where a particle has \
          failed and the damage on both sides passes the separability threshold, §2.3), so each \
@@ -283,7 +343,7 @@ pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
         )
     });
     format!(
-        "steps {}, simulated time {:.6e} s, particles {}, threads {threads}\nwall time {:.3} s, {:.4e} particle-steps/s\n{} VTU frames, output in {}\n{ranks}{removed}{energy}{never_split}",
+        "steps {}, simulated time {:.6e} s, particles {}, threads {threads}\nwall time {:.3} s, {:.4e} particle-steps/s\n{} VTU frames, output in {}\n{ranks}{removed}{energy}{kinetic}{never_split}",
         s.steps,
         s.time,
         s.particles,

@@ -8,9 +8,13 @@
 
 use crate::cell_crossing::StartPositions;
 use crate::{EXIT_ABANDONED, EXIT_BAD_SCENE, EXIT_BLOWUP, EXIT_INTERRUPTED, EXIT_IO};
-use crate::{EXIT_RESOURCES, EXIT_USAGE, energy_warning, load, report_scene_error, summary_report};
+use crate::{
+    EXIT_RESOURCES, EXIT_USAGE, energy_warning, kinetic_warning, load, report_scene_error,
+    summary_report,
+};
 use fractum_engine::communicator::Communicator;
 use fractum_engine::energy::EnergyWatch;
+use fractum_engine::quasi_static::KineticWatch;
 use fractum_engine::registry::Registry;
 use fractum_io::checkpoint::{CHECKPOINT_DIR, CheckpointEvery, SceneRecord, list_checkpoints};
 use fractum_io::run::{CheckpointPlan, RunError, RunOptions, run_with};
@@ -327,6 +331,7 @@ pub(crate) fn execute(
     let mut last_draw = Instant::now();
     // Every rank watches the run's energy alike; rank 0 says so.
     let mut warned = comm.is_some_and(|c| c.rank() != 0);
+    let mut kinetic_warned = warned;
     let start = if warned {
         None
     } else {
@@ -342,6 +347,16 @@ pub(crate) fn execute(
             warned = true;
             let cells = start.as_ref().map(|s| s.cells_moved(&sim.world));
             bar.suspend(|| eprintln!("warning: {}", energy_warning(&first, cells)));
+        }
+        if !kinetic_warned
+            && let Some((first, limit)) = sim
+                .world
+                .get_resource::<KineticWatch>()
+                .filter(|w| w.broken)
+                .and_then(|w| w.excess().map(|f| (f, w.limit)))
+        {
+            kinetic_warned = true;
+            bar.suspend(|| eprintln!("warning: {}", kinetic_warning(&first, limit)));
         }
         if last_draw.elapsed() > Duration::from_millis(100) || sim.finished() {
             last_draw = Instant::now();

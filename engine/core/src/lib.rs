@@ -29,6 +29,7 @@ pub mod integration;
 pub mod loads;
 pub mod neighbourhood;
 pub mod profile;
+pub mod quasi_static;
 pub mod registry;
 pub mod resources;
 pub mod series;

@@ -467,6 +467,7 @@ impl<'s, D: Dim> Checks<'s, D> {
             }
             _ => {}
         }
+        self.quasi_static()?;
         match self.spec.time_step {
             TimeStep::Fixed(dt) if !(dt.is_finite() && dt > 0.0) => Err(self
                 .spec
@@ -485,6 +486,35 @@ impl<'s, D: Dim> Checks<'s, D> {
                 .error("time.step", "expected a CFL factor in (0, 1]")),
             _ => Ok(()),
         }
+    }
+}
+
+impl<D: Dim> Checks<'_, D> {
+    /// Mass scaling of at least 1 (a factor below 1 would shorten the step and buy nothing), and
+    /// a kinetic limit that is a fraction.
+    fn quasi_static(&self) -> Result<(), SceneError> {
+        let Some(q) = self.spec.quasi_static else {
+            return Ok(());
+        };
+        if !(q.mass_scaling.is_finite() && q.mass_scaling >= 1.0) {
+            return Err(self.spec.source.error(
+                "time.quasi_static.mass_scaling",
+                format!(
+                    "expected a finite factor of at least 1 on every density, got {}",
+                    q.mass_scaling
+                ),
+            ));
+        }
+        if !(q.kinetic_limit > 0.0 && q.kinetic_limit <= 1.0) {
+            return Err(self.spec.source.error(
+                "time.quasi_static.kinetic_limit",
+                format!(
+                    "expected a fraction of the stored energy in (0, 1], got {} (0.05 is usual)",
+                    q.kinetic_limit
+                ),
+            ));
+        }
+        Ok(())
     }
 }
 

@@ -128,9 +128,11 @@ impl<'s, D: Dim> Seeder<'s, D> {
             return Err(self.spec.source.error("bodies", "more than 2^32 particles"));
         }
         let initial = self.state(b, body)?;
+        // A quasi-static run's particles carry the scaled masses (`Spec::inertial_materials`).
+        let materials = self.spec.inertial_materials();
         if let Some((x, volume, v, density)) = seeded.iter().find_map(|&(x, volume)| {
             let (material, v, _) = initial(x);
-            let density = self.spec.materials[material].density;
+            let density = materials[material].density;
             let finite = v.is_finite() && (0.5 * density * volume * v.dot(v)).is_finite();
             (!finite).then_some((x, volume, v, density))
         }) {
@@ -149,7 +151,7 @@ impl<'s, D: Dim> Seeder<'s, D> {
             .iter()
             .map(|&(x, volume)| {
                 let (material, velocity, damage) = initial(x);
-                let m = &self.spec.materials[material];
+                let m = &materials[material];
                 let mut p = ParticleBundle::<D>::new(
                     *next_id,
                     x,

@@ -53,6 +53,8 @@ pub struct OutputPlan {
     pub compression: FrameCompression,
     /// The arrays a particle frame carries beside positions; `None`: every one there is.
     pub frame_fields: Option<Vec<String>>,
+    /// A quasi-static run's [`KINETIC_FRACTION_COLUMN`], before the energy account's columns.
+    pub kinetic_fraction: bool,
 }
 
 impl OutputPlan {
@@ -68,6 +70,7 @@ impl OutputPlan {
             system_columns: Vec::new(),
             compression: FrameCompression::default(),
             frame_fields: None,
+            kinetic_fraction: false,
         }
     }
 }
@@ -140,6 +143,10 @@ pub const BASE_COLUMNS: [&str; 7] = [
 /// start and the residual `W_ext − (E − E₀) − D` (`fractum_engine::energy`).
 pub const ACCOUNT_COLUMNS: [&str; 2] = ["external_work", "energy_residual"];
 
+/// A quasi-static run's column: the kinetic energy over the stored energy, `K / U`
+/// (`fractum_engine::quasi_static`).
+pub const KINETIC_FRACTION_COLUMN: &str = "kinetic_fraction";
+
 /// One column per axis: `stem_x`, `stem_y` (and `stem_z` in 3D).
 pub fn axis_columns(stem: &str, dimension: Dimension) -> Vec<String> {
     dimension
@@ -158,13 +165,17 @@ pub fn base_columns(dimension: Dimension) -> Vec<String> {
 
 impl OutputPlan {
     /// All CSV column names: base columns, then one per axis for each probe, then the system
-    /// columns, then the energy account's [`ACCOUNT_COLUMNS`].
+    /// columns, a quasi-static run's [`KINETIC_FRACTION_COLUMN`], then the energy account's
+    /// [`ACCOUNT_COLUMNS`].
     pub fn columns(&self) -> Vec<String> {
         let mut columns = base_columns(self.dimension);
         for probe in &self.probes {
             columns.extend(axis_columns(&probe.stem(), self.dimension));
         }
         columns.extend(self.system_columns.iter().cloned());
+        if self.kinetic_fraction {
+            columns.push(KINETIC_FRACTION_COLUMN.into());
+        }
         columns.extend(ACCOUNT_COLUMNS.iter().map(|c| c.to_string()));
         columns
     }

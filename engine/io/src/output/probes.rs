@@ -7,6 +7,7 @@ use fractum_engine::boundary::{BoundaryConditions, Reactions};
 use fractum_engine::components::{BodyId, Mass, Particle, ParticleId, Position, Velocity};
 use fractum_engine::diagnostics::{Totals, totals};
 use fractum_engine::dim::{Dim, Dimension, VectorOps};
+use fractum_engine::quasi_static::{KineticWatch, kinetic_fraction};
 use fractum_engine::resources::SimClock;
 use fractum_engine::series::ForceProbeMemory;
 use fractum_engine::with_dim;
@@ -273,6 +274,13 @@ fn series_row_of<D: Dim>(world: &mut World, plan: &OutputPlan, parts: &[f64]) ->
     }
     let account = layout.account(plan);
     row.extend_from_slice(&parts[layout.columns..account]);
+    if plan.kinetic_fraction {
+        let floor = world
+            .get_resource::<KineticWatch>()
+            .map_or(0.0, |w| w.floor);
+        let stored = t.strain_energy + t.contact_energy;
+        row.push(kinetic_fraction(t.kinetic_energy, stored, floor));
+    }
     let (work, initial, dissipated) = (parts[account], parts[account + 1], parts[account + 2]);
     row.push(work);
     row.push(work - (t.total_energy() - initial) - dissipated);

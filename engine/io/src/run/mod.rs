@@ -22,6 +22,7 @@ use crate::output::{
 use fractum_engine::communicator::{Communicator, RankFailure};
 use fractum_engine::energy::EnergyWatch;
 use fractum_engine::health::Blowup;
+use fractum_engine::quasi_static::KineticWatch;
 use fractum_engine::resources::SimClock;
 use fractum_engine::simulation::Simulation;
 use std::path::{Path, PathBuf};
@@ -88,6 +89,9 @@ pub struct RunSummary {
     /// The most energy the scheme created, when it passed the watch's warning level
     /// ([`EnergyWatch`]).
     pub energy_created: Option<fractum_engine::energy::EnergyCreation>,
+    /// A quasi-static run's largest kinetic fraction over the upper half of its loading, when
+    /// it passed the scene's limit ([`KineticWatch`]).
+    pub kinetic_excess: Option<fractum_engine::quasi_static::KineticExcess>,
     /// Whether the run stopped early on [`RunOptions::interrupt`].
     pub interrupted: bool,
     /// Whether the pipeline splits nodes by damage ([`fractum_engine::fields::FieldSplits`]) and no node
@@ -223,6 +227,9 @@ pub fn run_with(
             // their sum.
             let mut watch = sim.world.resource_mut::<EnergyWatch>();
             watch.scale = comm.sum(&[watch.scale])[0];
+            if let Some(mut kinetic) = sim.world.get_resource_mut::<KineticWatch>() {
+                kinetic.floor = comm.sum(&[kinetic.floor])[0];
+            }
         }
         let first = outputs.record(sim, true);
         agreed(comm, first)?;
@@ -355,6 +362,10 @@ fn finish(
             .world
             .get_resource::<EnergyWatch>()
             .and_then(|w| w.worst),
+        kinetic_excess: sim
+            .world
+            .get_resource::<KineticWatch>()
+            .and_then(KineticWatch::excess),
         interrupted,
         never_split: split == Some(false),
         checkpoint,

@@ -4,7 +4,7 @@
 use super::*;
 
 /// Feeds a series row (time, kinetic, strain, total, …, work, residual) to the world's
-/// [`EnergyWatch`], with the balance `W_ext − (E − E₀)` left before the damage laws' own
+/// [`EnergyWatch`] (and a quasi-static run's [`KineticWatch`]), with the balance `W_ext − (E − E₀)` left before the damage laws' own
 /// `dissipated_energy` accounts: dissipation is never negative, so a total energy above the
 /// work done is created energy whatever those accounts say (the uniaxial account of the
 /// Rankine laws reads up to 25% high, which alone would look like creation).
@@ -16,6 +16,10 @@ pub(super) fn watch_energy(sim: &mut Simulation, row: &[f64], initial: f64) {
     let (total, work) = (row[3], row[n - 2]);
     let mut watch = sim.world.get_resource_or_init::<EnergyWatch>();
     watch.observe(step, row[0], total, initial, work, work - (total - initial));
+    if let Some(mut kinetic) = sim.world.get_resource_mut::<KineticWatch>() {
+        // Kinetic and stored (total less kinetic: strain and contact) energy.
+        kinetic.observe(step, row[0], row[1], total - row[1]);
+    }
 }
 
 pub(super) struct Outputs<'a> {

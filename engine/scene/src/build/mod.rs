@@ -236,6 +236,11 @@ impl<'r, D: Dim> WorldBuilder<'r, D> {
             )
         };
         world.insert_resource(fractum_engine::energy::EnergyWatch::with_floor(floor));
+        if let Some(q) = self.spec.quasi_static {
+            use fractum_engine::quasi_static::KineticWatch;
+            world.insert_resource(KineticWatch::new(q.kinetic_limit, floor));
+            fractum_engine::checkpoint::carry_resource::<KineticWatch>(world);
+        }
         schedule
             .add_systems(fractum_engine::energy::account_work::<D>.in_set(StepSet::AccountWork));
         if self.spec.on_leave_grid == LeaveGrid::Remove {

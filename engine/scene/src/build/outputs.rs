@@ -102,6 +102,7 @@ impl<D: Dim> WorldBuilder<'_, D> {
             system_columns: Vec::new(),
             compression: self.spec.output.compression,
             frame_fields: self.spec.output.fields.clone(),
+            kinetic_fraction: self.spec.quasi_static.is_some(),
         })
     }
 

@@ -1,6 +1,7 @@
 //! The resources every world of a scene has, the probe's and the built one's alike: the grid,
 //! dimension, thickness, loads, materials, body force, boundary regions and their reactions,
-//! the clock, the policy for escaped particles, and the state the engine carries.
+//! the clock, the policy for escaped particles, a quasi-static run's settings, and the state the
+//! engine carries.
 
 use super::regions;
 use crate::SceneError;
@@ -23,8 +24,13 @@ pub(crate) fn insert_scene_resources<D: Dim>(
     world.insert_resource(D::DIMENSION);
     world.insert_resource(Thickness(spec.thickness));
     world.insert_resource(loads);
-    world.insert_resource(Materials(spec.materials.clone()));
-    world.insert_resource(BodyForce::<D>(spec.body_force));
+    // A quasi-static run's world steps with the scaled densities and the body force per unit of
+    // the scaled mass (`fractum_engine::quasi_static`).
+    world.insert_resource(Materials(spec.inertial_materials()));
+    world.insert_resource(BodyForce::<D>(spec.inertial_body_force()));
+    if let Some(quasi_static) = spec.quasi_static {
+        world.insert_resource(quasi_static);
+    }
     world.insert_resource(Reactions::<D>(vec![
         D::Vector::ZERO;
         boundaries.regions.len()

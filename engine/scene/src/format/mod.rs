@@ -106,6 +106,23 @@ pub struct TimeSpec {
     pub step: TimeStepSpec,
     /// When the run ends.
     pub end: EndSpec,
+    /// A quasi-static run: mass scaling and the kinetic-energy check (none by default).
+    #[serde(default)]
+    pub quasi_static: Option<QuasiStaticSpec>,
+}
+
+/// A quasi-static run's settings (`fractum_engine::quasi_static`).
+#[derive(Debug, Deserialize, Clone, Copy, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct QuasiStaticSpec {
+    /// Factor on every density, at least 1 (default 1: no scaling); the stable step grows by
+    /// its square root.
+    #[serde(default)]
+    pub mass_scaling: Option<f64>,
+    /// The kinetic fraction `K / U` past which the run warns that it is dynamic, in (0, 1]
+    /// (default 0.05).
+    #[serde(default)]
+    pub kinetic_limit: Option<f64>,
 }
 
 /// Step size rule.

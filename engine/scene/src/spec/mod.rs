@@ -36,6 +36,7 @@ use super::Source;
 use fractum_engine::boundary::MAX_COMPONENTS;
 use fractum_engine::dim::{Dim, MatrixOps, VectorOps};
 use fractum_engine::health::LeaveGrid;
+use fractum_engine::quasi_static::QuasiStatic;
 use fractum_engine::resources::{Grid, Material};
 use fractum_engine::simulation::{End, Simulation, TimeStep};
 use fractum_engine::stage::Stage;
@@ -54,6 +55,8 @@ pub struct Spec<D: Dim> {
     pub time_step: TimeStep,
     /// When the run ends.
     pub end: End,
+    /// Mass scaling and the kinetic-energy check of a quasi-static run (`None`: a dynamic run).
+    pub quasi_static: Option<QuasiStatic>,
     /// Background grid.
     pub grid: Grid<D>,
     /// Out-of-plane thickness in 2D (m); 1 in 3D.
@@ -420,6 +423,7 @@ impl<D: Dim> Spec<D> {
             title: String::new(),
             time_step: TimeStep::Cfl(0.5),
             end: End::Steps(1),
+            quasi_static: None,
             grid,
             thickness: 1.0,
             materials: Vec::new(),
@@ -479,6 +483,36 @@ impl<D: Dim> Spec<D> {
     pub fn body_force(mut self, acceleration: D::Vector) -> Self {
         self.body_force = acceleration;
         self
+    }
+
+    /// Makes the run quasi-static: mass scaling and the kinetic-energy check.
+    pub fn quasi_static(mut self, settings: QuasiStatic) -> Self {
+        self.quasi_static = Some(settings);
+        self
+    }
+
+    /// The factor on every density: the quasi-static mass scaling, or 1.
+    pub fn mass_scaling(&self) -> f64 {
+        self.quasi_static.map_or(1.0, |q| q.mass_scaling)
+    }
+
+    /// The materials the world steps with: the scene's, each density times the mass scaling
+    /// (its wave speed, and so the stable step, divided by the factor's square root).
+    pub fn inertial_materials(&self) -> Vec<Material> {
+        let scaling = self.mass_scaling();
+        self.materials
+            .iter()
+            .map(|m| Material {
+                density: m.density * scaling,
+                ..m.clone()
+            })
+            .collect()
+    }
+
+    /// The body force per unit of the scaled mass: the scene's divided by the mass scaling, so
+    /// that the weight of each particle is the scene's.
+    pub fn inertial_body_force(&self) -> D::Vector {
+        self.body_force * (1.0 / self.mass_scaling())
     }
 
     /// Sets the output settings.

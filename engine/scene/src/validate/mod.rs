@@ -9,6 +9,7 @@ use super::spec::{Body, Boundary, Condition, InitialVelocity, Load, Output, Pipe
 use super::{SceneError, Source};
 use fractum_engine::dim::{Dim, MatrixOps, VectorOps};
 use fractum_engine::health::LeaveGrid;
+use fractum_engine::quasi_static::{DEFAULT_KINETIC_LIMIT, QuasiStatic};
 use fractum_engine::resources::Material;
 use fractum_engine::simulation::{End, TimeStep};
 use glam::{DVec2, DVec3};
@@ -148,6 +149,10 @@ impl<D: Dim> Validator<D> {
                 EndSpec::Time(t) => End::Time(t),
                 EndSpec::Steps(n) => End::Steps(n),
             },
+            quasi_static: scene.time.quasi_static.map(|q| QuasiStatic {
+                mass_scaling: q.mass_scaling.unwrap_or(1.0),
+                kinetic_limit: q.kinetic_limit.unwrap_or(DEFAULT_KINETIC_LIMIT),
+            }),
             grid,
             thickness,
             materials,
