@@ -478,3 +478,54 @@ fn check_estimate_divides_a_scene_over_ranks_in_balanced_slabs() {
     let out = fractum(&["check", "--ranks", "2", "scenes/two_disks.ron"]);
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// A quasi-static scene: `check` shows the scaling and the scaled density, and a bar jerked
+/// into motion is reported as dynamic at the end of its run.
+#[test]
+fn a_quasi_static_run_shows_its_scaling_and_reports_a_jerk() {
+    let dir = std::env::temp_dir().join(format!("fractum-cli-quasi-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("jerk.ron");
+    std::fs::write(
+        &scene,
+        r#"(
+    time: (step: Cfl(0.5), end: Steps(80), quasi_static: (mass_scaling: 4.0)),
+    grid: (min: (-0.01, -0.01), max: (0.12, 0.03), spacing: 0.01),
+    materials: { "steel": (density: 7800.0, youngs_modulus: 2.0e11, poisson_ratio: 0.3) },
+    bodies: [(shape: Rectangle(min: (0.0, 0.0), max: (0.1, 0.02)), material: "steel")],
+    boundaries: [
+        (name: "clamp", nodes: Box(min: (0.0, 0.0), max: (0.0, 0.02)), condition: Fixed),
+        (name: "pull", nodes: Box(min: (0.1, 0.0), max: (0.1, 0.02)),
+         condition: Velocity(x: [(0.0, 1.0)])),
+    ],
+    output: (csv_every: 5),
+    pipeline: [(system: "basis/linear"), (system: "predictor/usl"),
+               (system: "stress/linear_elastic"), (system: "advection/usl")],
+)"#,
+    )
+    .unwrap();
+    let out = fractum(&["check", scene.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let summary = text(&out.stdout);
+    assert!(
+        summary.contains("density 31200 kg/m3 (7800 scaled 4 times)")
+            && summary.contains("quasi-static mass scaled 4 times")
+            && summary.contains("kinetic_fraction,external_work"),
+        "{summary}"
+    );
+    let out_dir = dir.join("out");
+    let out = fractum(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let summary = text(&out.stdout);
+    assert!(
+        summary.contains("quasi-static: the kinetic energy reached"),
+        "{summary}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
