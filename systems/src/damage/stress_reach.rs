@@ -3,7 +3,8 @@
 //! `damage/eigensoftening` needs the equivalent stress of eq. (15) of eigensoftening-lme-mpm.md
 //! only for intact particles, and only to compare it with `f_t`. That stress is a mean of the
 //! intact neighbours' largest principal stresses weighted by mass, over the mass of the whole
-//! neighbourhood: it never exceeds the largest of them, nor zero. [`StressReach`] bins the
+//! neighbourhood or of its intact part (`average: Intact`): either way it never exceeds the
+//! largest of them, nor zero. [`StressReach`] bins the
 //! particles in squares (cubes) of side slightly above ε over their bounding box. Every
 //! neighbour of a particle lies within ε, so in the particle's bin or an adjacent one, and the
 //! largest value over the 3^d bins around a particle bounds the largest over its neighbourhood.
@@ -144,7 +145,7 @@ impl<D: Dim> StressReach<D> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::damage::eigensoftening::equivalent_stress;
+    use crate::damage::eigensoftening::{Average, equivalent_stress};
 
     /// A small deterministic generator, so the test needs no extra crate.
     fn uniform(state: &mut u64) -> f64 {
@@ -192,10 +193,12 @@ mod tests {
             let row: Vec<u32> = (0..n as u32)
                 .filter(|&q| (positions[q as usize].0 - positions[p].0).length() <= radius)
                 .collect();
-            let sigma = equivalent_stress(&row, &mass, &principal, &damage);
-            if !reach.may_reach(positions[p].0, row.len(), strength) {
-                skipped += 1;
-                assert!(sigma < strength, "particle {p}: {sigma} skipped");
+            for average in [Average::Published, Average::Intact] {
+                let sigma = equivalent_stress(&row, &mass, &principal, &damage, average);
+                if !reach.may_reach(positions[p].0, row.len(), strength) {
+                    skipped += 1;
+                    assert!(sigma < strength, "particle {p}: {sigma} skipped");
+                }
             }
         }
         assert!(skipped > n / 4, "only {skipped} of {n} skipped");
