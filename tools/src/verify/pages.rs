@@ -90,10 +90,10 @@ fn summary(catalogue: &Catalogue, results: &Results) -> String {
          (also run by `cargo test`); `fractum verify --tier paper` the release runs at the \
          published resolutions; a case whose scene, checks and solver are unchanged keeps its \
          result. An expected miss is a published number Fractum does not reproduce; its reason \
-         is on the case's page. A check whose source is a `case` holds a finer run against \
-         Fractum's own coarser one: a regression baseline, marked `baseline:` in the status \
-         column and counted apart from the checks against analytic solutions, papers and \
-         experiments.\n",
+         is on the case's page. A check whose source is a `case` holds a run against another \
+         of Fractum's own (a finer against a coarser one, a mass-scaled against an unscaled \
+         one): a regression baseline, marked `baseline:` in the status column and counted \
+         apart from the checks against analytic solutions, papers and experiments.\n",
     );
     text.push_str(&tally(catalogue, results));
     for tier in [Tier::Quick, Tier::Paper] {
@@ -173,7 +173,7 @@ fn tally(catalogue: &Catalogue, results: &Results) -> String {
     };
     format!(
         "\n- Against analytic solutions, papers and experiments: {}.\n- Regression baselines \
-         (a run against Fractum's own coarser run): {}.\n",
+         (a run against another of Fractum's own): {}.\n",
         line(counts[0]),
         line(counts[1])
     )
@@ -379,7 +379,10 @@ mod tests {
             text.contains("analytic solutions, papers and experiments: 1 checks: 1 pass"),
             "{text}"
         );
-        assert!(text.contains("coarser run): 1 checks: 1 pass"), "{text}");
+        assert!(
+            text.contains("of Fractum's own): 1 checks: 1 pass"),
+            "{text}"
+        );
         assert!(page(&catalogue, &results, &fine).contains("| baseline: pass |"));
     }
 }
