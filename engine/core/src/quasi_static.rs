@@ -112,10 +112,7 @@ pub struct KineticWatch {
     upper: Vec<LoadingRow>,
 }
 
-crate::checkpoint_keys! {
-    QuasiStatic => "engine/quasi_static",
-    KineticWatch => "engine/kinetic_watch",
-}
+crate::checkpoint_keys! { KineticWatch => "engine/kinetic_watch" }
 
 impl KineticWatch {
     /// A watch that reports fractions above `limit`, taken against no less than `floor` J.

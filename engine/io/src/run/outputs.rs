@@ -1,13 +1,15 @@
 //! The outputs of a run: the series, the particle and grid frames (one piece per rank in a
-//! distributed run, with its index), the last good frame and the energy watch.
+//! distributed run, with its index), the last good frame, the energy watch and a quasi-static
+//! run's kinetic watch.
 
 use super::*;
 
 /// Feeds a series row (time, kinetic, strain, total, …, work, residual) to the world's
-/// [`EnergyWatch`] (and a quasi-static run's [`KineticWatch`]), with the balance `W_ext − (E − E₀)` left before the damage laws' own
-/// `dissipated_energy` accounts: dissipation is never negative, so a total energy above the
-/// work done is created energy whatever those accounts say (the uniaxial account of the
-/// Rankine laws reads up to 25% high, which alone would look like creation).
+/// [`EnergyWatch`] and a quasi-static run's [`KineticWatch`]. The energy watch gets the balance
+/// `W_ext − (E − E₀)` left before the damage laws' own `dissipated_energy` accounts:
+/// dissipation is never negative, so a total energy above the work done is created energy
+/// whatever those accounts say (the uniaxial account of the Rankine laws reads up to 25% high,
+/// which alone would look like creation).
 /// `initial` is the run's initial energy: in a distributed run the sum of the ranks' parts,
 /// not this rank's account's.
 pub(super) fn watch_energy(sim: &mut Simulation, row: &[f64], initial: f64) {
