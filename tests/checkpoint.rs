@@ -207,6 +207,26 @@ fn the_damage_laws_of_the_dfg_paper_resume_bitwise() {
     }
 }
 
+/// A quasi-static run (mass scaled, with its kinetic watch) resumes bitwise: the series'
+/// `kinetic_fraction` and the rows the watch judges are carried.
+#[test]
+fn a_quasi_static_run_resumes_bitwise() {
+    let text = scene("tension_softening.ron").replace(
+        "end: Time(4.0e-3))",
+        "end: Time(4.0e-3), quasi_static: (mass_scaling: 4.0))",
+    );
+    assert!(text.contains("mass_scaling"));
+    let state = assert_resume_is_bitwise("quasi-static", &text, 120);
+    let watch = &state
+        .resources
+        .iter()
+        .find(|(key, _)| key == "engine/kinetic_watch")
+        .expect("the kinetic watch is carried")
+        .1;
+    let watch: fractum_engine::quasi_static::KineticWatch = postcard::from_bytes(watch).unwrap();
+    assert!(watch.peak_stored > 0.0, "{watch:?}");
+}
+
 /// Every key the shipped scenes' checkpoints carry, sorted. The keys are explicit
 /// (`checkpoint::State::KEY`), so this list changes only when a key is renamed or state is
 /// added: a renamed key makes older checkpoints unreadable, so it must be a decision.
