@@ -48,6 +48,7 @@ fn run_to_end(mut built: Built, name: &str) -> (RunSummary, Vec<String>, Vec<Vec
     let rows = lines
         .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
         .collect();
+    let _ = std::fs::remove_dir_all(&out);
     (summary, header, rows)
 }
 
