@@ -13,6 +13,7 @@ mod determinism;
 mod distributed;
 mod distributed_run;
 mod edge_cracked_panel;
+mod energy_account;
 mod fracture;
 mod house_rules;
 mod images;

@@ -312,6 +312,7 @@ pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
             worst.time
         )
     });
+    let balance = s.energy_balance.map_or(String::new(), |b| balance_line(&b));
     let kinetic = s.kinetic_excess.map_or(String::new(), |worst| {
         format!(
             "quasi-static: the kinetic energy reached {:.1}% of the stored energy near the peak \
@@ -343,7 +344,7 @@ pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
         )
     });
     format!(
-        "steps {}, simulated time {:.6e} s, particles {}, threads {threads}\nwall time {:.3} s, {:.4e} particle-steps/s\n{} VTU frames, output in {}\n{ranks}{removed}{energy}{kinetic}{never_split}",
+        "steps {}, simulated time {:.6e} s, particles {}, threads {threads}\nwall time {:.3} s, {:.4e} particle-steps/s\n{} VTU frames, output in {}\n{ranks}{removed}{balance}{energy}{kinetic}{never_split}",
         s.steps,
         s.time,
         s.particles,
@@ -351,6 +352,31 @@ pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
         s.particle_steps_per_second(),
         s.frames,
         out_dir.display()
+    )
+}
+
+/// The summary's line on the last series row's energy account, `W_ext = ΔE + D + R`, with what
+/// a residual past 2% of the energy in play means.
+fn balance_line(b: &fractum_engine::energy::EnergyBalance) -> String {
+    let fraction = b.residual_fraction();
+    let meaning = if fraction < -0.02 {
+        ": negative, so the account holds more than the loads put in (energy the scheme \
+         created, or a law's dissipation account reading high)"
+    } else if fraction > 0.02 {
+        ": what the scheme itself dissipated (the transfers, contact, cell crossing)"
+    } else {
+        ""
+    };
+    format!(
+        "energy     at t = {:.4e} s: external work {:.4e} J = change of kinetic and stored \
+         {:.4e} J + dissipated {:.4e} J + residual {:.4e} J ({:+.2}% of the energy in \
+         play{meaning})\n",
+        b.time,
+        b.external_work,
+        b.energy_change,
+        b.dissipated,
+        b.residual,
+        100.0 * fraction
     )
 }
 

@@ -207,6 +207,14 @@ pub struct ViscousPressure(pub f64);
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ViscousDissipation(pub f64);
 
+/// Energy a particle's damage has dissipated since the start (J; per scene thickness in 2D):
+/// the stored energy each step's damage growth released at that step's strain, accumulated by
+/// the damage laws that degrade the stress (`damage/rankine`, `damage/time_to_failure`). Damage
+/// a scene seeds released nothing, so it is not counted. On every particle when the pipeline
+/// has such a law, on none otherwise.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct DamageDissipation(pub f64);
+
 /// Damage in `[0, 1]`: 0 intact, 1 fully failed. Internal force is scaled by `1 − damage`.
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Damage(pub f64);

@@ -284,6 +284,36 @@ impl EnergyWatch {
     }
 }
 
+/// The energy account of the latest series row, as the end-of-run summary reports it:
+/// `W_ext = ΔE + D + R` (J; per scene thickness in 2D).
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq)]
+pub struct EnergyBalance {
+    /// The time of the row (s).
+    pub time: f64,
+    /// `W_ext`, the work of the loads since the start.
+    pub external_work: f64,
+    /// `ΔE`, the change of the total (kinetic + stored) energy since the start.
+    pub energy_change: f64,
+    /// `D`, what the pipeline's laws report they dissipated (`dissipated_energy`,
+    /// `viscous_dissipation`).
+    pub dissipated: f64,
+    /// `R = W_ext − ΔE − D`, what the numerical scheme dissipated (created, if negative).
+    pub residual: f64,
+    /// The energy in play ([`EnergyWatch::scale`]) the residual is judged against.
+    pub scale: f64,
+}
+
+impl EnergyBalance {
+    /// The residual as a fraction of the energy in play (0 when nothing is in play).
+    pub fn residual_fraction(&self) -> f64 {
+        if self.scale > 0.0 {
+            self.residual / self.scale
+        } else {
+            0.0
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -19,16 +19,18 @@
 //! - Strength per particle: `tensile_strength`, or drawn from a Weibull distribution (eq. 25)
 //!   with the `weibull` option (`damage::weibull`).
 //! - Publishes `series.csv` columns `damaged_particles` (D > 0), `failed_particles` (D = 1) and
-//!   `dissipated_energy`, the model's own account of what the run has dissipated (the damage a
-//!   scene seeds, e.g. a notch, left out): `Σ_p V₀,p g(D_p)` with the energy per unit
-//!   volume dissipated in uniaxial tension up to damage `D`,
-//!   `g = σ_f² (1 + H_s) D / (2 E (1 + H_s − D))` (the work of the softening curve less the
-//!   elastic energy left on the unloading line); J per scene thickness in 2D.
-
+//!   `dissipated_energy`: the stored energy each step's damage growth released at that step's
+//!   strain, `Σ_p V₀,p Σ_steps (ψ(D_prev) − ψ(D))` (`TensileDegradation::apply_and_release`),
+//!   accumulated per particle in `DamageDissipation`; J per scene thickness in 2D. Damage a
+//!   scene seeds (a notch) released nothing and is not counted. In uniaxial tension this is the
+//!   work of the softening curve less the elastic energy left on the unloading line, the closed
+//!   form [`dissipated_density`] (`σ_f² (1 + H_s) D / (2 E (1 + H_s − D))`); under any other
+//!   stress it is what the particle's stored energy lost to the damage, so the energy account
+//!   of `series.csv` closes (docs/design/damage.md).
 use super::tensile_degradation::{
     DEGRADATION_PARAM, Degradation, TENSILE_STRENGTH_PARAM, TensileDegradation, WEIBULL_PARAM,
-    characteristic_length, damage_counts, install_strength, largest_trial_principal,
-    require_stress_degrading_pipeline,
+    characteristic_length, damage_counts, dissipated_total, install_strength,
+    largest_trial_principal, require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
 use fractum_engine::decomposition::OwnedRows;
@@ -89,9 +91,6 @@ pub struct RankineParams {
     pub columns: [usize; 3],
     /// Which materials this entry damages.
     pub materials: MaterialFilter,
-    /// `Σ V₀ g(D)` of the damage the particles start with (seeded cracks), which the run does
-    /// not dissipate and the published column leaves out.
-    pub initial_dissipation: f64,
     /// How the damage degrades the stress.
     pub degradation: TensileDegradation,
 }
@@ -169,13 +168,7 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
     let strengths = install_strength(installer, params, raw.tensile_strength, raw.weibull)?;
     check_brittleness(params, &raw, &strengths, &youngs_modulus, length)?;
     let materials = installer.materials().clone();
-    let initial_dissipation = seeded_dissipation(
-        installer,
-        &materials,
-        &youngs_modulus,
-        raw.fracture_energy,
-        length,
-    );
+    installer.add_particle_component(DamageDissipation(0.0));
     let columns = [
         installer.add_owned_sum_column("damaged_particles"),
         installer.add_owned_sum_column("failed_particles"),
@@ -187,29 +180,10 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
         youngs_modulus,
         columns,
         materials,
-        initial_dissipation,
         degradation: TensileDegradation::new(installer, raw.degradation),
     });
     installer.add_systems(rankine::<D>);
     Ok(())
-}
-
-/// `Σ V₀ g(D)` over the particles of `materials` as the scene seeds them.
-fn seeded_dissipation(
-    installer: &mut Installer,
-    materials: &MaterialFilter,
-    youngs_modulus: &[f64],
-    fracture_energy: f64,
-    length: f64,
-) -> f64 {
-    super::seeded_sum(installer.world(), materials, |entity, m, d| {
-        let Some(&Strength(strength)) = entity.get::<Strength>() else {
-            return 0.0;
-        };
-        let e = youngs_modulus[m.0 as usize];
-        let h = softening_modulus(strength, e, fracture_energy, length);
-        dissipated_density(d, strength, e, h)
-    })
 }
 
 /// `H̄_s = σ_f² / (2 E G_f)` (1/m).
@@ -240,7 +214,8 @@ pub fn rankine_damage(previous: f64, trial: f64, strength: f64, h: f64) -> f64 {
 }
 
 /// Energy per unit volume dissipated in uniaxial tension up to damage `d`:
-/// `σ_f² (1 + H) d / (2 E (1 + H − d))`.
+/// `σ_f² (1 + H) d / (2 E (1 + H − d))`, the closed form the published account reaches in
+/// uniaxial tension (the tests hold it to it).
 ///
 /// The denominator is summed as `(1 − d) + H`: at `d = 1` that is `H` exactly, where
 /// `1 + H − d` rounds to 0 once `H` is below the f64 epsilon.
@@ -260,6 +235,7 @@ type ParticleQuery<'w, 's, D> = Query<
         &'static mut Stress<D>,
         &'static mut StrainEnergyDensity,
         &'static mut Damage,
+        &'static mut DamageDissipation,
     ),
     With<Particle>,
 >;
@@ -271,42 +247,51 @@ pub fn rankine<D: Dim>(
     owned: OwnedRows,
     mut particles: ParticleQuery<D>,
 ) {
-    let Some((material, v0, strength, strain, deformation, mut stress, mut energy, mut damage)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
+    let Some((
+        material,
+        v0,
+        strength,
+        strain,
+        deformation,
+        mut stress,
+        mut energy,
+        mut damage,
+        mut dissipation,
+    )) = single_table(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };
     let p = &*params;
-    let dissipated: Vec<f64> = stress
+    stress
         .par_iter_mut()
         .zip(energy.par_iter_mut())
         .zip(damage.par_iter_mut())
+        .zip(dissipation.par_iter_mut())
         .enumerate()
-        .map(|(i, ((s, w), d))| {
+        .for_each(|(i, (((s, w), d), dissipated))| {
             if !p.materials.applies(material[i]) {
-                return 0.0;
+                return;
             }
             let (sigma_f, e) = (strength[i].0, p.youngs_modulus[material[i].0 as usize]);
             let h = softening_modulus(sigma_f, e, p.fracture_energy, p.characteristic_length);
-            d.0 = rankine_damage(d.0, largest_trial_principal(&s.0), sigma_f, h);
+            let previous = d.0;
+            d.0 = rankine_damage(previous, largest_trial_principal(&s.0), sigma_f, h);
             if d.0 > 0.0 {
-                let (stress, energy) = (&mut s.0, &mut w.0);
-                let (strain, f) = (&strain[i].0, &deformation[i].0);
-                p.degradation
-                    .apply::<D>(material[i], d.0, (stress, energy), strain, f);
-                v0[i].0 * dissipated_density(d.0, sigma_f, e, h)
-            } else {
-                0.0
+                let released = p.degradation.apply_and_release::<D>(
+                    material[i],
+                    (previous, d.0),
+                    (&mut s.0, &mut w.0),
+                    &strain[i].0,
+                    &deformation[i].0,
+                );
+                dissipated.0 += v0[i].0 * released;
             }
-        })
-        .collect();
+        });
     let (damaged, failed) = damage_counts(material, &damage, &p.materials, owned.get());
     let [cd, cf, ce] = p.columns;
     columns.values[cd] = damaged as f64;
     columns.values[cf] = failed as f64;
-    // Summed in row order, whatever the thread count, over the rows this rank owns.
-    let total: f64 = owned.particles(&dissipated).sum();
-    columns.values[ce] = total - p.initial_dissipation;
+    columns.values[ce] = dissipated_total(&dissipation, owned.get());
 }
 
 #[cfg(test)]
@@ -369,7 +354,6 @@ mod tests {
             youngs_modulus: vec![test_material().youngs_modulus],
             columns: slots,
             materials: MaterialFilter::all(),
-            initial_dissipation: 0.0,
             degradation: TensileDegradation {
                 kind: Degradation::Published,
                 lame: vec![test_material().lame()],
@@ -386,11 +370,18 @@ mod tests {
     {
         let mut world = tiny_world::<D>(4, 0.25, 1e-3);
         let slots = insert_params(&mut world);
+        // A strain along the trial stress, `ε = σ / 100`, and the energy `σ : ε / 2` it stores.
+        let strain = trial.scaled(0.01);
+        let stored = 0.5 * trial.double_dot(&strain);
         for (k, strength) in [(0, 1.0), (1, 10.0)] {
             let x = D::Vector::from_fn(|a| if a == 0 { 0.3 + 0.3 * k as f64 } else { 0.5 });
             let p = spawn_particle(&mut world, x, D::Vector::ZERO, 1.0, 0.01);
-            world.entity_mut(p).insert(Strength(strength));
+            world
+                .entity_mut(p)
+                .insert((Strength(strength), DamageDissipation(0.0)));
             world.get_mut::<Stress<D>>(p).unwrap().0 = trial;
+            world.get_mut::<Strain<D>>(p).unwrap().0 = strain;
+            world.get_mut::<StrainEnergyDensity>(p).unwrap().0 = stored;
         }
         run_system(&mut world, rankine::<D>);
         let damage = particle_values::<Damage>(&mut world);
@@ -411,8 +402,61 @@ mod tests {
         let columns = world.resource::<SeriesColumns>();
         assert_eq!(columns.values[slots[0]], 1.0);
         assert_eq!(columns.values[slots[1]], 0.0);
-        let energy = 0.01 * dissipated_density(expected, 1.0, 100.0, h);
-        assert!((columns.values[slots[2]] - energy).abs() < 1e-18);
+        // Of σ : ε = (4 + 1) / 100, the tensile 4 / 100 lost D: released `0.8 D` of the stored
+        // energy, times V₀ = 0.01, on the particle and in the column.
+        let released = 0.01 * 0.8 * expected * stored;
+        let dissipation = particle_values::<DamageDissipation>(&mut world);
+        assert!((dissipation[0].0 - released).abs() < 1e-15 * released);
+        assert_eq!(dissipation[1].0, 0.0);
+        let columns = world.resource::<SeriesColumns>();
+        assert_eq!(columns.values[slots[2]], dissipation[0].0);
+    }
+
+    /// A particle taken along a uniaxial strain path (ν = 0, so σ = E ε alone) through the
+    /// whole softening branch: the energy its damage releases, step by step, sums to the closed
+    /// form of the work of the softening curve, `G_f / l_ch` at full failure, with an error that
+    /// halves as the steps halve (the release is taken at each step's end strain).
+    #[test]
+    fn the_released_energy_of_a_uniaxial_path_sums_to_the_softening_work() {
+        let (sigma_f, e, gf, l) = (1.0, 100.0, 0.01, 0.05);
+        let h = softening_modulus(sigma_f, e, gf, l);
+        let failure_strain = sigma_f * (1.0 + h) / (h * e);
+        let degradation = TensileDegradation {
+            kind: Degradation::Published,
+            lame: vec![(0.0, 0.5 * e)],
+        };
+        let released_over = |steps: usize| {
+            let (mut d, mut total) = (0.0, 0.0);
+            for k in 1..=steps {
+                let eps = 1.2 * failure_strain * k as f64 / steps as f64;
+                let strain = SymTensor2 {
+                    xx: eps,
+                    ..SymTensor2::ZERO
+                };
+                let (mut s, mut w) = (strain.scaled(e), 0.5 * e * eps * eps);
+                let previous = d;
+                d = rankine_damage(previous, s.principal_values()[0], sigma_f, h);
+                if d > 0.0 {
+                    total += degradation.apply_and_release::<Two>(
+                        MaterialId(0),
+                        (previous, d),
+                        (&mut s, &mut w),
+                        &strain,
+                        &DMat2::IDENTITY,
+                    );
+                }
+            }
+            assert_eq!(d, 1.0);
+            total
+        };
+        let exact = dissipated_density(1.0, sigma_f, e, h);
+        assert!((exact * l - gf).abs() < 1e-12 * gf);
+        let errors: Vec<f64> = [2000, 4000]
+            .iter()
+            .map(|&n| (released_over(n) / exact - 1.0).abs())
+            .collect();
+        assert!(errors[0] < 2e-2, "{errors:?}");
+        assert!((errors[0] / errors[1] - 2.0).abs() < 0.1, "{errors:?}");
     }
 
     #[test]
@@ -446,7 +490,9 @@ mod tests {
         // Opened along x, shortened along y: trial σ_xx ≈ 5.8 Pa against a strength of 1.
         let f = DMat2::from_diagonal(DVec2::new(1.05, 0.99));
         let p = spawn_particle(&mut world, DVec2::new(0.5, 0.5), DVec2::ZERO, 1.0, 0.01);
-        world.entity_mut(p).insert(Strength(1.0));
+        world
+            .entity_mut(p)
+            .insert((Strength(1.0), DamageDissipation(0.0)));
         world.get_mut::<DeformationGradient<Two>>(p).unwrap().0 = f;
         let trial = neo_hookean_stress_of::<Two>(f, lambda, mu).unwrap();
         world.get_mut::<Stress<Two>>(p).unwrap().0 = trial;
@@ -464,5 +510,13 @@ mod tests {
         );
         // The shortened axis keeps its compression; the opened one lost (1 − D)'s complement.
         assert!(stress.yy < 0.0 && stress.xx < trial.xx, "{stress:?}");
+        // The growth from intact released the split energy's loss, times V₀ = 0.01.
+        let released = 0.01 * (neo_hookean_energy::<Two>(f, lambda, mu) - energy);
+        assert!(released > 0.0);
+        let dissipated = particle_values::<DamageDissipation>(&mut world)[0].0;
+        assert!(
+            (dissipated - released).abs() < 1e-15,
+            "{dissipated:e} {released:e}"
+        );
     }
 }

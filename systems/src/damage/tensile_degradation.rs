@@ -99,6 +99,34 @@ impl TensileDegradation {
         let lame = self.lame[material.0 as usize];
         degrade::<D>(self.kind, damage, stress, energy, strain, f, lame);
     }
+
+    /// [`Self::apply`] for a particle whose damage went from `previous` to `damage` (> 0) in
+    /// this step, returning the stored energy density the growth released: what the particle
+    /// would store at this step's strain with its previous damage, less what it stores with
+    /// the new one (`−∂ψ/∂D ΔD`, the energy release of the growth). Zero when the damage did
+    /// not grow. Per unit reference volume, as the energy density.
+    pub fn apply_and_release<D: Dim>(
+        &self,
+        material: MaterialId,
+        (previous, damage): (f64, f64),
+        (stress, energy): (&mut D::Sym, &mut f64),
+        strain: &D::Sym,
+        f: &D::Matrix,
+    ) -> f64 {
+        let (trial, undamaged) = (*stress, *energy);
+        self.apply::<D>(material, damage, (stress, energy), strain, f);
+        if damage <= previous {
+            return 0.0;
+        }
+        let before = if previous > 0.0 {
+            let (mut s, mut w) = (trial, undamaged);
+            self.apply::<D>(material, previous, (&mut s, &mut w), strain, f);
+            w
+        } else {
+            undamaged
+        };
+        before - *energy
+    }
 }
 
 /// A damaged particle (`damage > 0`) as `degradation` degrades it: its trial `stress` and
@@ -163,6 +191,12 @@ pub fn degraded_energy<S: SymOps<V, M>, V, M>(w: f64, trial: &S, degraded: &S, s
         (degraded.double_dot(degraded) / trial.double_dot(trial)).sqrt()
     };
     w * ratio.clamp(0.0, 1.0)
+}
+
+/// `Σ DamageDissipation` over the rows `owned` marks, in row order (the same bits for any
+/// thread count): the `dissipated_energy` these laws publish.
+pub fn dissipated_total(dissipation: &[DamageDissipation], owned: Owned) -> f64 {
+    owned.particles(dissipation.iter().map(|d| d.0)).sum()
 }
 
 /// The largest of the three principal values of the trial stress, the one compared with `σ_f`

@@ -17,12 +17,15 @@
 //!   (`damage::spectral_split`).
 //! - Strength per particle: `tensile_strength`, or drawn from a Weibull distribution (eq. 25)
 //!   with the `weibull` option (`damage::weibull`), as in the paper's Brazilian test.
-//! - Publishes `series.csv` columns `damaged_particles` (D > 0) and `failed_particles` (D = 1).
+//! - Publishes `series.csv` columns `damaged_particles` (D > 0), `failed_particles` (D = 1) and
+//!   `dissipated_energy`, the stored energy each step's damage growth released at that step's
+//!   strain, accumulated per particle in `DamageDissipation` (as `damage/rankine` does; J per
+//!   scene thickness in 2D).
 
 use super::tensile_degradation::{
     DEGRADATION_PARAM, Degradation, TENSILE_STRENGTH_PARAM, TensileDegradation, WEIBULL_PARAM,
-    characteristic_length, damage_counts, install_strength, largest_trial_principal,
-    require_stress_degrading_pipeline,
+    characteristic_length, damage_counts, dissipated_total, install_strength,
+    largest_trial_principal, require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
 use fractum_engine::decomposition::OwnedRows;
@@ -75,8 +78,8 @@ struct RawParams {
 pub struct TimeToFailureParams {
     /// τ = l_ch / c_f (s).
     pub time_to_failure: f64,
-    /// Slots of the published columns: damaged, failed.
-    pub columns: [usize; 2],
+    /// Slots of the published columns: damaged, failed, dissipated energy.
+    pub columns: [usize; 3],
     /// Which materials this entry damages.
     pub materials: MaterialFilter,
     /// How the damage degrades the stress.
@@ -90,9 +93,11 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
     let length = characteristic_length::<D>(installer, params, raw.characteristic_length)?;
     install_strength(installer, params, raw.tensile_strength, raw.weibull)?;
     let materials = installer.materials().clone();
+    installer.add_particle_component(DamageDissipation(0.0));
     let columns = [
         installer.add_owned_sum_column("damaged_particles"),
         installer.add_owned_sum_column("failed_particles"),
+        installer.add_owned_sum_column("dissipated_energy"),
     ];
     installer.insert_resource(TimeToFailureParams {
         time_to_failure: length / raw.crack_speed,
@@ -119,12 +124,14 @@ type ParticleQuery<'w, 's, D> = Query<
     's,
     (
         &'static MaterialId,
+        &'static InitialVolume,
         &'static Strength,
         &'static Strain<D>,
         &'static DeformationGradient<D>,
         &'static mut Stress<D>,
         &'static mut StrainEnergyDensity,
         &'static mut Damage,
+        &'static mut DamageDissipation,
     ),
     With<Particle>,
 >;
@@ -137,8 +144,17 @@ pub fn time_to_failure<D: Dim>(
     owned: OwnedRows,
     mut particles: ParticleQuery<D>,
 ) {
-    let Some((material, strength, strain, deformation, mut stress, mut energy, mut damage)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
+    let Some((
+        material,
+        v0,
+        strength,
+        strain,
+        deformation,
+        mut stress,
+        mut energy,
+        mut damage,
+        mut dissipation,
+    )) = single_table(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };
@@ -147,25 +163,31 @@ pub fn time_to_failure<D: Dim>(
         .par_iter_mut()
         .zip(energy.par_iter_mut())
         .zip(damage.par_iter_mut())
+        .zip(dissipation.par_iter_mut())
         .enumerate()
-        .for_each(|(i, ((s, w), d))| {
+        .for_each(|(i, (((s, w), d), dissipated))| {
             if !p.materials.applies(material[i]) {
                 return;
             }
-            let trial = s.0;
-            let largest = largest_trial_principal(&trial);
-            d.0 = time_to_failure_damage(d.0, largest, strength[i].0, dt, p.time_to_failure);
+            let previous = d.0;
+            let largest = largest_trial_principal(&s.0);
+            d.0 = time_to_failure_damage(previous, largest, strength[i].0, dt, p.time_to_failure);
             if d.0 > 0.0 {
-                let (stress, energy) = (&mut s.0, &mut w.0);
-                let (strain, f) = (&strain[i].0, &deformation[i].0);
-                p.degradation
-                    .apply::<D>(material[i], d.0, (stress, energy), strain, f);
+                let released = p.degradation.apply_and_release::<D>(
+                    material[i],
+                    (previous, d.0),
+                    (&mut s.0, &mut w.0),
+                    &strain[i].0,
+                    &deformation[i].0,
+                );
+                dissipated.0 += v0[i].0 * released;
             }
         });
     let (damaged, failed) = damage_counts(material, &damage, &p.materials, owned.get());
-    let [cd, cf] = p.columns;
+    let [cd, cf, ce] = p.columns;
     columns.values[cd] = damaged as f64;
     columns.values[cf] = failed as f64;
+    columns.values[ce] = dissipated_total(&dissipation, owned.get());
 }
 
 #[cfg(test)]
@@ -203,6 +225,7 @@ mod tests {
         let slots = [
             columns.declare("damaged_particles"),
             columns.declare("failed_particles"),
+            columns.declare("dissipated_energy"),
         ];
         world.insert_resource(columns);
         world.insert_resource(TimeToFailureParams {
@@ -217,13 +240,19 @@ mod tests {
         for (k, strength) in [(0, 1.0), (1, 10.0)] {
             let x = D::Vector::from_fn(|a| if a == 0 { 0.3 + 0.3 * k as f64 } else { 0.5 });
             let p = spawn_particle(&mut world, x, D::Vector::ZERO, 1.0, 0.01);
-            world.entity_mut(p).insert(Strength(strength));
+            world
+                .entity_mut(p)
+                .insert((Strength(strength), DamageDissipation(0.0)));
+            // A strain along the trial stress, `ε = σ / 100`, storing `σ : ε / 2`.
+            world.get_mut::<Strain<D>>(p).unwrap().0 = trial.scaled(0.01);
         }
+        let stored = 0.5 * trial.double_dot(&(trial.scaled(0.01)));
         for (step, expected) in [(1, 0.5), (2, 1.0)] {
-            // The stress stage would write the trial stress afresh each step.
-            let mut q = world.query::<&mut Stress<D>>();
-            for mut s in q.iter_mut(&mut world) {
+            // The stress stage would write the trial stress and energy afresh each step.
+            let mut q = world.query::<(&mut Stress<D>, &mut StrainEnergyDensity)>();
+            for (mut s, mut w) in q.iter_mut(&mut world) {
                 s.0 = trial;
+                w.0 = stored;
             }
             run_system(&mut world, time_to_failure::<D>);
             let damage = particle_values::<Damage>(&mut world);
@@ -242,6 +271,12 @@ mod tests {
             (columns.values[slots[0]], columns.values[slots[1]]),
             (1.0, 1.0)
         );
+        // Failing released the tensile share of the stored energy, 4 of σ : ε's 5 parts, in two
+        // halves, times V₀ = 0.01.
+        let released = 0.01 * 0.8 * stored;
+        assert!((columns.values[slots[2]] - released).abs() < 1e-15 * released);
+        let dissipation = particle_values::<DamageDissipation>(&mut world);
+        assert_eq!(dissipation[1].0, 0.0);
     }
 
     #[test]

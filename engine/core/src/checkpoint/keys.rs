@@ -78,6 +78,7 @@ checkpoint_keys! {
     crate::components::CrackOpening => "particle/crack_opening",
     crate::components::ViscousPressure => "particle/viscous_pressure",
     crate::components::ViscousDissipation => "particle/viscous_dissipation",
+    crate::components::DamageDissipation => "particle/damage_dissipation",
     crate::components::SurfaceFlag => "particle/surface_flag",
     crate::loads::LoadShare => "particle/load_share",
     crate::resources::SimClock => "engine/clock",

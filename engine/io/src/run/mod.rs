@@ -20,7 +20,7 @@ use crate::output::{
     series_row_from, write_particle_frame, write_pvtu,
 };
 use fractum_engine::communicator::{Communicator, RankFailure};
-use fractum_engine::energy::EnergyWatch;
+use fractum_engine::energy::{EnergyBalance, EnergyWatch};
 use fractum_engine::health::Blowup;
 use fractum_engine::quasi_static::KineticWatch;
 use fractum_engine::resources::SimClock;
@@ -92,6 +92,8 @@ pub struct RunSummary {
     /// A quasi-static run's largest kinetic fraction over the upper half of its loading, when
     /// it passed the scene's limit ([`KineticWatch`]).
     pub kinetic_excess: Option<fractum_engine::quasi_static::KineticExcess>,
+    /// The energy account of the last series row, if a row was written.
+    pub energy_balance: Option<fractum_engine::energy::EnergyBalance>,
     /// Whether the run stopped early on [`RunOptions::interrupt`].
     pub interrupted: bool,
     /// Whether the pipeline splits nodes by damage ([`fractum_engine::fields::FieldSplits`]) and no node
@@ -366,6 +368,7 @@ fn finish(
             .world
             .get_resource::<KineticWatch>()
             .and_then(KineticWatch::excess),
+        energy_balance: sim.world.get_resource::<EnergyBalance>().copied(),
         interrupted,
         never_split: split == Some(false),
         checkpoint,

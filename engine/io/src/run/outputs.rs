@@ -8,16 +8,27 @@ use super::*;
 /// [`EnergyWatch`] and a quasi-static run's [`KineticWatch`]. The energy watch gets the balance
 /// `W_ext − (E − E₀)` left before the damage laws' own `dissipated_energy` accounts:
 /// dissipation is never negative, so a total energy above the work done is created energy
-/// whatever those accounts say (the uniaxial account of the Rankine laws reads up to 25% high,
-/// which alone would look like creation).
+/// whatever those accounts say (an account that read high
+/// would look like creation were it an overestimate, as the eigen laws' crack-band estimates
+/// can be). The row's whole account, dissipation included, is kept as the world's
+/// [`EnergyBalance`] for the end-of-run summary.
 /// `initial` is the run's initial energy: in a distributed run the sum of the ranks' parts,
 /// not this rank's account's.
 pub(super) fn watch_energy(sim: &mut Simulation, row: &[f64], initial: f64) {
     let step = sim.clock().step;
     let n = row.len();
-    let (total, work) = (row[3], row[n - 2]);
+    let (total, work, residual) = (row[3], row[n - 2], row[n - 1]);
     let mut watch = sim.world.get_resource_or_init::<EnergyWatch>();
     watch.observe(step, row[0], total, initial, work, work - (total - initial));
+    let scale = watch.scale;
+    sim.world.insert_resource(EnergyBalance {
+        time: row[0],
+        external_work: work,
+        energy_change: total - initial,
+        dissipated: work - (total - initial) - residual,
+        residual,
+        scale,
+    });
     if let Some(mut kinetic) = sim.world.get_resource_mut::<KineticWatch>() {
         // Kinetic and stored (total less kinetic: strain and contact) energy.
         kinetic.observe(step, row[0], row[1], total - row[1]);
