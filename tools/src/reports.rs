@@ -204,6 +204,9 @@ pub fn check_report(built: &mut Built) -> String {
     }
     if let Some(q) = sim.world.get_resource::<QuasiStatic>() {
         let _ = writeln!(out, "{}", quasi_static_line(q));
+        if let Some(warning) = real_time_warning(&sim.world) {
+            let _ = writeln!(out, "warning    {warning}");
+        }
     }
     for (name, condition) in &summary.boundaries {
         let _ = writeln!(out, "boundary   {name}: {condition}");
@@ -223,6 +226,13 @@ pub fn check_report(built: &mut Built) -> String {
     );
     out.push_str("ok\n");
     out
+}
+
+/// The warning for a mass-scaled pipeline with laws that read the scene's real time, if any.
+pub fn real_time_warning(world: &fractum_engine::prelude::World) -> Option<String> {
+    use fractum_engine::quasi_static::RealTimeLaws;
+    let scaling = world.get_resource::<QuasiStatic>()?.mass_scaling;
+    world.get_resource::<RealTimeLaws>()?.warning(scaling)
 }
 
 /// The `fractum check` line of a quasi-static scene.

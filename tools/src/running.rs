@@ -325,6 +325,11 @@ pub(crate) fn execute(
         resume,
         communicator: comm,
     };
+    if comm.is_none_or(|c| c.rank() == 0)
+        && let Some(warning) = crate::reports::real_time_warning(&sim.world)
+    {
+        eprintln!("warning: {warning}");
+    }
     let bar = progress_bar(settings.quiet);
     let started = Instant::now();
     let first_step = sim.clock().step;

@@ -527,5 +527,52 @@ fn a_quasi_static_run_shows_its_scaling_and_reports_a_jerk() {
         summary.contains("quasi-static: the kinetic energy reached"),
         "{summary}"
     );
+    // The last row's energy account: an elastic bar dissipates nothing by its laws.
+    assert!(
+        summary.contains("energy     at t = ") && summary.contains("+ dissipated 0.0000e0 J"),
+        "{summary}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Time-to-failure damage reads the scene's real time: mass scaling its scene is warned of by
+/// `check` and by the run, and the unscaled scene is not.
+#[test]
+fn mass_scaling_a_law_with_a_time_of_its_own_is_warned_of() {
+    let dir = std::env::temp_dir().join(format!("fractum-cli-real-time-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let strip = std::fs::read_to_string(root().join("scenes/time_to_failure_strip.ron")).unwrap();
+    let from = "end: Time(8.0e-3))";
+    assert!(strip.contains(from));
+    for (scaling, warned) in [("1.0", false), ("4.0", true)] {
+        let scene = dir.join(format!("strip_{scaling}.ron"));
+        let time = format!("end: Time(8.0e-3), quasi_static: (mass_scaling: {scaling}))");
+        std::fs::write(&scene, strip.replace(from, &time)).unwrap();
+        let check = fractum(&["check", scene.to_str().unwrap()]);
+        assert!(check.status.success(), "{}", text(&check.stderr));
+        let out_dir = dir.join(format!("out_{scaling}"));
+        let run = fractum(&[
+            "run",
+            scene.to_str().unwrap(),
+            "--steps",
+            "3",
+            "--quiet",
+            "--out",
+            out_dir.to_str().unwrap(),
+        ]);
+        assert!(run.status.success(), "{}", text(&run.stderr));
+        let (check, run) = (text(&check.stdout), text(&run.stderr));
+        let named = "damage/time_to_failure (its time to failure";
+        assert_eq!(check.contains(named), warned, "{check}");
+        assert_eq!(run.contains(named), warned, "{run}");
+        if warned {
+            assert!(
+                check.contains("warning    the run is mass scaled 4"),
+                "{check}"
+            );
+            assert!(run.contains("warning: the run is mass scaled 4"), "{run}");
+        }
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -17,7 +17,8 @@
 //! `kinetic_fraction = K / U` in `series.csv`, `K` the kinetic energy of the scaled masses (the
 //! inertia the scaled run carries) and `U` the stored energy (strain and contact). Laws with a
 //! time of their own (time-to-failure damage, a shock viscosity) see the scene's real time, so
-//! scaling changes their answer: say so when you scale them.
+//! scaling changes their answer: their installs declare it ([`RealTimeLaws`]), and `check` and
+//! the run warn when such a pipeline is mass scaled.
 //!
 //! [`KineticWatch`] judges the upper half of the loading: the rows whose stored energy is at
 //! least half the largest so far, up to the row of that largest. The loading ends at the row
@@ -169,6 +170,45 @@ impl KineticWatch {
     }
 }
 
+/// The pipeline's laws that read the scene's real time (a failure time, a rate), which mass
+/// scaling does not stretch, so that scaling changes their answer: each install declares itself
+/// with [`Installer::declare_real_time`](crate::registry::Installer::declare_real_time).
+#[derive(Resource, Clone, Debug, Default, PartialEq)]
+pub struct RealTimeLaws(pub Vec<RealTimeLaw>);
+
+/// One law that reads the scene's real time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RealTimeLaw {
+    /// The system's registration name.
+    pub system: String,
+    /// What in it reads the real time, in a few words.
+    pub why: String,
+}
+
+impl RealTimeLaws {
+    /// What `check` and the run say when the pipeline is mass scaled by `mass_scaling` (> 1)
+    /// and has such laws; `None` otherwise.
+    pub fn warning(&self, mass_scaling: f64) -> Option<String> {
+        if mass_scaling <= 1.0 || self.0.is_empty() {
+            return None;
+        }
+        let laws: Vec<String> = self
+            .0
+            .iter()
+            .map(|law| format!("{} ({})", law.system, law.why))
+            .collect();
+        Some(format!(
+            "the run is mass scaled {mass_scaling} times, and {} read{} the scene's real time, \
+             which scaling does not stretch: where the scaled run's waves go {:.3} times \
+             slower, these laws do not, so their answer changes with the scaling. Compare with \
+             an unscaled run, or leave time.quasi_static.mass_scaling at 1.",
+            laws.join(" and "),
+            if self.0.len() == 1 { "s" } else { "" },
+            mass_scaling.sqrt()
+        ))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -218,5 +258,22 @@ mod tests {
         assert!(!watch.observe(11, 11.0, 5.0, 80.0));
         assert!(watch.broken);
         assert_eq!(watch.excess(), None);
+    }
+
+    #[test]
+    fn real_time_laws_are_named_only_when_the_run_is_scaled() {
+        let mut laws = RealTimeLaws::default();
+        assert_eq!(laws.warning(16.0), None);
+        laws.0.push(RealTimeLaw {
+            system: "damage/time_to_failure".into(),
+            why: "its failure time".into(),
+        });
+        assert_eq!(laws.warning(1.0), None);
+        let warning = laws.warning(16.0).unwrap();
+        assert!(
+            warning.contains("damage/time_to_failure (its failure time) reads")
+                && warning.contains("4.000 times slower"),
+            "{warning}"
+        );
     }
 }

@@ -94,6 +94,7 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
     install_strength(installer, params, raw.tensile_strength, raw.weibull)?;
     let materials = installer.materials().clone();
     installer.add_particle_component(DamageDissipation(0.0));
+    installer.declare_real_time(REGISTRATION.name, "its time to failure τ = l_ch / c_f");
     let columns = [
         installer.add_owned_sum_column("damaged_particles"),
         installer.add_owned_sum_column("failed_particles"),

@@ -119,6 +119,10 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
     installer.provide::<fractum_engine::capability::Bystander>();
     installer.add_particle_component(ViscousPressure(0.0));
     installer.add_particle_component(ViscousDissipation(0.0));
+    installer.declare_real_time(
+        REGISTRATION.name,
+        "its viscous pressure, from the density and the real rate of compression",
+    );
     installer.add_frame_scalar::<ViscousPressure>("viscous_pressure", |q| q.0);
     let column = installer.add_owned_sum_column("viscous_dissipation");
     let materials = installer.materials().clone();

@@ -6,6 +6,20 @@ use crate::registry::ParticleState;
 use bevy_ecs::prelude::{Component, FromWorld, Resource};
 
 impl Installer<'_> {
+    /// Declares that the system being installed reads the scene's real time (`why`: what in
+    /// it, in a few words), so that mass scaling changes its answer: `fractum check` and the
+    /// run warn when such a pipeline is mass scaled (`time.quasi_static`).
+    pub fn declare_real_time(&mut self, system: &str, why: &str) {
+        use crate::quasi_static::{RealTimeLaw, RealTimeLaws};
+        let mut laws = self.world.get_resource_or_init::<RealTimeLaws>();
+        if !laws.0.iter().any(|law| law.system == system) {
+            laws.0.push(RealTimeLaw {
+                system: system.to_string(),
+                why: why.to_string(),
+            });
+        }
+    }
+
     /// Gives every particle a component of the system's own (a damage gradient, a surface flag,
     /// a strength), starting at `value`. All particles get it at once, before the first step, so
     /// they stay in one storage table. Checkpoints carry it ([`crate::checkpoint`]).
