@@ -250,6 +250,7 @@ const STOCK_KEYS: &[&str] = &[
     "particle/contact_group",
     "particle/crack_opening",
     "particle/damage",
+    "particle/damage_dissipation",
     "particle/damage_gradient",
     "particle/damage_history",
     "particle/deformation_gradient",
