@@ -241,6 +241,7 @@ const STOCK_KEYS: &[&str] = &[
     "engine/escaped_particles",
     "engine/field_splits",
     "engine/force_probes",
+    "engine/kinetic_watch",
     "engine/series_columns",
     "kdtree/candidates",
     "lme/state",

@@ -299,6 +299,16 @@ pub(crate) fn ready_to_run(
     Ok(())
 }
 
+/// Warns (on rank 0) when the run is mass scaled and its pipeline has laws that read the
+/// scene's real time.
+fn warn_of_real_time_laws(world: &fractum_engine::prelude::World, comm: Option<&dyn Communicator>) {
+    if comm.is_none_or(|c| c.rank() == 0)
+        && let Some(warning) = crate::reports::real_time_warning(world)
+    {
+        eprintln!("warning: {warning}");
+    }
+}
+
 /// Steps a built (or restored) simulation to its end, writing its outputs and checkpoints, and
 /// says how it ended; the exit code.
 pub(crate) fn execute(
@@ -325,11 +335,7 @@ pub(crate) fn execute(
         resume,
         communicator: comm,
     };
-    if comm.is_none_or(|c| c.rank() == 0)
-        && let Some(warning) = crate::reports::real_time_warning(&sim.world)
-    {
-        eprintln!("warning: {warning}");
-    }
+    warn_of_real_time_laws(&sim.world, comm);
     let bar = progress_bar(settings.quiet);
     let started = Instant::now();
     let first_step = sim.clock().step;
