@@ -133,10 +133,50 @@ pub struct Check {
     pub source: Source,
     /// How far from the reference the measurement may lie.
     pub tolerance: Tolerance,
+    /// Why the tolerance is as wide as it is. Optional in a catalogue of your own; every check
+    /// of Fractum's own catalogue states one (its pages print "not stated" otherwise).
+    #[serde(default)]
+    pub basis: Option<Basis>,
     /// A published number Fractum does not reproduce: why. The check is then reported as an
     /// expected miss, not a failure, while it stays outside the tolerance.
     #[serde(default)]
     pub expected_miss: Option<String>,
+}
+
+/// The basis of a check's tolerance: where its width comes from, in words.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+pub enum Basis {
+    /// The experiments' own scatter (one standard deviation of the specimens, say).
+    Scatter(String),
+    /// The discretisation error expected, or measured, at the case's resolution.
+    Discretisation(String),
+    /// The spread of the published results themselves (between methods, or read off a
+    /// figure).
+    Paper(String),
+    /// A criterion the check states for itself: an exact count, a share of the energy in play.
+    Criterion(String),
+}
+
+impl Basis {
+    /// The kind, as the summary table prints it.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Basis::Scatter(_) => "experimental scatter",
+            Basis::Discretisation(_) => "discretisation",
+            Basis::Paper(_) => "the paper's spread",
+            Basis::Criterion(_) => "criterion",
+        }
+    }
+
+    /// The basis in words.
+    pub fn text(&self) -> &str {
+        match self {
+            Basis::Scatter(t)
+            | Basis::Discretisation(t)
+            | Basis::Paper(t)
+            | Basis::Criterion(t) => t,
+        }
+    }
 }
 
 fn one() -> f64 {
@@ -397,6 +437,28 @@ mod tests {
             std::env::temp_dir().join(format!("fractum-catalogue-{name}-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         TempDir(dir)
+    }
+
+    /// Every check Fractum publishes says where its tolerance comes from; a catalogue of a
+    /// user's own may leave it out.
+    #[test]
+    fn every_published_check_states_the_basis_of_its_tolerance() {
+        let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("catalogue.ron");
+        let catalogue = Catalogue::read(&shipped).unwrap_or_else(|e| panic!("{e}"));
+        let unstated: Vec<String> = catalogue
+            .cases
+            .iter()
+            .flat_map(|case| {
+                case.checks
+                    .iter()
+                    .filter(|check| check.basis.is_none())
+                    .map(move |check| format!("{}: {}", case.name, check.quantity))
+            })
+            .collect();
+        assert!(unstated.is_empty(), "no basis: {unstated:?}");
+        let dir = temp_dir("basis");
+        let own = Catalogue::read(&write(&dir, ONE_CASE)).unwrap();
+        assert_eq!(own.cases[0].checks[0].basis, None);
     }
 
     #[test]

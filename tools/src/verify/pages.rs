@@ -93,7 +93,10 @@ fn summary(catalogue: &Catalogue, results: &Results) -> String {
          is on the case's page. A check whose source is a `case` holds a run against another \
          of Fractum's own (a finer against a coarser one, a mass-scaled against an unscaled \
          one): a regression baseline, marked `baseline:` in the status column and counted \
-         apart from the checks against analytic solutions, papers and experiments.\n",
+         apart from the checks against analytic solutions, papers and experiments. Each \
+         tolerance names its basis in brackets (experimental scatter, discretisation, the \
+         paper's spread, or a criterion the check sets itself); the case's page states it in \
+         full.\n",
     );
     text.push_str(&tally(catalogue, results));
     for tier in [Tier::Quick, Tier::Paper] {
@@ -126,7 +129,7 @@ fn summary(catalogue: &Catalogue, results: &Results) -> String {
                     record::with_unit(e.reference, &check.unit),
                     source_text(&check.source),
                     record::with_unit(e.measured, &check.unit),
-                    record::tolerance_text(check),
+                    record::tolerance_with_basis(check),
                     status_text(&check.source, &e.status),
                 );
             }
@@ -209,7 +212,7 @@ fn page(catalogue: &Catalogue, results: &Results, case: &Case) -> String {
         "- Reproduce: `fractum verify --case {} --rerun`.\n",
         case.name
     );
-    text.push_str("| quantity | reference | source | measured | tolerance | status |\n| --- | --- | --- | --- | --- | --- |\n");
+    text.push_str("| quantity | reference | source | measured | tolerance | basis of the tolerance | status |\n| --- | --- | --- | --- | --- | --- | --- |\n");
     // A check's shortfall, then the reason it is expected; checks that miss for one reason
     // share that reason's note, where the first of them put it.
     let mut notes: Vec<(String, Vec<&str>)> = Vec::new();
@@ -217,12 +220,13 @@ fn page(catalogue: &Catalogue, results: &Results, case: &Case) -> String {
         let e = record::evaluate(catalogue, results, case, check);
         let _ = writeln!(
             text,
-            "| {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} |",
             check.quantity,
             record::with_unit(e.reference, &check.unit),
             source_text(&check.source).replace("(verification/", "("),
             record::with_unit(e.measured, &check.unit),
             record::tolerance_text(check),
+            record::basis_text(check),
             status_text(&check.source, &e.status)
         );
         if !matches!(e.status, Status::Pass | Status::Pending) {
@@ -292,6 +296,7 @@ mod tests {
             reference: 1.0,
             source: Source::Analytic("a line".into()),
             tolerance: Tolerance::Absolute(1.0),
+            basis: None,
             expected_miss: Some(miss.into()),
         }
     }

@@ -242,6 +242,22 @@ pub fn tolerance_text(check: &Check) -> String {
     check.tolerance.describe(&check.unit)
 }
 
+/// The tolerance with the kind of its basis, for the summary table: `±10% (discretisation)`.
+pub fn tolerance_with_basis(check: &Check) -> String {
+    match &check.basis {
+        Some(basis) => format!("{} ({})", tolerance_text(check), basis.kind()),
+        None => tolerance_text(check),
+    }
+}
+
+/// The basis of the tolerance in full, for the case's page.
+pub fn basis_text(check: &Check) -> String {
+    match &check.basis {
+        Some(basis) => format!("{}: {}", basis.kind(), basis.text()),
+        None => "not stated".into(),
+    }
+}
+
 /// A value and unit for tables.
 pub fn with_unit(v: Option<f64>, unit: &str) -> String {
     match v {
@@ -266,8 +282,24 @@ mod tests {
             reference: 60.0,
             source: Source::Paper("Table II".into()),
             tolerance,
+            basis: None,
             expected_miss: miss.map(str::to_string),
         }
+    }
+
+    /// The summary prints the basis's kind beside the tolerance; the page prints it whole.
+    #[test]
+    fn a_tolerance_shows_its_basis() {
+        use super::super::catalogue::Basis;
+        let mut c = check(Tolerance::Absolute(5.0), None);
+        assert_eq!(tolerance_with_basis(&c), "±5 °");
+        assert_eq!(basis_text(&c), "not stated");
+        c.basis = Some(Basis::Scatter("one SD of six specimens".into()));
+        assert_eq!(tolerance_with_basis(&c), "±5 ° (experimental scatter)");
+        assert_eq!(
+            basis_text(&c),
+            "experimental scatter: one SD of six specimens"
+        );
     }
 
     #[test]
