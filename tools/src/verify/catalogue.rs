@@ -259,6 +259,9 @@ impl Case {
 pub struct Catalogue {
     /// The cases, in the order the summary lists them.
     pub cases: Vec<Case>,
+    /// Convergence studies over the cases (`verify::studies`).
+    #[serde(default)]
+    pub studies: Vec<super::studies::Study>,
     /// The folder scene paths are relative to (the catalogue's own).
     #[serde(skip)]
     pub root: PathBuf,
@@ -322,7 +325,7 @@ impl Catalogue {
                 }
             }
         }
-        Ok(())
+        super::studies::check(self)
     }
 
     /// The case named `name`.
@@ -459,6 +462,40 @@ mod tests {
         let dir = temp_dir("basis");
         let own = Catalogue::read(&write(&dir, ONE_CASE)).unwrap();
         assert_eq!(own.cases[0].checks[0].basis, None);
+    }
+
+    /// A convergence study needs three cases that measure its quantity, coarsest first.
+    #[test]
+    fn a_study_is_refused_unless_three_cases_measure_its_quantity() {
+        let dir = temp_dir("studies");
+        let study = |cases: &str, spacings: &str| {
+            ONE_CASE.trim_end().trim_end_matches(')').to_string()
+                + &format!(
+                    ", studies: [(title: \"t\", quantity: \"peak\", cases: [{cases}], \
+                     spacings: [{spacings}], spacing_unit: \"m\")])"
+                )
+        };
+        for (cases, spacings, expected) in [
+            ("\"bar\"", "1.0", "at least three cases"),
+            (
+                "\"bar\", \"bar\", \"none\"",
+                "1.0, 0.5, 0.25",
+                "no case \"none\"",
+            ),
+            (
+                "\"bar\", \"bar\", \"bar\"",
+                "1.0, 2.0, 0.5",
+                "coarsest first",
+            ),
+        ] {
+            let e = Catalogue::read(&write(&dir, &study(cases, spacings))).unwrap_err();
+            assert!(e.to_string().contains(expected), "{e}");
+        }
+        let fine = Catalogue::read(&write(
+            &dir,
+            &study("\"bar\", \"bar\", \"bar\"", "1.0, 0.5, 0.25"),
+        ));
+        assert_eq!(fine.unwrap().studies.len(), 1);
     }
 
     #[test]

@@ -19,6 +19,7 @@ mod pages;
 mod provenance;
 pub mod record;
 mod runner;
+pub mod studies;
 
 use crate::{EXIT_BAD_SCENE, EXIT_INTERRUPTED, EXIT_IO, EXIT_USAGE, EXIT_VERIFY_FAILED};
 use catalogue::{Case, Catalogue, Figure, Tier, edited_scene};

@@ -135,6 +135,7 @@ fn summary(catalogue: &Catalogue, results: &Results) -> String {
             }
         }
     }
+    text.push_str(&super::studies::section(catalogue, results));
     text
 }
 
@@ -320,6 +321,7 @@ mod tests {
             figures: Vec::new(),
         };
         let catalogue = Catalogue {
+            studies: Vec::new(),
             cases: vec![case.clone()],
             root: Default::default(),
         };
@@ -355,6 +357,7 @@ mod tests {
         let coarse = case("coarse", Source::Analytic("L".into()));
         let fine = case("fine", Source::Case("coarse".into()));
         let catalogue = Catalogue {
+            studies: Vec::new(),
             cases: vec![coarse, fine.clone()],
             root: Default::default(),
         };
