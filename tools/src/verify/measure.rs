@@ -185,7 +185,16 @@ pub struct FragmentsAt {
     /// Only these bodies (indices in the scene's order); all when empty.
     #[serde(default)]
     pub bodies: Vec<u16>,
+    /// `time` counts from the split rather than the start: the first frame at which the
+    /// second-largest fragment holds at least [`SPLIT_SHARE`] of the fragments' mass. Runs
+    /// that split at different times are so compared at one time after their split.
+    #[serde(default)]
+    pub after_split: bool,
 }
+
+/// The share of the fragments' mass the second-largest must hold for a body to have split
+/// ([`FragmentsAt::after_split`]).
+pub const SPLIT_SHARE: f64 = 0.1;
 
 fn half() -> f64 {
     0.5
@@ -424,7 +433,39 @@ fn fragments_at(dir: &Path, at: &FragmentsAt) -> Result<Vec<fragments::Fragment>
         bodies: at.bodies.clone(),
         ..Default::default()
     };
-    Ok(fragments::run_fragments(dir, Some(at.time), &options)?.fragments)
+    let time = if at.after_split {
+        split_time(dir, &options)? + at.time
+    } else {
+        at.time
+    };
+    Ok(fragments::run_fragments(dir, Some(time), &options)?.fragments)
+}
+
+/// The time of the first particle frame at which the fragments have split
+/// ([`FragmentsAt::after_split`]).
+fn split_time(dir: &Path, options: &fragments::FragmentOptions) -> Result<f64, String> {
+    let frames = fractum_io::output::read_pvd(&dir.join("particles.pvd"))?;
+    for (time, file) in &frames {
+        let frame = fractum_io::output::read_particle_frame(&dir.join(file))?;
+        let (found, _) = fragments::find_fragments(&frame, options)?;
+        if has_split(&found) {
+            return Ok(*time);
+        }
+    }
+    Err(format!(
+        "{}: no frame shows a split (a second fragment of {}% of the mass)",
+        dir.display(),
+        100.0 * SPLIT_SHARE
+    ))
+}
+
+/// Whether the second-largest of `fragments` (largest first) holds [`SPLIT_SHARE`] of their
+/// mass.
+fn has_split(fragments: &[fragments::Fragment]) -> bool {
+    let total: f64 = fragments.iter().map(|f| f.mass).sum();
+    fragments
+        .get(1)
+        .is_some_and(|second| second.mass >= SPLIT_SHARE * total)
 }
 
 #[cfg(test)]
@@ -436,6 +477,24 @@ mod tests {
             columns: columns.iter().map(|c| c.to_string()).collect(),
             rows,
         }
+    }
+
+    /// A body has split once its second-largest fragment holds a tenth of the mass; debris
+    /// does not count.
+    #[test]
+    fn a_split_is_a_second_fragment_of_a_tenth_of_the_mass() {
+        let fragment = |mass: f64| fragments::Fragment {
+            particles: 10,
+            mass,
+            volume: mass,
+            diameter: 1.0,
+            centroid: [0.0; 3],
+            velocity: [0.0; 3],
+        };
+        assert!(!has_split(&[fragment(10.0)]));
+        assert!(!has_split(&[fragment(10.0), fragment(0.5), fragment(0.5)]));
+        assert!(has_split(&[fragment(6.0), fragment(4.0)]));
+        assert!(has_split(&[fragment(8.0), fragment(1.0), fragment(1.0)]));
     }
 
     #[test]
