@@ -1,4 +1,5 @@
 //! Damage stage: failure and softening of material points.
+pub mod degrading_update;
 pub mod eigenerosion;
 pub mod eigensoftening;
 pub mod rankine;

@@ -27,15 +27,14 @@
 //!   form [`dissipated_density`] (`σ_f² (1 + H_s) D / (2 E (1 + H_s − D))`); under any other
 //!   stress it is what the particle's stored energy lost to the damage, so the energy account
 //!   of `series.csv` closes (docs/design/damage.md).
+use super::degrading_update::{DegradingLaw, DegradingParticles, degrade_particles};
 use super::tensile_degradation::{
     DEGRADATION_PARAM, Degradation, TENSILE_STRENGTH_PARAM, TensileDegradation, WEIBULL_PARAM,
-    characteristic_length, damage_counts, dissipated_total, install_strength,
-    largest_trial_principal, require_stress_degrading_pipeline,
+    characteristic_length, install_strength, require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
 use fractum_engine::decomposition::OwnedRows;
 use fractum_engine::prelude::*;
-use rayon::prelude::*;
 use serde::Deserialize;
 
 /// Registration of `damage/rankine`.
@@ -223,75 +222,25 @@ pub fn dissipated_density(d: f64, strength: f64, youngs_modulus: f64, h: f64) ->
     strength * strength * (1.0 + h) * d / (2.0 * youngs_modulus * ((1.0 - d) + h))
 }
 
-type ParticleQuery<'w, 's, D> = Query<
-    'w,
-    's,
-    (
-        &'static MaterialId,
-        &'static InitialVolume,
-        &'static Strength,
-        &'static Strain<D>,
-        &'static DeformationGradient<D>,
-        &'static mut Stress<D>,
-        &'static mut StrainEnergyDensity,
-        &'static mut Damage,
-        &'static mut DamageDissipation,
-    ),
-    With<Particle>,
->;
-
 /// The `damage/rankine` system.
 pub fn rankine<D: Dim>(
     params: Res<RankineParams>,
     mut columns: ResMut<SeriesColumns>,
     owned: OwnedRows,
-    mut particles: ParticleQuery<D>,
+    mut particles: DegradingParticles<D>,
 ) {
-    let Some((
-        material,
-        v0,
-        strength,
-        strain,
-        deformation,
-        mut stress,
-        mut energy,
-        mut damage,
-        mut dissipation,
-    )) = single_table(particles.contiguous_iter_mut(), "particles")
-    else {
-        return;
-    };
     let p = &*params;
-    stress
-        .par_iter_mut()
-        .zip(energy.par_iter_mut())
-        .zip(damage.par_iter_mut())
-        .zip(dissipation.par_iter_mut())
-        .enumerate()
-        .for_each(|(i, (((s, w), d), dissipated))| {
-            if !p.materials.applies(material[i]) {
-                return;
-            }
-            let (sigma_f, e) = (strength[i].0, p.youngs_modulus[material[i].0 as usize]);
-            let h = softening_modulus(sigma_f, e, p.fracture_energy, p.characteristic_length);
-            let previous = d.0;
-            d.0 = rankine_damage(previous, largest_trial_principal(&s.0), sigma_f, h);
-            if d.0 > 0.0 {
-                let released = p.degradation.apply_and_release::<D>(
-                    material[i],
-                    (previous, d.0),
-                    (&mut s.0, &mut w.0),
-                    &strain[i].0,
-                    &deformation[i].0,
-                );
-                dissipated.0 += v0[i].0 * released;
-            }
-        });
-    let (damaged, failed) = damage_counts(material, &damage, &p.materials, owned.get());
-    let [cd, cf, ce] = p.columns;
-    columns.values[cd] = damaged as f64;
-    columns.values[cf] = failed as f64;
-    columns.values[ce] = dissipated_total(&dissipation, owned.get());
+    let law = DegradingLaw {
+        materials: &p.materials,
+        degradation: &p.degradation,
+        columns: p.columns,
+    };
+    let softening = |material: MaterialId, previous: f64, largest: f64, strength: f64| {
+        let e = p.youngs_modulus[material.0 as usize];
+        let h = softening_modulus(strength, e, p.fracture_energy, p.characteristic_length);
+        rankine_damage(previous, largest, strength, h)
+    };
+    degrade_particles(&law, &mut columns, owned.get(), &mut particles, softening);
 }
 
 #[cfg(test)]

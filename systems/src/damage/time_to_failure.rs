@@ -22,15 +22,14 @@
 //!   strain, accumulated per particle in `DamageDissipation` (as `damage/rankine` does; J per
 //!   scene thickness in 2D).
 
+use super::degrading_update::{DegradingLaw, DegradingParticles, degrade_particles};
 use super::tensile_degradation::{
     DEGRADATION_PARAM, Degradation, TENSILE_STRENGTH_PARAM, TensileDegradation, WEIBULL_PARAM,
-    characteristic_length, damage_counts, dissipated_total, install_strength,
-    largest_trial_principal, require_stress_degrading_pipeline,
+    characteristic_length, install_strength, require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
 use fractum_engine::decomposition::OwnedRows;
 use fractum_engine::prelude::*;
-use rayon::prelude::*;
 use serde::Deserialize;
 
 /// Registration of `damage/time_to_failure`.
@@ -120,75 +119,24 @@ pub fn time_to_failure_damage(previous: f64, trial: f64, strength: f64, dt: f64,
     }
 }
 
-type ParticleQuery<'w, 's, D> = Query<
-    'w,
-    's,
-    (
-        &'static MaterialId,
-        &'static InitialVolume,
-        &'static Strength,
-        &'static Strain<D>,
-        &'static DeformationGradient<D>,
-        &'static mut Stress<D>,
-        &'static mut StrainEnergyDensity,
-        &'static mut Damage,
-        &'static mut DamageDissipation,
-    ),
-    With<Particle>,
->;
-
 /// The `damage/time_to_failure` system.
 pub fn time_to_failure<D: Dim>(
     clock: Res<SimClock>,
     params: Res<TimeToFailureParams>,
     mut columns: ResMut<SeriesColumns>,
     owned: OwnedRows,
-    mut particles: ParticleQuery<D>,
+    mut particles: DegradingParticles<D>,
 ) {
-    let Some((
-        material,
-        v0,
-        strength,
-        strain,
-        deformation,
-        mut stress,
-        mut energy,
-        mut damage,
-        mut dissipation,
-    )) = single_table(particles.contiguous_iter_mut(), "particles")
-    else {
-        return;
-    };
     let (p, dt) = (&*params, clock.dt);
-    stress
-        .par_iter_mut()
-        .zip(energy.par_iter_mut())
-        .zip(damage.par_iter_mut())
-        .zip(dissipation.par_iter_mut())
-        .enumerate()
-        .for_each(|(i, (((s, w), d), dissipated))| {
-            if !p.materials.applies(material[i]) {
-                return;
-            }
-            let previous = d.0;
-            let largest = largest_trial_principal(&s.0);
-            d.0 = time_to_failure_damage(previous, largest, strength[i].0, dt, p.time_to_failure);
-            if d.0 > 0.0 {
-                let released = p.degradation.apply_and_release::<D>(
-                    material[i],
-                    (previous, d.0),
-                    (&mut s.0, &mut w.0),
-                    &strain[i].0,
-                    &deformation[i].0,
-                );
-                dissipated.0 += v0[i].0 * released;
-            }
-        });
-    let (damaged, failed) = damage_counts(material, &damage, &p.materials, owned.get());
-    let [cd, cf, ce] = p.columns;
-    columns.values[cd] = damaged as f64;
-    columns.values[cf] = failed as f64;
-    columns.values[ce] = dissipated_total(&dissipation, owned.get());
+    let law = DegradingLaw {
+        materials: &p.materials,
+        degradation: &p.degradation,
+        columns: p.columns,
+    };
+    let failing = |_: MaterialId, previous: f64, largest: f64, strength: f64| {
+        time_to_failure_damage(previous, largest, strength, dt, p.time_to_failure)
+    };
+    degrade_particles(&law, &mut columns, owned.get(), &mut particles, failing);
 }
 
 #[cfg(test)]

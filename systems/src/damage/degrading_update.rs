@@ -1,0 +1,101 @@
+//! The step the stress-degrading damage laws share (not a system): `damage/rankine` and
+//! `damage/time_to_failure` each give a damage law, and this loop updates every particle of
+//! their materials with it, degrades the stress (`damage::tensile_degradation`), accumulates
+//! the energy the growth released in `DamageDissipation`, and publishes the three columns
+//! `damaged_particles`, `failed_particles` and `dissipated_energy`.
+
+use super::tensile_degradation::{
+    TensileDegradation, damage_counts, dissipated_total, largest_trial_principal,
+};
+use fractum_engine::decomposition::Owned;
+use fractum_engine::prelude::*;
+use rayon::prelude::*;
+
+/// The particles a stress-degrading damage law updates.
+pub type DegradingParticles<'w, 's, D> = Query<
+    'w,
+    's,
+    (
+        &'static MaterialId,
+        &'static InitialVolume,
+        &'static Strength,
+        &'static Strain<D>,
+        &'static DeformationGradient<D>,
+        &'static mut Stress<D>,
+        &'static mut StrainEnergyDensity,
+        &'static mut Damage,
+        &'static mut DamageDissipation,
+    ),
+    With<Particle>,
+>;
+
+/// What a law's system hands the shared step.
+pub struct DegradingLaw<'a> {
+    /// The materials the entry damages.
+    pub materials: &'a MaterialFilter,
+    /// How the damage degrades the stress.
+    pub degradation: &'a TensileDegradation,
+    /// Slots of the damaged, failed and dissipated-energy columns.
+    pub columns: [usize; 3],
+}
+
+/// A particle's damage law: from its material, previous damage, largest principal trial
+/// stress and strength, its new damage.
+pub trait DamageLaw: Fn(MaterialId, f64, f64, f64) -> f64 + Sync {}
+
+impl<F: Fn(MaterialId, f64, f64, f64) -> f64 + Sync> DamageLaw for F {}
+
+/// Updates every particle of the law's materials with `damage_law`, degrades its stress and
+/// energy, adds the energy the growth released to its `DamageDissipation`, and publishes the
+/// columns over the rows `owned` marks.
+pub fn degrade_particles<D: Dim>(
+    law: &DegradingLaw,
+    columns: &mut SeriesColumns,
+    owned: Owned,
+    particles: &mut DegradingParticles<D>,
+    damage_law: impl DamageLaw,
+) {
+    let Some((
+        material,
+        v0,
+        strength,
+        strain,
+        deformation,
+        mut stress,
+        mut energy,
+        mut damage,
+        mut dissipation,
+    )) = single_table(particles.contiguous_iter_mut(), "particles")
+    else {
+        return;
+    };
+    stress
+        .par_iter_mut()
+        .zip(energy.par_iter_mut())
+        .zip(damage.par_iter_mut())
+        .zip(dissipation.par_iter_mut())
+        .enumerate()
+        .for_each(|(i, (((s, w), d), dissipated))| {
+            if !law.materials.applies(material[i]) {
+                return;
+            }
+            let previous = d.0;
+            let largest = largest_trial_principal(&s.0);
+            d.0 = damage_law(material[i], previous, largest, strength[i].0);
+            if d.0 > 0.0 {
+                let released = law.degradation.apply_and_release::<D>(
+                    material[i],
+                    (previous, d.0),
+                    (&mut s.0, &mut w.0),
+                    &strain[i].0,
+                    &deformation[i].0,
+                );
+                dissipated.0 += v0[i].0 * released;
+            }
+        });
+    let (damaged, failed) = damage_counts(material, &damage, law.materials, owned);
+    let [cd, cf, ce] = law.columns;
+    columns.values[cd] = damaged as f64;
+    columns.values[cf] = failed as f64;
+    columns.values[ce] = dissipated_total(&dissipation, owned);
+}
