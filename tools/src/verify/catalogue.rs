@@ -261,7 +261,7 @@ pub struct Catalogue {
     pub cases: Vec<Case>,
     /// Convergence studies over the cases (`verify::studies`).
     #[serde(default)]
-    pub studies: Vec<super::studies::Study>,
+    pub studies: Vec<Study>,
     /// The folder scene paths are relative to (the catalogue's own).
     #[serde(skip)]
     pub root: PathBuf,
@@ -325,7 +325,7 @@ impl Catalogue {
                 }
             }
         }
-        super::studies::check(self)
+        check_studies(self)
     }
 
     /// The case named `name`.
@@ -399,6 +399,63 @@ pub fn edited_scene(text: &str, case: &Case) -> Result<String, String> {
         edited = edited.replace(&edit.find, &edit.replace);
     }
     Ok(edited)
+}
+
+/// One quantity over runs that refine the cell.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Study {
+    /// The heading of the study's table.
+    pub title: String,
+    /// The quantity, as each case's check names it.
+    pub quantity: String,
+    /// The cases, coarsest first.
+    pub cases: Vec<String>,
+    /// Each case's cell size, in `spacing_unit`, decreasing.
+    pub spacings: Vec<f64>,
+    /// The unit of the spacings in the table.
+    pub spacing_unit: String,
+}
+
+/// Cases that exist and measure the quantity, as many spacings as cases (at least three), the
+/// spacings decreasing.
+fn check_studies(catalogue: &Catalogue) -> Result<(), (String, String)> {
+    for (k, study) in catalogue.studies.iter().enumerate() {
+        let field = format!("studies[{k}]");
+        if study.cases.len() < 3 || study.cases.len() != study.spacings.len() {
+            return Err((
+                format!("{field}.spacings"),
+                format!(
+                    "expected at least three cases and one spacing for each, got {} cases and {} \
+                     spacings",
+                    study.cases.len(),
+                    study.spacings.len()
+                ),
+            ));
+        }
+        if study
+            .spacings
+            .windows(2)
+            .any(|w| !(w[1] < w[0] && w[1] > 0.0))
+        {
+            return Err((
+                format!("{field}.spacings"),
+                "expected positive spacings, coarsest first".into(),
+            ));
+        }
+        for (j, name) in study.cases.iter().enumerate() {
+            let measures = catalogue
+                .case(name)
+                .is_some_and(|c| c.checks.iter().any(|c| c.quantity == study.quantity));
+            if !measures {
+                return Err((
+                    format!("{field}.cases[{j}]"),
+                    format!("no case {name:?} measuring {:?}", study.quantity),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -11,26 +11,9 @@
 //!   and where. Differences that change sign (the runs oscillate) have no order; differences
 //!   that grow (a negative order) show no convergence, and no limit is given.
 
-use super::catalogue::{Catalogue, Source};
+use super::catalogue::{Catalogue, Source, Study};
 use super::record::{self, Results};
-use serde::Deserialize;
 use std::fmt::Write as _;
-
-/// One quantity over runs that refine the cell.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Study {
-    /// The heading of the study's table.
-    pub title: String,
-    /// The quantity, as each case's check names it.
-    pub quantity: String,
-    /// The cases, coarsest first.
-    pub cases: Vec<String>,
-    /// Each case's cell size, in `spacing_unit`, decreasing.
-    pub spacings: Vec<f64>,
-    /// The unit of the spacings in the table.
-    pub spacing_unit: String,
-}
 
 /// Richardson's estimate from three runs at a constant refinement ratio.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -72,47 +55,6 @@ pub fn richardson(spacings: &[f64], values: &[f64]) -> Option<Richardson> {
     let order = quotient.ln() / ratio.ln();
     let limit = m[2] + (m[2] - m[1]) / (ratio.powf(order) - 1.0);
     (order.is_finite() && limit.is_finite()).then_some(Richardson { order, limit })
-}
-
-/// Cases that exist and measure the quantity, as many spacings as cases (at least three), the
-/// spacings decreasing.
-pub fn check(catalogue: &Catalogue) -> Result<(), (String, String)> {
-    for (k, study) in catalogue.studies.iter().enumerate() {
-        let field = format!("studies[{k}]");
-        if study.cases.len() < 3 || study.cases.len() != study.spacings.len() {
-            return Err((
-                format!("{field}.spacings"),
-                format!(
-                    "expected at least three cases and one spacing for each, got {} cases and {} \
-                     spacings",
-                    study.cases.len(),
-                    study.spacings.len()
-                ),
-            ));
-        }
-        if study
-            .spacings
-            .windows(2)
-            .any(|w| !(w[1] < w[0] && w[1] > 0.0))
-        {
-            return Err((
-                format!("{field}.spacings"),
-                "expected positive spacings, coarsest first".into(),
-            ));
-        }
-        for (j, name) in study.cases.iter().enumerate() {
-            let measures = catalogue
-                .case(name)
-                .is_some_and(|c| c.checks.iter().any(|c| c.quantity == study.quantity));
-            if !measures {
-                return Err((
-                    format!("{field}.cases[{j}]"),
-                    format!("no case {name:?} measuring {:?}", study.quantity),
-                ));
-            }
-        }
-    }
-    Ok(())
 }
 
 /// The summary's section on the studies: a table per study and Richardson's line.
