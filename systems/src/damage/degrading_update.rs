@@ -4,9 +4,7 @@
 //! the energy the growth released in `DamageDissipation`, and publishes the three columns
 //! `damaged_particles`, `failed_particles` and `dissipated_energy`.
 
-use super::tensile_degradation::{
-    TensileDegradation, damage_counts, dissipated_total, largest_trial_principal,
-};
+use super::tensile_degradation::{TensileDegradation, damage_counts, largest_trial_principal};
 use fractum_engine::decomposition::Owned;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
@@ -39,21 +37,16 @@ pub struct DegradingLaw<'a> {
     pub columns: [usize; 3],
 }
 
-/// A particle's damage law: from its material, previous damage, largest principal trial
-/// stress and strength, its new damage.
-pub trait DamageLaw: Fn(MaterialId, f64, f64, f64) -> f64 + Sync {}
-
-impl<F: Fn(MaterialId, f64, f64, f64) -> f64 + Sync> DamageLaw for F {}
-
-/// Updates every particle of the law's materials with `damage_law`, degrades its stress and
-/// energy, adds the energy the growth released to its `DamageDissipation`, and publishes the
-/// columns over the rows `owned` marks.
+/// Updates every particle of the law's materials with `damage_law` (from the particle's
+/// material, previous damage, largest principal trial stress and strength, its new damage),
+/// degrades its stress and energy, adds the energy the growth released to its
+/// `DamageDissipation`, and publishes the columns over the rows `owned` marks.
 pub fn degrade_particles<D: Dim>(
     law: &DegradingLaw,
     columns: &mut SeriesColumns,
     owned: Owned,
     particles: &mut DegradingParticles<D>,
-    damage_law: impl DamageLaw,
+    damage_law: impl Fn(MaterialId, f64, f64, f64) -> f64 + Sync,
 ) {
     let Some((
         material,
@@ -97,5 +90,6 @@ pub fn degrade_particles<D: Dim>(
     let [cd, cf, ce] = law.columns;
     columns.values[cd] = damaged as f64;
     columns.values[cf] = failed as f64;
-    columns.values[ce] = dissipated_total(&dissipation, owned);
+    // Summed in row order over the rows this rank owns: the same bits for any thread count.
+    columns.values[ce] = owned.particles(dissipation.iter().map(|d| d.0)).sum();
 }

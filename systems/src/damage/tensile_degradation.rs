@@ -193,12 +193,6 @@ pub fn degraded_energy<S: SymOps<V, M>, V, M>(w: f64, trial: &S, degraded: &S, s
     w * ratio.clamp(0.0, 1.0)
 }
 
-/// `Σ DamageDissipation` over the rows `owned` marks, in row order (the same bits for any
-/// thread count): the `dissipated_energy` these laws publish.
-pub fn dissipated_total(dissipation: &[DamageDissipation], owned: Owned) -> f64 {
-    owned.particles(dissipation.iter().map(|d| d.0)).sum()
-}
-
 /// The largest of the three principal values of the trial stress, the one compared with `σ_f`
 /// (eq. 22's text; in plane strain `σ_zz` included).
 pub fn largest_trial_principal<S: SymOps<V, M>, V, M>(stress: &S) -> f64 {

@@ -8,10 +8,9 @@ use super::*;
 /// [`EnergyWatch`] and a quasi-static run's [`KineticWatch`]. The energy watch gets the balance
 /// `W_ext − (E − E₀)` left before the damage laws' own `dissipated_energy` accounts:
 /// dissipation is never negative, so a total energy above the work done is created energy
-/// whatever those accounts say (an account that read high
-/// would look like creation were it an overestimate, as the eigen laws' crack-band estimates
-/// can be). The row's whole account, dissipation included, is kept as the world's
-/// [`EnergyBalance`] for the end-of-run summary.
+/// whatever those accounts say (an account that reads high, as the eigen laws' crack-band
+/// estimates can, would otherwise look like creation). The row's whole account, dissipation
+/// included, is kept as the world's [`EnergyBalance`] for the end-of-run summary.
 /// `initial` is the run's initial energy: in a distributed run the sum of the ranks' parts,
 /// not this rank's account's.
 pub(super) fn watch_energy(sim: &mut Simulation, row: &[f64], initial: f64) {
