@@ -194,14 +194,17 @@ fn every_shipped_scene_resumes_bitwise_over_a_few_steps() {
     }
 }
 
-/// Rankine softening and time-to-failure damage (with Weibull strengths) carry their history.
+/// Rankine softening (local and non-local) and time-to-failure damage (with Weibull strengths)
+/// carry their history.
 #[test]
 fn the_damage_laws_of_the_dfg_paper_resume_bitwise() {
-    for (name, file) in [
-        ("rankine", "tension_rankine.ron"),
-        ("ttf", "time_to_failure_strip.ron"),
+    // The non-local bar is damaged from step 260 on.
+    for (name, file, n) in [
+        ("rankine", "tension_rankine.ron", 150),
+        ("ttf", "time_to_failure_strip.ron", 150),
+        ("nonlocal", "tension_nonlocal.ron", 300),
     ] {
-        let state = assert_resume_is_bitwise(name, &scene(file), 150);
+        let state = assert_resume_is_bitwise(name, &scene(file), n);
         let damage: Vec<Damage> = component(&state);
         assert!(damage.iter().any(|d| d.0 > 0.0), "{file}: nothing damaged");
     }

@@ -19,6 +19,7 @@ mod house_rules;
 mod images;
 mod materials;
 mod meshes;
+mod nonlocal;
 mod out_of_tree;
 mod overlap;
 mod patch;

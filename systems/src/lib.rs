@@ -35,6 +35,7 @@ pub const ALL: &[Registration] = &[
     damage::eigenerosion::REGISTRATION,
     damage::eigensoftening::REGISTRATION,
     damage::rankine::REGISTRATION,
+    damage::nonlocal_rankine::REGISTRATION,
     damage::time_to_failure::REGISTRATION,
     partition::bodies::REGISTRATION,
     partition::dfg::REGISTRATION,

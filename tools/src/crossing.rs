@@ -62,23 +62,57 @@ impl CrossingLine {
 
 /// The crack's crossing of `line` in `frame` (m), or why there is none.
 pub fn crack_crossing(frame: &ParticleFrame, line: &CrossingLine) -> Result<f64, String> {
+    let band = crack_on_line(frame, line)?;
+    let volume: f64 = band.iter().map(|p| p.volume).sum();
+    Ok(band.iter().map(|p| p.volume * p.along).sum::<f64>() / volume)
+}
+
+/// The width of the crack's band where it crosses `line` in `frame` (m): from the lower edge
+/// of its lowest particle to the upper edge of its highest, along the line, each edge half the
+/// particle's size from its centre. A failed band's width, which a local law ties to the cell
+/// and a non-local one to its radius.
+pub fn crack_band_width(frame: &ParticleFrame, line: &CrossingLine) -> Result<f64, String> {
+    let band = crack_on_line(frame, line)?;
+    let low = band
+        .iter()
+        .map(|p| p.along - 0.5 * p.size)
+        .fold(f64::INFINITY, f64::min);
+    let high = band
+        .iter()
+        .map(|p| p.along + 0.5 * p.size)
+        .fold(f64::NEG_INFINITY, f64::max);
+    Ok(high - low)
+}
+
+/// A particle of the crack where it crosses a line.
+struct OnLine {
+    along: f64,
+    volume: f64,
+    size: f64,
+}
+
+/// The particles of the crack that `line` cuts in `frame` (at least one), or why there are
+/// none.
+fn crack_on_line(frame: &ParticleFrame, line: &CrossingLine) -> Result<Vec<OnLine>, String> {
     frame.require(&["damage", "volume"])?;
     let (planar, thickness) = frame_thickness(frame, None)?;
     let (across, along) = (line.across.index(), line.along.index());
     let (low, high) = line.between;
-    let mut weighted = 0.0;
-    let mut volume = 0.0;
+    let mut band = Vec::new();
     for p in 0..frame.position.len() {
         let x = frame.position[p];
         let size = particle_size(frame.volume[p], planar, thickness);
         let on_line = (x[across] - line.level).abs() <= ON_LINE_REACH * size;
         if on_line && frame.damage[p] >= line.damage_above && (low..=high).contains(&x[along]) {
-            weighted += frame.volume[p] * x[along];
-            volume += frame.volume[p];
+            band.push(OnLine {
+                along: x[along],
+                volume: frame.volume[p],
+                size,
+            });
         }
     }
-    if volume > 0.0 {
-        Ok(weighted / volume)
+    if band.iter().any(|p| p.volume > 0.0) {
+        Ok(band)
     } else {
         Err(format!(
             "no particle damaged at least {} crosses {:?} = {} with {:?} in [{low}, {high}]",
@@ -127,6 +161,21 @@ mod tests {
         for h in [1.0e-3, 5.0e-4, 2.5e-4] {
             let crossing = crack_crossing(&lattice(h, band), &line(0.3, (0.3, 0.7))).unwrap();
             assert!((crossing - 0.5).abs() < 0.5 * h, "h {h}: {crossing}");
+        }
+    }
+
+    #[test]
+    fn a_vertical_band_is_as_wide_as_its_columns_of_particles() {
+        // A band about 20 mm wide about x = 0.5: the columns of particles whose centres lie in
+        // it, edge to edge, at any spacing.
+        let band = |x: f64, _: f64| (x - 0.5).abs() < 0.01;
+        for h in [1.0e-3, 2.0e-3, 4.0e-3] {
+            let width = crack_band_width(&lattice(h, band), &line(0.3, (0.3, 0.7))).unwrap();
+            let n = (1.0 / h).round() as usize;
+            let inside = (0..n).filter(|&i| band((i as f64 + 0.5) * h, 0.0)).count();
+            let columns = inside as f64 * h;
+            assert!(inside >= 4, "h {h}: {inside} columns");
+            assert!((width - columns).abs() < 1e-12, "h {h}: {width} {columns}");
         }
     }
 

@@ -1,8 +1,9 @@
-//! The step the stress-degrading damage laws share (not a system): `damage/rankine` and
-//! `damage/time_to_failure` each give a damage law, and this loop updates every particle of
-//! their materials with it, degrades the stress (`damage::tensile_degradation`), accumulates
-//! the energy the growth released in `DamageDissipation`, and publishes the three columns
-//! `damaged_particles`, `failed_particles` and `dissipated_energy`.
+//! The step the stress-degrading damage laws share (not a system): `damage/rankine`,
+//! `damage/nonlocal_rankine` and `damage/time_to_failure` each give a damage law, and this
+//! loop updates every particle of their materials with it, degrades the stress
+//! (`damage::tensile_degradation`), accumulates the energy the growth released in
+//! `DamageDissipation`, and publishes the three columns `damaged_particles`,
+//! `failed_particles` and `dissipated_energy`.
 
 use super::tensile_degradation::{TensileDegradation, damage_counts, largest_trial_principal};
 use fractum_engine::decomposition::Owned;
@@ -35,10 +36,14 @@ pub struct DegradingLaw<'a> {
     pub degradation: &'a TensileDegradation,
     /// Slots of the damaged, failed and dissipated-energy columns.
     pub columns: [usize; 3],
+    /// The stress that drives each row's damage, in place of the row's own largest principal
+    /// trial stress: a non-local law's average (`damage::nonlocal_rankine`).
+    pub driving: Option<&'a [f64]>,
 }
 
 /// Updates every particle of the law's materials with `damage_law` (from the particle's
-/// material, previous damage, largest principal trial stress and strength, its new damage),
+/// material, previous damage, driving stress and strength, its new damage; the driving stress
+/// is the particle's largest principal trial stress unless the law gives its own),
 /// degrades its stress and energy, adds the energy the growth released to its
 /// `DamageDissipation`, and publishes the columns over the rows `owned` marks.
 pub fn degrade_particles<D: Dim>(
@@ -73,8 +78,11 @@ pub fn degrade_particles<D: Dim>(
                 return;
             }
             let previous = d.0;
-            let largest = largest_trial_principal(&s.0);
-            d.0 = damage_law(material[i], previous, largest, strength[i].0);
+            let driving = match law.driving {
+                Some(driving) => driving[i],
+                None => largest_trial_principal(&s.0),
+            };
+            d.0 = damage_law(material[i], previous, driving, strength[i].0);
             if d.0 > 0.0 {
                 let released = law.degradation.apply_and_release::<D>(
                     material[i],

@@ -2,6 +2,7 @@
 pub mod degrading_update;
 pub mod eigenerosion;
 pub mod eigensoftening;
+pub mod nonlocal_rankine;
 pub mod rankine;
 pub mod softening;
 pub mod spectral_split;

@@ -96,9 +96,11 @@ pub struct RankineParams {
 
 /// Refuses strengths whose scaled brittleness `H̄_s l_ch` is not a normal f64 (too small to
 /// evaluate the law) or reaches 1 (no softening branch), naming the particle strength.
-fn check_brittleness(
+/// `length_given`: the scene wrote `characteristic_length` (else it defaults to the cell
+/// diagonal, and the error names `fracture_energy`).
+pub fn check_brittleness(
     params: &Params,
-    raw: &RawParams,
+    (fracture_energy, length_given): (f64, bool),
     strengths: &[(MaterialId, f64)],
     youngs_modulus: &[f64],
     length: f64,
@@ -107,7 +109,7 @@ fn check_brittleness(
         .iter()
         .map(|&(m, s)| {
             (
-                brittleness(s, youngs_modulus[m.0 as usize], raw.fracture_energy) * length,
+                brittleness(s, youngs_modulus[m.0 as usize], fracture_energy) * length,
                 s,
             )
         })
@@ -130,7 +132,7 @@ fn check_brittleness(
     if let Some(&(scaled, strength)) = worst
         && scaled >= 1.0
     {
-        let field = if raw.characteristic_length.is_some() {
+        let field = if length_given {
             "characteristic_length"
         } else {
             "fracture_energy"
@@ -165,7 +167,8 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
         .map(|m| m.youngs_modulus)
         .collect();
     let strengths = install_strength(installer, params, raw.tensile_strength, raw.weibull)?;
-    check_brittleness(params, &raw, &strengths, &youngs_modulus, length)?;
+    let given = (raw.fracture_energy, raw.characteristic_length.is_some());
+    check_brittleness(params, given, &strengths, &youngs_modulus, length)?;
     let materials = installer.materials().clone();
     installer.add_particle_component(DamageDissipation(0.0));
     let columns = [
@@ -234,6 +237,7 @@ pub fn rankine<D: Dim>(
         materials: &p.materials,
         degradation: &p.degradation,
         columns: p.columns,
+        driving: None,
     };
     let softening = |material: MaterialId, previous: f64, largest: f64, strength: f64| {
         let e = p.youngs_modulus[material.0 as usize];

@@ -132,6 +132,7 @@ pub fn time_to_failure<D: Dim>(
         materials: &p.materials,
         degradation: &p.degradation,
         columns: p.columns,
+        driving: None,
     };
     let failing = |_: MaterialId, previous: f64, largest: f64, strength: f64| {
         time_to_failure_damage(previous, largest, strength, dt, p.time_to_failure)

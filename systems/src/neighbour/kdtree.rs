@@ -27,14 +27,15 @@ pub const REGISTRATION: Registration = Registration {
 
 fn install<D: Spatial>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let parsed = parse_params(params)?;
+    let h = installer.world().resource::<Grid<D>>().spacing;
+    let cells = parsed.epsilon_cells(h);
     // The candidates within ε(1 + skin), and the neighbours within ε.
     super::declare_lists(
         installer,
         "neighbour/kdtree",
-        &[parsed.c_epsilon * (1.0 + parsed.skin), parsed.c_epsilon],
+        &[cells * (1.0 + parsed.skin), cells],
     );
-    let h = installer.world().resource::<Grid<D>>().spacing;
-    installer.declare_particle_reach("the ε-neighbourhood", parsed.c_epsilon * h);
+    installer.declare_particle_reach("the ε-neighbourhood", parsed.epsilon(h));
     installer.insert_resource(parsed);
     installer.init_resource::<Neighbourhoods>();
     installer.init_row_state::<KdTreeCandidates<D>>();
@@ -70,7 +71,7 @@ pub fn kdtree_neighbours<D: Spatial>(
 ) {
     let (positions, bodies) =
         single_table(particles.contiguous_iter(), "particles").unwrap_or((&[], &[]));
-    let epsilon = params.c_epsilon * grid.spacing;
+    let epsilon = params.epsilon(grid.spacing);
     let skin = params.skin * epsilon;
     let KdTreeCandidates {
         anchors,
@@ -127,6 +128,7 @@ mod tests {
             c_epsilon: 1.0,
             skin: 0.25,
             same_body: false,
+            radius: None,
         });
         world.insert_resource(Neighbourhoods::default());
         world.insert_resource(KdTreeCandidates::<Two>::default());
@@ -162,6 +164,7 @@ mod tests {
             c_epsilon: 1.0,
             skin: 0.25,
             same_body: false,
+            radius: None,
         });
         world.insert_resource(Neighbourhoods::default());
         world.insert_resource(KdTreeCandidates::<Three>::default());

@@ -16,6 +16,21 @@ pub struct NeighbourParams {
     pub skin: f64,
     /// Only particles of the same body are neighbours.
     pub same_body: bool,
+    /// ε in metres, in place of `c_epsilon × h`: a length of the material that stays put
+    /// when the grid is refined (a non-local law's averaging radius).
+    pub radius: Option<f64>,
+}
+
+impl NeighbourParams {
+    /// The radius ε (m) on a grid whose (smallest) spacing is `h`.
+    pub fn epsilon(&self, h: f64) -> f64 {
+        self.radius.unwrap_or(self.c_epsilon * h)
+    }
+
+    /// ε in cells of spacing `h`.
+    pub fn epsilon_cells(&self, h: f64) -> f64 {
+        self.epsilon(h) / h
+    }
 }
 
 impl Default for NeighbourParams {
@@ -24,6 +39,7 @@ impl Default for NeighbourParams {
             c_epsilon: 2.0,
             skin: 0.25,
             same_body: false,
+            radius: None,
         }
     }
 }
@@ -48,12 +64,34 @@ pub const PARAM_DOCS: &[ParamDoc] = &[
         default: Some("false"),
         doc: "only particles of the same body are neighbours",
     },
+    ParamDoc {
+        name: "radius",
+        ty: "f64",
+        default: Some("c_epsilon × h"),
+        doc: "ε (m), fixed whatever the grid; give this or c_epsilon",
+    },
 ];
+
+/// Which of the two ways of giving ε a scene wrote.
+#[derive(Deserialize, Default)]
+#[serde(default)]
+struct GivenRadius {
+    c_epsilon: Option<f64>,
+}
 
 /// Parses and checks the shared parameters.
 pub fn parse_params(params: &Params) -> Result<NeighbourParams, SceneError> {
     let parsed: NeighbourParams = params.parse()?;
     params.require_positive("c_epsilon", parsed.c_epsilon, "expected a positive factor")?;
+    if let Some(radius) = parsed.radius {
+        params.require_positive("radius", radius, "expected ε > 0 (m)")?;
+        let given: GivenRadius = params.parse()?;
+        params.require(
+            "radius",
+            given.c_epsilon.is_none(),
+            "give `radius` (ε in metres) or `c_epsilon` (ε in cells), not both",
+        )?;
+    }
     params.require_non_negative("skin", parsed.skin, "expected a fraction >= 0")?;
     Ok(parsed)
 }

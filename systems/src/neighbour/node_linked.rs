@@ -34,17 +34,11 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
         ));
     }
     let parsed = parse_params(params)?;
-    // Linked through nodes, a particle's neighbours lie up to a cell beyond ε.
-    super::declare_lists(
-        installer,
-        "neighbour/node_linked",
-        &[parsed.c_epsilon + 0.5],
-    );
     let h = installer.world().resource::<Grid<D>>().spacing;
-    installer.declare_particle_reach(
-        "the ε-neighbourhood and a cell",
-        (parsed.c_epsilon + 1.0) * h,
-    );
+    let cells = parsed.epsilon_cells(h);
+    // Linked through nodes, a particle's neighbours lie up to a cell beyond ε.
+    super::declare_lists(installer, "neighbour/node_linked", &[cells + 0.5]);
+    installer.declare_particle_reach("the ε-neighbourhood and a cell", (cells + 1.0) * h);
     installer.insert_resource(parsed);
     installer.init_resource::<Neighbourhoods>();
     installer.add_systems(node_linked_neighbours::<D>);
@@ -99,7 +93,7 @@ pub fn node_linked_neighbours<D: Dim>(
     let (positions, bodies) =
         single_table(particles.contiguous_iter(), "particles").unwrap_or((&[], &[]));
     let h = grid.spacing;
-    let epsilon = params.c_epsilon * h;
+    let epsilon = params.epsilon(h);
     let counts = grid.nodes_per_axis();
     let linked: Vec<D::Cell> = positions
         .par_iter()
@@ -164,6 +158,7 @@ mod tests {
             c_epsilon,
             skin: 0.25,
             same_body: false,
+            radius: None,
         });
         world.insert_resource(KdTreeCandidates::<D>::default());
         // A scattered cloud: a deterministic pseudo-random sequence.
@@ -207,6 +202,7 @@ mod tests {
             c_epsilon: 1.0,
             skin: 0.0,
             same_body: true,
+            radius: None,
         });
         world.insert_resource(Neighbourhoods::default());
         let a = spawn_particle(&mut world, DVec2::new(0.5, 0.5), DVec2::ZERO, 1.0, 0.01);

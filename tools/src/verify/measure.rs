@@ -3,7 +3,7 @@
 //! `fragments`' statistics. Every measure gives one number in SI units.
 
 use crate::body_motion::{least_squares_slope, motion_history, rates};
-use crate::crossing::{CrossingLine, crack_crossing};
+use crate::crossing::{CrossingLine, crack_band_width, crack_crossing};
 use crate::{crack, fragments, plot};
 use serde::Deserialize;
 use std::path::Path;
@@ -106,6 +106,10 @@ pub enum Measure {
     /// Where a crack crosses a line at the frame nearest `time` (the last when absent): the
     /// centre of its band there (m, [`crossing`](crate::crossing)).
     CrackCrossing(CrossingAt),
+    /// The width of a crack's band where it crosses a line at the frame nearest `time` (the
+    /// last when absent): from its lowest particle's lower edge to its highest's upper edge
+    /// (m, [`crossing`](crate::crossing)).
+    CrackBandWidth(CrossingAt),
     /// The least-squares acceleration of a body's centre of mass along a direction, over the
     /// particle frames from `from` on (m/s², [`body_motion`](crate::body_motion)).
     BodyAcceleration(BodyMotionAt),
@@ -216,7 +220,7 @@ impl Measure {
                     _ => Ok(()),
                 }
             }
-            Measure::CrackCrossing(at) => at.line.validate(),
+            Measure::CrackCrossing(at) | Measure::CrackBandWidth(at) => at.line.validate(),
             Measure::BodyAcceleration(at) | Measure::BodySpinAcceleration(at) => {
                 match at.direction.as_deref() {
                     Some(d) if !matches!(d.len(), 2 | 3) || d.iter().all(|x| *x == 0.0) => {
@@ -266,6 +270,9 @@ impl Measure {
             Measure::FragmentSpeed(at) => Ok(fragments::mean_speed(&fragments_at(dir, at)?)),
             Measure::CrackCrossing(at) => {
                 crack_crossing(&crate::snapshot::frame_near(dir, at.time)?, &at.line)
+            }
+            Measure::CrackBandWidth(at) => {
+                crack_band_width(&crate::snapshot::frame_near(dir, at.time)?, &at.line)
             }
             Measure::BodyAcceleration(at) => at.rates(dir).map(|r| r.0),
             Measure::BodySpinAcceleration(at) => at.rates(dir).map(|r| r.1),
