@@ -4,6 +4,7 @@ pub mod eigenerosion;
 pub mod eigensoftening;
 pub mod nonlocal_rankine;
 pub mod rankine;
+pub mod rankine_law;
 pub mod softening;
 pub mod spectral_split;
 pub mod stress_reach;

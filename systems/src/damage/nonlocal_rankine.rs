@@ -19,9 +19,12 @@
 //!   not part of it at all.
 //! - `R` and `l` are lengths of the material, in metres, whatever the grid: refined at fixed
 //!   `R`, the band that fails keeps its width and the energy it dissipates converges
-//!   (`fractum verify --case flyer_plate_nonlocal_h1,flyer_plate_nonlocal_h05,flyer_plate_nonlocal_h025`).
-//!   The grid must resolve `R` (a few cells across it); `l`, the width over which the law
-//!   spends `G_f`, defaults to `R`.
+//!   (`scenes/tension_nonlocal.ron`: 1.147, 1.087 and 1.072 `A G_f` with `R` over 4, 8 and 16
+//!   cells; `fractum verify --case tension_nonlocal_h025,tension_nonlocal_h0125,tension_nonlocal_h00625`).
+//!   The grid must resolve `R` (4 cells or more; under one cell is refused). `l`, the width
+//!   over which the law spends `G_f`, defaults to `2R`, the bell weight's support: an
+//!   estimate of the band's width, with which the converged bar spends about 1.07 `A G_f`
+//!   (docs/design/damage.md).
 //! - Distances are measured between current positions, as the neighbour lists are built.
 //! - The damage degrades the stress as in `damage/rankine` (`degradation`, eqs. 26–27 or the
 //!   spectral split), with the same strength per particle (`tensile_strength` or `weibull`),
@@ -31,7 +34,7 @@
 //! - Jacobi: every particle's average reads the stresses and damage from before this update, so
 //!   the result does not depend on particle order or thread count.
 use super::degrading_update::{DegradingLaw, DegradingParticles, degrade_particles};
-use super::rankine::{check_brittleness, rankine_damage, softening_modulus};
+use super::rankine_law::{check_brittleness, rankine_damage, softening_modulus};
 use super::tensile_degradation::{
     DEGRADATION_PARAM, Degradation, TENSILE_STRENGTH_PARAM, TensileDegradation, WEIBULL_PARAM,
     install_strength, largest_trial_principal, require_stress_degrading_pipeline,
