@@ -34,10 +34,10 @@
 //! - Jacobi: every particle's average reads the stresses and damage from before this update, so
 //!   the result does not depend on particle order or thread count.
 use super::degrading_update::{DegradingLaw, DegradingParticles, degrade_particles};
-use super::rankine_law::{check_brittleness, rankine_damage, softening_modulus};
+use super::rankine_law::{RankineSoftening, install_softening};
 use super::tensile_degradation::{
     DEGRADATION_PARAM, Degradation, TENSILE_STRENGTH_PARAM, TensileDegradation, WEIBULL_PARAM,
-    install_strength, largest_trial_principal, require_stress_degrading_pipeline,
+    largest_trial_principal, require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
 use crate::neighbour::NeighbourParams;
@@ -96,14 +96,10 @@ struct RawParams {
 /// Installed parameters of `damage/nonlocal_rankine`.
 #[derive(Resource, Clone, Debug, PartialEq)]
 pub struct NonlocalRankineParams {
-    /// G_f (J/m²).
-    pub fracture_energy: f64,
+    /// Eq. (23) with G_f spent over l.
+    pub softening: RankineSoftening,
     /// R (m).
     pub radius: f64,
-    /// l (m).
-    pub characteristic_length: f64,
-    /// Young's modulus of each material (the scene's material table order).
-    pub youngs_modulus: Vec<f64>,
     /// Slots of the published columns: damaged, failed, dissipated energy.
     pub columns: [usize; 3],
     /// Which materials this entry damages.
@@ -115,37 +111,21 @@ pub struct NonlocalRankineParams {
 fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let raw: RawParams = params.parse()?;
     require_stress_degrading_pipeline(installer, params, "damage/nonlocal_rankine")?;
-    params.require_positive(
-        "fracture_energy",
-        raw.fracture_energy,
-        "expected G_f > 0 (J/m²)",
-    )?;
     params.require_positive("radius", raw.radius, "expected R > 0 (m)")?;
     let length = raw.characteristic_length.unwrap_or(2.0 * raw.radius);
     params.require_positive("characteristic_length", length, "expected l > 0 (m)")?;
     require_reach::<D>(installer, params, raw.radius)?;
-    let youngs_modulus: Vec<f64> = installer
-        .world()
-        .resource::<Materials>()
-        .0
-        .iter()
-        .map(|m| m.youngs_modulus)
-        .collect();
-    let strengths = install_strength(installer, params, raw.tensile_strength, raw.weibull)?;
-    let given = (raw.fracture_energy, raw.characteristic_length.is_some());
-    check_brittleness(params, given, &strengths, &youngs_modulus, length)?;
+    let (softening, columns) = install_softening(
+        installer,
+        params,
+        (raw.tensile_strength, raw.weibull),
+        raw.fracture_energy,
+        (length, raw.characteristic_length.is_some()),
+    )?;
     let materials = installer.materials().clone();
-    installer.add_particle_component(DamageDissipation(0.0));
-    let columns = [
-        installer.add_owned_sum_column("damaged_particles"),
-        installer.add_owned_sum_column("failed_particles"),
-        installer.add_owned_sum_column("dissipated_energy"),
-    ];
     installer.insert_resource(NonlocalRankineParams {
-        fracture_energy: raw.fracture_energy,
+        softening,
         radius: raw.radius,
-        characteristic_length: length,
-        youngs_modulus,
         columns,
         materials,
         degradation: TensileDegradation::new(installer, raw.degradation),
@@ -264,10 +244,8 @@ pub fn nonlocal_rankine<D: Dim>(
         columns: p.columns,
         driving: Some(&driving),
     };
-    let softening = |material: MaterialId, previous: f64, average: f64, strength: f64| {
-        let e = p.youngs_modulus[material.0 as usize];
-        let h = softening_modulus(strength, e, p.fracture_energy, p.characteristic_length);
-        rankine_damage(previous, average, strength, h)
+    let softening = |material, previous, average, strength| {
+        p.softening.damage(material, previous, average, strength)
     };
     degrade_particles(&law, &mut columns, owned.get(), &mut particles, softening);
 }
@@ -275,6 +253,7 @@ pub fn nonlocal_rankine<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::damage::rankine_law::{rankine_damage, softening_modulus};
     use fractum_engine::testing::*;
 
     /// `fractum systems` documents exactly the fields its parameters read.
@@ -324,10 +303,12 @@ mod tests {
         ];
         world.insert_resource(columns);
         world.insert_resource(NonlocalRankineParams {
-            fracture_energy: 0.01,
+            softening: RankineSoftening {
+                fracture_energy: 0.01,
+                characteristic_length: 0.05,
+                youngs_modulus: vec![test_material().youngs_modulus],
+            },
             radius,
-            characteristic_length: 0.05,
-            youngs_modulus: vec![test_material().youngs_modulus],
             columns: slots,
             materials: MaterialFilter::all(),
             degradation: TensileDegradation {

@@ -29,10 +29,10 @@
 //!   stress it is what the particle's stored energy lost to the damage, so the energy account
 //!   of `series.csv` closes (docs/design/damage.md).
 use super::degrading_update::{DegradingLaw, DegradingParticles, degrade_particles};
-use super::rankine_law::{check_brittleness, rankine_damage, softening_modulus};
+use super::rankine_law::{RankineSoftening, install_softening};
 use super::tensile_degradation::{
     DEGRADATION_PARAM, Degradation, TENSILE_STRENGTH_PARAM, TensileDegradation, WEIBULL_PARAM,
-    characteristic_length, install_strength, require_stress_degrading_pipeline,
+    characteristic_length, require_stress_degrading_pipeline,
 };
 use super::weibull::WeibullOption;
 use fractum_engine::decomposition::OwnedRows;
@@ -82,12 +82,8 @@ struct RawParams {
 /// Installed parameters of `damage/rankine`.
 #[derive(Resource, Clone, Debug, PartialEq)]
 pub struct RankineParams {
-    /// G_f (J/m²).
-    pub fracture_energy: f64,
-    /// l_ch (m).
-    pub characteristic_length: f64,
-    /// Young's modulus of each material (the scene's material table order).
-    pub youngs_modulus: Vec<f64>,
+    /// Eq. (23) with G_f spent over l_ch.
+    pub softening: RankineSoftening,
     /// Slots of the published columns: damaged, failed, dissipated energy.
     pub columns: [usize; 3],
     /// Which materials this entry damages.
@@ -99,33 +95,17 @@ pub struct RankineParams {
 fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
     let raw: RawParams = params.parse()?;
     require_stress_degrading_pipeline(installer, params, "damage/rankine")?;
-    params.require_positive(
-        "fracture_energy",
-        raw.fracture_energy,
-        "expected G_f > 0 (J/m²)",
-    )?;
     let length = characteristic_length::<D>(installer, params, raw.characteristic_length)?;
-    let youngs_modulus: Vec<f64> = installer
-        .world()
-        .resource::<Materials>()
-        .0
-        .iter()
-        .map(|m| m.youngs_modulus)
-        .collect();
-    let strengths = install_strength(installer, params, raw.tensile_strength, raw.weibull)?;
-    let given = (raw.fracture_energy, raw.characteristic_length.is_some());
-    check_brittleness(params, given, &strengths, &youngs_modulus, length)?;
+    let (softening, columns) = install_softening(
+        installer,
+        params,
+        (raw.tensile_strength, raw.weibull),
+        raw.fracture_energy,
+        (length, raw.characteristic_length.is_some()),
+    )?;
     let materials = installer.materials().clone();
-    installer.add_particle_component(DamageDissipation(0.0));
-    let columns = [
-        installer.add_owned_sum_column("damaged_particles"),
-        installer.add_owned_sum_column("failed_particles"),
-        installer.add_owned_sum_column("dissipated_energy"),
-    ];
     installer.insert_resource(RankineParams {
-        fracture_energy: raw.fracture_energy,
-        characteristic_length: length,
-        youngs_modulus,
+        softening,
         columns,
         materials,
         degradation: TensileDegradation::new(installer, raw.degradation),
@@ -148,10 +128,8 @@ pub fn rankine<D: Dim>(
         columns: p.columns,
         driving: None,
     };
-    let softening = |material: MaterialId, previous: f64, largest: f64, strength: f64| {
-        let e = p.youngs_modulus[material.0 as usize];
-        let h = softening_modulus(strength, e, p.fracture_energy, p.characteristic_length);
-        rankine_damage(previous, largest, strength, h)
+    let softening = |material, previous, largest, strength| {
+        p.softening.damage(material, previous, largest, strength)
     };
     degrade_particles(&law, &mut columns, owned.get(), &mut particles, softening);
 }
@@ -159,6 +137,7 @@ pub fn rankine<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::damage::rankine_law::{rankine_damage, softening_modulus};
 
     /// `fractum systems` documents exactly the fields its parameters read.
     #[test]
@@ -176,9 +155,11 @@ mod tests {
         ];
         world.insert_resource(columns);
         world.insert_resource(RankineParams {
-            fracture_energy: 0.01,
-            characteristic_length: 0.05,
-            youngs_modulus: vec![test_material().youngs_modulus],
+            softening: RankineSoftening {
+                fracture_energy: 0.01,
+                characteristic_length: 0.05,
+                youngs_modulus: vec![test_material().youngs_modulus],
+            },
             columns: slots,
             materials: MaterialFilter::all(),
             degradation: TensileDegradation {

@@ -3,7 +3,75 @@
 //! over a length `l`, the damage law `D = (1 + H_s)(1 − σ_f / r̂)`, the closed form of the
 //! uniaxial softening work, and the install check that a length leaves the law a softening
 //! branch. dfg-partitioning-mpm.md §2.7, eq. (23) (Cervera et al.'s model).
+use super::tensile_degradation::install_strength;
+use super::weibull::WeibullOption;
 use fractum_engine::prelude::*;
+
+/// Eq. (23) with the parameters a law installs: what turns a driving stress into damage.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RankineSoftening {
+    /// G_f (J/m²).
+    pub fracture_energy: f64,
+    /// The width over which the law spends G_f (m).
+    pub characteristic_length: f64,
+    /// Young's modulus of each material (the scene's material table order).
+    pub youngs_modulus: Vec<f64>,
+}
+
+impl RankineSoftening {
+    /// The damage of a particle of `material` with strength `strength` after a step whose
+    /// driving stress is `driving`, from `previous`.
+    pub fn damage(&self, material: MaterialId, previous: f64, driving: f64, strength: f64) -> f64 {
+        let e = self.youngs_modulus[material.0 as usize];
+        let h = softening_modulus(
+            strength,
+            e,
+            self.fracture_energy,
+            self.characteristic_length,
+        );
+        rankine_damage(previous, driving, strength, h)
+    }
+}
+
+/// What a Rankine law's install shares: `G_f > 0`, the particles' strengths (`tensile_strength` and its
+/// Weibull draw), the check that `length` leaves every strength a softening branch
+/// (`length_given`: the scene wrote it), the particles' `DamageDissipation`, and the three
+/// published columns (damaged, failed, dissipated energy) with their slots.
+pub fn install_softening(
+    installer: &mut Installer,
+    params: &Params,
+    (tensile_strength, weibull): (f64, Option<WeibullOption>),
+    fracture_energy: f64,
+    (length, length_given): (f64, bool),
+) -> Result<(RankineSoftening, [usize; 3]), SceneError> {
+    params.require_positive(
+        "fracture_energy",
+        fracture_energy,
+        "expected G_f > 0 (J/m²)",
+    )?;
+    let youngs_modulus: Vec<f64> = installer
+        .world()
+        .resource::<Materials>()
+        .0
+        .iter()
+        .map(|m| m.youngs_modulus)
+        .collect();
+    let strengths = install_strength(installer, params, tensile_strength, weibull)?;
+    let given = (fracture_energy, length_given);
+    check_brittleness(params, given, &strengths, &youngs_modulus, length)?;
+    installer.add_particle_component(DamageDissipation(0.0));
+    let columns = [
+        installer.add_owned_sum_column("damaged_particles"),
+        installer.add_owned_sum_column("failed_particles"),
+        installer.add_owned_sum_column("dissipated_energy"),
+    ];
+    let softening = RankineSoftening {
+        fracture_energy,
+        characteristic_length: length,
+        youngs_modulus,
+    };
+    Ok((softening, columns))
+}
 
 /// Refuses strengths whose scaled brittleness `H̄_s l_ch` is not a normal f64 (too small to
 /// evaluate the law) or reaches 1 (no softening branch), naming the particle strength.
