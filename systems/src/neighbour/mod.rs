@@ -147,3 +147,26 @@ pub fn filter_row<D: Dim>(
     }
     out.truncate(start + kept);
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn epsilon_is_the_radius_in_metres_when_given_and_c_epsilon_cells_otherwise() {
+        let cells = parse_params(&Params::inline("(c_epsilon: 1.5)")).unwrap();
+        assert_eq!(cells.epsilon(0.2), 1.5 * 0.2);
+        let metres = parse_params(&Params::inline("(radius: 0.25)")).unwrap();
+        assert_eq!(metres.epsilon(0.2), 0.25);
+        assert_eq!(metres.epsilon(0.05), 0.25);
+        assert_eq!(metres.epsilon_cells(0.05), 5.0);
+    }
+
+    #[test]
+    fn a_radius_and_a_factor_together_or_a_radius_not_positive_are_refused() {
+        let both = parse_params(&Params::inline("(c_epsilon: 2.0, radius: 0.25)")).unwrap_err();
+        assert!(both.to_string().contains("not both"), "{both}");
+        let negative = parse_params(&Params::inline("(radius: -0.1)")).unwrap_err();
+        assert!(negative.to_string().contains("ε > 0"), "{negative}");
+    }
+}
