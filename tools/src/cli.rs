@@ -160,6 +160,10 @@ pub struct SnapshotArgs {
     /// Output PNG [default: the frame's name with .png, field appended].
     #[arg(long)]
     pub output: Option<PathBuf>,
+    /// Lines to draw over the particles: a CSV with the columns line, x and y, in metres in the
+    /// view's coordinates (an experiment's traced cracks, say; see docs/verification/traces/).
+    #[arg(long)]
+    pub overlay: Option<PathBuf>,
 }
 
 /// The arguments of `fractum bench`.

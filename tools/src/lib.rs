@@ -34,6 +34,7 @@ mod commands;
 pub mod crack;
 pub mod crossing;
 pub mod fragments;
+pub mod overlay;
 pub mod plot;
 pub mod ranks;
 pub mod remedy;

@@ -13,6 +13,7 @@
 //! - NaN values (a column a law leaves undefined) are drawn grey and left out of the range.
 
 use crate::fragments::{frame_thickness, median_spacing, particle_size};
+use crate::overlay::Overlay;
 use crate::plot::{register_font, tick_label};
 use fractum_engine::prelude::{DVec3, Three};
 use fractum_io::output::{ParticleFrame, read_particle_frame};
@@ -54,6 +55,8 @@ pub struct SnapshotOptions {
     pub width: u32,
     /// The colour range [default: the field's range in the frame].
     pub range: Option<(f64, f64)>,
+    /// Lines drawn over the particles, in the view's coordinates (m).
+    pub overlay: Option<Overlay>,
 }
 
 impl Default for SnapshotOptions {
@@ -63,6 +66,7 @@ impl Default for SnapshotOptions {
             view: View::Xy,
             width: 900,
             range: None,
+            overlay: None,
         }
     }
 }
@@ -178,6 +182,8 @@ struct Raster {
     body: Vec<u32>,
     /// Metres per pixel.
     scale: f64,
+    /// The view's coordinates (m) of the top left corner.
+    origin: [f64; 2],
 }
 
 fn rasterise(
@@ -212,6 +218,7 @@ fn rasterise(
         value: vec![f64::NAN; width * height],
         body: vec![u32::MAX; width * height],
         scale,
+        origin: [h0, v1],
     };
     let halves = half_extents(frame, (h, v), planar, thickness);
     let mut order: Vec<usize> = (0..frame.position.len()).collect();
@@ -289,6 +296,15 @@ fn half_extents(
 }
 
 impl Raster {
+    /// The (column, row) of the pixel at the view's coordinates `p` (m); outside the raster
+    /// when `p` is.
+    fn pixel_of(&self, p: [f64; 2]) -> (i32, i32) {
+        (
+            ((p[0] - self.origin[0]) / self.scale).floor() as i32,
+            ((self.origin[1] - p[1]) / self.scale).floor() as i32,
+        )
+    }
+
     /// Whether the pixel is on a body's edge: a 4-neighbour holds another body or nothing.
     fn outline(&self, row: usize, col: usize) -> bool {
         let here = self.body[row * self.width + col];
@@ -405,6 +421,9 @@ fn draw(
         raster.height.min(400) as i32,
     )?;
     draw_scale_bar(&root, raster, (ox, oy + raster.height as i32 + 18))?;
+    if let Some(overlay) = &options.overlay {
+        draw_overlay(&root, raster, overlay, (ox, oy))?;
+    }
     root.present()?;
     Ok(())
 }
@@ -463,6 +482,37 @@ fn draw_scale_bar(
     ))?;
     Ok(())
 }
+
+/// The overlay's lines over the particles, and its name beside the scale bar.
+fn draw_overlay(
+    root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
+    raster: &Raster,
+    overlay: &Overlay,
+    at: (i32, i32),
+) -> DrawResult {
+    let style = OVERLAY_COLOUR.stroke_width(2);
+    let pixel = |p: &[f64; 2]| {
+        let (col, row) = raster.pixel_of(*p);
+        (at.0 + col, at.1 + row)
+    };
+    for line in &overlay.lines {
+        root.draw(&PathElement::new(line.iter().map(pixel).collect::<Vec<_>>(), style))?;
+    }
+    let legend = (at.0 + raster.width as i32 / 2, at.1 + raster.height as i32 + 20);
+    root.draw(&PathElement::new(
+        vec![legend, (legend.0 + 30, legend.1)],
+        style,
+    ))?;
+    root.draw(&Text::new(
+        overlay.label.clone(),
+        (legend.0 + 40, legend.1 - 8),
+        ("sans-serif", 16).into_font(),
+    ))?;
+    Ok(())
+}
+
+/// The overlay's colour: red, apart from every colour of the map.
+const OVERLAY_COLOUR: RGBColor = RGBColor(230, 25, 25);
 
 #[cfg(test)]
 mod tests {
@@ -563,6 +613,22 @@ mod tests {
     }
 
     #[test]
+    fn overlay_points_land_on_the_pixels_of_the_particles_there() {
+        let f = frame();
+        let values = field_values(&f, "damage").unwrap();
+        let raster = rasterise(&f, &values, (0.0, 1.0), View::Xy, 100).unwrap();
+        for p in [0, 5, 16, 31] {
+            let [x, y, _] = f.position[p];
+            let (col, row) = raster.pixel_of([x, y]);
+            let k = row as usize * raster.width + col as usize;
+            assert_eq!(raster.body[k], u32::from(f.body[p]), "particle {p}");
+        }
+        // The middle of the gap between the bodies is empty.
+        let (col, row) = raster.pixel_of([0.45, 0.15]);
+        assert_eq!(raster.body[row as usize * raster.width + col as usize], u32::MAX);
+    }
+
+    #[test]
     fn a_snapshot_is_a_png() {
         let dir = std::env::temp_dir().join(format!("fractum-snapshot-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
@@ -570,6 +636,16 @@ mod tests {
         snapshot(&frame(), &SnapshotOptions::default(), &path).unwrap();
         let bytes = std::fs::read(&path).unwrap();
         assert_eq!(&bytes[1..4], b"PNG");
+        let overlay = Overlay {
+            label: "traces".into(),
+            lines: vec![vec![[0.45, -0.1], [0.45, 0.4]]],
+        };
+        let options = SnapshotOptions {
+            overlay: Some(overlay),
+            ..Default::default()
+        };
+        snapshot(&frame(), &options, &path).unwrap();
+        assert_eq!(&std::fs::read(&path).unwrap()[1..4], b"PNG");
         std::fs::remove_dir_all(dir).unwrap();
     }
 }

@@ -203,6 +203,10 @@ pub enum Figure {
         /// Time of the frame.
         #[serde(default)]
         time: Option<f64>,
+        /// Lines drawn over it ([`Overlay`](crate::overlay::Overlay)'s CSV), relative to the
+        /// catalogue's folder: an experiment's traced cracks, say.
+        #[serde(default)]
+        overlay: Option<String>,
     },
 }
 
@@ -306,6 +310,8 @@ impl Catalogue {
                 ));
             }
             case_checks_valid(case).map_err(|(f, m)| (format!("{field}.{f}"), m))?;
+            self.overlays_readable(case)
+                .map_err(|(f, m)| (format!("{field}.{f}"), m))?;
         }
         for (k, case) in self.cases.iter().enumerate() {
             for (j, check) in case.checks.iter().enumerate() {
@@ -326,6 +332,21 @@ impl Catalogue {
             }
         }
         check_studies(self)
+    }
+
+    /// Every figure's overlay file reads.
+    fn overlays_readable(&self, case: &Case) -> Result<(), (String, String)> {
+        for (k, figure) in case.figures.iter().enumerate() {
+            if let Figure::Snapshot {
+                overlay: Some(file),
+                ..
+            } = figure
+            {
+                crate::overlay::Overlay::read(&self.root.join(file))
+                    .map_err(|e| (format!("figures[{k}].overlay"), e))?;
+            }
+        }
+        Ok(())
     }
 
     /// The case named `name`.
@@ -553,6 +574,30 @@ mod tests {
             &study("\"bar\", \"bar\", \"bar\"", "1.0, 0.5, 0.25"),
         ));
         assert_eq!(fine.unwrap().studies.len(), 1);
+    }
+
+    /// A figure's overlay is read with the catalogue, relative to its folder, so a missing or
+    /// malformed file is an error of the catalogue, not a figure lost after a long run.
+    #[test]
+    fn an_overlay_that_does_not_read_is_refused_with_the_catalogue() {
+        let dir = temp_dir("overlay");
+        let with = |file: &str| {
+            ONE_CASE.replace(
+                "cost: 3.0,",
+                &format!("cost: 3.0, figures: [Snapshot(field: \"damage\", overlay: Some({file:?}))],"),
+            )
+        };
+        let e = Catalogue::read(&write(&dir, &with("traces.csv")))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("figures[0].overlay") && e.contains("traces.csv"), "{e}");
+        std::fs::write(dir.join("traces.csv"), "line,x,y\n0,0.0,zero\n").unwrap();
+        let e = Catalogue::read(&write(&dir, &with("traces.csv")))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("traces.csv:2: column `y`"), "{e}");
+        std::fs::write(dir.join("traces.csv"), "line,x,y\n0,0.0,0.0\n0,0.0,1.0\n").unwrap();
+        assert!(Catalogue::read(&write(&dir, &with("traces.csv"))).is_ok());
     }
 
     #[test]

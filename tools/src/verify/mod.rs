@@ -473,7 +473,7 @@ impl<'a> Session<'a> {
         let mut names = Vec::new();
         for (k, figure) in case.figures.iter().enumerate() {
             let name = format!("{}-{}.png", case.name, k + 1);
-            match draw_figure(figure, run_dir, &folder.join(&name)) {
+            match draw_figure(figure, run_dir, &self.catalogue.root, &folder.join(&name)) {
                 Ok(()) => names.push(name),
                 Err(e) => eprintln!("warning: {}: figure {}: {e}", case.name, k + 1),
             }
@@ -499,16 +499,30 @@ impl<'a> Session<'a> {
     }
 }
 
-fn draw_figure(figure: &Figure, run_dir: &Path, output: &Path) -> Result<(), String> {
+fn draw_figure(
+    figure: &Figure,
+    run_dir: &Path,
+    catalogue_root: &Path,
+    output: &Path,
+) -> Result<(), String> {
     match figure {
         Figure::Series { x, columns } => {
             let series = crate::plot::Series::read(&run_dir.join("series.csv"))?;
             crate::plot::plot(&series, x, columns, None, output).map(|_| ())
         }
-        Figure::Snapshot { field, time } => {
+        Figure::Snapshot {
+            field,
+            time,
+            overlay,
+        } => {
             let frame = crate::snapshot::frame_near(run_dir, *time)?;
+            let overlay = overlay
+                .as_ref()
+                .map(|file| crate::overlay::Overlay::read(&catalogue_root.join(file)))
+                .transpose()?;
             let options = crate::snapshot::SnapshotOptions {
                 field: field.clone(),
+                overlay,
                 ..Default::default()
             };
             crate::snapshot::snapshot(&frame, &options, output)
