@@ -1287,11 +1287,6 @@ fn contact_torques(world: &mut World, centre: DVec2) -> (f64, f64) {
     (normal, tangential)
 }
 
-/// A disk on a 30° incline. With μ = 0.1 it must slip (μ < tan θ / 3), its centre
-/// accelerating at g (sin θ − μ cos θ) within 2%, both contact detections, at 2.5 and 5 cells
-/// per radius. Printed beside it, and not yet met: the spin-up the friction torque gives
-/// (2μg cos θ / R), and with μ = 0.5 rolling without slip at (2/3) g sin θ (issue 26's
-/// targets; docs/history/development-log.md has the figures).
 /// Newmark on GIMP, with `contact/penalty` in place of the contact.
 const NEWMARK_GIMP_PENALTY: &[(&str, Option<&str>)] = &[
     ("basis/gimp", None),
@@ -1400,27 +1395,27 @@ fn a_disk_slides_down_an_incline_with_penalty_contact() {
     }
 }
 
+/// A disk on a 30° incline. With μ = 0.1 it must slip (μ < tan θ / 3), its centre
+/// accelerating at g (sin θ − μ cos θ) within 2%, both contact detections, at 2.5 and 5 cells
+/// per radius. Printed beside it, and not yet met by `contact/frictional`: the spin-up the
+/// friction torque gives (2μg cos θ / R). Rolling without slip at μ = 0.5, (2/3) g sin θ, is
+/// not met either and not run here (issue 26's targets; docs/history/development-log.md has
+/// the figures); `contact/penalty` meets them within 15% and 10% (the test below).
 #[test]
 fn a_disk_slides_down_an_incline_at_the_coulomb_rate() {
     let (g, angle, radius) = (9.81, 30f64.to_radians(), 0.05);
     let slipping = g * (angle.sin() - 0.1 * angle.cos());
     let spin_up = 2.0 * 0.1 * g * angle.cos() / radius;
-    let rolling = 2.0 / 3.0 * g * angle.sin();
     for h in [0.02, 0.01] {
         for detection in ["Approach", "Gap"] {
             let slip = roll(0.1, angle, h, detection);
-            let stick = roll(0.5, angle, h, detection);
             println!(
                 "disk on a 30° incline, h = {h} m, {detection}: μ = 0.1 a = {:.4} m/s² \
-                 (expected {slipping:.4}), α = {:.2} rad/s² (expected {spin_up:.2}); μ = 0.5 \
-                 a = {:.4} (rolling {rolling:.4}), α = {:.2} (rolling {:.2}), hop {:.1e} m; \
-                 torques of the contact forces (μ = 0.1) normal {:.3e}, friction {:.3e} N m",
+                 (expected {slipping:.4}), α = {:.2} rad/s² (expected {spin_up:.2}), hop {:.1e} \
+                 m; torques of the contact forces normal {:.3e}, friction {:.3e} N m",
                 slip.acceleration,
                 slip.angular_acceleration,
-                stick.acceleration,
-                stick.angular_acceleration,
-                rolling / radius,
-                stick.hop.max(slip.hop),
+                slip.hop,
                 slip.torques.0,
                 slip.torques.1
             );

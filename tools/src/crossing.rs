@@ -9,6 +9,17 @@
 //! coordinate `along`: the centre of the band where it crosses, whatever the band's width and
 //! whatever the particle spacing, so runs on different grids give the same number for the same
 //! path.
+//!
+//! A crack can be bridged by one row of particles less damaged than `damage_above` while the
+//! rows on either side have failed: a partitioned crack opens across such a row, whose
+//! particles each side of the gap move with their own face. When the line cuts no crack
+//! particle, the band is taken from the crack particles within one of their sizes of it (the
+//! rows next to the line's), so a crack bridged at the line still crosses it; a crack that ends
+//! more than a particle short of the line does not.
+//!
+//! [`undeformed`] puts a frame's particles back where the first frame had them (matched by id):
+//! the crack of a specimen broken into pieces that have since moved apart, put back together as
+//! an experimenter puts the pieces together to trace it.
 
 use crate::fragments::{frame_thickness, particle_size};
 use fractum_io::output::ParticleFrame;
@@ -40,6 +51,10 @@ fn half() -> f64 {
 /// so that a line along the boundary between two rows of a lattice (where rounding would
 /// otherwise decide) cuts both.
 const ON_LINE_REACH: f64 = 0.5 * (1.0 + 1.0e-9);
+
+/// How far from the line, in their own sizes, the particles of a crack bridged at the line may
+/// lie: the rows next to the line's.
+const BRIDGED_REACH: f64 = 1.0 + 1.0e-9;
 
 impl CrossingLine {
     /// Checks what can be checked without a frame.
@@ -84,6 +99,26 @@ pub fn crack_band_width(frame: &ParticleFrame, line: &CrossingLine) -> Result<f6
     Ok(high - low)
 }
 
+/// `frame` with every particle at its position, and of its volume, in `first` (the run's first
+/// frame), matched by id; its damage and the other columns stay `frame`'s.
+pub fn undeformed(frame: &ParticleFrame, first: &ParticleFrame) -> Result<ParticleFrame, String> {
+    frame.require(&["id", "volume"])?;
+    first.require(&["id", "volume"])?;
+    let mut row_of = std::collections::HashMap::with_capacity(first.id.len());
+    for (row, id) in first.id.iter().enumerate() {
+        row_of.insert(*id, row);
+    }
+    let mut placed = frame.clone();
+    for (p, id) in frame.id.iter().enumerate() {
+        let row = *row_of
+            .get(id)
+            .ok_or_else(|| format!("particle {id} is not in the first frame"))?;
+        placed.position[p] = first.position[row];
+        placed.volume[p] = first.volume[row];
+    }
+    Ok(placed)
+}
+
 /// A particle of the crack where it crosses a line.
 struct OnLine {
     along: f64,
@@ -91,19 +126,40 @@ struct OnLine {
     size: f64,
 }
 
-/// The particles of the crack that `line` cuts in `frame` (at least one), or why there are
-/// none.
+/// The particles of the crack that `line` cuts in `frame` (at least one), or, where a row of
+/// less damaged particles bridges the crack at the line, those of the rows next to it; or why
+/// there are none.
 fn crack_on_line(frame: &ParticleFrame, line: &CrossingLine) -> Result<Vec<OnLine>, String> {
     frame.require(&["damage", "volume"])?;
     let (planar, thickness) = frame_thickness(frame, None)?;
+    for reach in [ON_LINE_REACH, BRIDGED_REACH] {
+        let band = crack_within(frame, line, reach, (planar, thickness));
+        if band.iter().any(|p| p.volume > 0.0) {
+            return Ok(band);
+        }
+    }
+    let (low, high) = line.between;
+    Err(format!(
+        "no particle damaged at least {} crosses {:?} = {} with {:?} in [{low}, {high}]",
+        line.damage_above, line.across, line.level, line.along
+    ))
+}
+
+/// The crack particles within `reach` of their own sizes of `line`, in its window.
+fn crack_within(
+    frame: &ParticleFrame,
+    line: &CrossingLine,
+    reach: f64,
+    (planar, thickness): (bool, f64),
+) -> Vec<OnLine> {
     let (across, along) = (line.across.index(), line.along.index());
     let (low, high) = line.between;
     let mut band = Vec::new();
     for p in 0..frame.position.len() {
         let x = frame.position[p];
         let size = particle_size(frame.volume[p], planar, thickness);
-        let on_line = (x[across] - line.level).abs() <= ON_LINE_REACH * size;
-        if on_line && frame.damage[p] >= line.damage_above && (low..=high).contains(&x[along]) {
+        let near = (x[across] - line.level).abs() <= reach * size;
+        if near && frame.damage[p] >= line.damage_above && (low..=high).contains(&x[along]) {
             band.push(OnLine {
                 along: x[along],
                 volume: frame.volume[p],
@@ -111,14 +167,7 @@ fn crack_on_line(frame: &ParticleFrame, line: &CrossingLine) -> Result<Vec<OnLin
             });
         }
     }
-    if band.iter().any(|p| p.volume > 0.0) {
-        Ok(band)
-    } else {
-        Err(format!(
-            "no particle damaged at least {} crosses {:?} = {} with {:?} in [{low}, {high}]",
-            line.damage_above, line.across, line.level, line.along
-        ))
-    }
+    band
 }
 
 #[cfg(test)]
@@ -187,6 +236,44 @@ mod tests {
         let left = crack_crossing(&frame, &line(0.5, (0.0, 0.5))).unwrap();
         let right = crack_crossing(&frame, &line(0.5, (0.5, 1.0))).unwrap();
         assert!((left - 0.25).abs() < 1.0e-3 && (right - 0.75).abs() < 1.0e-3);
+    }
+
+    #[test]
+    fn a_crack_bridged_at_the_line_crosses_it_and_one_that_stops_short_does_not() {
+        // A vertical band about x = 0.5, 4 mm wide, on a 1 mm lattice, whose row at y = 0.3005
+        // (the line's) is intact.
+        let h = 1.0e-3;
+        let bridged = |x: f64, y: f64| (x - 0.5).abs() < 2.0e-3 && (y - 0.3005).abs() > 0.25 * h;
+        let crossing = crack_crossing(&lattice(h, bridged), &line(0.3005, (0.3, 0.7))).unwrap();
+        assert!((crossing - 0.5).abs() < 0.5 * h, "{crossing}");
+        // Intact for three rows about the line: the crack is not taken to cross it.
+        let gap = |x: f64, y: f64| (x - 0.5).abs() < 2.0e-3 && (y - 0.3005).abs() > 1.25 * h;
+        assert!(crack_crossing(&lattice(h, gap), &line(0.3005, (0.3, 0.7))).is_err());
+    }
+
+    #[test]
+    fn undeformed_puts_the_pieces_back_where_the_first_frame_had_them() {
+        // A vertical crack at x = 0.5 whose right piece has since moved 0.1 to the right: its
+        // band spans the gap in the frame, and lies back about x = 0.5 undeformed.
+        let band = |x: f64, _: f64| (x - 0.5).abs() < 2.0e-3;
+        let mut first = lattice(1.0e-2, band);
+        first.id = (0..first.position.len() as u32).collect();
+        let mut moved = first.clone();
+        moved.id.reverse();
+        moved.position.reverse();
+        moved.damage.reverse();
+        for x in moved.position.iter_mut().filter(|x| x[0] > 0.5) {
+            x[0] += 0.1;
+        }
+        let at = line(0.3, (0.3, 0.7));
+        let apart = crack_crossing(&moved, &at).unwrap();
+        let together = crack_crossing(&undeformed(&moved, &first).unwrap(), &at).unwrap();
+        assert!((apart - 0.5).abs() > 0.02, "{apart}");
+        assert!((together - 0.5).abs() < 1.0e-9, "{together}");
+        let mut stranger = moved.clone();
+        stranger.id[0] = 9999;
+        let e = undeformed(&stranger, &first).unwrap_err();
+        assert!(e.contains("9999"), "{e}");
     }
 
     #[test]

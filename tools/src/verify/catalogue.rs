@@ -207,6 +207,10 @@ pub enum Figure {
         /// catalogue's folder: an experiment's traced cracks, say.
         #[serde(default)]
         overlay: Option<String>,
+        /// The frame's particles drawn where the first frame had them
+        /// ([`undeformed`](crate::crossing::undeformed)): a broken specimen put back together.
+        #[serde(default)]
+        undeformed: bool,
     },
 }
 

@@ -5,6 +5,7 @@
 use crate::body_motion::{least_squares_slope, motion_history, rates};
 use crate::crossing::{CrossingLine, crack_band_width, crack_crossing};
 use crate::{crack, fragments, plot};
+use fractum_io::output::ParticleFrame;
 use serde::Deserialize;
 use std::path::Path;
 
@@ -157,6 +158,24 @@ pub struct CrossingAt {
     pub time: Option<f64>,
     /// The line and the window on it.
     pub line: CrossingLine,
+    /// Where the particles of that frame's crack stood in the first frame
+    /// ([`undeformed`](crate::crossing::undeformed)): the path of a crack whose pieces have
+    /// since moved apart, put back together as an experiment's traced crack is.
+    #[serde(default)]
+    pub undeformed: bool,
+}
+
+impl CrossingAt {
+    /// The frame the crossing is measured on, put back undeformed when asked.
+    fn frame(&self, dir: &Path) -> Result<ParticleFrame, String> {
+        let frame = crate::snapshot::frame_near(dir, self.time)?;
+        if self.undeformed {
+            let first = crate::snapshot::frame_near(dir, Some(0.0))?;
+            crate::crossing::undeformed(&frame, &first)
+        } else {
+            Ok(frame)
+        }
+    }
 }
 
 /// Where a crack starts (as `fractum crack` takes it).
@@ -268,12 +287,8 @@ impl Measure {
                 .map(|f| f.diameter)
                 .fold(0.0, f64::max)),
             Measure::FragmentSpeed(at) => Ok(fragments::mean_speed(&fragments_at(dir, at)?)),
-            Measure::CrackCrossing(at) => {
-                crack_crossing(&crate::snapshot::frame_near(dir, at.time)?, &at.line)
-            }
-            Measure::CrackBandWidth(at) => {
-                crack_band_width(&crate::snapshot::frame_near(dir, at.time)?, &at.line)
-            }
+            Measure::CrackCrossing(at) => crack_crossing(&at.frame(dir)?, &at.line),
+            Measure::CrackBandWidth(at) => crack_band_width(&at.frame(dir)?, &at.line),
             Measure::BodyAcceleration(at) => at.rates(dir).map(|r| r.0),
             Measure::BodySpinAcceleration(at) => at.rates(dir).map(|r| r.1),
             series_measure => series_measure.of_series(&read_series(dir)?),

@@ -514,8 +514,13 @@ fn draw_figure(
             field,
             time,
             overlay,
+            undeformed,
         } => {
-            let frame = crate::snapshot::frame_near(run_dir, *time)?;
+            let mut frame = crate::snapshot::frame_near(run_dir, *time)?;
+            if *undeformed {
+                let first = crate::snapshot::frame_near(run_dir, Some(0.0))?;
+                frame = crate::crossing::undeformed(&frame, &first)?;
+            }
             let overlay = overlay
                 .as_ref()
                 .map(|file| crate::overlay::Overlay::read(&catalogue_root.join(file)))
