@@ -34,7 +34,10 @@ impl Overlay {
 
 /// The polylines of an overlay file's text; an error starts with its line number.
 fn parse(text: &str) -> Result<Vec<Vec<[f64; 2]>>, String> {
-    let mut rows = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let mut rows = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
     let Some((_, header)) = rows.next() else {
         return Err("1: empty file: expected a header with the columns line, x and y".into());
     };
@@ -99,7 +102,11 @@ mod tests {
 
     #[test]
     fn a_missing_column_or_an_empty_file_is_refused() {
-        assert!(parse("line,x\n0,1\n").unwrap_err().contains("no column `y`"));
+        assert!(
+            parse("line,x\n0,1\n")
+                .unwrap_err()
+                .contains("no column `y`")
+        );
         assert!(parse("").unwrap_err().contains("empty file"));
         assert!(parse("line,x,y\n").unwrap_err().contains("no rows"));
     }
@@ -109,10 +116,17 @@ mod tests {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/verification/traces");
         for angle in [0, 30, 60] {
             let overlay = Overlay::read(&dir.join(format!("scb_{angle}_traces.csv"))).unwrap();
-            assert!(overlay.lines.len() >= 4, "{angle}°: {} traces", overlay.lines.len());
+            assert!(
+                overlay.lines.len() >= 4,
+                "{angle}°: {} traces",
+                overlay.lines.len()
+            );
             // Every trace lies inside the specimen (a half disc of radius 47.5 mm).
             for point in overlay.lines.iter().flatten() {
-                assert!(point[0].hypot(point[1]) < 0.05 && point[1] > -1.0e-3, "{point:?}");
+                assert!(
+                    point[0].hypot(point[1]) < 0.05 && point[1] > -1.0e-3,
+                    "{point:?}"
+                );
             }
         }
     }

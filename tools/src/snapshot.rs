@@ -496,9 +496,15 @@ fn draw_overlay(
         (at.0 + col, at.1 + row)
     };
     for line in &overlay.lines {
-        root.draw(&PathElement::new(line.iter().map(pixel).collect::<Vec<_>>(), style))?;
+        root.draw(&PathElement::new(
+            line.iter().map(pixel).collect::<Vec<_>>(),
+            style,
+        ))?;
     }
-    let legend = (at.0 + raster.width as i32 / 2, at.1 + raster.height as i32 + 20);
+    let legend = (
+        at.0 + raster.width as i32 / 2,
+        at.1 + raster.height as i32 + 20,
+    );
     root.draw(&PathElement::new(
         vec![legend, (legend.0 + 30, legend.1)],
         style,
@@ -625,7 +631,10 @@ mod tests {
         }
         // The middle of the gap between the bodies is empty.
         let (col, row) = raster.pixel_of([0.45, 0.15]);
-        assert_eq!(raster.body[row as usize * raster.width + col as usize], u32::MAX);
+        assert_eq!(
+            raster.body[row as usize * raster.width + col as usize],
+            u32::MAX
+        );
     }
 
     #[test]

@@ -588,13 +588,18 @@ mod tests {
         let with = |file: &str| {
             ONE_CASE.replace(
                 "cost: 3.0,",
-                &format!("cost: 3.0, figures: [Snapshot(field: \"damage\", overlay: Some({file:?}))],"),
+                &format!(
+                    "cost: 3.0, figures: [Snapshot(field: \"damage\", overlay: Some({file:?}))],"
+                ),
             )
         };
         let e = Catalogue::read(&write(&dir, &with("traces.csv")))
             .unwrap_err()
             .to_string();
-        assert!(e.contains("figures[0].overlay") && e.contains("traces.csv"), "{e}");
+        assert!(
+            e.contains("figures[0].overlay") && e.contains("traces.csv"),
+            "{e}"
+        );
         std::fs::write(dir.join("traces.csv"), "line,x,y\n0,0.0,zero\n").unwrap();
         let e = Catalogue::read(&write(&dir, &with("traces.csv")))
             .unwrap_err()
