@@ -576,3 +576,26 @@ fn mass_scaling_a_law_with_a_time_of_its_own_is_warned_of() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// An overlay that does not read is refused before any frame is drawn, with the file, the line
+/// and the column that is wrong.
+#[test]
+fn snapshot_refuses_an_overlay_that_does_not_read() {
+    let dir = std::env::temp_dir().join(format!("fractum-overlay-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let lines = dir.join("lines.csv");
+    std::fs::write(&lines, "line,x,y\n0,0.0,0.0\n0,0.1,north\n").unwrap();
+    let out = fractum(&[
+        "snapshot",
+        "no_frame.vtu",
+        "--overlay",
+        lines.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let message = text(&out.stderr);
+    assert!(
+        message.contains("--overlay") && message.contains("lines.csv:3: column `y`"),
+        "{message}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
