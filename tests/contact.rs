@@ -1573,7 +1573,14 @@ fn a_disk_rolls_under_dfg_as_between_bodies_with_penalty_contact() {
     let rolling = 2.0 / 3.0 * g * angle.sin();
     let roll = |entries: &[(&str, Option<&str>)]| {
         let penalty = entry("contact/penalty", Some("(friction: 0.5)"));
-        roll_with(angle, h, entries, penalty, Placement::Rings, SHORT_SUBSTRATE)
+        roll_with(
+            angle,
+            h,
+            entries,
+            penalty,
+            Placement::Rings,
+            SHORT_SUBSTRATE,
+        )
     };
     let dfg = roll(&rolling_pipeline("partition/dfg", DFG_PENALTY));
     let bodies = roll(&rolling_pipeline(
