@@ -3,7 +3,7 @@
 //! health checks) and as a plain function over `Vec`s calling the same kernels in the same
 //! order. Both start from the same state, and the setup checks that a few steps of each give
 //! bitwise the same particles, so the two measure the same arithmetic. Run with
-//! `cargo bench -p fractum-systems --bench ecs_overhead`.
+//! `cargo bench -p fractum-systems --features bench --bench ecs_overhead`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use fractum_engine::connectivity::Connectivity;

@@ -1,7 +1,8 @@
 //! What a frame costs the writer thread: encoding and writing one particle frame of the
 //! Kalthoff–Winkler plate (`scenes/kalthoff_winkler_dfg_tents.ron`, 49 200 particles, every field)
 //! after 400 steps, uncompressed and zlib-compressed. Run with
-//! `cargo bench -p fractum-systems --bench frames`; the sizes print before the timings.
+//! `cargo bench -p fractum-systems --features bench --bench frames`; the sizes print before the
+//! timings.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use fractum_io::output::{FrameCompression, ParticleFrame, particle_frame, write_particle_frame};

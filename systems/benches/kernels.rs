@@ -1,7 +1,7 @@
 //! Criterion benchmarks of the hot numerical kernels, each alone and outside the ECS, in 2D
 //! and 3D: LME shape functions at one point, the multilinear rows, a particle-to-grid scatter, a
 //! grid-to-particle gather, the two stress updates and 3×3 principal values. Run with
-//! `cargo bench -p fractum-systems`.
+//! `cargo bench -p fractum-systems --features bench`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use fractum_engine::connectivity::Connectivity;
