@@ -241,6 +241,22 @@ impl CrackPath {
     }
 }
 
+/// 1.5 particle spacings of the run's first frame.
+pub fn default_link(dir: &Path, thickness: Option<f64>) -> Result<f64, String> {
+    let frames = read_pvd(&dir.join("particles.pvd"))?;
+    let first = frames
+        .first()
+        .ok_or_else(|| format!("{}: the run wrote no particle frames", dir.display()))?;
+    let path = dir.join(&first.1);
+    let frame = read_particle_frame(&path)?;
+    frame
+        .require(&["volume"])
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let (planar, thickness) = crate::fragments::frame_thickness(&frame, thickness)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(1.5 * crate::fragments::median_spacing(&frame, planar, thickness))
+}
+
 /// The tip at every frame of the run in `dir`.
 pub fn crack_history(dir: &Path, options: &CrackOptions) -> Result<Vec<TipAt>, String> {
     let frames = read_pvd(&dir.join("particles.pvd"))?;

@@ -2,8 +2,8 @@
 //! rebuilt (the one the checkpoint recorded) and its state restored, one process or each rank
 //! its piece, and the run continued where it stopped ([`crate::running`] steps it).
 
-use crate::running::{RunSettings, execute, make_ready, rank_message, ready_to_run};
-use crate::{EXIT_BAD_SCENE, EXIT_IO, EXIT_USAGE, report_scene_error};
+use crate::running::{RunSettings, execute, rank_message, ready_to_run};
+use crate::{EXIT_BAD_SCENE, EXIT_IO, EXIT_USAGE};
 use fractum_engine::communicator::Communicator;
 use fractum_engine::registry::Registry;
 use fractum_io::checkpoint::{
@@ -93,45 +93,63 @@ fn checkpoint_scene(
         .map_err(|e| (EXIT_BAD_SCENE, e.to_string()))
 }
 
-/// `fractum resume`.
-pub fn resume_command(out_dir: &Path, settings: &RunSettings, registry: &Registry) -> i32 {
-    let refuse = |(code, message): (i32, String)| {
-        eprintln!("error: {message}");
-        code
-    };
-    let (path, checkpoint) = match newest_checkpoint(out_dir) {
-        Ok(found) => found,
-        Err(refusal) => return refuse(refusal),
-    };
-    if let Err(e) = same_ranks(&path, out_dir, checkpoint_ranks(&checkpoint), 1) {
-        return refuse((EXIT_USAGE, e));
-    }
-    let file = match checkpoint_scene(&checkpoint, &path, true) {
-        Ok(f) => f,
-        Err(refusal) => return refuse(refusal),
-    };
-    let mut built = match build_simulation(&file, registry) {
-        Ok(b) => b,
-        Err(e) => return report_scene_error(&e),
-    };
-    if let Err(e) = restore_checkpoint(&mut built.simulation, &checkpoint) {
-        eprintln!("error: {}: {e}", path.display());
-        return EXIT_IO;
-    }
-    if let Err(code) = make_ready(&mut built.simulation, settings, true) {
-        return code;
-    }
+/// A run restored from its newest checkpoint, ready to go on ([`prepare_resume`]).
+pub struct Resumed {
+    /// The simulation at the checkpoint's step, with the run's threads and step cap.
+    pub built: fractum_scene::Built,
+    /// The scene the checkpoint keeps, which the resumed run's checkpoints keep too.
+    pub scene: fractum_io::checkpoint::SceneRecord,
+    /// The outputs rewound to the checkpoint's step.
+    pub outputs: fractum_io::run::ResumedOutputs,
+    /// The checkpoint resumed from.
+    pub checkpoint: PathBuf,
+}
+
+/// Restores the run in `out_dir` from its newest checkpoint and makes it ready to step (one
+/// process); refused with the exit code and the reason, having changed nothing on disk.
+pub fn prepare_resume(
+    out_dir: &Path,
+    settings: &RunSettings,
+    registry: &Registry,
+) -> Result<Resumed, (i32, String)> {
+    let (path, checkpoint) = newest_checkpoint(out_dir)?;
+    same_ranks(&path, out_dir, checkpoint_ranks(&checkpoint), 1).map_err(|e| (EXIT_USAGE, e))?;
+    let file = checkpoint_scene(&checkpoint, &path, true)?;
+    let mut built =
+        build_simulation(&file, registry).map_err(|e| (EXIT_BAD_SCENE, e.to_string()))?;
+    restore_checkpoint(&mut built.simulation, &checkpoint)
+        .map_err(|e| (EXIT_IO, format!("{}: {e}", path.display())))?;
+    ready_to_run(&mut built.simulation, settings, true)?;
     let step = built.simulation.clock().step;
-    let outputs = match rewind_outputs(out_dir, &checkpoint, step) {
-        Ok(o) => o,
-        Err(e) => {
-            eprintln!("error: {}: {e}", path.display());
-            return EXIT_IO;
+    let outputs = rewind_outputs(out_dir, &checkpoint, step)
+        .map_err(|e| (EXIT_IO, format!("{}: {e}", path.display())))?;
+    Ok(Resumed {
+        built,
+        scene: checkpoint.scene.clone(),
+        outputs,
+        checkpoint: path,
+    })
+}
+
+/// `fractum resume`: continues the run in `out_dir` from its newest checkpoint.
+pub fn resume_command(out_dir: &Path, settings: &RunSettings, registry: &Registry) -> i32 {
+    let resumed = match prepare_resume(out_dir, settings, registry) {
+        Ok(resumed) => resumed,
+        Err((code, message)) => {
+            eprintln!("error: {message}");
+            return code;
         }
     };
-    say_resuming(out_dir, &built.simulation, &path);
-    let scene = checkpoint.scene.clone();
-    execute(built, out_dir, scene, Some(outputs), settings, None)
+    say_resuming(out_dir, &resumed.built.simulation, &resumed.checkpoint);
+    let outputs = Some(resumed.outputs);
+    execute(
+        resumed.built,
+        out_dir,
+        resumed.scene,
+        outputs,
+        settings,
+        None,
+    )
 }
 
 fn say_resuming(out_dir: &Path, sim: &fractum_engine::Simulation, from: &Path) {

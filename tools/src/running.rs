@@ -100,7 +100,7 @@ fn holds_a_run(dir: &Path) -> bool {
 
 /// Makes `dir` ready for a new run: refuses a folder that holds a previous run unless
 /// `force`, which removes that run's outputs (and nothing else).
-fn prepare_out_dir(dir: &Path, force: bool) -> Result<(), String> {
+pub fn prepare_out_dir(dir: &Path, force: bool) -> Result<(), String> {
     if !holds_a_run(dir) {
         return Ok(());
     }
@@ -262,7 +262,7 @@ pub(crate) fn make_ready(
 }
 
 /// [`make_ready`], with the exit code and the reason when refused, for the caller to say.
-pub(crate) fn ready_to_run(
+pub fn ready_to_run(
     sim: &mut fractum_engine::Simulation,
     settings: &RunSettings,
     resuming: bool,

@@ -1,9 +1,9 @@
 //! `fractum crack`: a crack's tip, angle and speed from a run's frames.
 
-use crate::{CrackArgs, EXIT_IO, crack, fragments, load};
+use crate::{CrackArgs, EXIT_IO, crack, load};
 use fractum_engine::registry::Registry;
 use fractum_engine::resources::Materials;
-use fractum_io::output::{read_particle_frame, read_pvd, write_atomically};
+use fractum_io::output::write_atomically;
 use std::path::Path;
 
 /// A point of 2 or 3 coordinates as three.
@@ -59,7 +59,7 @@ fn crack_report(request: &CrackArgs, registry: &Registry) -> Result<String, Stri
     let notch_direction = point3(&request.direction, "direction")?;
     let link = match request.link {
         Some(l) => l,
-        None => default_link(dir, request.thickness)?,
+        None => crack::default_link(dir, request.thickness)?,
     };
     let options = crack::CrackOptions {
         notch_tip,
@@ -121,22 +121,6 @@ fn window_report(history: &[crack::TipAt], window: &[f64]) -> Result<String, Str
         ),
         None => format!("\nno crack speed from {from:e} to {to:e} s: fewer than two frames there"),
     })
-}
-
-/// 1.5 particle spacings of the run's first frame.
-pub(crate) fn default_link(dir: &Path, thickness: Option<f64>) -> Result<f64, String> {
-    let frames = read_pvd(&dir.join("particles.pvd"))?;
-    let first = frames
-        .first()
-        .ok_or_else(|| format!("{}: the run wrote no particle frames", dir.display()))?;
-    let path = dir.join(&first.1);
-    let frame = read_particle_frame(&path)?;
-    frame
-        .require(&["volume"])
-        .map_err(|e| format!("{}: {e}", path.display()))?;
-    let (planar, thickness) = fragments::frame_thickness(&frame, thickness)
-        .map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok(1.5 * fragments::median_spacing(&frame, planar, thickness))
 }
 
 /// The crack speed lines of the report, against the Rayleigh speed when known.

@@ -449,7 +449,7 @@ fn curve(series: &plot::Series, x: &str, y: &str, from: f64) -> Result<plot::Cur
 
 fn crack_options(dir: &Path, at: &CrackAt) -> Result<crack::CrackOptions, String> {
     let point = |v: &[f64]| [v[0], v[1], v.get(2).copied().unwrap_or(0.0)];
-    let link = crate::commands::crack::default_link(dir, None)?;
+    let link = crate::crack::default_link(dir, None)?;
     Ok(crack::CrackOptions {
         notch_tip: point(&at.notch),
         notch_direction: point(&at.direction),

@@ -8,6 +8,15 @@
 
 /// Byte offset of every value in `text`, keyed by its path.
 pub fn value_offsets(text: &str) -> Vec<(String, usize)> {
+    value_spans(text)
+        .into_iter()
+        .map(|(path, span)| (path, span.start))
+        .collect()
+}
+
+/// Byte range of every value in `text` (from its first character to just after its last),
+/// keyed by its path, in the order the values start.
+pub fn value_spans(text: &str) -> Vec<(String, std::ops::Range<usize>)> {
     let mut walker = Walker {
         s: text.as_bytes(),
         i: 0,
@@ -52,7 +61,7 @@ fn join_field(path: &str, field: &str) -> String {
 struct Walker<'a> {
     s: &'a [u8],
     i: usize,
-    out: Vec<(String, usize)>,
+    out: Vec<(String, std::ops::Range<usize>)>,
 }
 
 impl Walker<'_> {
@@ -109,7 +118,14 @@ impl Walker<'_> {
 
     fn value(&mut self, path: &str) {
         self.skip_trivia();
-        self.out.push((path.to_string(), self.i));
+        let entry = self.out.len();
+        let start = self.i;
+        self.out.push((path.to_string(), start..start));
+        self.value_body(path);
+        self.out[entry].1.end = self.i.min(self.s.len());
+    }
+
+    fn value_body(&mut self, path: &str) {
         match self.peek() {
             Some(b'(') => self.group(path, None),
             Some(b'[') => self.list(path),
@@ -119,9 +135,13 @@ impl Walker<'_> {
             }
             Some(c) if c.is_ascii_alphabetic() || c == b'_' => {
                 let name = self.identifier().to_string();
+                let after_name = self.i;
                 self.skip_trivia();
                 if self.peek() == Some(b'(') {
                     self.group(path, Some(&name));
+                } else {
+                    // A unit variant or a keyword ends with its name, not with what follows.
+                    self.i = after_name;
                 }
             }
             _ => {
@@ -143,10 +163,10 @@ impl Walker<'_> {
                 let field_path = join_field(path, &field);
                 w.value(&field_path);
                 if let Some(variant) = variant {
-                    let start = w.out.iter().rev().find(|(p, _)| *p == field_path);
-                    let start = start.map(|(_, at)| *at).unwrap_or(w.i);
+                    let span = w.out.iter().rev().find(|(p, _)| *p == field_path);
+                    let span = span.map(|(_, span)| span.clone()).unwrap_or(w.i..w.i);
                     let alias = join_field(&join_field(path, variant), &field);
-                    w.out.push((alias, start));
+                    w.out.push((alias, span));
                 }
             } else {
                 w.value(&join_field(path, &index.to_string()));

@@ -4,6 +4,7 @@
 //! The ground floor of the scene format: the registry (a system's `params`) and the scene
 //! reader both parse and place errors through it, and it depends on neither.
 
+pub mod edit;
 mod error;
 pub mod locate;
 
