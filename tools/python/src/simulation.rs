@@ -122,7 +122,10 @@ impl Simulation {
     fn series<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let row = series_row(&mut self.built.simulation.world, &self.built.output);
         let out = PyDict::new(py);
-        for (column, value) in self.built.output.columns().iter().zip(row) {
+        // A row holds every column but the first, the step, which the clock gives.
+        let columns = self.built.output.columns();
+        out.set_item(&columns[0], self.built.simulation.clock().step)?;
+        for (column, value) in columns.iter().skip(1).zip(row) {
             out.set_item(column, value)?;
         }
         Ok(out)
