@@ -298,3 +298,18 @@ def test_the_analysis_tools_return_data(tmp_path):
     assert pieces["mass"].shape == pieces["diameter"].shape and pieces["centroid"].shape[1] == 3
     names = {s["name"]: s for s in fractum.systems()}
     assert "tensile_strength" in {p["name"] for p in names["damage/rankine"]["params"]}
+
+
+def test_the_guides_sweep_runs_on_two_processes(tmp_path):
+    pytest.importorskip("matplotlib")
+    figure = tmp_path / "sweep.png"
+    said = subprocess.run(
+        [sys.executable, str(REPO / "docs" / "guide" / "python_sweep.py"), "--out",
+         str(tmp_path / "runs"), "--figure", str(figure)],
+        check=True, capture_output=True, text=True,
+    ).stdout
+    dissipated = [float(line.split("dissipated ")[1].split(" mJ")[0])
+                  for line in said.splitlines() if line.startswith("σ_f")]
+    # A stronger bar damages less: the dissipated energy falls along the sweep.
+    assert len(dissipated) == 5 and all(a > b for a, b in zip(dissipated, dissipated[1:]))
+    assert figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

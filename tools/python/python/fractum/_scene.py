@@ -69,7 +69,11 @@ class Scene:
 
     @property
     def name(self):
-        """The name messages give the scene (its file's path)."""
+        """The name messages give the scene: its file's path, marked ``(edited)`` once the
+        text differs from the file (the lines and columns are the edited text's; an edit
+        within a line keeps the file's line numbers)."""
+        if self._path is not None and self.edited:
+            return f"{self._name} (edited)"
         return self._name
 
     @property
@@ -127,7 +131,7 @@ class Scene:
     def __setitem__(self, path, value):
         old = self.raw(path)
         text = to_ron(value, old, where=f"`{path}`")
-        self._text = _native.scene_set(self._name, self._text, path, text)
+        self._text = _native.scene_set(self.name, self._text, path, text)
 
     def _value(self, path, raw):
         value = from_ron(raw)
@@ -206,7 +210,7 @@ class Scene:
         """Builds the scene as ``fractum check`` does; its report as a dict (``str()`` of it
         is the text the command prints). Raises ``SceneError`` with the file, line, column and
         field where the scene is refused."""
-        return Check(_native.check(self._name, self._text))
+        return Check(_native.check(self.name, self._text))
 
     def record_path(self):
         """The path a run's checkpoints record for this scene: its file where unedited, else
