@@ -24,9 +24,14 @@ pub fn systems_report(registry: &Registry) -> String {
         }
         let _ = writeln!(out, "  {:<28} {}", r.name, r.summary);
         for p in r.params {
-            let default = p
-                .default
-                .map_or("required".to_string(), |d| format!("default {d}"));
+            // A default that starts with `none` is an optional parameter with no value.
+            let default = match p.default {
+                None => "required".to_string(),
+                Some(d) => match d.strip_prefix("none") {
+                    Some(why) => format!("optional{why}"),
+                    None => format!("default {d}"),
+                },
+            };
             let _ = writeln!(out, "      {}: {} ({default}) - {}", p.name, p.ty, p.doc);
         }
         if !r.requires.is_empty() {

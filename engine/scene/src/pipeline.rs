@@ -226,8 +226,12 @@ impl<'s, D: Dim> PipelineBuilder<'s, D> {
                 return Err(source.error(
                     &field,
                     format!(
-                        "unknown system \"{}\"; known systems: {}",
+                        "unknown system \"{}\"{}; known systems: {}",
                         entry.system,
+                        fractum_engine::text::suggest::did_you_mean(
+                            &entry.system,
+                            registry.names().iter().copied()
+                        ),
                         registry.names().join(", ")
                     ),
                 ));

@@ -74,13 +74,13 @@ pub const REGISTRATION: Registration = Registration {
         ParamDoc {
             name: "fracture_energy",
             ty: "f64",
-            default: None,
+            default: Some("none: give this or critical_opening"),
             doc: "G_F (J/m²); give this or critical_opening",
         },
         ParamDoc {
             name: "critical_opening",
             ty: "f64",
-            default: None,
+            default: Some("none: give this or fracture_energy"),
             doc: "w_c (m), converted to G_F through the law's shape",
         },
         ParamDoc {

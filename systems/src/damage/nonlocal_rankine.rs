@@ -50,7 +50,8 @@ use serde::Deserialize;
 pub const REGISTRATION: Registration = Registration {
     name: "damage/nonlocal_rankine",
     summary: "Rankine damage (eq. 23) driven by the largest principal stress averaged over a \
-              fixed radius (bell weight): a band width and dissipation independent of the grid",
+              fixed radius (bell weight): a band width and dissipation independent of the grid; \
+              needs a hyperelastic stress (stress/neo_hookean)",
     params: &[
         TENSILE_STRENGTH_PARAM,
         ParamDoc {

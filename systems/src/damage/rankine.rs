@@ -43,7 +43,8 @@ use serde::Deserialize;
 pub const REGISTRATION: Registration = Registration {
     name: "damage/rankine",
     summary: "Rankine damage, linear strain softening tied to G_f over l_ch (eq. 23), tensile \
-              principal stresses degraded (eqs. 26-27)",
+              principal stresses degraded (eqs. 26-27); needs a hyperelastic stress \
+              (stress/neo_hookean)",
     params: &[
         TENSILE_STRENGTH_PARAM,
         ParamDoc {

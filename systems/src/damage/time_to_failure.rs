@@ -36,7 +36,8 @@ use serde::Deserialize;
 pub const REGISTRATION: Registration = Registration {
     name: "damage/time_to_failure",
     summary: "time-to-failure damage: D grows by Δt c_f / l_ch once σ_f is exceeded (eq. 24), \
-              tensile principal stresses degraded (eqs. 26-27)",
+              tensile principal stresses degraded (eqs. 26-27); needs a hyperelastic stress \
+              (stress/neo_hookean)",
     params: &[
         TENSILE_STRENGTH_PARAM,
         ParamDoc {

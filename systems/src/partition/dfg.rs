@@ -56,14 +56,14 @@ pub const REGISTRATION: Registration = Registration {
         ParamDoc {
             name: "radius_cells",
             ty: "f64",
-            default: None,
+            default: Some("none: `radius` sets the kernel"),
             doc: "the kernel radius in cells (grid spacings) instead of metres, so that it \
                   follows the grid when a scene is refined; not with `radius`",
         },
         ParamDoc {
             name: "surface",
             ty: "f64",
-            default: None,
+            default: Some("none: no surface detection"),
             doc: "surface detection threshold in (0, 1): particles whose kernel sum is below \
                   this fraction of the largest are surface particles (§2.4); off when absent",
         },

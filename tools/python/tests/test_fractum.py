@@ -313,3 +313,15 @@ def test_the_guides_sweep_runs_on_two_processes(tmp_path):
     # A stronger bar damages less: the dissipated energy falls along the sweep.
     assert len(dissipated) == 5 and all(a > b for a, b in zip(dissipated, dissipated[1:]))
     assert figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_readmes_python_example_runs(tmp_path):
+    readme = (REPO / "README.md").read_text()
+    example = readme.split("```python\n", 1)[1].split("```", 1)[0]
+    # From the repository's root, as the README says, with the outputs kept out of it.
+    (tmp_path / "scenes").symlink_to(SCENES)
+    said = subprocess.run([sys.executable, "-c", example], cwd=tmp_path, check=True,
+                          capture_output=True, text=True).stdout
+    steps, dissipated = said.split(" steps, ")
+    assert int(steps) > 0 and float(dissipated.split(" J")[0]) > 0
+    assert (tmp_path / "out" / "cracked_bar" / "series.csv").exists()

@@ -39,7 +39,9 @@ pub struct ParamDoc {
     pub name: &'static str,
     /// Type as a user writes it, e.g. `f64`.
     pub ty: &'static str,
-    /// Default value, or `None` when the parameter is required.
+    /// Default value, or `None` when the parameter is required. An optional parameter with no
+    /// value says what its absence means after `none`: `Some("none: no surface detection")`
+    /// (`fractum systems` shows it as optional).
     pub default: Option<&'static str>,
     /// What it means, with units.
     pub doc: &'static str,

@@ -7,6 +7,7 @@
 pub mod edit;
 mod error;
 pub mod locate;
+pub mod suggest;
 
 pub use error::{Location, SceneError};
 

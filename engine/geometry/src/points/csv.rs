@@ -21,7 +21,9 @@ struct Columns {
     count: usize,
 }
 
-fn columns(header: &str) -> Result<Columns, FileError> {
+/// The columns the header on line `line` names.
+fn columns(header: &str, line: usize) -> Result<Columns, FileError> {
+    let place = format!("line {line}");
     let names: Vec<String> = header
         .split(',')
         .map(|n| n.trim().trim_matches('"').to_ascii_lowercase())
@@ -29,7 +31,7 @@ fn columns(header: &str) -> Result<Columns, FileError> {
     let find = |options: &[&str]| names.iter().position(|n| options.contains(&n.as_str()));
     let Some(volume) = find(&["volume"]) else {
         return Err(fail(
-            "line 1",
+            place.clone(),
             format!(
                 "no `volume` column among {}; a particle's volume is never guessed: add a \
                  `volume` column (m³; in 2D the area times the scene's thickness)",
@@ -40,7 +42,7 @@ fn columns(header: &str) -> Result<Columns, FileError> {
     let position = [find(&["x"]), find(&["y"]), find(&["z"])];
     if position[0].is_none() || position[1].is_none() {
         return Err(fail(
-            "line 1",
+            place.clone(),
             format!(
                 "expected `x` and `y` columns (and `z` in 3D), found {}",
                 names.join(", ")
@@ -56,7 +58,7 @@ fn columns(header: &str) -> Result<Columns, FileError> {
         || (velocity[2].is_some() && velocity[0].is_none())
     {
         return Err(fail(
-            "line 1",
+            place.clone(),
             "a velocity needs all its components: `vx` and `vy` (and `vz` in 3D)",
         ));
     }
@@ -78,13 +80,13 @@ pub fn parse_csv(text: &str, file: &str) -> Result<PointSet, FileError> {
         .enumerate()
         .map(|(k, l)| (k + 1, l.trim()))
         .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
-    let Some((_, header)) = rows.next() else {
+    let Some((header_line, header)) = rows.next() else {
         return Err(fail(
             "",
             "the file is empty; expected a header line and one line per particle",
         ));
     };
-    let c = columns(header)?;
+    let c = columns(header, header_line)?;
     let columns = OptionalColumns {
         velocity: c.velocity[0].is_some(),
         damage: c.damage.is_some(),
@@ -174,6 +176,10 @@ mod tests {
     fn a_missing_volume_and_bad_rows_are_refused_with_their_line() {
         let e = parse_csv("x,y\n0,0\n", "p.csv").unwrap_err();
         assert!(e.message.contains("never guessed"), "{e}");
+        assert_eq!(e.place, "line 1");
+        // The header's own line, after comments and blank lines.
+        let e = parse_csv("# from a CT scan\n\nx,y,vol\n0,0,1\n", "p.csv").unwrap_err();
+        assert_eq!(e.place, "line 3", "{e}");
         let e = parse_csv("x,y,volume\n0,0,1\n0,1\n", "p.csv").unwrap_err();
         assert_eq!(e.place, "line 3");
         let e = parse_csv("x,y,volume\n0,0,1\n0,nan,1\n", "p.csv").unwrap_err();

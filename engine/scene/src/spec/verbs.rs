@@ -94,9 +94,12 @@ impl<D: Dim> Spec<D> {
         listing: &str,
     ) -> Result<usize, SceneError> {
         names.clone().position(|n| n == Some(name)).ok_or_else(|| {
-            let known = quoted(names.flatten());
-            self.source
-                .error(field, format!("{missing} \"{name}\"; {listing}: {known}"))
+            let known = quoted(names.clone().flatten());
+            let guess = fractum_engine::text::suggest::did_you_mean(name, names.flatten());
+            self.source.error(
+                field,
+                format!("{missing} \"{name}\"; {listing}: {known}{guess}"),
+            )
         })
     }
 

@@ -367,6 +367,8 @@ class Params(View):
         default = next(p["default"] for p in self._documented() if p["name"] == key)
         if default is None:
             raise KeyError(f"{self._system}: `{key}` is not set and has no default")
+        if default.startswith("none"):
+            return None  # an optional parameter the scene leaves out
         value = from_ron(default)
         return default if value is None else value
 
