@@ -104,7 +104,8 @@ pub enum Command {
     /// angle and speed, beside the Rayleigh speed of the material.
     Crack(CrackArgs),
     /// Run the verification catalogue: every published case, measured and held against its
-    /// reference; writes docs/VERIFICATION.md and docs/verification/.
+    /// reference; writes VERIFICATION.md and verification/ (into target/verify/docs, or
+    /// --docs docs for the published pages).
     Verify(crate::verify::VerifyArgs),
     /// A picture (PNG) of a frame's particles coloured by a field, with a colour bar, the
     /// bodies' outlines and a scale bar.

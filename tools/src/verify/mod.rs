@@ -13,6 +13,7 @@
 //!   tolerance (an expected miss does not count) or could not be run or measured, and
 //!   [`crate::EXIT_INTERRUPTED`] when interrupted.
 
+mod args;
 pub mod catalogue;
 pub mod measure;
 mod pages;
@@ -22,47 +23,16 @@ mod runner;
 pub mod studies;
 
 use crate::{EXIT_BAD_SCENE, EXIT_INTERRUPTED, EXIT_IO, EXIT_USAGE, EXIT_VERIFY_FAILED};
+use args::Places;
+pub use args::VerifyArgs;
 use catalogue::{Case, Catalogue, Figure, Tier, edited_scene};
 use indicatif::{ProgressBar, ProgressStyle};
 use provenance::Provenance;
 use record::{CaseRecord, Outcome, Results};
 use runner::{Plan, Running, WorkDir};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
-
-/// The arguments of `fractum verify`.
-#[derive(Debug, clap::Args)]
-pub struct VerifyArgs {
-    /// The cases of this tier: `quick` (minutes, also run by `cargo test`) or `paper` (the
-    /// published resolutions, hours) [default: quick, unless --case is given].
-    #[arg(long, value_enum)]
-    pub tier: Option<Tier>,
-    /// Only these cases, by name (comma-separated or repeated).
-    #[arg(long, value_delimiter = ',')]
-    pub case: Vec<String>,
-    /// List the cases with their tier, cost and last status, and run nothing.
-    #[arg(long)]
-    pub list: bool,
-    /// Cases run at once.
-    #[arg(long, default_value_t = 1, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=256))]
-    pub jobs: usize,
-    /// Threads for each case.
-    #[arg(long, default_value_t = 1, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=crate::running::MAX_THREADS as u64))]
-    pub threads: usize,
-    /// Run the selected cases again even where their scene, checks and solver are unchanged.
-    #[arg(long)]
-    pub rerun: bool,
-    /// The catalogue; scene paths in it are relative to its folder.
-    #[arg(long, default_value = "tools/catalogue.ron")]
-    pub catalogue: PathBuf,
-    /// Where the cases' runs are kept (resumable, re-measurable).
-    #[arg(long, default_value = "target/verify")]
-    pub work: PathBuf,
-    /// Where VERIFICATION.md and verification/ are written.
-    #[arg(long, default_value = "docs")]
-    pub docs: PathBuf,
-}
 
 /// The digest of the solver sources this binary was built from.
 pub const SOLVER_DIGEST: &str = env!("FRACTUM_SOLVER_DIGEST");
@@ -71,22 +41,29 @@ static SIGNALS: AtomicU32 = AtomicU32::new(0);
 
 /// `fractum verify`.
 pub fn verify_command(args: &VerifyArgs) -> i32 {
-    let catalogue = match Catalogue::read(&args.catalogue) {
+    let places = match args.places() {
+        Ok(places) => places,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return EXIT_USAGE;
+        }
+    };
+    let catalogue = match Catalogue::read(&places.catalogue) {
         Ok(c) => c,
         Err(e) => {
             eprintln!("error: {e}");
             return EXIT_BAD_SCENE;
         }
     };
-    let selected = match select(&catalogue, args) {
+    let selected = match select(&catalogue, args, &places) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("error: {e}");
             return EXIT_USAGE;
         }
     };
-    let results_path = args.docs.join("verification").join("results.ron");
-    let mut results = match Results::read(&results_path) {
+    let results_path = places.docs.join("verification").join("results.ron");
+    let mut results = match Results::read(&places.results_to_read()) {
         Ok(r) => r,
         Err(e) => {
             eprintln!("error: {e}");
@@ -97,14 +74,21 @@ pub fn verify_command(args: &VerifyArgs) -> i32 {
         outln!("{}", pages::listing(&catalogue, &results, &selected));
         return 0;
     }
-    let mut session = Session::new(&catalogue, args, &mut results, &results_path);
+    let mut session = Session::new(&catalogue, args, &places, &mut results, &results_path);
     let interrupted = session.run(&selected);
-    let written = pages::write_all(&catalogue, &results, &args.docs);
+    let written = pages::write_all(&catalogue, &results, &places.docs);
+    if written.is_ok() {
+        eprintln!("{}", places.where_the_pages_are());
+    }
     finish(&catalogue, &results, &selected, interrupted, written)
 }
 
 /// The cases `--case` or `--tier` select, in catalogue order.
-fn select<'a>(catalogue: &'a Catalogue, args: &VerifyArgs) -> Result<Vec<&'a Case>, String> {
+fn select<'a>(
+    catalogue: &'a Catalogue,
+    args: &VerifyArgs,
+    places: &Places,
+) -> Result<Vec<&'a Case>, String> {
     if !args.case.is_empty() {
         return args
             .case
@@ -113,7 +97,7 @@ fn select<'a>(catalogue: &'a Catalogue, args: &VerifyArgs) -> Result<Vec<&'a Cas
                 catalogue.case(name).ok_or_else(|| {
                     format!(
                         "no case {name:?} in {}; it has: {}",
-                        args.catalogue.display(),
+                        places.catalogue.display(),
                         catalogue.names().join(", ")
                     )
                 })
@@ -169,6 +153,7 @@ fn finish(
 struct Session<'a> {
     catalogue: &'a Catalogue,
     args: &'a VerifyArgs,
+    places: &'a Places,
     results: &'a mut Results,
     results_path: &'a Path,
     provenance: Provenance,
@@ -186,12 +171,14 @@ impl<'a> Session<'a> {
     fn new(
         catalogue: &'a Catalogue,
         args: &'a VerifyArgs,
+        places: &'a Places,
         results: &'a mut Results,
         results_path: &'a Path,
     ) -> Self {
         Self {
             catalogue,
             args,
+            places,
             results,
             results_path,
             provenance: Provenance::now(),
@@ -221,7 +208,7 @@ impl<'a> Session<'a> {
             .map_err(|e| format!("cannot read the scene {}: {e}", path.display()))?;
         let scene = edited_scene(&text, case)?;
         let key = case_key(case, &scene);
-        let work = WorkDir::new(&self.args.work, &case.name);
+        let work = WorkDir::new(&self.places.work, &case.name);
         let standing = self
             .results
             .cases
@@ -465,7 +452,7 @@ impl<'a> Session<'a> {
     }
 
     fn draw_figures(&self, case: &Case, run_dir: &Path) -> Vec<String> {
-        let folder = self.args.docs.join("verification");
+        let folder = self.places.docs.join("verification");
         if let Err(e) = std::fs::create_dir_all(&folder) {
             eprintln!("warning: cannot create {}: {e}", folder.display());
             return Vec::new();
