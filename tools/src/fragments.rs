@@ -363,7 +363,10 @@ pub fn plot_size_distributions(
         .collect();
     crate::plot::draw_curves(
         &curves,
-        "log10 equivalent diameter (m); cumulative mass fraction up",
+        (
+            "log10 of the equivalent diameter (m)",
+            "cumulative mass fraction",
+        ),
         output,
     )
 }

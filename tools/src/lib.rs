@@ -45,7 +45,10 @@ pub mod snapshot;
 pub mod verify;
 
 pub use cli::{Cli, Command, CrackArgs, RunArgs};
-pub use reports::{check_report, energy_warning, kinetic_warning, summary_report, systems_report};
+pub use reports::{
+    RunLength, check_report, check_report_with, energy_warning, kinetic_warning, run_length,
+    summary_report, systems_report,
+};
 
 use clap::Parser;
 use fractum_engine::registry::Registry;
@@ -125,10 +128,24 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             scene,
             estimate: false,
             ..
-        } => match load(&scene, registry) {
-            Ok((_, mut built)) => {
-                out!("{}", check_report(&mut built));
-                0
+        } => match SceneFile::read(&scene) {
+            Ok(file) => {
+                // A valid scene with a magnitude no solid has is a warning; an invalid one
+                // that also has one gets it as a note: the unit slip is often the cause.
+                let implausible = fractum_scene::implausible_magnitudes(&file);
+                match build_simulation(&file, registry) {
+                    Ok(mut built) => {
+                        out!("{}", reports::check_report_with(&mut built, &implausible).0);
+                        0
+                    }
+                    Err(e) => {
+                        let code = report_scene_error(&e);
+                        for slip in &implausible {
+                            eprintln!("note: {slip}");
+                        }
+                        code
+                    }
+                }
             }
             Err(e) => report_scene_error(&e),
         },

@@ -184,19 +184,83 @@ pub fn plot_runs(
                 .collect(),
         ));
     }
-    let x_desc = if x == "time" {
-        "time (s)".to_string()
-    } else {
-        x.to_string()
-    };
-    draw_curves(&curves, &x_desc, output)
+    let x_desc = with_unit(x);
+    let y_desc = columns_desc(columns);
+    draw_curves(&curves, (&x_desc, &y_desc), output)
 }
 
-/// Draws labelled `curves` (x, y points) on one chart into the PNG `output`, written to a
-/// temporary name and renamed. Returns the path written.
+/// The unit of a series.csv column, by its name (empty for a count or a ratio).
+pub fn column_unit(column: &str) -> &'static str {
+    let has = |part: &str| column.contains(part);
+    match column {
+        "time" => "s",
+        "step" => "",
+        _ if has("energy") || has("work") => "J",
+        _ if has("momentum") => "kg m/s",
+        _ if has("reaction") || has("force") => "N",
+        _ if has("velocity") => "m/s",
+        _ if has("displacement") || has("position") || has("opening") => "m",
+        _ if has("stress") || has("pressure") => "Pa",
+        _ => "",
+    }
+}
+
+/// `name (unit)`, or the name alone where it has none.
+fn with_unit(column: &str) -> String {
+    match column_unit(column) {
+        "" => column.to_string(),
+        unit => format!("{column} ({unit})"),
+    }
+}
+
+/// The y axis's name: the columns, with their unit where they share one.
+fn columns_desc(columns: &[String]) -> String {
+    let units: Vec<&str> = columns.iter().map(|c| column_unit(c)).collect();
+    match units.first() {
+        Some(first) if !first.is_empty() && units.iter().all(|u| u == first) => {
+            format!("{} ({first})", columns.join(", "))
+        }
+        _ => columns
+            .iter()
+            .map(|c| with_unit(c))
+            .collect::<Vec<_>>()
+            .join(", "),
+    }
+}
+
+/// The corner of the chart whose quarter holds the fewest of the curves' points, for the
+/// legend, so it covers as little of the curves as can be.
+fn quietest_corner(
+    curves: &[(String, Vec<(f64, f64)>)],
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+) -> SeriesLabelPosition {
+    let mut counts = [0usize; 4];
+    for (x, y) in curves.iter().flat_map(|(_, c)| c.iter()) {
+        let right = (x - x0) / (x1 - x0) > 0.55;
+        let upper = (y - y0) / (y1 - y0) > 0.55;
+        let left_ = (x - x0) / (x1 - x0) < 0.45;
+        let lower = (y - y0) / (y1 - y0) < 0.45;
+        counts[0] += usize::from(upper && left_);
+        counts[1] += usize::from(upper && right);
+        counts[2] += usize::from(lower && left_);
+        counts[3] += usize::from(lower && right);
+    }
+    let corners = [
+        SeriesLabelPosition::UpperLeft,
+        SeriesLabelPosition::UpperRight,
+        SeriesLabelPosition::LowerLeft,
+        SeriesLabelPosition::LowerRight,
+    ];
+    let quietest = (0..4).min_by_key(|&k| counts[k]).unwrap_or(1);
+    corners[quietest].clone()
+}
+
+/// Draws labelled `curves` (x, y points) on one chart with the axes' names `(x, y)` into the
+/// PNG `output`, written to a temporary name and renamed. Returns the path written.
 pub fn draw_curves(
     curves: &[(String, Vec<(f64, f64)>)],
-    x_desc: &str,
+    (x_desc, y_desc): (&str, &str),
     output: &Path,
 ) -> Result<PathBuf, String> {
     register_font();
@@ -213,13 +277,14 @@ pub fn draw_curves(
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         let mut chart = ChartBuilder::on(&root)
             .margin(20)
-            .x_label_area_size(50)
-            .y_label_area_size(90)
+            .x_label_area_size(60)
+            .y_label_area_size(110)
             .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(|e| e.to_string())?;
         chart
             .configure_mesh()
             .x_desc(x_desc)
+            .y_desc(y_desc)
             .x_label_formatter(&|v| tick_label(*v))
             .y_label_formatter(&|v| tick_label(*v))
             .label_style(("sans-serif", 18))
@@ -241,6 +306,7 @@ pub fn draw_curves(
         }
         chart
             .configure_series_labels()
+            .position(quietest_corner(curves, (x0, x1), (y0, y1)))
             .label_font(("sans-serif", 18))
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)

@@ -51,7 +51,7 @@ fn describe_step(step: TimeStep, limit: f64) -> String {
 /// `(x, y)` or `(x, y, z)` with plain number formatting.
 fn point<D: Dim>(v: D::Vector) -> String {
     use fractum_engine::dim::VectorOps;
-    let parts: Vec<String> = v.to_3d()[..D::N].iter().map(|c| c.to_string()).collect();
+    let parts: Vec<String> = v.to_3d()[..D::N].iter().map(|c| short(*c)).collect();
     format!("({})", parts.join(", "))
 }
 
@@ -160,6 +160,97 @@ fn body_material_counts(world: &mut fractum_engine::prelude::World) -> Vec<Vec<S
 
 /// The `fractum check` summary of a valid scene.
 pub fn check_report(built: &mut Built) -> String {
+    check_report_with(built, &[]).0
+}
+
+/// How long a run is: its steps, from the scene's end and the step size at the start, and
+/// the wall time of one step, timed on the built simulation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RunLength {
+    /// Steps to the scene's end (at the starting step size, for a CFL step).
+    pub steps: f64,
+    /// Seconds one step took (the last of a few timed ones), if one could be taken.
+    pub step_seconds: Option<f64>,
+    /// Threads the step ran on.
+    pub threads: usize,
+}
+
+impl RunLength {
+    /// The estimated wall time of the whole run (s).
+    pub fn wall_seconds(&self) -> Option<f64> {
+        self.step_seconds.map(|s| s * self.steps)
+    }
+}
+
+/// Times up to three steps of `sim` (at most about a second of them; the first builds what
+/// later steps reuse, so the last is the one kept) and counts the steps to its end. `sim` is
+/// stepped: it is `check`'s, which throws it away.
+pub fn run_length(sim: &mut fractum_engine::Simulation) -> RunLength {
+    let dt = sim.planned_time_step();
+    let steps = match sim.end() {
+        End::Steps(n) => n as f64,
+        End::Time(t) => ((t - sim.clock().time) / dt).ceil().max(1.0),
+    };
+    let started = std::time::Instant::now();
+    let mut step_seconds = None;
+    for _ in 0..3 {
+        if sim.finished() || started.elapsed().as_secs_f64() > 1.0 {
+            break;
+        }
+        let step = std::time::Instant::now();
+        if sim.step().is_err() {
+            break;
+        }
+        step_seconds = Some(step.elapsed().as_secs_f64());
+    }
+    RunLength {
+        steps,
+        step_seconds,
+        threads: sim.threads(),
+    }
+}
+
+/// The `run` line of `fractum check`.
+fn run_length_line(length: &RunLength) -> String {
+    let steps =
+        format!("{:.3}", length.steps)
+            .parse::<f64>()
+            .map_or(length.steps.to_string(), |n| {
+                if n >= 1.0e5 {
+                    format!("{n:.2e}")
+                } else {
+                    format!("{n}")
+                }
+            });
+    match (length.step_seconds, length.wall_seconds()) {
+        (Some(step), Some(wall)) => format!(
+            "run        {steps} steps; a step took {} on {} thread(s): about {} to the end",
+            duration(step),
+            length.threads,
+            duration(wall)
+        ),
+        _ => format!("run        {steps} steps"),
+    }
+}
+
+/// A duration in words a reader takes in at a glance: `0.8 ms`, `12 s`, `3.2 h`.
+fn duration(seconds: f64) -> String {
+    match seconds {
+        s if s < 1.0e-3 => format!("{:.0} µs", s * 1.0e6),
+        s if s < 1.0 => format!("{:.1} ms", s * 1.0e3),
+        s if s < 120.0 => format!("{s:.0} s"),
+        s if s < 7200.0 => format!("{:.0} min", s / 60.0),
+        s if s < 3.0 * 86400.0 => format!("{:.1} h", s / 3600.0),
+        s => format!("{:.1} days", s / 86400.0),
+    }
+}
+
+/// [`check_report`] with the scene's implausible magnitudes as warnings, and the run's length
+/// (the built simulation is stepped to time it).
+pub fn check_report_with(
+    built: &mut Built,
+    implausible: &[fractum_scene::Implausible],
+) -> (String, RunLength) {
     let summary = built.summary.clone();
     let sim = &mut built.simulation;
     let limit = sim.stable_time_step();
@@ -229,8 +320,13 @@ pub fn check_report(built: &mut Built) -> String {
         "output     {frames}; series.csv columns: {}",
         built.output.columns().join(",")
     );
+    let length = run_length(&mut built.simulation);
+    let _ = writeln!(out, "{}", run_length_line(&length));
+    for slip in implausible {
+        let _ = writeln!(out, "warning    {slip}");
+    }
     out.push_str("ok\n");
-    out
+    (out, length)
 }
 
 /// The warning for a mass-scaled pipeline with laws that read the scene's real time, if any.

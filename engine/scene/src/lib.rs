@@ -12,6 +12,7 @@
 //! - `estimate.rs`: the estimator, the memory and a distributed run's slabs from the seeds
 //!   and a probe of the pipeline, before anything is spawned;
 //! - `pipeline.rs`: the pipeline's systems chosen, checked and installed;
+//! - `plausible.rs`: magnitudes no solid has (a modulus in GPa written as Pa), for `check`;
 //! - `build/`: the world builder, split by what it builds: bodies, regions, outputs, ranks;
 //!   `world_checks.rs` checks what only the built world can tell.
 //!
@@ -24,6 +25,7 @@ mod estimate;
 mod format;
 mod overlap;
 mod pipeline;
+mod plausible;
 mod seed;
 mod seeder;
 mod spec;
@@ -35,6 +37,7 @@ pub use format::*;
 pub use fractum_engine::budget;
 pub use fractum_engine::text::{Location, SceneError, locate, parse_fragment, scene_text};
 pub use fractum_geometry::{FileError, Shape, image, mesh, points, shape, surface};
+pub use plausible::{Implausible, implausible_magnitudes};
 pub use seed::{cell_points, particles_in_shape};
 pub use spec::{
     Body, Boundary, Built, Condition, InitialVelocity, Output, PipelineEntry, PipelineSummary,

@@ -6,6 +6,7 @@
 use super::tensile_degradation::install_strength;
 use super::weibull::WeibullOption;
 use fractum_engine::prelude::*;
+use fractum_engine::text::readable;
 
 /// Eq. (23) with the parameters a law installs: what turns a driving stress into damage.
 #[derive(Clone, Debug, PartialEq)]
@@ -119,10 +120,13 @@ pub fn check_brittleness(
         return Err(params.error(
             field,
             format!(
-                "H̄_s l_ch = σ_f² l_ch / (2 E G_f) = {scaled:.3} ≥ 1 (σ_f = {strength:e} Pa, l_ch = \
-                 {length:e} m): the softening branch would have to snap back; use l_ch < {:e} m \
-                 (a finer grid, when it defaults to the cell diagonal) or a larger G_f",
-                length / scaled
+                "H̄_s l_ch = σ_f² l_ch / (2 E G_f) = {} ≥ 1 (σ_f = {} Pa, l_ch = {} m): the \
+                 softening branch would have to snap back; use l_ch < {} m (a finer grid, when \
+                 it defaults to the cell diagonal) or a larger G_f",
+                readable(scaled),
+                readable(strength),
+                readable(length),
+                readable(length / scaled)
             ),
         ));
     }

@@ -166,6 +166,7 @@ fn snapshot_png(
         width,
         range,
         overlay: None,
+        when: snapshot::frame_when(&frame),
     };
     py.detach(|| {
         let particles = fractum_io::output::read_particle_frame(&frame)

@@ -54,10 +54,11 @@ fn scene_parse(name: &str, text: &str) -> PyResult<()> {
 fn check<'py>(py: Python<'py>, name: &str, text: &str) -> PyResult<Bound<'py, PyDict>> {
     let file = parse(name, text)?;
     let registry = registry();
+    let implausible = fractum_scene::implausible_magnitudes(&file);
     let mut built = py
         .detach(|| build_simulation(&file, registry))
-        .map_err(|e| scene_error(&e))?;
-    let report = fractum_cli::check_report(&mut built);
+        .map_err(|e| scene_error_with_notes(&e, &implausible))?;
+    let (report, length) = py.detach(|| fractum_cli::check_report_with(&mut built, &implausible));
     let sim = &mut built.simulation;
     let out = PyDict::new(py);
     out.set_item("report", report)?;
@@ -86,9 +87,34 @@ fn check<'py>(py: Python<'py>, name: &str, text: &str) -> PyResult<Bound<'py, Py
         fractum_engine::simulation::End::Time(t) => out.set_item("end_time", t)?,
         fractum_engine::simulation::End::Steps(n) => out.set_item("end_steps", n)?,
     }
+    out.set_item("steps", length.steps)?;
+    out.set_item("step_seconds", length.step_seconds)?;
+    out.set_item("wall_estimate_s", length.wall_seconds())?;
+    let warnings: Vec<String> = implausible.iter().map(ToString::to_string).collect();
+    out.set_item("warnings", warnings)?;
     out.set_item("series_columns", built.output.columns())?;
     out.set_item("vtu_every", built.output.vtu_every)?;
     Ok(out)
+}
+
+/// A scene's error with the scene's implausible magnitudes as notes (a unit slip is often what
+/// the error is about), in its message and as `notes`.
+fn scene_error_with_notes(
+    e: &fractum_scene::SceneError,
+    implausible: &[fractum_scene::Implausible],
+) -> PyErr {
+    let err = scene_error(e);
+    if implausible.is_empty() {
+        return err;
+    }
+    let notes: Vec<String> = implausible.iter().map(|s| format!("note: {s}")).collect();
+    Python::attach(|py| {
+        let value = err.value(py);
+        let message = format!("{e}\n{}", notes.join("\n"));
+        let _ = value.setattr("args", (message,));
+        let _ = value.setattr("notes", notes);
+    });
+    err
 }
 
 /// Every registered system: name, stage, summary, parameters and needs.

@@ -6,6 +6,7 @@ as exceptions, never a crash.
 `.ci/run` runs these in a virtual environment under target/ against the extension built by
 cargo; FRACTUM_BIN names the `fractum` binary to compare with (target/debug/fractum there)."""
 
+import math
 import os
 import pickle
 import signal
@@ -325,3 +326,25 @@ def test_the_readmes_python_example_runs(tmp_path):
     steps, dissipated = said.split(" steps, ")
     assert int(steps) > 0 and float(dissipated.split(" J")[0]) > 0
     assert (tmp_path / "out" / "cracked_bar" / "series.csv").exists()
+
+
+def test_check_gives_the_runs_length_and_names_unit_slips():
+    scene = fractum.Scene.load(SCENES / "charpy_dfg.ron")
+    check = scene.check()
+    assert check["steps"] == math.ceil(check["end_time"] / check["time_step"])
+    assert check["warnings"] == []
+    assert check["step_seconds"] > 0 and check["wall_estimate_s"] > 0
+    assert f"run        {int(check['steps'])} steps" in str(check)
+    striker = scene.copy()
+    striker.materials["striker"].youngs_modulus = 190.0  # GPa meant
+    check = striker.check()
+    assert len(check["warnings"]) == 1, check["warnings"]
+    assert check["warnings"][0].startswith("`materials.striker.youngs_modulus`: 190 Pa")
+    assert "GPa meant? 190 GPa is 1.9e11 Pa" in check["warnings"][0]
+    assert "warning    `materials.striker.youngs_modulus`" in str(check)
+    # The bar's softening law refuses the slip; the slip is named beside the refusal.
+    scene.materials["bar"].youngs_modulus = 190.0
+    with pytest.raises(fractum.SceneError, match="snap back") as refused:
+        scene.check()
+    assert refused.value.notes[0].startswith("note: `materials.bar.youngs_modulus`")
+    assert "GPa meant?" in str(refused.value)

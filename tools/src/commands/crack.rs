@@ -3,6 +3,7 @@
 use crate::{CrackArgs, EXIT_IO, crack, load};
 use fractum_engine::registry::Registry;
 use fractum_engine::resources::Materials;
+use fractum_engine::text::readable as num;
 use fractum_io::output::write_atomically;
 use std::path::Path;
 
@@ -81,17 +82,19 @@ fn crack_report(request: &CrackArgs, registry: &Registry) -> Result<String, Stri
         .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     let length = history.last().map_or(0.0, |t| t.length);
     let mut report = format!(
-        "crack length {length:e} m (link {link:e} m); wrote {}",
+        "crack length {} m (link {} m); wrote {}",
+        num(length),
+        num(link),
         path.display()
     );
     match crack::initial_angle(&history, &options) {
         Some(a) => report.push_str(&format!(
-            "\ninitial angle {a:.1}° from the notch direction (at {:e} m of crack)",
-            options.angle_length
+            "\ninitial angle {a:.1}° from the notch direction (at {} m of crack)",
+            num(options.angle_length)
         )),
         None => report.push_str(&format!(
-            "\nno initial angle: the crack never reached {:e} m",
-            options.angle_length
+            "\nno initial angle: the crack never reached {} m",
+            num(options.angle_length)
         )),
     }
     let rayleigh = request
@@ -116,8 +119,9 @@ fn window_report(history: &[crack::TipAt], window: &[f64]) -> Result<String, Str
     }
     Ok(match crack::crack_speed_between(history, from, to) {
         Some(speed) => format!(
-            "\ncrack speed {speed:e} m/s from {from:e} to {to:e} s (least squares over the frames \
-             in the window)"
+            "\ncrack speed {} m/s from {from:e} to {to:e} s (least squares over the frames \
+             in the window)",
+            num(speed)
         ),
         None => format!("\nno crack speed from {from:e} to {to:e} s: fewer than two frames there"),
     })
@@ -128,13 +132,16 @@ fn speed_report(history: &[crack::TipAt], rayleigh: Option<(String, f64)>) -> St
     match crack::crack_speed(history) {
         Some((mean, largest)) => {
             let mut report = format!(
-                "\ncrack speed {mean:e} m/s (least squares over the growth), largest \
-                 between frames {largest:e} m/s"
+                "\ncrack speed {} m/s (least squares over the growth), largest between \
+                 frames {} m/s",
+                num(mean),
+                num(largest)
             );
             if let Some((name, c_r)) = rayleigh {
                 report.push_str(&format!(
-                    "\nRayleigh speed of {name}: {c_r:e} m/s (crack speed {:.2} of it, \
+                    "\nRayleigh speed of {name}: {} m/s (crack speed {:.2} of it, \
                      largest {:.2})",
+                    num(c_r),
                     mean / c_r,
                     largest / c_r
                 ));

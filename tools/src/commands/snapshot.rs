@@ -21,6 +21,7 @@ pub(crate) fn snapshot_command(args: &SnapshotArgs) -> i32 {
         width: args.width,
         range: (args.range.len() == 2).then(|| (args.range[0], args.range[1])),
         overlay,
+        when: crate::snapshot::frame_when(&args.frame),
     };
     let frame = args.frame.as_path();
     let output = args.output.clone().unwrap_or_else(|| {

@@ -141,3 +141,40 @@ fn variant_hint(field: &str) -> Option<&'static str> {
         .find(|(suffix, _)| field.ends_with(suffix))
         .map(|(_, hint)| *hint)
 }
+
+/// `x` as a reader takes it in: four significant digits, plainly written between 0.001 and a
+/// million (`0.03645`, `1250`) and in scientific notation outside (`6.667e-10`, `3e10`), for
+/// messages and reports (files keep every digit).
+pub fn readable(x: f64) -> String {
+    if !x.is_finite() || x == 0.0 {
+        return format!("{x}");
+    }
+    let rounded: f64 = format!("{x:.3e}").parse().unwrap_or(x);
+    if (1.0e-3..1.0e6).contains(&rounded.abs()) {
+        return format!("{rounded}");
+    }
+    let scientific = format!("{rounded:.3e}");
+    match scientific.split_once('e') {
+        Some((mantissa, exponent)) if mantissa.contains('.') => {
+            let mantissa = mantissa.trim_end_matches('0').trim_end_matches('.');
+            format!("{mantissa}e{exponent}")
+        }
+        _ => scientific,
+    }
+}
+
+#[cfg(test)]
+mod readable_tests {
+    use super::readable;
+
+    #[test]
+    fn four_significant_digits_plain_or_scientific() {
+        assert_eq!(readable(3.645141116866203e-2), "0.03645");
+        assert_eq!(readable(0.036000000000000004), "0.036");
+        assert_eq!(readable(6.666666666666666e-10), "6.667e-10");
+        assert_eq!(readable(30.0e9), "3e10");
+        assert_eq!(readable(-1250.0), "-1250");
+        assert_eq!(readable(1.0e-10), "1e-10");
+        assert_eq!(readable(0.0), "0");
+    }
+}

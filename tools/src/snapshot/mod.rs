@@ -14,12 +14,14 @@
 
 use crate::fragments::{frame_thickness, median_spacing, particle_size};
 use crate::overlay::Overlay;
-use crate::plot::{register_font, tick_label};
+use crate::plot::register_font;
 use fractum_engine::prelude::{DVec3, Three};
 use fractum_io::output::{ParticleFrame, read_particle_frame};
 use fractum_systems::spatial::Spatial;
-use plotters::prelude::*;
 use std::path::Path;
+
+mod draw;
+use draw::{BAR, MARGIN, draw};
 
 /// The plane a frame is seen in.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -34,6 +36,15 @@ pub enum View {
 }
 
 impl View {
+    /// The names of the (horizontal, vertical) axes.
+    fn names(self) -> (&'static str, &'static str) {
+        match self {
+            View::Xy => ("x", "y"),
+            View::Xz => ("x", "z"),
+            View::Yz => ("y", "z"),
+        }
+    }
+
     /// (horizontal, vertical, depth) axes; the depth grows towards the viewer.
     fn axes(self) -> (usize, usize, usize) {
         match self {
@@ -57,6 +68,8 @@ pub struct SnapshotOptions {
     pub range: Option<(f64, f64)>,
     /// Lines drawn over the particles, in the view's coordinates (m).
     pub overlay: Option<Overlay>,
+    /// When the frame is, for the title (`t = 1.2e-4 s, step 400`; [`frame_when`]).
+    pub when: Option<String>,
 }
 
 impl Default for SnapshotOptions {
@@ -67,7 +80,35 @@ impl Default for SnapshotOptions {
             width: 900,
             range: None,
             overlay: None,
+            when: None,
         }
+    }
+}
+
+/// When the frame file `path` is, from its run's `particles.pvd` and its name
+/// (`frames/particles_00000400.vtu`): `t = 1.2e-4 s, step 400`.
+pub fn frame_when(path: &Path) -> Option<String> {
+    let name = path.file_name()?.to_string_lossy().into_owned();
+    let step = name
+        .trim_end_matches(".pvtu")
+        .trim_end_matches(".vtu")
+        .rsplit('_')
+        .next()
+        .and_then(|digits| digits.parse::<u64>().ok());
+    let collection = path.parent()?.parent()?.join("particles.pvd");
+    let time = fractum_io::output::read_pvd(&collection)
+        .ok()?
+        .into_iter()
+        .find(|(_, file)| file.ends_with(&name))
+        .map(|(t, _)| t);
+    match (time, step) {
+        (Some(t), Some(step)) => Some(format!(
+            "t = {} s, step {step}",
+            fractum_engine::text::readable(t)
+        )),
+        (Some(t), None) => Some(format!("t = {} s", fractum_engine::text::readable(t))),
+        (None, Some(step)) => Some(format!("step {step}")),
+        (None, None) => None,
     }
 }
 
@@ -151,26 +192,6 @@ pub fn field_values(frame: &ParticleFrame, field: &str) -> Result<Vec<f64>, Stri
         frame.require(&[column])?;
     }
     Ok(values)
-}
-
-/// Viridis, by five stops.
-fn colour(t: f64) -> RGBColor {
-    const STOPS: [(f64, f64, f64); 5] = [
-        (68.0, 1.0, 84.0),
-        (59.0, 82.0, 139.0),
-        (33.0, 145.0, 140.0),
-        (94.0, 201.0, 98.0),
-        (253.0, 231.0, 37.0),
-    ];
-    if !t.is_finite() {
-        return RGBColor(200, 200, 200);
-    }
-    let s = t.clamp(0.0, 1.0) * 4.0;
-    let k = (s.floor() as usize).min(3);
-    let f = s - k as f64;
-    let mix = |a: f64, b: f64| (a + f * (b - a)).round() as u8;
-    let (a, b) = (STOPS[k], STOPS[k + 1]);
-    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
 }
 
 /// The particles rasterised: per pixel the colour parameter (NaN: a NaN value) and the body
@@ -351,9 +372,6 @@ fn scale_length(extent: f64) -> f64 {
         .unwrap_or(base)
 }
 
-const MARGIN: u32 = 50;
-const BAR: u32 = 170;
-
 /// Draws `frame` coloured by `options.field` into the PNG `output` (written to a temporary
 /// name and renamed).
 pub fn snapshot(
@@ -364,12 +382,21 @@ pub fn snapshot(
     // Particles are drawn at their size and outlined by body.
     frame.require(&["volume", "body"])?;
     let values = field_values(frame, &options.field)?;
-    let range = options.range.unwrap_or_else(|| finite_range(&values));
+    // A field of both signs is drawn about zero, so that white is zero (the diverging map).
+    let range = options
+        .range
+        .unwrap_or_else(|| match finite_range(&values) {
+            (low, high) if low < 0.0 && high > 0.0 => {
+                let reach = low.abs().max(high);
+                (-reach, reach)
+            }
+            range => range,
+        });
     let raster = rasterise(frame, &values, range, options.view, options.width.max(50))?;
     register_font();
     let size = (
-        raster.width as u32 + 2 * MARGIN + BAR,
-        raster.height as u32 + 2 * MARGIN + 30,
+        raster.width as u32 + MARGIN + BAR,
+        raster.height as u32 + MARGIN + 90,
     );
     let name = output
         .file_name()
@@ -381,148 +408,10 @@ pub fn snapshot(
     std::fs::rename(&temp, output).map_err(|e| format!("cannot write {}: {e}", output.display()))
 }
 
-type DrawResult = Result<(), Box<dyn std::error::Error>>;
-
-fn draw(
-    raster: &Raster,
-    options: &SnapshotOptions,
-    range: (f64, f64),
-    size: (u32, u32),
-    path: &Path,
-) -> DrawResult {
-    let root = BitMapBackend::new(path, size).into_drawing_area();
-    root.fill(&WHITE)?;
-    let (ox, oy) = (MARGIN as i32, MARGIN as i32);
-    for row in 0..raster.height {
-        for col in 0..raster.width {
-            let k = row * raster.width + col;
-            if raster.body[k] == u32::MAX {
-                continue;
-            }
-            let c = if raster.outline(row, col) {
-                RGBColor(30, 30, 30)
-            } else {
-                colour(raster.value[k])
-            };
-            root.draw_pixel((ox + col as i32, oy + row as i32), &c)?;
-        }
-    }
-    let title = format!(
-        "{} ({} to {})",
-        options.field,
-        tick_label(range.0),
-        tick_label(range.1)
-    );
-    root.draw(&Text::new(title, (ox, 12), ("sans-serif", 22).into_font()))?;
-    draw_colour_bar(
-        &root,
-        range,
-        (ox + raster.width as i32 + 30, oy),
-        raster.height.min(400) as i32,
-    )?;
-    draw_scale_bar(&root, raster, (ox, oy + raster.height as i32 + 18))?;
-    if let Some(overlay) = &options.overlay {
-        draw_overlay(&root, raster, overlay, (ox, oy))?;
-    }
-    root.present()?;
-    Ok(())
-}
-
-fn draw_colour_bar(
-    root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
-    range: (f64, f64),
-    at: (i32, i32),
-    height: i32,
-) -> DrawResult {
-    let height = height.max(60);
-    for k in 0..height {
-        let t = 1.0 - f64::from(k) / f64::from(height - 1);
-        root.draw(&Rectangle::new(
-            [(at.0, at.1 + k), (at.0 + 20, at.1 + k + 1)],
-            colour(t).filled(),
-        ))?;
-    }
-    root.draw(&Rectangle::new(
-        [(at.0, at.1), (at.0 + 20, at.1 + height)],
-        BLACK,
-    ))?;
-    for k in 0..=4 {
-        let t = f64::from(k) / 4.0;
-        let y = at.1 + ((1.0 - t) * f64::from(height - 1)) as i32;
-        let label = tick_label(range.0 + t * (range.1 - range.0));
-        root.draw(&Text::new(
-            label,
-            (at.0 + 26, y - 8),
-            ("sans-serif", 16).into_font(),
-        ))?;
-    }
-    Ok(())
-}
-
-fn draw_scale_bar(
-    root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
-    raster: &Raster,
-    at: (i32, i32),
-) -> DrawResult {
-    let length = scale_length(raster.width as f64 * raster.scale);
-    let pixels = (length / raster.scale).round() as i32;
-    root.draw(&Rectangle::new(
-        [(at.0, at.1), (at.0 + pixels, at.1 + 4)],
-        BLACK.filled(),
-    ))?;
-    let label = if length < 1e-2 {
-        format!("{} mm", tick_label(length * 1e3))
-    } else {
-        format!("{} m", tick_label(length))
-    };
-    root.draw(&Text::new(
-        label,
-        (at.0 + pixels + 10, at.1 - 6),
-        ("sans-serif", 16).into_font(),
-    ))?;
-    Ok(())
-}
-
-/// The overlay's lines over the particles, and its name beside the scale bar.
-fn draw_overlay(
-    root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
-    raster: &Raster,
-    overlay: &Overlay,
-    at: (i32, i32),
-) -> DrawResult {
-    let style = OVERLAY_COLOUR.stroke_width(2);
-    let pixel = |p: &[f64; 2]| {
-        let (col, row) = raster.pixel_of(*p);
-        (at.0 + col, at.1 + row)
-    };
-    for line in &overlay.lines {
-        root.draw(&PathElement::new(
-            line.iter().map(pixel).collect::<Vec<_>>(),
-            style,
-        ))?;
-    }
-    let legend = (
-        at.0 + raster.width as i32 / 2,
-        at.1 + raster.height as i32 + 20,
-    );
-    root.draw(&PathElement::new(
-        vec![legend, (legend.0 + 30, legend.1)],
-        style,
-    ))?;
-    root.draw(&Text::new(
-        overlay.label.clone(),
-        (legend.0 + 40, legend.1 - 8),
-        ("sans-serif", 16).into_font(),
-    ))?;
-    Ok(())
-}
-
-/// The overlay's colour: red, apart from every colour of the map.
-const OVERLAY_COLOUR: RGBColor = RGBColor(230, 25, 25);
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use plotters::prelude::RGBColor;
 
     fn frame() -> ParticleFrame {
         // Two bodies of 4 × 4 particles, 0.1 apart, side by side with a gap of two spacings.
@@ -584,9 +473,9 @@ mod tests {
 
     #[test]
     fn colours_run_from_purple_to_yellow_and_nan_is_grey() {
-        assert_eq!(colour(0.0), RGBColor(68, 1, 84));
-        assert_eq!(colour(1.0), RGBColor(253, 231, 37));
-        assert_eq!(colour(f64::NAN), RGBColor(200, 200, 200));
+        assert_eq!(draw::colour(0.0), RGBColor(68, 1, 84));
+        assert_eq!(draw::colour(1.0), RGBColor(253, 231, 37));
+        assert_eq!(draw::colour(f64::NAN), RGBColor(200, 200, 200));
     }
 
     #[test]
