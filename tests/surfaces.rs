@@ -107,3 +107,34 @@ fn ascii_and_binary_stl_read_the_same_facets_and_threads_do_not_matter() {
     let one = particles(surface("sphere.stl"), 1);
     assert_eq!(particles(surface("sphere.stl"), 2), one);
 }
+
+/// Gmsh's STL export does not keep a closed surface's facets turning one way: the box with
+/// every other facet written the wrong way round (its second and third corners swapped) is
+/// re-oriented when read, and seeds the box's particles.
+#[test]
+fn a_surface_with_facets_turned_the_wrong_way_is_reoriented() {
+    let text =
+        std::fs::read_to_string(repo_root().join("tests/fixtures/surfaces/box_ascii.stl")).unwrap();
+    let mut lines: Vec<&str> = text.lines().collect();
+    let corners: Vec<usize> = (0..lines.len())
+        .filter(|&i| lines[i].trim_start().starts_with("vertex"))
+        .collect();
+    for (facet, first) in corners.chunks(3).enumerate() {
+        if facet % 2 == 1 {
+            lines.swap(first[1], first[2]);
+        }
+    }
+    let dir = std::env::temp_dir().join(format!("fractum-mixed-stl-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("box_mixed.stl");
+    std::fs::write(&path, lines.join("\n")).unwrap();
+    let mixed = read_surface(&path, "box_mixed.stl").unwrap_or_else(|e| panic!("{e}"));
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(
+        (mixed.volume() - 0.06 * 0.04 * 0.02).abs() < 1e-12,
+        "{}",
+        mixed.volume()
+    );
+    let seeded = particles(Shape::Surface(Arc::new(mixed)), 1);
+    assert_eq!(seeded, particles(surface("box_ascii.stl"), 1));
+}

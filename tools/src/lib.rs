@@ -128,27 +128,7 @@ pub fn main_with(args: impl IntoIterator<Item = OsString>, registry: &Registry) 
             scene,
             estimate: false,
             ..
-        } => match SceneFile::read(&scene) {
-            Ok(file) => {
-                // A valid scene with a magnitude no solid has is a warning; an invalid one
-                // that also has one gets it as a note: the unit slip is often the cause.
-                let implausible = fractum_scene::implausible_magnitudes(&file);
-                match build_simulation(&file, registry) {
-                    Ok(mut built) => {
-                        out!("{}", reports::check_report_with(&mut built, &implausible).0);
-                        0
-                    }
-                    Err(e) => {
-                        let code = report_scene_error(&e);
-                        for slip in &implausible {
-                            eprintln!("note: {slip}");
-                        }
-                        code
-                    }
-                }
-            }
-            Err(e) => report_scene_error(&e),
-        },
+        } => commands::check::check_command(&scene, registry),
         Command::Run {
             scene,
             out,

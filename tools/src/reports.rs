@@ -321,12 +321,18 @@ pub fn check_report_with(
         built.output.columns().join(",")
     );
     let length = run_length(&mut built.simulation);
-    let _ = writeln!(out, "{}", run_length_line(&length));
+    out.push_str(&closing_lines(&length, implausible));
+    (out, length)
+}
+
+/// The run's length, the warnings and `ok`: the last lines of `fractum check`.
+fn closing_lines(length: &RunLength, implausible: &[fractum_scene::Implausible]) -> String {
+    let mut out = format!("{}\n", run_length_line(length));
     for slip in implausible {
         let _ = writeln!(out, "warning    {slip}");
     }
     out.push_str("ok\n");
-    (out, length)
+    out
 }
 
 /// The warning for a mass-scaled pipeline with laws that read the scene's real time, if any.

@@ -261,7 +261,9 @@ pub(crate) fn make_ready(
     })
 }
 
-/// [`make_ready`], with the exit code and the reason when refused, for the caller to say.
+/// Gives `sim` its threads and step cap and checks that the run will take a step (as
+/// `make_ready` does before `fractum run`), with the exit code and the reason when refused, for
+/// the caller to say.
 pub fn ready_to_run(
     sim: &mut fractum_engine::Simulation,
     settings: &RunSettings,

@@ -10,6 +10,7 @@
 mod file_error;
 pub mod image;
 pub mod mesh;
+mod orient;
 pub mod points;
 pub mod shape;
 pub mod surface;

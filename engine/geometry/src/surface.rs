@@ -2,9 +2,10 @@
 //! shape (`Surface("part.stl")`). The readers are small and in-house: both formats are a page
 //! of specification, and reading them here adds no crate to the default build.
 //!
-//! A surface is checked when it is read: every edge must belong to exactly two facets that
-//! run along it in opposite directions (closed, manifold and consistently oriented), or the
-//! first bad edge or facet is named. Membership is ray parity: a point is inside when a ray
+//! A surface is checked when it is read: every edge must belong to exactly two facets (closed
+//! and manifold), or the first bad edge or facet is named; facets that run the wrong way round
+//! (as some exporters write them, Gmsh's STL among them) are turned to agree with their
+//! neighbours (`orient.rs`). Membership is ray parity: a point is inside when a ray
 //! from it along +z crosses the surface an odd number of times. The facets are binned by their
 //! extent across z, so a point meets only the facets above and below its own bin (a column
 //! sweep's cost, point by point). Crossings on a shared edge or vertex are counted once by a
@@ -12,12 +13,11 @@
 //! ray through an edge neither misses the surface nor crosses it twice.
 
 use glam::{DVec2, DVec3};
-use std::collections::HashMap;
 use std::path::Path;
 
 use super::file_error::{FileError, fail};
 
-/// A closed, consistently oriented triangle surface and its index for inside tests.
+/// A closed triangle surface, consistently oriented, and its index for inside tests.
 #[derive(Clone, Debug)]
 pub struct Surface {
     /// The file it was read from, as the scene names it.
@@ -91,19 +91,6 @@ impl Bins {
     }
 }
 
-/// A corner as the file wrote it: `(x, y, z)`, single-precision values (STL's) shown as such.
-fn point(v: DVec3) -> String {
-    let shown = |c: f64| {
-        let single = c as f32;
-        if f64::from(single) == c {
-            format!("{single}")
-        } else {
-            format!("{c}")
-        }
-    };
-    format!("({}, {}, {})", shown(v.x), shown(v.y), shown(v.z))
-}
-
 /// Reads and checks the surface at `path` (`.stl` or `.obj`); `file` is how the scene names it.
 pub fn read_surface(path: &Path, file: &str) -> Result<Surface, FileError> {
     let bytes = std::fs::read(path).map_err(|e| fail("", format!("cannot read it: {e}")))?;
@@ -124,8 +111,9 @@ pub fn read_surface(path: &Path, file: &str) -> Result<Surface, FileError> {
 }
 
 impl Surface {
-    /// A surface of `triangles`, checked closed, manifold and consistently oriented.
-    pub fn new(file: &str, triangles: Vec<[DVec3; 3]>) -> Result<Self, FileError> {
+    /// A surface of `triangles`, checked closed and manifold, its facets turned where they
+    /// disagree with their neighbours' orientation (`orient.rs`).
+    pub fn new(file: &str, mut triangles: Vec<[DVec3; 3]>) -> Result<Self, FileError> {
         if triangles.len() < 4 {
             return Err(fail(
                 "",
@@ -135,7 +123,7 @@ impl Surface {
                 ),
             ));
         }
-        check_closed(&triangles)?;
+        crate::orient::orient_closed_surface(&mut triangles)?;
         let (lo, hi) = triangles.iter().flatten().fold(
             (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
             |(lo, hi), v| (lo.min(*v), hi.max(*v)),
@@ -242,77 +230,6 @@ fn crossing(t: &[DVec3; 3], x: DVec3) -> Crossing {
     } else {
         Crossing::Miss
     }
-}
-
-/// Every edge in exactly two facets, once in each direction; no facet of zero area.
-fn check_closed(triangles: &[[DVec3; 3]]) -> Result<(), FileError> {
-    let key = |v: DVec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
-    let mut ids: HashMap<[u64; 3], u32> = HashMap::new();
-    let mut faces = Vec::with_capacity(triangles.len());
-    for (k, t) in triangles.iter().enumerate() {
-        if (t[1] - t[0]).cross(t[2] - t[0]).length_squared() == 0.0 {
-            return Err(fail(
-                format!("facet {}", k + 1),
-                format!(
-                    "has no area (corners {}, {}, {}); remove degenerate facets",
-                    point(t[0]),
-                    point(t[1]),
-                    point(t[2])
-                ),
-            ));
-        }
-        let mut f = [0u32; 3];
-        for (corner, v) in t.iter().enumerate() {
-            let next = ids.len() as u32;
-            f[corner] = *ids.entry(key(*v)).or_insert(next);
-        }
-        faces.push(f);
-    }
-    let mut vertices = vec![DVec3::ZERO; ids.len()];
-    for t in triangles {
-        for v in t {
-            vertices[ids[&key(*v)] as usize] = *v;
-        }
-    }
-    // Directed edge -> the facet it came from.
-    let mut directed: HashMap<(u32, u32), usize> = HashMap::new();
-    for (k, f) in faces.iter().enumerate() {
-        for (a, b) in [(f[0], f[1]), (f[1], f[2]), (f[2], f[0])] {
-            if let Some(first) = directed.insert((a, b), k) {
-                let (va, vb) = (vertices[a as usize], vertices[b as usize]);
-                return Err(fail(
-                    format!("facet {}", k + 1),
-                    format!(
-                        "runs along the edge from {} to {} in the same direction as facet \
-                         {}: the facets are inconsistently oriented, or more than two meet at \
-                         the edge (not manifold)",
-                        point(va),
-                        point(vb),
-                        first + 1
-                    ),
-                ));
-            }
-        }
-    }
-    // In facet order, so the facet named is the first open one.
-    for (k, f) in faces.iter().enumerate() {
-        for (a, b) in [(f[0], f[1]), (f[1], f[2]), (f[2], f[0])] {
-            if directed.contains_key(&(b, a)) {
-                continue;
-            }
-            let (va, vb) = (vertices[a as usize], vertices[b as usize]);
-            return Err(fail(
-                format!("facet {}", k + 1),
-                format!(
-                    "its edge from {} to {} belongs to no other facet: the surface is not \
-                     closed",
-                    point(va),
-                    point(vb)
-                ),
-            ));
-        }
-    }
-    Ok(())
 }
 
 /// The facets of an STL file: binary when its length is that of its facet count, else ASCII.
@@ -564,10 +481,11 @@ mod tests {
         open.pop();
         let e = Surface::new("open", open).unwrap_err();
         assert!(e.message.contains("not closed"), "{e}");
-        let mut flipped = cube(DVec3::ZERO, DVec3::ONE);
-        flipped[3].swap(1, 2);
-        let e = Surface::new("flipped", flipped).unwrap_err();
-        assert!(e.message.contains("inconsistently oriented"), "{e}");
+        let mut three = cube(DVec3::ZERO, DVec3::ONE);
+        let extra = [three[0][0], three[0][1], DVec3::new(0.5, 0.5, 2.0)];
+        three.push(extra);
+        let e = Surface::new("three", three).unwrap_err();
+        assert!(e.message.contains("not manifold"), "{e}");
         let mut flat = cube(DVec3::ZERO, DVec3::ONE);
         flat[0][2] = flat[0][1];
         assert!(

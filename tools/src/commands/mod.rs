@@ -1,7 +1,8 @@
 //! One file per command of the `fractum` binary but `run` and `resume` (`crate::running`) and
-//! `check` and `systems` (`crate::reports`).
+//! `systems` (`crate::reports`); `check` is here, its report in `crate::reports`.
 
 pub(crate) mod bench;
+pub(crate) mod check;
 pub(crate) mod crack;
 pub(crate) mod curve;
 pub(crate) mod fragments;
