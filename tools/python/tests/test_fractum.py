@@ -115,8 +115,12 @@ def test_ctrl_c_leaves_a_checkpoint_that_resumes_bit_for_bit(tmp_path):
     scene_file = tmp_path / "impact.ron"
     scene.save(scene_file)
     reference = fractum.run(scene_file, out=tmp_path / "whole", threads=2, progress=False)
+    # Python handles SIGINT only where it was not ignored when it started; a shell's background
+    # job (as CI may run this in) starts with it ignored, so the child installs the handler a
+    # terminal's Python has.
     script = textwrap.dedent(f"""
-        import sys, fractum
+        import signal, sys, fractum
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         def said(step, t, fraction):
             if step > 0:
                 print("running", flush=True)
