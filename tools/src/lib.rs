@@ -46,8 +46,8 @@ pub mod verify;
 
 pub use cli::{Cli, Command, CrackArgs, RunArgs};
 pub use reports::{
-    RunLength, check_report, check_report_with, energy_warning, kinetic_warning, run_length,
-    summary_report, systems_report,
+    RunLength, check_report, energy_warning, kinetic_warning, run_length, summary_report,
+    systems_report,
 };
 
 use clap::Parser;

@@ -158,11 +158,6 @@ fn body_material_counts(world: &mut fractum_engine::prelude::World) -> Vec<Vec<S
         .collect()
 }
 
-/// The `fractum check` summary of a valid scene.
-pub fn check_report(built: &mut Built) -> String {
-    check_report_with(built, &[]).0
-}
-
 /// How long a run is: its steps, from the scene's end and the step size at the start, and
 /// the wall time of one step, timed on the built simulation.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -246,9 +241,9 @@ fn duration(seconds: f64) -> String {
     }
 }
 
-/// [`check_report`] with the scene's implausible magnitudes as warnings, and the run's length
-/// (the built simulation is stepped to time it).
-pub fn check_report_with(
+/// The `fractum check` summary of a valid scene, with its implausible magnitudes as warnings,
+/// and the run's length ([`run_length`]: the built simulation is stepped to time it).
+pub fn check_report(
     built: &mut Built,
     implausible: &[fractum_scene::Implausible],
 ) -> (String, RunLength) {

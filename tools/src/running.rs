@@ -433,12 +433,7 @@ fn report_outcome(
         }
         Err(RunError::Blowup(b, last_good)) => {
             eprintln!("error: the run stopped at {b}");
-            let pipeline: Vec<&str> = pipeline
-                .by_stage
-                .iter()
-                .flat_map(|(_, names)| names.iter().map(String::as_str))
-                .collect();
-            if let Some(cure) = crate::remedy::remedy(b.cause, &pipeline) {
+            if let Some(cure) = crate::remedy::remedy(b.cause, &pipeline.system_names()) {
                 eprintln!("{cure}");
             }
             eprintln!(

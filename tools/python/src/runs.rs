@@ -164,12 +164,7 @@ fn step_to_end<'py>(
             });
         })
     });
-    let names: Vec<&str> = built
-        .pipeline
-        .by_stage
-        .iter()
-        .flat_map(|(_, names)| names.iter().map(String::as_str))
-        .collect();
+    let names = built.pipeline.system_names();
     let summary = result.map_err(|e| run_error(e, &names))?;
     if let Some(e) = callback_error {
         return Err(e);

@@ -58,7 +58,7 @@ fn check<'py>(py: Python<'py>, name: &str, text: &str) -> PyResult<Bound<'py, Py
     let mut built = py
         .detach(|| build_simulation(&file, registry))
         .map_err(|e| scene_error_with_notes(&e, &implausible))?;
-    let (report, length) = py.detach(|| fractum_cli::check_report_with(&mut built, &implausible));
+    let (report, length) = py.detach(|| fractum_cli::check_report(&mut built, &implausible));
     let sim = &mut built.simulation;
     let out = PyDict::new(py);
     out.set_item("report", report)?;

@@ -25,17 +25,6 @@ pub struct Simulation {
     built: Built,
 }
 
-impl Simulation {
-    fn pipeline_names(&self) -> Vec<&str> {
-        self.built
-            .pipeline
-            .by_stage
-            .iter()
-            .flat_map(|(_, names)| names.iter().map(String::as_str))
-            .collect()
-    }
-}
-
 #[pymethods]
 impl Simulation {
     /// Builds the scene `text` (named `name` in messages) with `threads` threads (default: all
@@ -70,7 +59,7 @@ impl Simulation {
             Ok(taken)
         });
         result.map_err(|blowup| {
-            let names = self.pipeline_names();
+            let names = self.built.pipeline.system_names();
             run_error(fractum_io::run::RunError::Blowup(blowup, None), &names)
         })
     }

@@ -17,7 +17,7 @@ pub(crate) fn check_command(path: &Path, registry: &Registry) -> i32 {
     let implausible = implausible_magnitudes(&file);
     match build_simulation(&file, registry) {
         Ok(mut built) => {
-            out!("{}", reports::check_report_with(&mut built, &implausible).0);
+            out!("{}", reports::check_report(&mut built, &implausible).0);
             0
         }
         Err(e) => {

@@ -383,6 +383,16 @@ pub struct PipelineSummary {
     pub by_stage: Vec<(Stage, Vec<String>)>,
 }
 
+impl PipelineSummary {
+    /// Every system's name, in stage order.
+    pub fn system_names(&self) -> Vec<&str> {
+        self.by_stage
+            .iter()
+            .flat_map(|(_, names)| names.iter().map(String::as_str))
+            .collect()
+    }
+}
+
 /// What `fractum check` reports about a built scene besides the world itself.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SceneSummary {

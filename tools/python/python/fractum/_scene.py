@@ -3,11 +3,18 @@ wrote it (comments, layout, the other values), so a scene's errors keep pointing
 author knows."""
 
 import difflib
+import functools
 import os
 from pathlib import Path
 
 from . import _native
 from ._ron import Ron, from_ron, to_ron
+
+
+@functools.lru_cache(maxsize=1)
+def _registered_systems():
+    """The registered systems with their documented parameters (the registry is fixed)."""
+    return tuple(_native.systems())
 
 
 def _atomic_write(path, text):
@@ -198,7 +205,7 @@ class Scene:
         names it more than once)."""
         items = [item for item in self.keys("pipeline") if self.get(f"pipeline{item}.system") == name]
         if not items:
-            known = [s["name"] for s in _native.systems()]
+            known = [s["name"] for s in _registered_systems()]
             close = difflib.get_close_matches(name, self.pipeline() + known, n=3)
             hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
             raise KeyError(f"the pipeline has no system {name!r} (it has {self.pipeline()}){hint}")
@@ -344,7 +351,7 @@ class Params(View):
         object.__setattr__(self, "_system", system)
 
     def _documented(self):
-        for entry in _native.systems():
+        for entry in _registered_systems():
             if entry["name"] == self._system:
                 return entry["params"]
         return None
