@@ -266,6 +266,36 @@ fn a_rankine_band_as_wide_as_its_length_absorbs_the_fracture_energy_per_unit_are
     }
 }
 
+/// The Rankine law's install check on strengths stays with the built world
+/// (`StrengthChecks`), for strengths changed before the first step: in
+/// `scenes/flyer_plate_spall.ron` (G_f = 2000 J/m², E = 190 GPa, l_ch the cell diagonal
+/// 0.707 mm) it takes the scene's 570 MPa and refuses 2 GPa, above the snap-back bound
+/// `√(2 E G_f / l_ch)` = 1.04 GPa, on the bar the law governs, and leaves the flyer's alone.
+#[test]
+fn a_rankine_law_keeps_its_strength_check_after_the_build() {
+    use fractum_engine::strength::StrengthChecks;
+    let built = scene_with("flyer_plate_spall.ron", &[]);
+    let world = &built.simulation.world;
+    let material = |name: &str| {
+        let position = world
+            .resource::<Materials>()
+            .0
+            .iter()
+            .position(|m| m.name == name);
+        MaterialId(position.unwrap() as u16)
+    };
+    let (bar, flyer) = (material("bar"), material("flyer"));
+    let checks = world.resource::<StrengthChecks>();
+    assert_eq!(checks.len(), 1);
+    assert_eq!(checks.check(&[(bar, 570.0e6), (flyer, 570.0e6)]), Ok(()));
+    assert_eq!(checks.check(&[(flyer, 2.0e9)]), Ok(()));
+    let refused = checks.check(&[(bar, 570.0e6), (bar, 2.0e9)]).unwrap_err();
+    assert!(
+        refused.starts_with("damage/rankine refuses it") && refused.contains("σ_f = 2e9 Pa"),
+        "{refused}"
+    );
+}
+
 /// The crack tip of `scenes/time_to_failure_strip.ron` after each step, with the scene's
 /// crack speed replaced by `crack_speed`: (time, the largest x of a fully failed particle on
 /// the crack line).

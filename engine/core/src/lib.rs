@@ -36,6 +36,7 @@ pub mod series;
 pub mod simulation;
 pub mod stage;
 pub mod storage;
+pub mod strength;
 pub mod testing;
 pub mod text;
 pub mod traffic;

@@ -117,7 +117,7 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
     params.require_positive("characteristic_length", length, "expected l > 0 (m)")?;
     require_reach::<D>(installer, params, raw.radius)?;
     let (softening, columns) = install_softening(
-        installer,
+        (installer, "damage/nonlocal_rankine"),
         params,
         (raw.tensile_strength, raw.weibull),
         raw.fracture_energy,

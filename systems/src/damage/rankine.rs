@@ -98,7 +98,7 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
     require_stress_degrading_pipeline(installer, params, "damage/rankine")?;
     let length = characteristic_length::<D>(installer, params, raw.characteristic_length)?;
     let (softening, columns) = install_softening(
-        installer,
+        (installer, "damage/rankine"),
         params,
         (raw.tensile_strength, raw.weibull),
         raw.fracture_energy,

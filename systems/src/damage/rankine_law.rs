@@ -34,12 +34,13 @@ impl RankineSoftening {
     }
 }
 
-/// What a Rankine law's install shares: `G_f > 0`, the particles' strengths (`tensile_strength` and its
-/// Weibull draw), the check that `length` leaves every strength a softening branch
-/// (`length_given`: the scene wrote it), the particles' `DamageDissipation`, and the three
+/// What a Rankine law's install (of the system `system`) shares: `G_f > 0`, the particles'
+/// strengths (`tensile_strength` and its Weibull draw), the check that `length` leaves every
+/// strength a softening branch (`length_given`: the scene wrote it), registered again for
+/// strengths changed after the build, the particles' `DamageDissipation`, and the three
 /// published columns (damaged, failed, dissipated energy) with their slots.
 pub fn install_softening(
-    installer: &mut Installer,
+    (installer, system): (&mut Installer, &'static str),
     params: &Params,
     (tensile_strength, weibull): (f64, Option<WeibullOption>),
     fracture_energy: f64,
@@ -71,7 +72,74 @@ pub fn install_softening(
         characteristic_length: length,
         youngs_modulus,
     };
+    register_brittleness_check(installer, &softening, system);
     Ok((softening, columns))
+}
+
+/// A strength a Rankine law cannot take, with its scaled brittleness `H̄_s l_ch`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BrittlenessViolation {
+    /// `H̄_s l_ch` is not a normal f64: the law cannot be evaluated.
+    TooSmall {
+        /// `H̄_s l_ch`.
+        scaled: f64,
+        /// The particle strength σ_f (Pa).
+        strength: f64,
+    },
+    /// `H̄_s l_ch ≥ 1`: no softening branch.
+    SnapBack {
+        /// `H̄_s l_ch`.
+        scaled: f64,
+        /// The particle strength σ_f (Pa).
+        strength: f64,
+    },
+}
+
+impl BrittlenessViolation {
+    /// What is wrong and what to change, for the law's length `length`.
+    pub fn message(&self, length: f64) -> String {
+        match *self {
+            Self::TooSmall { scaled, strength } => format!(
+                "H̄_s l_ch = σ_f² l_ch / (2 E G_f) = {scaled:e} (σ_f = {strength:e} Pa, l_ch = \
+                 {length:e} m) is too small for f64: the softening law cannot be evaluated; a \
+                 strength this small is no strength"
+            ),
+            Self::SnapBack { scaled, strength } => format!(
+                "H̄_s l_ch = σ_f² l_ch / (2 E G_f) = {} ≥ 1 (σ_f = {} Pa, l_ch = {} m): the \
+                 softening branch would have to snap back; use l_ch < {} m (a finer grid, when \
+                 it defaults to the cell diagonal) or a larger G_f",
+                readable(scaled),
+                readable(strength),
+                readable(length),
+                readable(length / scaled)
+            ),
+        }
+    }
+}
+
+/// The first strength of `strengths` whose scaled brittleness `H̄_s l_ch` is not a normal f64
+/// (the weakest) or reaches 1 (the strongest), if any.
+pub fn brittleness_violation(
+    fracture_energy: f64,
+    strengths: &[(MaterialId, f64)],
+    youngs_modulus: &[f64],
+    length: f64,
+) -> Option<BrittlenessViolation> {
+    let scaled = strengths.iter().map(|&(m, s)| {
+        let e = youngs_modulus[m.0 as usize];
+        (brittleness(s, e, fracture_energy) * length, s)
+    });
+    // The weakest particle has the smallest H̄_s l_ch, the strongest the largest.
+    let weakest = scaled.clone().min_by(|a, b| a.0.total_cmp(&b.0));
+    let worst = scaled.max_by(|a, b| a.0.total_cmp(&b.0));
+    if let Some((scaled, strength)) = weakest
+        && !scaled.is_normal()
+    {
+        return Some(BrittlenessViolation::TooSmall { scaled, strength });
+    }
+    worst
+        .filter(|&(scaled, _)| scaled >= 1.0)
+        .map(|(scaled, strength)| BrittlenessViolation::SnapBack { scaled, strength })
 }
 
 /// Refuses strengths whose scaled brittleness `H̄_s l_ch` is not a normal f64 (too small to
@@ -85,52 +153,46 @@ pub fn check_brittleness(
     youngs_modulus: &[f64],
     length: f64,
 ) -> Result<(), SceneError> {
-    let scaled: Vec<(f64, f64)> = strengths
-        .iter()
-        .map(|&(m, s)| {
-            (
-                brittleness(s, youngs_modulus[m.0 as usize], fracture_energy) * length,
-                s,
-            )
-        })
-        .collect();
-    // The weakest particle has the smallest H̄_s l_ch, the strongest the largest.
-    let weakest = scaled.iter().min_by(|a, b| a.0.total_cmp(&b.0));
-    let worst = scaled.iter().max_by(|a, b| a.0.total_cmp(&b.0));
-    if let Some(&(scaled, strength)) = weakest
-        && !scaled.is_normal()
-    {
-        return Err(params.error(
-            "tensile_strength",
-            format!(
-                "H̄_s l_ch = σ_f² l_ch / (2 E G_f) = {scaled:e} (σ_f = {strength:e} Pa, l_ch = \
-                 {length:e} m) is too small for f64: the softening law cannot be evaluated; a \
-                 strength this small is no strength"
-            ),
-        ));
-    }
-    if let Some(&(scaled, strength)) = worst
-        && scaled >= 1.0
-    {
-        let field = if length_given {
-            "characteristic_length"
-        } else {
-            "fracture_energy"
-        };
-        return Err(params.error(
-            field,
-            format!(
-                "H̄_s l_ch = σ_f² l_ch / (2 E G_f) = {} ≥ 1 (σ_f = {} Pa, l_ch = {} m): the \
-                 softening branch would have to snap back; use l_ch < {} m (a finer grid, when \
-                 it defaults to the cell diagonal) or a larger G_f",
-                readable(scaled),
-                readable(strength),
-                readable(length),
-                readable(length / scaled)
-            ),
-        ));
-    }
-    Ok(())
+    let Some(violation) = brittleness_violation(fracture_energy, strengths, youngs_modulus, length)
+    else {
+        return Ok(());
+    };
+    let field = match violation {
+        BrittlenessViolation::TooSmall { .. } => "tensile_strength",
+        BrittlenessViolation::SnapBack { .. } if length_given => "characteristic_length",
+        BrittlenessViolation::SnapBack { .. } => "fracture_energy",
+    };
+    Err(params.error(field, violation.message(length)))
+}
+
+/// Registers the brittleness check for strengths changed after the build: those of the
+/// particles of `materials` (the law's entry) that `softening` governs.
+fn register_brittleness_check(
+    installer: &mut Installer,
+    softening: &RankineSoftening,
+    system: &'static str,
+) {
+    let materials = installer.materials().clone();
+    let softening = softening.clone();
+    installer.add_strength_check(move |strengths| {
+        let governed: Vec<(MaterialId, f64)> = strengths
+            .iter()
+            .copied()
+            .filter(|&(m, _)| materials.applies(m))
+            .collect();
+        let RankineSoftening {
+            fracture_energy,
+            characteristic_length: length,
+            youngs_modulus,
+        } = &softening;
+        match brittleness_violation(*fracture_energy, &governed, youngs_modulus, *length) {
+            Some(violation) => Err(format!(
+                "{system} refuses it: {}",
+                violation.message(*length)
+            )),
+            None => Ok(()),
+        }
+    });
 }
 
 /// `H̄_s = σ_f² / (2 E G_f)` (1/m).
@@ -208,6 +270,37 @@ mod tests {
         assert!(h > 0.0 && h < f64::EPSILON, "H = {h:e}");
         let g = dissipated_density(1.0, sigma_f, e, h);
         assert!((g * l - gf).abs() < 1e-12 * gf, "g l = {:e}", g * l);
+    }
+
+    /// `H̄_s l_ch = σ_f² l / (2 E G_f)`: with E = 1000, G_f = 0.01 and l = 0.05 it is
+    /// `σ_f² / 400`: strengths below 20 have a softening branch.
+    #[test]
+    fn brittleness_refuses_the_weakest_too_small_and_the_strongest_at_or_past_snap_back() {
+        let (e, gf, l) = ([1000.0, 1.0e9], 0.01, 0.05);
+        let (soft, stiff) = (MaterialId(0), MaterialId(1));
+        let violation =
+            |strengths: &[(MaterialId, f64)]| brittleness_violation(gf, strengths, &e, l);
+        assert_eq!(violation(&[(soft, 2.0), (soft, 19.9)]), None);
+        // The same strength on a stiffer material is far from snapping back.
+        assert_eq!(violation(&[(stiff, 25.0)]), None);
+        assert_eq!(
+            violation(&[(soft, 2.0), (soft, 20.0), (soft, 30.0)]),
+            Some(BrittlenessViolation::SnapBack {
+                scaled: 2.25,
+                strength: 30.0
+            })
+        );
+        let Some(BrittlenessViolation::TooSmall { strength, .. }) =
+            violation(&[(soft, 1.0e-160), (soft, 30.0)])
+        else {
+            panic!("a strength whose square underflows is refused first");
+        };
+        assert_eq!(strength, 1.0e-160);
+        let message = violation(&[(soft, 30.0)]).unwrap().message(l);
+        assert!(
+            message.contains("≥ 1") && message.contains("l_ch < 0.02222 m"),
+            "{message}"
+        );
     }
 
     #[test]

@@ -17,6 +17,7 @@ mod errors;
 mod runs;
 mod scene;
 mod simulation;
+mod strength;
 
 pub use errors::{RunError, SceneError};
 

@@ -1,11 +1,12 @@
 //! `fractum.Simulation`: a scene built in memory and stepped from Python, its particles and
 //! nodes read as numpy arrays, and the columns a study varies (initial velocities, initial
-//! damage) set from numpy before the first step. The steps are the engine's own (systems stay
+//! damage, strength scales) set from numpy before the first step. The steps are the engine's own (systems stay
 //! Rust), taken with the GIL released.
 
 use crate::arrays::{grid_dict, particle_dict};
 use crate::errors::{run_error, scene_error};
 use crate::scene::{parse, registry};
+use crate::strength::set_strength_scale;
 use fractum_engine::components::{Damage, Particle, Velocity};
 use fractum_engine::dim::{Dim, VectorOps};
 use fractum_engine::prelude::{With, World};
@@ -23,6 +24,9 @@ use pyo3::types::PyDict;
 #[pyclass(module = "fractum._native")]
 pub struct Simulation {
     built: Built,
+    /// The particles' strengths before any strength scale (the law's, or its Weibull draw),
+    /// taken when a scale is first set.
+    unscaled_strengths: Option<Vec<f64>>,
 }
 
 #[pymethods]
@@ -42,7 +46,10 @@ impl Simulation {
                 .set_threads(n.max(1))
                 .map_err(|e| PyRuntimeError::new_err(format!("cannot start {n} threads: {e}")))?;
         }
-        Ok(Self { built })
+        Ok(Self {
+            built,
+            unscaled_strengths: None,
+        })
     }
 
     /// Takes up to `steps` steps, stopping early at the scene's end; returns how many it took.
@@ -120,14 +127,18 @@ impl Simulation {
         Ok(out)
     }
 
-    /// Sets the scalar column `name` (`damage`) of every particle, in the order `particles()`
-    /// gives them; only before the first step.
+    /// Sets the scalar column `name` (`damage`, `strength_scale`) of every particle, in the
+    /// order `particles()` gives them; only before the first step.
     fn set_scalar(&mut self, name: &str, values: PyReadonlyArray1<'_, f64>) -> PyResult<()> {
         self.must_not_have_started(name)?;
         let values = values.as_slice()?;
         let world = &mut self.built.simulation.world;
         match name {
             "damage" => set_damage(world, values)?,
+            "strength_scale" => {
+                let unscaled = self.unscaled_strengths.get_or_insert_with(Vec::new);
+                set_strength_scale(world, values, unscaled)?;
+            }
             other => return Err(not_settable(other)),
         }
         reset_energy_account(world);
@@ -173,8 +184,7 @@ impl Simulation {
 
 fn not_settable(name: &str) -> PyErr {
     PyKeyError::new_err(format!(
-        "`{name}` cannot be set from Python: `velocity` and `damage` can (a per-particle \
-         strength scale comes from a particle file's `strength_scale` column, SCENES.md)"
+        "`{name}` cannot be set from Python: `velocity`, `damage` and `strength_scale` can"
     ))
 }
 

@@ -194,6 +194,40 @@ def test_setting_initial_velocities_moves_the_body_and_the_energy_account():
         fresh.particles["mass"] = np.ones(n)
 
 
+def test_strength_scales_scale_the_laws_strengths_and_meet_their_checks():
+    scene = fractum.Scene.load(SCENES / "cracked_bar_impact.ron")
+    scene.system("damage/rankine").params["tensile_strength"] = 2.0e3
+    halved = scene.copy()
+    halved.system("damage/rankine").params["tensile_strength"] = 1.0e3
+    sim = fractum.Simulation(scene, threads=1)
+    strength = sim.particles["strength"]
+    n = strength.shape[0]
+    varied = np.linspace(0.5, 1.5, n)
+    sim.particles["strength_scale"] = varied
+    assert np.array_equal(sim.particles["strength"], strength * varied)
+    # A second scale replaces the first: a uniform half is the scene with half the strength,
+    # step for step, past the impact's first damage (about step 300).
+    sim.particles["strength_scale"] = np.full(n, 0.5)
+    reference = fractum.Simulation(halved, threads=1)
+    assert np.array_equal(sim.particles["strength"], reference.particles["strength"])
+    seeded = np.count_nonzero(reference.particles["damage"])
+    assert sim.step(320) == reference.step(320) == 320
+    assert np.count_nonzero(reference.particles["damage"]) > seeded
+    assert np.array_equal(sim.particles["damage"], reference.particles["damage"])
+    fresh = fractum.Simulation(scene, threads=1)
+    # 1000 × 2 kPa leaves the Rankine law no softening branch on the scene's cell diagonal.
+    with pytest.raises(ValueError, match="damage/rankine refuses it: .*snap back"):
+        fresh.particles["strength_scale"] = np.full(n, 1.0e3)
+    assert np.array_equal(fresh.particles["strength"], strength)
+    with pytest.raises(ValueError, match="finite and positive"):
+        fresh.particles["strength_scale"] = np.zeros(n)
+    with pytest.raises(ValueError, match="one value per particle"):
+        fresh.particles["strength_scale"] = np.ones(n - 1)
+    unbreakable = fractum.Simulation(SCENES / "two_disks.ron", threads=1)
+    with pytest.raises(ValueError, match="no damage law"):
+        unbreakable.particles["strength_scale"] = np.ones(unbreakable.particles["id"].shape[0])
+
+
 def test_a_blowup_raises_with_its_step_and_stage():
     sim = fractum.Simulation(SCENES / "two_disks.ron", threads=1)
     n = sim.particles["position"].shape[0]

@@ -17,7 +17,8 @@ def _read_only(arrays):
 class Columns:
     """Particle columns by name: each a read-only numpy snapshot of the state now.
     ``sim.particles["velocity"] = array`` sets a column before the first step (``velocity``,
-    ``damage``)."""
+    ``damage``, ``strength_scale``: the damage law's strength times the scale, checked as the
+    law checks the scene's)."""
 
     def __init__(self, simulation, read):
         self._simulation = simulation

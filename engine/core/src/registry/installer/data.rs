@@ -113,4 +113,19 @@ impl Installer<'_> {
     pub fn init_resource<R: Resource + FromWorld>(&mut self) {
         self.world.init_resource::<R>();
     }
+
+    /// Registers a damage law's check on per-particle strengths, run on the strengths it gave
+    /// at install and again on any changed before the first step
+    /// ([`StrengthChecks`](crate::strength::StrengthChecks)).
+    pub fn add_strength_check(
+        &mut self,
+        check: impl Fn(&[(crate::components::MaterialId, f64)]) -> Result<(), String>
+        + Send
+        + Sync
+        + 'static,
+    ) {
+        self.world
+            .get_resource_or_init::<crate::strength::StrengthChecks>()
+            .add(check);
+    }
 }
