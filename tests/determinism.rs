@@ -147,6 +147,8 @@ fn a_small_scene_steps_on_one_thread_unless_told_otherwise() {
         .unwrap_or_else(|e| panic!("{e}"));
     let sim = &mut built.simulation;
     assert!(sim.particle_count() < sim.serial_below());
+    // No thread count set (rayon's global pool): the small scene steps on the calling thread.
+    assert_eq!(sim.threads(), 1);
     sim.set_threads(2).unwrap();
     assert_eq!((sim.threads(), sim.threads_asked()), (1, 2));
     sim.set_serial_below(0);

@@ -116,11 +116,13 @@ pub struct Simulation {
     schedule: Schedule,
     pool: Option<rayon::ThreadPool>,
     /// Whether [`Simulation::set_threads`] was called: without it steps use rayon's global
-    /// pool; with it, one thread or a small scene steps on the calling thread.
+    /// pool; with it, one thread or a small scene steps on the calling thread. Either way a
+    /// small scene steps on the calling thread (see [`Simulation::threads`]).
     threads_set: bool,
     /// Particle count below which steps run on the calling thread alone.
     serial_below: usize,
-    /// Particles when the pools were made (removals only make a scene smaller).
+    /// Particles when the simulation was made or its pools were (removals only make a scene
+    /// smaller).
     particles_at_start: usize,
     time_step: TimeStep,
     end: End,
@@ -145,7 +147,7 @@ impl Simulation {
         if let Some(plan) = crate::health::plan_checks::<D>(&schedule, &world) {
             world.insert_resource(plan);
         }
-        Ok(Self {
+        let mut simulation = Self {
             world,
             dimension: D::DIMENSION,
             schedule,
@@ -160,7 +162,9 @@ impl Simulation {
             end,
             step_cap: None,
             time_compensation: 0.0,
-        })
+        };
+        simulation.particles_at_start = simulation.particle_count();
+        Ok(simulation)
     }
 
     /// Runs the parallel kernels on a pool of `threads` threads; a scene with fewer particles
@@ -188,8 +192,15 @@ impl Simulation {
     }
 
     /// Whether steps run on the calling thread alone: one thread asked, or a small scene.
+    /// Without a thread count set, a small scene or rayon's global pool of one thread
+    /// (`RAYON_NUM_THREADS=1`), unless the caller is itself a thread of a rayon pool (a
+    /// simulation stepped inside a parallel section), whose pool its kernels then share.
     fn runs_serially(&self) -> bool {
-        self.threads_set && (self.pool.is_none() || self.particles_at_start < self.serial_below)
+        if self.threads_set {
+            return self.pool.is_none() || self.particles_at_start < self.serial_below;
+        }
+        rayon::current_thread_index().is_none()
+            && (rayon::current_num_threads() == 1 || self.particles_at_start < self.serial_below)
     }
 
     /// Runs `f` on this simulation where its steps run: on the calling thread alone, or in its
