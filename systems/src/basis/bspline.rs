@@ -31,7 +31,7 @@
 //! - Weights and gradients are computed once per particle per step into the connectivity
 //!   tables, which every transfer of the step reads.
 
-use super::tensor::{AxisFactors, write_tensor_row};
+use super::tensor::{AxisFactors, MAX_AXIS_NODES, write_tensor_row};
 use fractum_engine::prelude::*;
 use serde::Deserialize;
 
@@ -167,10 +167,17 @@ pub fn spline_axes<D: Dim>(grid: &Grid<D>, x: D::Vector, params: &BsplineParams)
             return AxisFactors::empty();
         }
         let low = (s - reach).ceil() as isize;
+        let interior = low >= 0 && low + candidates as isize - 1 <= last;
         for node in (low..).take(candidates) {
             let r = x[a] - (grid.min[a] + node as f64 * h);
             let (weight, slope) = spline_1d(params.order, r, h);
-            if weight > 0.0 {
+            if weight <= 0.0 {
+                continue;
+            }
+            if interior {
+                // No ghost to fold: the nodes come once each, in lattice order.
+                factors.push(a, node as usize, weight, slope);
+            } else {
                 for (target, share) in fold_ghost(node, last) {
                     factors.add(a, target, share * weight, share * slope);
                 }
@@ -178,6 +185,45 @@ pub fn spline_axes<D: Dim>(grid: &Grid<D>, x: D::Vector, params: &BsplineParams)
         }
     }
     factors
+}
+
+/// The width of the row [`spline_axes`] gives a particle at `x`, found without evaluating a
+/// spline: the first pass of the connectivity's fill, which only sizes the rows, so that each
+/// particle's splines are evaluated once per step, in the second. A node counts where its
+/// spline is positive, `|r| / h < reach`: the quadratic spline is at least ½ (1.5 − |ξ|)² there,
+/// and the cubic (2 − |ξ|)³ / 6 or ⅙, both far above the smallest f64 for any `|ξ|` below its
+/// reach that an f64 can hold; its folded targets count once each, as [`AxisFactors::add`]
+/// merges them.
+pub fn spline_width<D: Dim>(grid: &Grid<D>, x: D::Vector, params: &BsplineParams) -> usize {
+    let h = grid.spacing;
+    let reach = params.reach();
+    let lattice = grid.nodes_per_axis();
+    let candidates = (2.0 * reach).ceil() as usize + 1;
+    let mut width = 1;
+    for a in 0..D::N {
+        let s = (x[a] - grid.min[a]) / h;
+        let last = lattice[a] as isize - 1;
+        if !(0.0..=last as f64).contains(&s) {
+            return 0;
+        }
+        let low = (s - reach).ceil() as isize;
+        let mut targets = [0usize; MAX_AXIS_NODES];
+        let mut count = 0;
+        for node in (low..).take(candidates) {
+            let r = x[a] - (grid.min[a] + node as f64 * h);
+            if (r / h).abs() >= reach {
+                continue;
+            }
+            for (target, _) in fold_ghost(node, last) {
+                if !targets[..count].contains(&target) && count < MAX_AXIS_NODES {
+                    targets[count] = target;
+                    count += 1;
+                }
+            }
+        }
+        width *= count;
+    }
+    width
 }
 
 /// Where the spline of lattice index `node` goes on an axis whose last node is `last`: to
@@ -216,7 +262,7 @@ pub fn bspline_basis<D: Dim>(
     connectivity.fill_rows(
         positions.len(),
         grid.node_count(),
-        |p| spline_axes(grid, positions[p].0, params).width(D::N),
+        |p| spline_width(grid, positions[p].0, params),
         || (),
         |_, p, nodes, weights, gradients| {
             let axes = spline_axes(grid, positions[p].0, params);
@@ -303,6 +349,52 @@ mod tests {
                 check_consistency(&grid, DVec2::new(x, y), 3, 2 * cubic);
             }
         }
+    }
+
+    /// The rows' widths found without the splines are those of the splines' rows: on a sweep
+    /// of positions across a small grid, its faces and beyond, and on the half and whole
+    /// cells where a node's support starts or ends, in 2D and 3D, for both orders.
+    #[test]
+    fn row_widths_without_the_splines_are_the_rows_widths() {
+        fn sweep<D: Dim>(grid: &Grid<D>) {
+            let top = grid.min[0] + grid.spacing * grid.cells[0] as f64;
+            let samples: Vec<f64> = (-8..=8 * grid.cells[0] as i32 + 8)
+                .map(|k| grid.min[0] + f64::from(k) * grid.spacing / 8.0)
+                .chain([top, top + 1e-12, grid.min[0] - 1e-12, grid.min[0] + 1e-300])
+                .collect();
+            for order in [2, 3] {
+                let params = BsplineParams { order };
+                for (i, &a) in samples.iter().enumerate() {
+                    // Every sample on the first axis, a few on the others.
+                    let x = D::Vector::from_fn(|axis| {
+                        if axis == 0 {
+                            a
+                        } else {
+                            samples[(i * 7 + 3 * axis) % samples.len()]
+                        }
+                    });
+                    assert_eq!(
+                        spline_width(grid, x, &params),
+                        spline_axes(grid, x, &params).width(D::N),
+                        "order {order} at {x:?}"
+                    );
+                }
+            }
+        }
+        sweep(&Grid::<Two> {
+            min: DVec2::new(-1.0, 2.0),
+            spacing: 0.5,
+            cells: [6, 6],
+            graded: None,
+            window: None,
+        });
+        sweep(&Grid::<Three> {
+            min: DVec3::new(0.1, -0.3, 0.0),
+            spacing: 0.1,
+            cells: [5, 5, 5],
+            graded: None,
+            window: None,
+        });
     }
 
     /// On the face the edge node's weight is one (a held face holds there); inside, the folded

@@ -45,6 +45,18 @@ impl AxisFactors {
         true
     }
 
+    /// Appends `weight` and `slope` at lattice index `node` along `axis`, which must come after
+    /// the axis's other nodes (and be the fourth at most): [`AxisFactors::add`] for nodes known
+    /// to arrive once each, in order.
+    pub fn push(&mut self, axis: usize, node: usize, weight: f64, slope: f64) {
+        let count = self.count[axis];
+        debug_assert!(
+            count < MAX_AXIS_NODES && (count == 0 || self.nodes[axis][count - 1].0 < node)
+        );
+        self.nodes[axis][count] = (node, weight, slope);
+        self.count[axis] = count + 1;
+    }
+
     /// Entries of the row: the product of the per-axis counts.
     pub fn width(&self, dimensions: usize) -> usize {
         self.count[..dimensions].iter().product()
