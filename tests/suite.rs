@@ -4,6 +4,7 @@
 //! files, against 39 s for all of them here. `cargo test --test suite <file>::` runs one
 //! file's tests.
 
+mod affine;
 mod bad_scenes;
 mod blowup;
 mod checkpoint;

@@ -12,6 +12,10 @@
 //!   `Σ N m (v_p + C_p (x_I − x_p))`. The transfers then keep angular momentum, and a rotating
 //!   body keeps its energy where `Flip` shakes it into the grid's modes. Not with
 //!   `scheme: Musl`, whose remap rebuilds the nodes from the particles' FLIP velocities.
+//!   Each particle starts with `C_p` the gradient of its body's initial velocity (the scene
+//!   builder): `scenes/spinning_sphere.ron` keeps its energy to 1.0e-7 over its 1000 steps,
+//!   where `Flip` loses 0.32% and a start from `C_p = 0` (a PIC first step) lost 2.6%
+//!   (`tests/affine.rs`).
 
 pub use super::Transfer;
 use crate::predictor::usl::{UslPredictorParams, UslScheme};

@@ -156,6 +156,7 @@ impl<'r, D: Dim> WorldBuilder<'r, D> {
             PipelineBuilder::new(&self.spec).install(self.registry, &mut schedule, &mut world)?;
         world.remove_resource::<ComponentTemplates>();
         fractum_engine::registry::pending::insert_pending_components(&mut world);
+        self.start_affine_velocities(&mut world);
         Ok(Installed {
             world,
             schedule,

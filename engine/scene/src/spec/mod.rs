@@ -243,6 +243,32 @@ impl<D: Dim> InitialVelocity<D> {
         }
     }
 
+    /// The velocity gradient `∂v_i/∂x_j` at `x`: what an affine transfer's particle starts with
+    /// as its `C_p`, so that its first particle-to-grid transfer hands the nodes the field
+    /// itself rather than the particles' velocities averaged (a PIC step).
+    pub fn gradient_at(&self, x: D::Vector) -> D::Matrix {
+        match self {
+            Self::Uniform(_) => D::Matrix::ZERO,
+            Self::Sine {
+                amplitude,
+                axis,
+                wavelength,
+                origin,
+            } => {
+                let k = 2.0 * std::f64::consts::PI / wavelength;
+                let slope = k * (k * (x[*axis] - origin)).cos();
+                D::Matrix::from_fn(|i, j| {
+                    if j == *axis {
+                        amplitude[i] * slope
+                    } else {
+                        0.0
+                    }
+                })
+            }
+            Self::Linear { gradient, .. } => *gradient,
+        }
+    }
+
     /// `None` when every number is finite (a wavelength positive, an axis in range), else what
     /// was expected.
     pub fn problem(&self) -> Option<&'static str> {
@@ -566,5 +592,63 @@ impl<D: Dim> Boundary<D> {
             facets: None,
             condition,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fractum_engine::dim::{MatrixOps, Three, Two};
+    use glam::{DMat2, DVec2, DVec3};
+
+    /// The gradient against central differences of the velocity, for each kind of field.
+    fn check<D: Dim>(velocity: &InitialVelocity<D>, x: D::Vector) {
+        let gradient = velocity.gradient_at(x);
+        let step = 1e-6;
+        for j in 0..D::N {
+            let offset = D::Vector::from_fn(|a| if a == j { step } else { 0.0 });
+            let slope = (velocity.at(x + offset) - velocity.at(x - offset)) * (0.5 / step);
+            for i in 0..D::N {
+                let exact = gradient.get(i, j);
+                assert!(
+                    (exact - slope[i]).abs() < 1e-6,
+                    "∂v_{i}/∂x_{j}: {exact} against {}",
+                    slope[i]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_initial_velocity_gradient_is_the_fields_derivative() {
+        check::<Two>(
+            &InitialVelocity::Uniform(DVec2::new(1.0, -2.0)),
+            DVec2::new(0.3, 0.7),
+        );
+        check::<Two>(
+            &InitialVelocity::Sine {
+                amplitude: DVec2::new(0.1, 0.05),
+                axis: 0,
+                wavelength: 0.8,
+                origin: 0.04,
+            },
+            DVec2::new(0.31, 0.2),
+        );
+        check::<Three>(
+            &InitialVelocity::Sine {
+                amplitude: DVec3::new(0.0, 2.0, -1.0),
+                axis: 2,
+                wavelength: 3.0,
+                origin: -0.5,
+            },
+            DVec3::new(0.1, 0.2, 0.9),
+        );
+        check::<Two>(
+            &InitialVelocity::Linear {
+                gradient: DMat2::from_cols(DVec2::new(0.0, 50.0), DVec2::new(-50.0, 0.0)),
+                origin: DVec2::new(0.05, 0.05),
+            },
+            DVec2::new(0.07, 0.02),
+        );
     }
 }
