@@ -116,8 +116,8 @@ pub struct Simulation {
     schedule: Schedule,
     pool: Option<rayon::ThreadPool>,
     /// Whether [`Simulation::set_threads`] was called: without it steps use rayon's global
-    /// pool; with it, one thread or a small scene steps on the calling thread. Either way a
-    /// small scene steps on the calling thread (see [`Simulation::threads`]).
+    /// pool, and a small scene or a global pool of one thread steps on the calling thread;
+    /// with it, one thread or a small scene steps on the calling thread.
     threads_set: bool,
     /// Particle count below which steps run on the calling thread alone.
     serial_below: usize,
