@@ -124,6 +124,12 @@ CHECKED_PIPELINES = {
         '(system: "stress/linear_elastic")',
         '(system: "advection/usl")',
     ],
+    "bspline-mls": [
+        '(system: "basis/mls")',
+        '(system: "predictor/mls")',
+        '(system: "stress/linear_elastic")',
+        '(system: "advection/mls")',
+    ],
     "gimp-usl": [
         '(system: "basis/gimp")',
         '(system: "predictor/usl")',
@@ -193,7 +199,7 @@ def main():
     parser.add_argument("--particles", type=int, default=100000)
     parser.add_argument("--dimensions", type=int, nargs="+", default=[2], choices=(2, 3))
     parser.add_argument("--threads", type=int, nargs="+", default=[1, 2])
-    parser.add_argument("--pipeline", nargs="+", default=["bspline-usl"])
+    parser.add_argument("--pipeline", nargs="+", default=["bspline-mls", "bspline-usl"])
     parser.add_argument("--steps", type=int, default=None, help="timed steps (default: about 5 million particle-steps)")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--check-steps", type=int, default=200)

@@ -27,8 +27,10 @@ pub const ALL: &[Registration] = &[
     basis::gimp::REGISTRATION,
     basis::linear::REGISTRATION,
     basis::lme::REGISTRATION,
+    basis::mls::REGISTRATION,
     predictor::usl::REGISTRATION,
     predictor::newmark::REGISTRATION,
+    predictor::mls::REGISTRATION,
     stress::linear_elastic::REGISTRATION,
     stress::neo_hookean::REGISTRATION,
     stress::shock_viscosity::REGISTRATION,
@@ -44,6 +46,7 @@ pub const ALL: &[Registration] = &[
     corrector::newmark::REGISTRATION,
     advection::usl::REGISTRATION,
     advection::newmark::REGISTRATION,
+    advection::mls::REGISTRATION,
 ];
 
 /// Adds every stock system to `registry`.

@@ -326,6 +326,54 @@ pub fn velocity_gradient<D: Dim>(
         })
 }
 
+/// Marks a pipeline whose transfer leaves each particle's velocity gradient in its
+/// [`AffineVelocity`] (`predictor/mls`: `L_p = C_p`) and builds no connectivity.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GradientInAffineVelocity;
+
+/// Where the stress stage reads each particle's velocity gradient: `Σ v_I ⊗ ∇N_Ip` from the
+/// connectivity and the nodal velocities (eq. 7), or, under [`GradientInAffineVelocity`], the
+/// particle's affine velocity. A stress system that reads its gradient here provides
+/// [`fractum_engine::capability::ReadsTransferGradient`].
+#[derive(SystemParam)]
+pub struct VelocityGradients<'w, 's, D: Dim> {
+    connectivity: Res<'w, Connectivity<D>>,
+    nodes: Query<'w, 's, &'static NodeVelocity<D>, With<Node>>,
+    in_affine: Option<Res<'w, GradientInAffineVelocity>>,
+    affine: Query<'w, 's, &'static AffineVelocity<D>, With<Particle>>,
+}
+
+impl<'w, 's, D: Dim> VelocityGradients<'w, 's, D> {
+    /// The reader for this step.
+    pub fn reader(&self) -> GradientReader<'_, D> {
+        if self.in_affine.is_some() {
+            let affine = single_table(self.affine.contiguous_iter(), "particles").unwrap_or(&[]);
+            return GradientReader::Affine(affine);
+        }
+        let nodes = single_table(self.nodes.contiguous_iter(), "nodes").unwrap_or(&[]);
+        GradientReader::Grid(&self.connectivity, nodes)
+    }
+}
+
+/// Each particle's velocity gradient, by particle row ([`VelocityGradients::reader`]).
+pub enum GradientReader<'a, D: Dim> {
+    /// `L_p = Σ v_I ⊗ ∇N_Ip` (eq. 7).
+    Grid(&'a Connectivity<D>, &'a [NodeVelocity<D>]),
+    /// `L_p = C_p`.
+    Affine(&'a [AffineVelocity<D>]),
+}
+
+impl<D: Dim> GradientReader<'_, D> {
+    /// `L_p` of particle row `p`.
+    #[inline]
+    pub fn at(&self, p: usize) -> D::Matrix {
+        match self {
+            GradientReader::Grid(c, nodes) => velocity_gradient(c, nodes, p),
+            GradientReader::Affine(affine) => affine[p].0,
+        }
+    }
+}
+
 /// What the grid gives one particle under the affine transfer (APIC): the interpolated
 /// acceleration and velocity, and the affine velocity of the field the next predictor carries.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -31,6 +31,9 @@ pub enum BenchPipeline {
     /// `basis/bspline` (quadratic) + update-stress-last + linear elasticity: nine nodes per
     /// particle in 2D, as GIMP's widest rows, always.
     BsplineUsl,
+    /// `basis/mls` + `predictor/mls` + linear elasticity + `advection/mls`: MLS-MPM on
+    /// quadratic B-splines, the weights computed in the transfers, no connectivity.
+    BsplineMls,
     /// `basis/lme` (γ̂ = 3.5) + Newmark predictor-corrector + linear elasticity.
     LmeNewmark,
     /// `linear-usl` plus `neighbour/kdtree` and `damage/eigensoftening` (strength too high to
@@ -55,6 +58,7 @@ impl BenchPipeline {
             BenchPipeline::LinearUsl => "linear+usl",
             BenchPipeline::GimpUsl => "gimp+usl",
             BenchPipeline::BsplineUsl => "bspline+usl",
+            BenchPipeline::BsplineMls => "bspline+mls",
             BenchPipeline::LmeNewmark => "lme+newmark",
             BenchPipeline::KdtreeSoftening => "linear+usl+kdtree+eigensoftening",
             BenchPipeline::NodeLinkedSoftening => "linear+usl+node_linked+eigensoftening",
@@ -99,6 +103,11 @@ impl BenchPipeline {
             BenchPipeline::LinearUsl => usl(spec),
             BenchPipeline::GimpUsl => usl_on(spec, "basis/gimp"),
             BenchPipeline::BsplineUsl => usl_on(spec, "basis/bspline"),
+            BenchPipeline::BsplineMls => spec
+                .system("basis/mls")
+                .system("predictor/mls")
+                .system("stress/linear_elastic")
+                .system("advection/mls"),
             BenchPipeline::LmeNewmark => spec
                 .system_with("basis/lme", "(gamma: 3.5)")
                 .system("predictor/newmark")

@@ -44,6 +44,18 @@ impl Capability for Bystander {
     const DESCRIPTION: &'static str = "nothing of its stage's outputs changed";
 }
 
+/// The entry takes each particle's velocity gradient from the transfer's reader
+/// (`fractum_systems::transfer::VelocityGradients`), never from the connectivity directly: a
+/// pipeline whose transfer builds no connectivity (`predictor/mls`, which gives each particle
+/// `L_p = C_p`) then still gives it the particle's gradient. The stock stress systems provide it.
+#[derive(Clone, Copy, Debug)]
+pub struct ReadsTransferGradient;
+
+impl Capability for ReadsTransferGradient {
+    const DESCRIPTION: &'static str = "a velocity gradient read through the transfer's reader \
+                                       (VelocityGradients), not the connectivity";
+}
+
 /// Which pipeline entries provided which capability, as they installed.
 #[derive(Resource, Clone, Debug, Default)]
 pub struct Capabilities {

@@ -1,4 +1,5 @@
 //! Advection stage: grid-to-particle transfer and particle motion.
+pub mod mls;
 pub mod newmark;
 pub mod usl;
 

@@ -6,6 +6,7 @@ pub mod lme;
 mod lme_graded;
 pub mod lme_kernel;
 pub mod lme_rows;
+pub mod mls;
 pub mod tensor;
 
 use fractum_engine::budget::{connectivity_entry_bytes, describe_count};

@@ -10,7 +10,7 @@
 //! - Stored energy per unit reference volume accumulates the stress work of each step,
 //!   `ΔW = ½(σₙ + σₙ₊₁):Δε · V½/V₀`, so kinetic + stored energy is the scheme's own balance.
 
-use crate::transfer::velocity_gradient;
+use crate::transfer::VelocityGradients;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 
@@ -27,6 +27,7 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
     crate::no_params(params)?;
     let scope = LinearElasticScope(installer.materials().clone());
     installer.insert_resource(scope);
+    installer.provide::<fractum_engine::capability::ReadsTransferGradient>();
     installer.add_systems(linear_elastic_stress::<D>);
     Ok(())
 }
@@ -99,11 +100,10 @@ pub fn linear_elastic_stress<D: Dim>(
     clock: Res<SimClock>,
     scope: Option<Res<LinearElasticScope>>,
     materials: Res<Materials>,
-    connectivity: Res<Connectivity<D>>,
-    nodes: Query<&NodeVelocity<D>, With<Node>>,
+    gradients: VelocityGradients<D>,
     mut particles: ParticleQuery<D>,
 ) {
-    let node_velocity = single_table(nodes.contiguous_iter(), "nodes").unwrap_or(&[]);
+    let gradients = gradients.reader();
     let Some((material, initial_volume, mut stress, mut strain, mut f, mut volume, mut energy)) =
         single_table(particles.contiguous_iter_mut(), "particles")
     else {
@@ -111,7 +111,6 @@ pub fn linear_elastic_stress<D: Dim>(
     };
     let lame: Vec<(f64, f64)> = materials.0.iter().map(Material::lame).collect();
     let dt = clock.dt;
-    let c = &*connectivity;
     stress
         .par_iter_mut()
         .zip(strain.par_iter_mut())
@@ -123,7 +122,7 @@ pub fn linear_elastic_stress<D: Dim>(
             if scope.as_ref().is_some_and(|s| !s.0.applies(material[p])) {
                 return;
             }
-            let l = velocity_gradient(c, node_velocity, p);
+            let l = gradients.at(p);
             let before = ElasticState::<D> {
                 stress: s.0,
                 strain: e.0,

@@ -12,7 +12,7 @@
 //!   which stiffens in compression and keeps a CFL time step stable.
 //! - `Strain` accumulates `Δt sym(L)` (the integrated rate of deformation), for output.
 
-use crate::transfer::velocity_gradient;
+use crate::transfer::VelocityGradients;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 
@@ -30,6 +30,7 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
     let scope = NeoHookeanScope(installer.materials().clone());
     installer.insert_resource(scope);
     installer.provide::<HyperelasticStress>();
+    installer.provide::<fractum_engine::capability::ReadsTransferGradient>();
     installer.add_systems(neo_hookean_stress::<D>);
     Ok(())
 }
@@ -85,11 +86,10 @@ pub fn neo_hookean_stress<D: Dim>(
     clock: Res<SimClock>,
     scope: Option<Res<NeoHookeanScope>>,
     materials: Res<Materials>,
-    connectivity: Res<Connectivity<D>>,
-    nodes: Query<&NodeVelocity<D>, With<Node>>,
+    gradients: VelocityGradients<D>,
     mut particles: ParticleQuery<D>,
 ) {
-    let node_velocity = single_table(nodes.contiguous_iter(), "nodes").unwrap_or(&[]);
+    let gradients = gradients.reader();
     let Some((material, v0, mut f, mut stress, mut strain, mut volume, mut energy, mut speed)) =
         single_table(particles.contiguous_iter_mut(), "particles")
     else {
@@ -104,7 +104,6 @@ pub fn neo_hookean_stress<D: Dim>(
         })
         .collect();
     let dt = clock.dt;
-    let c = &*connectivity;
     f.par_iter_mut()
         .zip(stress.par_iter_mut())
         .zip(strain.par_iter_mut())
@@ -117,7 +116,7 @@ pub fn neo_hookean_stress<D: Dim>(
                 return;
             }
             let (lambda, mu, rho0) = constants[material[p].0 as usize];
-            let l = velocity_gradient(c, node_velocity, p);
+            let l = gradients.at(p);
             f.0 = (D::Matrix::IDENTITY + l * dt) * f.0;
             e.0 = e.0.add_scaled(&D::Sym::sym_of(l * dt), 1.0);
             let j = f.0.determinant();

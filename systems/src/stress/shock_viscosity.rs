@@ -24,7 +24,7 @@
 //! - With USL the pressure of one step's stress stage acts in the next step's forces, as the
 //!   stress does; with Newmark, in the same step's corrector.
 
-use crate::transfer::velocity_gradient;
+use crate::transfer::VelocityGradients;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 use serde::Deserialize;
@@ -117,6 +117,7 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
     // It leaves the material's stress as it is, so the laws that require something of every
     // stress entry (damage/rankine's hyperelastic stress) ask it of the others.
     installer.provide::<fractum_engine::capability::Bystander>();
+    installer.provide::<fractum_engine::capability::ReadsTransferGradient>();
     installer.add_particle_component(ViscousPressure(0.0));
     installer.add_particle_component(ViscousDissipation(0.0));
     installer.declare_real_time(
@@ -171,19 +172,18 @@ type ParticleQuery<'w, 's> = Query<
 pub fn shock_viscosity<D: Dim>(
     clock: Res<SimClock>,
     viscosity: Res<ShockViscosity>,
-    connectivity: Res<Connectivity<D>>,
+    gradients: VelocityGradients<D>,
     mut columns: ResMut<SeriesColumns>,
     owned: OwnedRows,
-    nodes: Query<&NodeVelocity<D>, With<Node>>,
     mut particles: ParticleQuery,
 ) {
-    let node_velocity = single_table(nodes.contiguous_iter(), "nodes").unwrap_or(&[]);
+    let gradients = gradients.reader();
     let Some((material, mass, volume, wave_speed, mut pressure, mut dissipation)) =
         single_table(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };
-    let (c, dt, v) = (&*connectivity, clock.dt, &*viscosity);
+    let (dt, v) = (clock.dt, &*viscosity);
     pressure
         .par_iter_mut()
         .zip(dissipation.par_iter_mut())
@@ -192,7 +192,7 @@ pub fn shock_viscosity<D: Dim>(
             if !v.materials.applies(material[p]) {
                 return;
             }
-            let rate = velocity_gradient(c, node_velocity, p).trace();
+            let rate = gradients.at(p).trace();
             let rho = mass[p].0 / volume[p].0;
             q.0 = viscous_pressure(&v.params, rate, rho, wave_speed[p].0, v.length);
             dissipated.0 -= q.0 * rate * volume[p].0 * dt;

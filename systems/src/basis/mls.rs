@@ -1,0 +1,112 @@
+//! The quadratic B-spline stencils of MLS-MPM, located, not tabulated.
+//!
+//! - Stage: basis. Registration name: `basis/mls`. Pairs with `predictor/mls`.
+//! - Each particle's stencil is the three nodes per axis from `⌊ξ − ½⌋` of `basis/bspline`'s
+//!   quadratic splines (order 2, with its folded splines at the grid's faces). This system
+//!   finds the row of each particle's first node along the last axis and orders the particles
+//!   by slab of [`SLAB_ROWS`] rows (a stable counting sort): the order of `predictor/mls`'s
+//!   parallel scatter, in which no two slabs that run at once share a node.
+//! - The weights are not stored: `predictor/mls` evaluates them in each transfer, a few
+//!   multiplications per axis, which costs less than writing and reading back a table of
+//!   weights and gradients per particle–node pair (the connectivity the other bases fill). So
+//!   there is no connectivity, and the systems that need one are refused beside it.
+//! - Needs a uniform grid of at least two cells along each axis.
+
+use crate::predictor::mls_kernel::{Lattice, SLAB_ROWS, SlabOrder, axis_stencil};
+use fractum_engine::prelude::*;
+use rayon::prelude::*;
+
+/// Registration of `basis/mls`.
+pub const REGISTRATION: Registration = Registration {
+    name: "basis/mls",
+    summary: "quadratic B-spline stencils for predictor/mls: each particle located and ordered \
+              by slab; the weights are evaluated in the transfers, no connectivity",
+    params: &[],
+    requires: &["predictor/mls"],
+    install: generic_install!(install),
+};
+
+fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), SceneError> {
+    crate::no_params(params)?;
+    let grid = installer.world().resource::<Grid<D>>();
+    if grid.is_graded() {
+        return Err(params.error(
+            "",
+            "basis/mls needs a uniform grid (this scene's grid has `refine` intervals): its \
+             splines are the cardinal ones of one spacing",
+        ));
+    }
+    if (0..D::N).any(|a| grid.cells[a] < 2) {
+        return Err(params.error(
+            "",
+            "basis/mls needs at least two cells along each axis of the grid (three nodes per \
+             axis of its quadratic stencil)",
+        ));
+    }
+    let reach = 1.5 * grid.spacing;
+    installer.declare_support_radius(reach);
+    installer.declare_particle_memory("basis/mls: each particle's row and slab order", 8.0);
+    installer.insert_resource(MlsSlabs::default());
+    installer.add_systems(mls_basis::<D>);
+    Ok(())
+}
+
+/// Each particle's row (of its stencil's first node along the last axis) and the slab order.
+#[derive(Resource, Clone, Debug, Default, PartialEq)]
+pub struct MlsSlabs {
+    /// Row of each particle (`u32::MAX` outside the grid).
+    pub rows: Vec<u32>,
+    /// Particles by slab.
+    pub order: SlabOrder,
+}
+
+/// The row of the first node of the stencil of a particle at `x` along the last axis, among
+/// the held rows (`u32::MAX` outside the grid).
+pub fn stencil_row<D: Dim>(lattice: &Lattice<D>, x: D::Vector) -> u32 {
+    let a = D::N - 1;
+    let s = (x[a] - lattice.min[a]) / lattice.spacing;
+    axis_stencil(s, lattice.last[a]).map_or(u32::MAX, |axis| {
+        axis.first
+            .wrapping_sub(lattice.first[a])
+            .min(u32::MAX as usize) as u32
+    })
+}
+
+/// The `basis/mls` system.
+pub fn mls_basis<D: Dim>(
+    grid: Res<Grid<D>>,
+    mut slabs: ResMut<MlsSlabs>,
+    particles: Query<&Position<D>, With<Particle>>,
+) {
+    let positions = single_table(particles.contiguous_iter(), "particles").unwrap_or(&[]);
+    let lattice = Lattice::<D>::of(&grid);
+    let MlsSlabs { rows, order } = &mut *slabs;
+    positions
+        .par_iter()
+        .map(|x| stencil_row(&lattice, x.0))
+        .collect_into_vec(rows);
+    order.sort(rows, lattice.rows().div_ceil(SLAB_ROWS));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fractum_engine::testing::*;
+
+    /// Particles are ordered by the slab of their stencil's first row, in index order within a
+    /// slab.
+    #[test]
+    fn particles_are_ordered_by_slab() {
+        let mut world = tiny_world::<Two>(8, 0.5, 0.1);
+        world.insert_resource(MlsSlabs::default());
+        for y in [3.4, 0.1, 1.3, 3.2, 0.6, 1.9] {
+            spawn_particle(&mut world, DVec2::new(1.0, y), DVec2::ZERO, 1.0, 0.1);
+        }
+        run_system(&mut world, mls_basis::<Two>);
+        let slabs = world.resource::<MlsSlabs>();
+        // Rows ⌊y/h − ½⌋ folded to [0, 6]: 6, 0, 2, 5, 0, 3; slabs of two rows: 3, 0, 1, 2, 0, 1.
+        assert_eq!(slabs.rows, vec![6, 0, 2, 5, 0, 3]);
+        assert_eq!(slabs.order.order, vec![1, 4, 2, 5, 3, 0]);
+        assert_eq!(slabs.order.offsets, vec![0, 2, 4, 5, 6, 6]);
+    }
+}
