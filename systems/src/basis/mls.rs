@@ -12,7 +12,7 @@
 //!   there is no connectivity, and the systems that need one are refused beside it.
 //! - Needs a uniform grid of at least two cells along each axis.
 
-use crate::predictor::mls_kernel::{Lattice, SLAB_ROWS, SlabOrder, axis_stencil};
+use crate::predictor::mls_kernel::{Lattice, SLAB_ROWS, SlabOrder, StencilOrigin, locate};
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 
@@ -45,46 +45,63 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
     }
     let reach = 1.5 * grid.spacing;
     installer.declare_support_radius(reach);
-    installer.declare_particle_memory("basis/mls: each particle's row and slab order", 8.0);
-    installer.insert_resource(MlsSlabs::default());
+    let bytes = std::mem::size_of::<StencilOrigin<D>>() + 8;
+    installer.declare_particle_memory(
+        "basis/mls: each particle's stencil origin and slab order",
+        bytes as f64,
+    );
+    installer.insert_resource(MlsStencils::<D>::default());
     installer.add_systems(mls_basis::<D>);
     Ok(())
 }
 
-/// Each particle's row (of its stencil's first node along the last axis) and the slab order.
-#[derive(Resource, Clone, Debug, Default, PartialEq)]
-pub struct MlsSlabs {
+/// Each particle's stencil origin and row (of its first node along the last axis), and the
+/// particles in slab order.
+#[derive(Resource, Clone, Debug, PartialEq)]
+pub struct MlsStencils<D: Dim> {
+    /// Stencil origin of each particle ([`StencilOrigin::OUTSIDE`] outside the grid).
+    pub origins: Vec<StencilOrigin<D>>,
     /// Row of each particle (`u32::MAX` outside the grid).
     pub rows: Vec<u32>,
     /// Particles by slab.
     pub order: SlabOrder,
 }
 
-/// The row of the first node of the stencil of a particle at `x` along the last axis, among
-/// the held rows (`u32::MAX` outside the grid).
-pub fn stencil_row<D: Dim>(lattice: &Lattice<D>, x: D::Vector) -> u32 {
-    let a = D::N - 1;
-    let s = (x[a] - lattice.min[a]) / lattice.spacing;
-    axis_stencil(s, lattice.last[a]).map_or(u32::MAX, |axis| {
-        axis.first
-            .wrapping_sub(lattice.first[a])
-            .min(u32::MAX as usize) as u32
-    })
+impl<D: Dim> Default for MlsStencils<D> {
+    fn default() -> Self {
+        Self {
+            origins: Vec::new(),
+            rows: Vec::new(),
+            order: SlabOrder::default(),
+        }
+    }
 }
 
 /// The `basis/mls` system.
 pub fn mls_basis<D: Dim>(
     grid: Res<Grid<D>>,
-    mut slabs: ResMut<MlsSlabs>,
+    mut stencils: ResMut<MlsStencils<D>>,
     particles: Query<&Position<D>, With<Particle>>,
 ) {
     let positions = single_table(particles.contiguous_iter(), "particles").unwrap_or(&[]);
     let lattice = Lattice::<D>::of(&grid);
-    let MlsSlabs { rows, order } = &mut *slabs;
-    positions
-        .par_iter()
-        .map(|x| stencil_row(&lattice, x.0))
-        .collect_into_vec(rows);
+    let MlsStencils {
+        origins,
+        rows,
+        order,
+    } = &mut *stencils;
+    origins.resize(positions.len(), StencilOrigin::OUTSIDE);
+    rows.resize(positions.len(), u32::MAX);
+    origins
+        .par_iter_mut()
+        .zip(rows.par_iter_mut())
+        .zip(positions.par_iter())
+        .for_each(|((origin, row), x)| {
+            (*origin, *row) = match locate(&lattice, x.0) {
+                Some((o, r)) => (o, r as u32),
+                None => (StencilOrigin::OUTSIDE, u32::MAX),
+            };
+        });
     order.sort(rows, lattice.rows().div_ceil(SLAB_ROWS));
 }
 
@@ -98,12 +115,12 @@ mod tests {
     #[test]
     fn particles_are_ordered_by_slab() {
         let mut world = tiny_world::<Two>(8, 0.5, 0.1);
-        world.insert_resource(MlsSlabs::default());
+        world.insert_resource(MlsStencils::<Two>::default());
         for y in [3.4, 0.1, 1.3, 3.2, 0.6, 1.9] {
             spawn_particle(&mut world, DVec2::new(1.0, y), DVec2::ZERO, 1.0, 0.1);
         }
         run_system(&mut world, mls_basis::<Two>);
-        let slabs = world.resource::<MlsSlabs>();
+        let slabs = world.resource::<MlsStencils<Two>>();
         // Rows ⌊y/h − ½⌋ folded to [0, 6]: 6, 0, 2, 5, 0, 3; slabs of two rows: 3, 0, 1, 2, 0, 1.
         assert_eq!(slabs.rows, vec![6, 0, 2, 5, 0, 3]);
         assert_eq!(slabs.order.order, vec![1, 4, 2, 5, 3, 0]);

@@ -31,9 +31,9 @@
 //!   along each axis.
 
 use super::mls_kernel::{
-    Lattice, NodeSum, ParticleShare, gather_particle, scatter_particle, scatter_slabs, stencil,
+    Lattice, NodeSum, ParticleShare, gather_particle, scatter_particle, scatter_slabs, stencil_at,
 };
-use crate::basis::mls::MlsSlabs;
+use crate::basis::mls::MlsStencils;
 use crate::transfer::{AffineSources, ForceSources, GradientInAffineVelocity, ParticleSlices};
 use bevy_ecs::system::SystemParam;
 use fractum_engine::prelude::*;
@@ -148,14 +148,14 @@ pub fn mls_particle_to_grid<D: Dim>(
     mut reactions: ResMut<Reactions<D>>,
     particles: ForceSources<D>,
     affine: AffineSources<D>,
-    slabs: Res<MlsSlabs>,
+    stencils: Res<MlsStencils<D>>,
     mut sums: Local<Vec<NodeSum<D>>>,
     mut nodes: Query<(&mut NodeMass, &mut NodeVelocity<D>), With<Node>>,
 ) {
     let Some(slices) = ParticleSlices::of(&particles) else {
         return;
     };
-    let Some((position, affine)) = single_table(affine.contiguous_iter(), "particles") else {
+    let Some((_, affine)) = single_table(affine.contiguous_iter(), "particles") else {
         return;
     };
     let Some((mut node_mass, mut node_velocity)) =
@@ -166,13 +166,14 @@ pub fn mls_particle_to_grid<D: Dim>(
     let lattice = Lattice::<D>::of(&inputs.grid);
     sums.resize(lattice.node_count(), NodeSum::default());
     let (dt, body_force) = (inputs.clock.dt, inputs.body_force.0);
+    let origins = &stencils.origins;
     scatter_slabs(
         &mut sums,
-        &slabs.order,
+        &stencils.order,
         lattice.row_len(),
         |p, piece, start| {
             let p = p as usize;
-            if let Some(s) = stencil(&lattice, position[p].0) {
+            if let Some(s) = stencil_at(&lattice, &origins[p]) {
                 let share =
                     particle_share(&slices, affine, (p, s.inverse_inertia), (dt, body_force));
                 scatter_particle(piece, start, (&s, &lattice), &share);
@@ -204,7 +205,6 @@ pub type MlsParticleQuery<'w, 's, D> = Query<
     'w,
     's,
     (
-        &'static Position<D>,
         &'static mut Velocity<D>,
         &'static mut Acceleration<D>,
         &'static mut AffineVelocity<D>,
@@ -216,11 +216,12 @@ pub type MlsParticleQuery<'w, 's, D> = Query<
 pub fn mls_grid_to_particle<D: Dim>(
     clock: Res<SimClock>,
     grid: Res<Grid<D>>,
+    stencils: Res<MlsStencils<D>>,
     nodes: Query<&NodeVelocity<D>, With<Node>>,
     mut particles: MlsParticleQuery<D>,
 ) {
     let node_velocity = single_table(nodes.contiguous_iter(), "nodes").unwrap_or(&[]);
-    let Some((position, mut velocity, mut acceleration, mut affine)) =
+    let Some((mut velocity, mut acceleration, mut affine)) =
         single_table(particles.contiguous_iter_mut(), "particles")
     else {
         return;
@@ -231,9 +232,9 @@ pub fn mls_grid_to_particle<D: Dim>(
         .par_iter_mut()
         .zip(acceleration.par_iter_mut())
         .zip(affine.par_iter_mut())
-        .zip(position.par_iter())
-        .for_each(|(((v, a), c), x)| {
-            let Some(s) = stencil(&lattice, x.0) else {
+        .zip(stencils.origins.par_iter())
+        .for_each(|(((v, a), c), origin)| {
+            let Some(s) = stencil_at(&lattice, origin) else {
                 return;
             };
             let (v_new, c_new) = gather_particle(|i| node_velocity[i].0[0], (&s, &lattice));
@@ -253,7 +254,7 @@ mod tests {
     /// A tiny world ready for `predictor/mls`: what its install and `basis/mls`'s insert.
     fn mls_world(cells: usize, h: f64, dt: f64) -> World {
         let mut world = tiny_world::<Two>(cells, h, dt);
-        world.insert_resource(MlsSlabs::default());
+        world.insert_resource(MlsStencils::<Two>::default());
         world.insert_resource(MlsParams::default());
         world.insert_resource(GradientInAffineVelocity);
         world

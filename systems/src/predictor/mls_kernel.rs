@@ -28,70 +28,58 @@ pub const SLAB_ROWS: usize = 2;
 /// The second moment `Σ N (x_I − x_p)²` of the cardinal quadratic spline, in cells².
 const INTERIOR_INERTIA: f64 = 0.25;
 
-/// One axis of a particle's stencil.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct AxisStencil {
-    /// Lattice index (in the whole grid) of the first of the three nodes.
-    pub first: usize,
-    /// Weights of the three nodes.
-    pub weights: [f64; 3],
-    /// The particle's distance from the first node, in cells.
-    pub distance: f64,
-    /// `h² / D_aa`: 4 inside the grid, the folded row's own within half a cell of a face
-    /// (0 on the face itself, where the row is a single node's).
-    pub inverse_inertia: f64,
-}
-
 /// How far outside `[0, last]`, in cells, a particle still counts as on the grid's face: the
 /// round-off of `(x − x_min) / h` for a particle the grid holds ([`Grid::contains`]).
 const FACE_TOLERANCE: f64 = 1e-9;
 
-/// The axis stencil of a particle at `s` cells from the grid's first node line of an axis whose
-/// last node has index `last` (at least 2), or `None` outside `[0, last]` (or NaN). A particle
-/// within round-off of a face is put on it.
+/// Where one axis of a particle's stencil starts: the lattice index (in the whole grid) of the
+/// first of its three nodes and the particle's distance from it, in cells (in `[0, 2]`), for a
+/// particle at `s` cells from the grid's first node line on an axis whose last node has index
+/// `last` (at least 2); `None` outside `[0, last]` (or NaN). A particle within round-off of a
+/// face is put on it. The first node is `⌊s − ½⌋`, moved inside the grid within half a cell of
+/// a face, where the ghost beyond the face is folded ([`axis_weights`]).
 #[inline(always)]
-pub fn axis_stencil(s: f64, last: usize) -> Option<AxisStencil> {
+pub fn axis_origin(s: f64, last: usize) -> Option<(usize, f64)> {
     let end = last as f64;
     if !(-FACE_TOLERANCE..=end + FACE_TOLERANCE).contains(&s) {
         return None;
     }
     let s = s.clamp(0.0, end);
-    // `⌊s − ½⌋` by truncation, without a call to libm's floor on CPUs without SSE4.1's
-    // rounding instructions (the portable x86-64 baseline): s − ½ ≥ −½ here, so truncation
-    // differs from the floor only on (−½, 0).
-    let shifted = s - 0.5;
-    let mut base = shifted as isize;
-    if (base as f64) > shifted {
-        base -= 1;
-    }
-    let f = s - base as f64;
-    let w = [
-        0.5 * (1.5 - f) * (1.5 - f),
-        0.75 - (f - 1.0) * (f - 1.0),
-        0.5 * (f - 0.5) * (f - 0.5),
-    ];
-    let (first, weights) = if base < 0 {
-        (0, [w[1] + 2.0 * w[0], w[2] - w[0], 0.0])
-    } else if base as usize + 2 > last {
-        (last - 2, [0.0, w[0] - w[2], w[1] + 2.0 * w[2]])
-    } else {
-        return Some(AxisStencil {
-            first: base as usize,
-            weights: w,
-            distance: f,
-            inverse_inertia: 1.0 / INTERIOR_INERTIA,
-        });
+    // ⌊s − ½⌋ + 1 = ⌊s + ½⌋ by truncation (s + ½ > 0): no call to libm's floor on CPUs without
+    // SSE4.1's rounding instructions (the portable x86-64 baseline).
+    let above = (s + 0.5) as usize;
+    let first = above.saturating_sub(1).min(last - 2);
+    Some((first, s - first as f64))
+}
+
+/// The three weights of one axis and `h² / D_aa` for a particle `distance` cells from the
+/// first node ([`axis_origin`]): the cardinal quadratic splines inside the grid
+/// (`D_aa = h²/4`); within half a cell of a face (`distance < ½` or `> 3/2`) the ghost node's
+/// spline folded onto the face's two nodes, `v_ghost = 2 v_face − v_inner`, as
+/// [`crate::basis::bspline::fold_ghost`] does, with `D_aa` summed from the folded weights (0 on
+/// the face itself, where the row is a single node's, and then `h²/D_aa` is taken as 0).
+#[inline(always)]
+pub fn axis_weights(distance: f64) -> ([f64; 3], f64) {
+    let spline = |f: f64| {
+        [
+            0.5 * (1.5 - f) * (1.5 - f),
+            0.75 - (f - 1.0) * (f - 1.0),
+            0.5 * (f - 0.5) * (f - 0.5),
+        ]
     };
-    let distance = s - first as f64;
+    let weights = if distance < 0.5 {
+        let w = spline(distance + 1.0);
+        [w[1] + 2.0 * w[0], w[2] - w[0], 0.0]
+    } else if distance > 1.5 {
+        let w = spline(distance - 1.0);
+        [0.0, w[0] - w[2], w[1] + 2.0 * w[2]]
+    } else {
+        return (spline(distance), 1.0 / INTERIOR_INERTIA);
+    };
     let inertia: f64 = (0..3)
         .map(|o| weights[o] * (o as f64 - distance) * (o as f64 - distance))
         .sum();
-    Some(AxisStencil {
-        first,
-        weights,
-        distance,
-        inverse_inertia: if inertia > 1e-12 { 1.0 / inertia } else { 0.0 },
-    })
+    (weights, if inertia > 1e-12 { 1.0 / inertia } else { 0.0 })
 }
 
 /// The held nodes' lattice: where the grid is, and how node indices step along each axis.
@@ -157,13 +145,60 @@ impl<D: Dim> Lattice<D> {
     }
 }
 
+/// Where a particle's stencil starts, found once per step by `basis/mls`: the first node and
+/// the particle's distance from it along each axis, in cells.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StencilOrigin<D: Dim> {
+    /// Linear index, among the held nodes, of the first node (`u32::MAX`: outside the grid).
+    pub node: u32,
+    /// Distance of the particle from the first node along each axis, in cells (in `[0, 2]`).
+    pub distance: D::Vector,
+}
+
+impl<D: Dim> StencilOrigin<D> {
+    /// The origin of a particle outside the grid: no stencil.
+    pub const OUTSIDE: Self = Self {
+        node: u32::MAX,
+        distance: D::Vector::ZERO,
+    };
+}
+
+/// The origin of the stencil of a particle at `x`, and the held row of its first node along
+/// the last axis, or `None` outside the grid.
+///
+/// # Panics
+/// When a node of the stencil is not held: a rank's window holds every node within the
+/// declared support of its particles, so this is a broken invariant.
+#[inline(always)]
+pub fn locate<D: Dim>(lattice: &Lattice<D>, x: D::Vector) -> Option<(StencilOrigin<D>, usize)> {
+    let mut node = 0;
+    let mut row = 0;
+    let mut distance = [0.0; 3];
+    for a in 0..D::N {
+        let s = (x[a] - lattice.min[a]) * lattice.inverse_spacing;
+        let (first, d) = axis_origin(s, lattice.last[a])?;
+        let local = first.wrapping_sub(lattice.first[a]);
+        assert!(
+            local.wrapping_add(2) < lattice.counts[a],
+            "basis/mls: the stencil of a particle at {:?} leaves the held nodes",
+            x.to_3d()
+        );
+        node += local * lattice.strides[a];
+        row = local;
+        distance[a] = d;
+    }
+    let origin = StencilOrigin {
+        node: u32::try_from(node).expect("held nodes are counted in u32"),
+        distance: D::Vector::from_fn(|a| distance[a]),
+    };
+    Some((origin, row))
+}
+
 /// A particle's stencil: its first node and the three weights of every axis.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stencil<D: Dim> {
     /// Linear index, among the held nodes, of the first node.
     pub node: usize,
-    /// Held row (along the last axis) of the first node.
-    pub row: usize,
     /// Weights of each axis (`[1, 0, 0]` beyond the dimension).
     pub weights: [[f64; 3]; 3],
     /// `x_first − x_p`, the offset of the first node from the particle.
@@ -172,39 +207,34 @@ pub struct Stencil<D: Dim> {
     pub inverse_inertia: D::Vector,
 }
 
-/// The stencil of a particle at `x`, or `None` outside the grid.
-///
-/// # Panics
-/// When a node of the stencil is not held: a rank's window holds every node within the
-/// declared support of its particles, so this is a broken invariant.
+/// The stencil from its origin, or `None` for a particle outside the grid.
+#[inline(always)]
+pub fn stencil_at<D: Dim>(lattice: &Lattice<D>, origin: &StencilOrigin<D>) -> Option<Stencil<D>> {
+    if origin.node == u32::MAX {
+        return None;
+    }
+    let (h, inverse_h) = (lattice.spacing, lattice.inverse_spacing);
+    let mut weights = [[1.0, 0.0, 0.0]; 3];
+    let mut inverse_inertia = [0.0; 3];
+    for a in 0..D::N {
+        let (w, inverse) = axis_weights(origin.distance[a]);
+        weights[a] = w;
+        inverse_inertia[a] = inverse * inverse_h * inverse_h;
+    }
+    Some(Stencil {
+        node: origin.node as usize,
+        weights,
+        offset: origin.distance * -h,
+        inverse_inertia: D::Vector::from_fn(|a| inverse_inertia[a]),
+    })
+}
+
+/// The stencil of a particle at `x` ([`locate`] then [`stencil_at`]), or `None` outside the
+/// grid.
 #[inline(always)]
 pub fn stencil<D: Dim>(lattice: &Lattice<D>, x: D::Vector) -> Option<Stencil<D>> {
-    let (h, inverse_h) = (lattice.spacing, lattice.inverse_spacing);
-    let mut out = Stencil {
-        node: 0,
-        row: 0,
-        weights: [[1.0, 0.0, 0.0]; 3],
-        offset: D::Vector::ZERO,
-        inverse_inertia: D::Vector::ZERO,
-    };
-    let (mut offset, mut inverse_inertia) = ([0.0; 3], [0.0; 3]);
-    for a in 0..D::N {
-        let axis = axis_stencil((x[a] - lattice.min[a]) * inverse_h, lattice.last[a])?;
-        let local = axis.first.wrapping_sub(lattice.first[a]);
-        assert!(
-            local.wrapping_add(2) < lattice.counts[a],
-            "predictor/mls: the stencil of a particle at {:?} leaves the held nodes",
-            x.to_3d()
-        );
-        out.node += local * lattice.strides[a];
-        out.row = local;
-        out.weights[a] = axis.weights;
-        offset[a] = -axis.distance * h;
-        inverse_inertia[a] = axis.inverse_inertia * inverse_h * inverse_h;
-    }
-    out.offset = D::Vector::from_fn(|a| offset[a]);
-    out.inverse_inertia = D::Vector::from_fn(|a| inverse_inertia[a]);
-    Some(out)
+    let (origin, _) = locate(lattice, x)?;
+    stencil_at(lattice, &origin)
 }
 
 impl<D: Dim> Stencil<D> {
@@ -491,7 +521,7 @@ mod tests {
             ((x.y / 0.5) - 0.5).floor() as usize,
         ];
         assert_eq!(s.node, window.node_index(first));
-        assert_eq!(s.row, first[1] - 2);
+        assert_eq!(locate(&Lattice::of(&window), x).unwrap().1, first[1] - 2);
         assert_eq!(s, stencil(&Lattice::of(&window), x).unwrap());
         let whole_stencil = stencil(&Lattice::of(&whole), x).unwrap();
         assert_eq!(s.weights, whole_stencil.weights);
@@ -514,7 +544,7 @@ mod tests {
         };
         let rows: Vec<u32> = positions
             .iter()
-            .map(|x| stencil(&lattice, *x).unwrap().row as u32)
+            .map(|x| locate(&lattice, *x).unwrap().1 as u32)
             .collect();
         let mut order = SlabOrder::default();
         order.sort(&rows, lattice.rows().div_ceil(SLAB_ROWS));

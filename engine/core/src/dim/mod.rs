@@ -44,6 +44,7 @@ pub enum Dimension {
 
 impl Dimension {
     /// Number of space dimensions.
+    #[inline]
     pub fn count(self) -> usize {
         match self {
             Dimension::Two => 2,
@@ -52,6 +53,7 @@ impl Dimension {
     }
 
     /// The dimension with `count` coordinates, if there is one.
+    #[inline]
     pub fn of_count(count: usize) -> Option<Self> {
         match count {
             2 => Some(Dimension::Two),
@@ -61,6 +63,7 @@ impl Dimension {
     }
 
     /// How `fractum check` and error messages name it.
+    #[inline]
     pub fn describe(self) -> &'static str {
         match self {
             Dimension::Two => Two::NAME,
@@ -69,6 +72,7 @@ impl Dimension {
     }
 
     /// Names of the coordinate axes, `x, y` or `x, y, z`.
+    #[inline]
     pub fn axes(self) -> &'static [&'static str] {
         match self {
             Dimension::Two => Two::AXES,
@@ -314,6 +318,7 @@ pub trait SymOps<V, M>:
     /// The tensor with `f` applied to each of its three principal values, the principal
     /// directions kept: `Σ f(σ_i) v_i ⊗ v_i` (in plane strain `zz` is a principal value on its
     /// own). Exact to round-off, whatever the spacing of the values (Jacobi, [`eigen`]).
+    #[inline]
     fn map_principal(&self, f: impl Fn(f64) -> f64) -> Self
     where
         Self: Sized,
@@ -348,6 +353,7 @@ pub trait Lattice:
     /// Coordinate `a` is `f(a)`.
     fn from_fn(f: impl FnMut(usize) -> usize) -> Self;
     /// Product of the coordinates (the number of cells of a box with these counts).
+    #[inline]
     fn product(&self) -> usize {
         self.as_ref().iter().product()
     }
@@ -357,6 +363,7 @@ impl<const N: usize> Lattice for [usize; N]
 where
     [usize; N]: Default,
 {
+    #[inline]
     fn from_fn(f: impl FnMut(usize) -> usize) -> Self {
         std::array::from_fn(f)
     }
@@ -384,6 +391,7 @@ pub fn lattice_range<C: Lattice>(lo: C, hi: C) -> LatticeRange<C> {
 impl<C: Lattice> Iterator for LatticeRange<C> {
     type Item = C;
 
+    #[inline]
     fn next(&mut self) -> Option<C> {
         let current = self.next?;
         let mut following = current;
@@ -413,42 +421,55 @@ macro_rules! glam_vector_ops {
         impl $crate::dim::VectorOps for $t {
             const ZERO: Self = <$t>::ZERO;
             const ONE: Self = <$t>::ONE;
+            #[inline]
             fn splat(v: f64) -> Self {
                 <$t>::splat(v)
             }
+            #[inline]
             fn from_fn(mut $f: impl FnMut(usize) -> f64) -> Self {
                 $new
             }
+            #[inline]
             fn dot(self, other: Self) -> f64 {
                 <$t>::dot(self, other)
             }
+            #[inline]
             fn length(self) -> f64 {
                 <$t>::length(self)
             }
+            #[inline]
             fn length_squared(self) -> f64 {
                 <$t>::length_squared(self)
             }
+            #[inline]
             fn is_finite(self) -> bool {
                 <$t>::is_finite(self)
             }
+            #[inline]
             fn min(self, other: Self) -> Self {
                 <$t>::min(self, other)
             }
+            #[inline]
             fn max(self, other: Self) -> Self {
                 <$t>::max(self, other)
             }
+            #[inline]
             fn floor(self) -> Self {
                 <$t>::floor(self)
             }
+            #[inline]
             fn ceil(self) -> Self {
                 <$t>::ceil(self)
             }
+            #[inline]
             fn round(self) -> Self {
                 <$t>::round(self)
             }
+            #[inline]
             fn clamp(self, lo: Self, hi: Self) -> Self {
                 <$t>::clamp(self, lo, hi)
             }
+            #[inline]
             fn to_3d(self) -> [f64; 3] {
                 let mut out = [0.0; 3];
                 for (a, slot) in out.iter_mut().enumerate().take($n) {
@@ -468,9 +489,11 @@ macro_rules! glam_matrix_ops {
         impl $crate::dim::MatrixOps<$v> for $m {
             const ZERO: Self = <$m>::ZERO;
             const IDENTITY: Self = <$m>::IDENTITY;
+            #[inline]
             fn outer($a: $v, $b: $v) -> Self {
                 $outer
             }
+            #[inline]
             fn from_fn(mut f: impl FnMut(usize, usize) -> f64) -> Self {
                 let mut m = <$m>::ZERO;
                 for j in 0..$n {
@@ -480,30 +503,39 @@ macro_rules! glam_matrix_ops {
                 }
                 m
             }
+            #[inline]
             fn from_diagonal(diagonal: $v) -> Self {
                 <$m>::from_diagonal(diagonal)
             }
+            #[inline]
             fn get(&self, i: usize, j: usize) -> f64 {
                 self.col(j)[i]
             }
+            #[inline]
             fn col(&self, j: usize) -> $v {
                 <$m>::col(self, j)
             }
+            #[inline]
             fn transpose(&self) -> Self {
                 <$m>::transpose(self)
             }
+            #[inline]
             fn determinant(&self) -> f64 {
                 <$m>::determinant(self)
             }
+            #[inline]
             fn inverse(&self) -> Self {
                 <$m>::inverse(self)
             }
+            #[inline]
             fn trace(&self) -> f64 {
                 (0..$n).map(|a| self.col(a)[a]).sum()
             }
+            #[inline]
             fn is_finite(&self) -> bool {
                 <$m>::is_finite(self)
             }
+            #[inline]
             fn max_abs(&self) -> f64 {
                 self.to_cols_array()
                     .iter()

@@ -25,6 +25,7 @@ impl Dim for Three {
     type Sym = SymTensor3;
     type Cell = [usize; 3];
 
+    #[inline]
     fn left_cauchy_green(f: DMat3) -> SymTensor3 {
         let b = f * f.transpose();
         SymTensor3 {
@@ -37,6 +38,7 @@ impl Dim for Three {
         }
     }
 
+    #[inline]
     fn cauchy_green_trace(f: DMat3) -> f64 {
         f.x_axis.length_squared() + f.y_axis.length_squared() + f.z_axis.length_squared()
     }
@@ -61,6 +63,7 @@ pub struct SymTensor3 {
 
 impl SymTensor3 {
     /// The full 3×3 array, row by row.
+    #[inline]
     pub fn to_array(&self) -> [[f64; 3]; 3] {
         [
             [self.xx, self.xy, self.xz],
@@ -70,6 +73,7 @@ impl SymTensor3 {
     }
 
     /// Principal values (largest first) and the matching unit principal directions.
+    #[inline]
     pub fn principal(&self) -> ([f64; 3], [DVec3; 3]) {
         let (values, vectors) = symmetric_eigen(self.to_array());
         (values, vectors.map(DVec3::from_array))
@@ -94,10 +98,12 @@ impl SymOps<DVec3, DMat3> for SymTensor3 {
         xz: 0.0,
     };
 
+    #[inline]
     fn isotropic(k: f64) -> Self {
         Self::IDENTITY.scaled(k)
     }
 
+    #[inline]
     fn sym_of(a: DMat3) -> Self {
         Self {
             xx: a.x_axis.x,
@@ -109,6 +115,7 @@ impl SymOps<DVec3, DMat3> for SymTensor3 {
         }
     }
 
+    #[inline]
     fn from_fn(mut f: impl FnMut(usize, usize) -> f64) -> Self {
         Self {
             xx: f(0, 0),
@@ -120,6 +127,7 @@ impl SymOps<DVec3, DMat3> for SymTensor3 {
         }
     }
 
+    #[inline]
     fn get(&self, i: usize, j: usize) -> f64 {
         match (i.min(j), i.max(j)) {
             (0, 0) => self.xx,
@@ -132,10 +140,12 @@ impl SymOps<DVec3, DMat3> for SymTensor3 {
         }
     }
 
+    #[inline]
     fn trace(&self) -> f64 {
         self.xx + self.yy + self.zz
     }
 
+    #[inline]
     fn double_dot(&self, o: &Self) -> f64 {
         self.xx * o.xx
             + self.yy * o.yy
@@ -143,6 +153,7 @@ impl SymOps<DVec3, DMat3> for SymTensor3 {
             + 2.0 * (self.xy * o.xy + self.yz * o.yz + self.xz * o.xz)
     }
 
+    #[inline]
     fn add_scaled(&self, o: &Self, s: f64) -> Self {
         Self {
             xx: self.xx + s * o.xx,
@@ -154,6 +165,7 @@ impl SymOps<DVec3, DMat3> for SymTensor3 {
         }
     }
 
+    #[inline]
     fn scaled(&self, s: f64) -> Self {
         Self {
             xx: s * self.xx,
@@ -165,6 +177,7 @@ impl SymOps<DVec3, DMat3> for SymTensor3 {
         }
     }
 
+    #[inline]
     fn hooke(&self, lambda: f64, mu: f64) -> Self {
         let volumetric = lambda * self.trace();
         let two_mu = 2.0 * mu;
@@ -178,6 +191,7 @@ impl SymOps<DVec3, DMat3> for SymTensor3 {
         }
     }
 
+    #[inline]
     fn deviator(&self) -> Self {
         let mean = self.trace() / 3.0;
         Self {
@@ -188,6 +202,7 @@ impl SymOps<DVec3, DMat3> for SymTensor3 {
         }
     }
 
+    #[inline]
     fn dot(&self, g: DVec3) -> DVec3 {
         DVec3::new(
             self.xx * g.x + self.xy * g.y + self.xz * g.z,
@@ -196,6 +211,7 @@ impl SymOps<DVec3, DMat3> for SymTensor3 {
         )
     }
 
+    #[inline]
     fn to_matrix(&self) -> DMat3 {
         DMat3::from_cols(
             DVec3::new(self.xx, self.xy, self.xz),
@@ -204,20 +220,24 @@ impl SymOps<DVec3, DMat3> for SymTensor3 {
         )
     }
 
+    #[inline]
     fn principal_values(&self) -> [f64; 3] {
         symmetric_eigen(self.to_array()).0
     }
 
+    #[inline]
     fn largest_principal(&self) -> f64 {
         self.principal_values()[0]
     }
 
+    #[inline]
     fn is_finite(&self) -> bool {
         [self.xx, self.yy, self.zz, self.xy, self.yz, self.xz]
             .iter()
             .all(|v| v.is_finite())
     }
 
+    #[inline]
     fn as_3x3(&self) -> [f64; 9] {
         [
             self.xx, self.xy, self.xz, self.xy, self.yy, self.yz, self.xz, self.yz, self.zz,

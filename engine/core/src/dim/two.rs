@@ -21,6 +21,7 @@ impl Dim for Two {
     type Sym = SymTensor2;
     type Cell = [usize; 2];
 
+    #[inline]
     fn left_cauchy_green(f: DMat2) -> SymTensor2 {
         let b = f * f.transpose();
         SymTensor2 {
@@ -31,6 +32,7 @@ impl Dim for Two {
         }
     }
 
+    #[inline]
     fn cauchy_green_trace(f: DMat2) -> f64 {
         f.x_axis.length_squared() + f.y_axis.length_squared() + 1.0
     }
@@ -56,6 +58,7 @@ impl SymTensor2 {
     /// In-plane principal values, largest first (closed form for the symmetric 2×2 block).
     ///
     /// The ordering is explicit on purpose: "first principal" means the most tensile value.
+    #[inline]
     pub fn in_plane_principal(&self) -> [f64; 2] {
         let mean = 0.5 * (self.xx + self.yy);
         let radius = (0.25 * (self.xx - self.yy).powi(2) + self.xy * self.xy).sqrt();
@@ -77,6 +80,7 @@ impl SymOps<DVec2, DMat2> for SymTensor2 {
         xy: 0.0,
     };
 
+    #[inline]
     fn isotropic(k: f64) -> Self {
         Self {
             xx: k,
@@ -86,6 +90,7 @@ impl SymOps<DVec2, DMat2> for SymTensor2 {
         }
     }
 
+    #[inline]
     fn sym_of(a: DMat2) -> Self {
         Self {
             xx: a.x_axis.x,
@@ -95,6 +100,7 @@ impl SymOps<DVec2, DMat2> for SymTensor2 {
         }
     }
 
+    #[inline]
     fn from_fn(mut f: impl FnMut(usize, usize) -> f64) -> Self {
         Self {
             xx: f(0, 0),
@@ -104,6 +110,7 @@ impl SymOps<DVec2, DMat2> for SymTensor2 {
         }
     }
 
+    #[inline]
     fn get(&self, i: usize, j: usize) -> f64 {
         match (i.min(j), i.max(j)) {
             (0, 0) => self.xx,
@@ -114,14 +121,17 @@ impl SymOps<DVec2, DMat2> for SymTensor2 {
         }
     }
 
+    #[inline]
     fn trace(&self) -> f64 {
         self.xx + self.yy + self.zz
     }
 
+    #[inline]
     fn double_dot(&self, other: &Self) -> f64 {
         self.xx * other.xx + self.yy * other.yy + self.zz * other.zz + 2.0 * self.xy * other.xy
     }
 
+    #[inline]
     fn add_scaled(&self, other: &Self, s: f64) -> Self {
         Self {
             xx: self.xx + s * other.xx,
@@ -131,6 +141,7 @@ impl SymOps<DVec2, DMat2> for SymTensor2 {
         }
     }
 
+    #[inline]
     fn scaled(&self, s: f64) -> Self {
         Self {
             xx: s * self.xx,
@@ -140,6 +151,7 @@ impl SymOps<DVec2, DMat2> for SymTensor2 {
         }
     }
 
+    #[inline]
     fn hooke(&self, lambda: f64, mu: f64) -> Self {
         let volumetric = lambda * self.trace();
         Self {
@@ -150,6 +162,7 @@ impl SymOps<DVec2, DMat2> for SymTensor2 {
         }
     }
 
+    #[inline]
     fn deviator(&self) -> Self {
         let mean = self.trace() / 3.0;
         Self {
@@ -160,14 +173,17 @@ impl SymOps<DVec2, DMat2> for SymTensor2 {
         }
     }
 
+    #[inline]
     fn dot(&self, g: DVec2) -> DVec2 {
         DVec2::new(self.xx * g.x + self.xy * g.y, self.xy * g.x + self.yy * g.y)
     }
 
+    #[inline]
     fn to_matrix(&self) -> DMat2 {
         DMat2::from_cols(DVec2::new(self.xx, self.xy), DVec2::new(self.xy, self.yy))
     }
 
+    #[inline]
     fn principal_values(&self) -> [f64; 3] {
         let [a, b] = self.in_plane_principal();
         let mut all = [a, b, self.zz];
@@ -175,14 +191,17 @@ impl SymOps<DVec2, DMat2> for SymTensor2 {
         all
     }
 
+    #[inline]
     fn largest_principal(&self) -> f64 {
         self.in_plane_principal()[0]
     }
 
+    #[inline]
     fn is_finite(&self) -> bool {
         self.xx.is_finite() && self.yy.is_finite() && self.zz.is_finite() && self.xy.is_finite()
     }
 
+    #[inline]
     fn as_3x3(&self) -> [f64; 9] {
         [
             self.xx, self.xy, 0.0, self.xy, self.yy, 0.0, 0.0, 0.0, self.zz,
