@@ -268,6 +268,48 @@ fn a_user_hyperelastic_stress_satisfies_rankine_by_its_capability() {
     }
 }
 
+/// Under MLS-MPM (`basis/mls`, `predictor/mls`, `advection/mls`) the velocity gradient is the
+/// particles' `C_p`, which a stress system reads through `transfer::VelocityGradients`. The
+/// stock neo-Hookean stress declares so (`ReadsTransferGradient`), and with `damage/rankine`
+/// the stretched bar softens as under USL; the user's stress above reads the connectivity, which
+/// MLS does not build, and is refused with the capability named rather than given no gradient.
+#[test]
+fn under_mls_a_stress_system_reads_the_transfers_gradient() {
+    let mut registry = fractum_systems::stock_registry();
+    registry.register(SIMO_PISTER).unwrap();
+    let mls = |stress: &str| {
+        let mut spec = stretched_bar::<Two>();
+        spec.pipeline.clear();
+        spec.system("basis/mls")
+            .system("predictor/mls")
+            .system(stress)
+            .system_with(
+                "damage/rankine",
+                "(tensile_strength: 2.0, fracture_energy: 1.0)",
+            )
+            .system("advection/mls")
+    };
+    let mut sim = mls("stress/neo_hookean")
+        .build(&registry)
+        .unwrap_or_else(|e| panic!("{e}"))
+        .simulation;
+    while !sim.finished() {
+        sim.step().unwrap_or_else(|e| panic!("{e}"));
+    }
+    let mut damage = sim.world.query_filtered::<&Damage, With<Particle>>();
+    let damaged = damage.iter(&sim.world).filter(|d| d.0 > 0.0).count();
+    assert!(damaged > 0, "no particle softened under MLS");
+    let message = match mls("stress/simo_pister").build(&registry) {
+        Ok(_) => panic!("stress/simo_pister was accepted beside predictor/mls"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        message.contains("advection/mls needs every stress system to provide a velocity gradient")
+            && message.contains("; stress/simo_pister does not"),
+        "{message}"
+    );
+}
+
 /// Installs nothing from its params, as README's first example does.
 fn install_ignoring_params(_: &mut Installer, _: &Params) -> Result<(), SceneError> {
     Ok(())

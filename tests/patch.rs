@@ -66,6 +66,15 @@ const PIPELINES: &[Pipeline] = &[
             ("advection/newmark", None),
         ],
     },
+    Pipeline {
+        name: "MLS-MPM (SCENES.md)",
+        entries: &[
+            ("basis/mls", None),
+            ("predictor/mls", None),
+            ("stress/linear_elastic", None),
+            ("advection/mls", None),
+        ],
+    },
 ];
 
 const GRAVITY: f64 = 9.81;

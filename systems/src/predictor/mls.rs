@@ -81,10 +81,10 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
         return Err(params.error(
             "",
             &format!(
-                "predictor/mls computes its B-spline weights inside the transfer (basis/mls) \
-                 and builds no particle-node connectivity, which {other} needs; remove \
-                 {other}, or use basis/bspline with predictor/usl and advection/usl's \
-                 `transfer: Apic`"
+                "predictor/mls evaluates its B-spline weights inside the transfer (with \
+                 basis/mls) and keeps no particle-node connectivity, which {other} builds or \
+                 reads: remove {other}, or use basis/bspline with predictor/usl and \
+                 advection/usl's `transfer: Apic`"
             ),
         ));
     }
@@ -227,7 +227,7 @@ pub fn mls_grid_to_particle<D: Dim>(
         return;
     };
     let lattice = Lattice::<D>::of(&grid);
-    let dt = clock.dt;
+    let inverse_dt = 1.0 / clock.dt;
     velocity
         .par_iter_mut()
         .zip(acceleration.par_iter_mut())
@@ -238,7 +238,7 @@ pub fn mls_grid_to_particle<D: Dim>(
                 return;
             };
             let (v_new, c_new) = gather_particle(|i| node_velocity[i].0[0], (&s, &lattice));
-            a.0 = (v_new - v.0) / dt;
+            a.0 = (v_new - v.0) * inverse_dt;
             v.0 = v_new;
             c.0 = c_new;
         });

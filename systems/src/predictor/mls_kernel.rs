@@ -25,6 +25,9 @@ use rayon::prelude::*;
 /// which slabs two apart share no node.
 pub const SLAB_ROWS: usize = 2;
 
+/// The node offsets `o` along an axis of the stencil, as numbers.
+const OFFSETS: [f64; 3] = [0.0, 1.0, 2.0];
+
 /// The second moment `Σ N (x_I − x_p)²` of the cardinal quadratic spline, in cells².
 const INTERIOR_INERTIA: f64 = 0.25;
 
@@ -40,16 +43,19 @@ const FACE_TOLERANCE: f64 = 1e-9;
 /// a face, where the ghost beyond the face is folded ([`axis_weights`]).
 #[inline(always)]
 pub fn axis_origin(s: f64, last: usize) -> Option<(usize, f64)> {
+    // Signed conversions only: each is one instruction on x86-64, where an unsigned one is a
+    // sequence (this runs once per particle and axis every step).
+    let last = last as i64;
     let end = last as f64;
-    if !(-FACE_TOLERANCE..=end + FACE_TOLERANCE).contains(&s) {
+    if !(s >= -FACE_TOLERANCE && s <= end + FACE_TOLERANCE) {
         return None;
     }
-    let s = s.clamp(0.0, end);
+    let s = s.max(0.0).min(end);
     // ⌊s − ½⌋ + 1 = ⌊s + ½⌋ by truncation (s + ½ > 0): no call to libm's floor on CPUs without
     // SSE4.1's rounding instructions (the portable x86-64 baseline).
-    let above = (s + 0.5) as usize;
-    let first = above.saturating_sub(1).min(last - 2);
-    Some((first, s - first as f64))
+    let above = (s + 0.5) as i64;
+    let first = (above - 1).max(0).min(last - 2);
+    Some((first as usize, s - first as f64))
 }
 
 /// The three weights of one axis and `h² / D_aa` for a particle `distance` cells from the
@@ -77,7 +83,7 @@ pub fn axis_weights(distance: f64) -> ([f64; 3], f64) {
         return (spline(distance), 1.0 / INTERIOR_INERTIA);
     };
     let inertia: f64 = (0..3)
-        .map(|o| weights[o] * (o as f64 - distance) * (o as f64 - distance))
+        .map(|o| weights[o] * (OFFSETS[o] - distance) * (OFFSETS[o] - distance))
         .sum();
     (weights, if inertia > 1e-12 { 1.0 / inertia } else { 0.0 })
 }
@@ -423,9 +429,10 @@ pub fn gather_particle<D: Dim>(
             let line_x = v1 + v2 * 2.0;
             v += line * wyz;
             moments[0] += line_x * wyz;
-            moments[1] += line * (wyz * oy as f64);
+            // The offsets as f64 constants: an unsigned conversion is an instruction sequence.
+            moments[1] += line * (wyz * OFFSETS[oy]);
             if D::N == 3 {
-                moments[2] += line * (wyz * oz as f64);
+                moments[2] += line * (wyz * OFFSETS[oz]);
             }
         }
     }
