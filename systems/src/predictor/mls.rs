@@ -12,7 +12,8 @@
 //!   eq. (4) takes MLS-MPM's gradient `∇N_Ip ≈ N_Ip D_p⁻¹ (x_I − x_p)`, `D_p = h²/4 I` inside
 //!   the grid; eqs. (1)–(5) are otherwise the same, with the force already in the momentum
 //!   (`v̄_I = v_I + Δt f_I / m_I`, eq. 5). With a shock viscosity the stress is `σ − q I`; with
-//!   a damage law that degrades the stress itself ([`DamageInStress`]) there is no `1 − D`.
+//!   a damage law that degrades the stress itself ([`crate::transfer::DamageInStress`]) there
+//!   is no `1 − D`.
 //! - Essential boundary conditions are held on `v̄_I` at the end of the step, where their
 //!   reactions are measured (as `predictor/usl` measures them).
 //! - Grid to particle: `v_p = Σ N_Ip v̄_I`, `C_p = Σ N_Ip v̄_I ⊗ (x_I − x_p) D_p⁻¹`,
@@ -80,7 +81,7 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
     }) {
         return Err(params.error(
             "",
-            &format!(
+            format!(
                 "predictor/mls evaluates its B-spline weights inside the transfer (with \
                  basis/mls) and keeps no particle-node connectivity, which {other} builds or \
                  reads: remove {other}, or use basis/bspline with predictor/usl and \

@@ -418,9 +418,11 @@ pub fn gather_particle<D: Dim>(
     let mut moments = [D::Vector::ZERO; 3];
     let strides = &lattice.strides;
     let layers = if D::N == 3 { 3 } else { 1 };
-    for oz in 0..layers {
+    // The offsets are taken as f64 constants (`OFFSETS`): an unsigned conversion is an
+    // instruction sequence.
+    for (oz, z) in OFFSETS.iter().enumerate().take(layers) {
         let wz = stencil.weights[2][oz];
-        for oy in 0..3 {
+        for (oy, y) in OFFSETS.iter().enumerate() {
             let wyz = stencil.weights[1][oy] * wz;
             let row = stencil.node + oz * strides[2] + oy * strides[1];
             let [w0, w1, w2] = stencil.weights[0];
@@ -429,10 +431,9 @@ pub fn gather_particle<D: Dim>(
             let line_x = v1 + v2 * 2.0;
             v += line * wyz;
             moments[0] += line_x * wyz;
-            // The offsets as f64 constants: an unsigned conversion is an instruction sequence.
-            moments[1] += line * (wyz * OFFSETS[oy]);
+            moments[1] += line * (wyz * y);
             if D::N == 3 {
-                moments[2] += line * (wyz * OFFSETS[oz]);
+                moments[2] += line * (wyz * z);
             }
         }
     }
