@@ -5,6 +5,8 @@
 //!   gradient `L_p = Σ_I v_I ⊗ ∇N_Ip` (dfg-partitioning-mpm.md eq. 7) gives the strain increment
 //!   `Δε = Δt sym(L_p)` (eigensoftening-lme-mpm.md Appendix A, step 4). Hooke's law in rate form,
 //!   `Δσ = λ tr(Δε) I + 2μ Δε`; in 2D with `Δε_zz = 0` and `σ_zz` kept (plane strain).
+//! - The gradient is read through `transfer::VelocityGradients`: under `predictor/mls` it is
+//!   the particle's `C_p` (MLS-MPM). Provides `ReadsTransferGradient`.
 //! - Volume follows the strain increment, `V ← V (1 + tr Δε)` (Appendix A, step 5, written for
 //!   the volume: `ρ V = m` is constant); F follows `F ← (I + Δt L) F` (eq. 8).
 //! - Stored energy per unit reference volume accumulates the stress work of each step,

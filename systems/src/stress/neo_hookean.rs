@@ -5,6 +5,8 @@
 //! - dfg-partitioning-mpm.md eq. (22): `σ = (λ ln J / J − μ / J) I + (μ / J) F Fᵀ`, with the
 //!   deformation gradient updated from the nodal velocity field, `F ← (I + Δt L) F` (eq. 8),
 //!   `L = Σ_I v_I ⊗ ∇N_I` (eq. 7). Plane strain: `F_zz = 1`, so `σ_zz = λ ln J / J`.
+//! - `L` is read through `transfer::VelocityGradients`: under `predictor/mls` it is the
+//!   particle's `C_p` (MLS-MPM). Provides `ReadsTransferGradient`.
 //! - Volume `V = J V₀`. Stored energy per reference volume, exact for this model:
 //!   `W = μ/2 (tr FᵀF − 3) − μ ln J + λ/2 (ln J)²` (in plane strain `tr FᵀF` includes
 //!   `F_zz² = 1`).

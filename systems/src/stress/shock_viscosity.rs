@@ -6,7 +6,8 @@
 //!   Neumann & Richtmyer's quadratic term with Landshoff's linear one, as LS-DYNA, Uintah and
 //!   NairnMPM offer it), in compression only:
 //!   `q = ρ ℓ (C_L c |ε̇_v| + C_Q ℓ ε̇_v²)` when `ε̇_v = tr L_p < 0`, else `q = 0`,
-//!   with `L_p = Σ_I v_I ⊗ ∇N_Ip` this step's velocity gradient (dfg-partitioning-mpm.md eq. 7),
+//!   with `L_p = Σ_I v_I ⊗ ∇N_Ip` this step's velocity gradient (dfg-partitioning-mpm.md eq. 7;
+//!   read through `transfer::VelocityGradients`, so `C_p` under `predictor/mls`),
 //!   `ρ = m/V` the particle's current density, `c` its dilatational wave speed
 //!   ([`WaveSpeed`]) and `ℓ` the grid's smallest cell width. The defaults `C_L = 0.2`,
 //!   `C_Q = 2.0` are Uintah's MPM defaults (LS-DYNA's element defaults are 0.06 and 1.5).
