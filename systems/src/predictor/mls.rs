@@ -2,10 +2,11 @@
 //! Jiang 2018): the particle-to-grid transfer with the stress folded into the affine momentum,
 //! the grid update, and the grid-to-particle transfer of `v_p` and `C_p`, in one stage.
 //!
-//! - Stage: predictor. Registration name: `predictor/mls`. Pairs with `advection/mls`.
-//! - No connectivity: each particle's quadratic B-spline weights are computed on the fly in
-//!   both transfers ([`super::mls_kernel`]); the basis stage stays empty. The weights are
-//!   `basis/bspline`'s (order 2), with its folded splines at the grid's faces.
+//! - Stage: predictor. Registration name: `predictor/mls`. Pairs with `basis/mls` and
+//!   `advection/mls`.
+//! - No connectivity: `basis/mls` stores where each particle's stencil starts, and both
+//!   transfers evaluate the quadratic B-spline weights from it ([`super::mls_kernel`]). The
+//!   weights are `basis/bspline`'s (order 2), with its folded splines at the grid's faces.
 //! - Particle to grid (APIC, Jiang et al. 2015, with MLS-MPM's force): `m_I = Σ N_Ip m_p` and
 //!   `m_I v̄_I = Σ N_Ip [m_p v_p + Δt (m_p b + f_ext,p) + (m_p C_p − Δt (1 − D_p) V_p σ_p
 //!   D_p⁻¹)(x_I − x_p)]`. The internal force `−Σ (1 − D) V σ ∇N` of dfg-partitioning-mpm.md
@@ -27,15 +28,14 @@
 //!   the result does not depend on the number of threads.
 //! - Each particle starts with `C_p` the gradient of its body's initial velocity (the scene
 //!   builder), as under `advection/usl`'s `transfer: Apic`.
-//! - Refused beside a basis, partition, contact or corrector system: those read or write the
-//!   connectivity this transfer does not build. Needs a uniform grid of at least two cells
-//!   along each axis.
+//! - Refused beside any basis but `basis/mls`, and beside every partition, contact or
+//!   corrector system: those build or read the connectivity this transfer does not keep.
 
 use super::mls_kernel::{
     Lattice, NodeSum, ParticleShare, gather_particle, scatter_particle, scatter_slabs, stencil_at,
 };
 use crate::basis::mls::MlsStencils;
-use crate::transfer::{AffineSources, ForceSources, GradientInAffineVelocity, ParticleSlices};
+use crate::transfer::{ForceSources, GradientInAffineVelocity, ParticleSlices};
 use bevy_ecs::system::SystemParam;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
@@ -148,7 +148,7 @@ pub fn mls_particle_to_grid<D: Dim>(
     inputs: MlsStepInputs<D>,
     mut reactions: ResMut<Reactions<D>>,
     particles: ForceSources<D>,
-    affine: AffineSources<D>,
+    affine: Query<&AffineVelocity<D>, With<Particle>>,
     stencils: Res<MlsStencils<D>>,
     mut sums: Local<Vec<NodeSum<D>>>,
     mut nodes: Query<(&mut NodeMass, &mut NodeVelocity<D>), With<Node>>,
@@ -156,7 +156,7 @@ pub fn mls_particle_to_grid<D: Dim>(
     let Some(slices) = ParticleSlices::of(&particles) else {
         return;
     };
-    let Some((_, affine)) = single_table(affine.contiguous_iter(), "particles") else {
+    let Some(affine) = single_table(affine.contiguous_iter(), "particles") else {
         return;
     };
     let Some((mut node_mass, mut node_velocity)) =

@@ -1,6 +1,6 @@
-//! The numerical kernels of `predictor/mls` (not a system): the quadratic B-spline stencil of a
-//! particle, computed on the fly, the particle-to-grid scatter in cell slabs, and the
-//! grid-to-particle gather of `v_p` and `C_p`.
+//! The numerical kernels of `basis/mls` and `predictor/mls` (not a system): where a particle's
+//! quadratic B-spline stencil starts, its weights evaluated from that, the particle-to-grid
+//! scatter in cell slabs, and the grid-to-particle gather of `v_p` and `C_p`.
 //!
 //! - **Stencil.** Along each axis the three nodes from `⌊ξ − ½⌋` with the cardinal quadratic
 //!   weights `½(3/2 − f)²`, `¾ − (f − 1)²`, `½(f − ½)²` (`f` the particle's distance from the
