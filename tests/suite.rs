@@ -13,7 +13,6 @@ mod crate_floors;
 mod determinism;
 mod distributed;
 mod distributed_run;
-mod edge_cracked_panel;
 mod energy_account;
 mod fracture;
 mod house_rules;

@@ -81,8 +81,9 @@ pub enum Command {
         #[arg(long)]
         output: Option<PathBuf>,
     },
-    /// Peak of a load curve and the RMS deviation of its rising part from a straight line. A
-    /// curve loaded in the negative direction (a loader pushing down) reads as its magnitudes.
+    /// Peak of a load curve, the RMS deviation of its rising part from a straight line, and how
+    /// far it runs past the peak before the load falls below 5% of it. A curve loaded in the
+    /// negative direction (a loader pushing down) reads as its magnitudes.
     Curve {
         /// The series.csv of a run.
         csv: PathBuf,

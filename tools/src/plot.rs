@@ -330,7 +330,13 @@ pub struct CurveSummary {
     pub slope: f64,
     /// RMS deviation of the pre-peak points from that line.
     pub rms_deviation: f64,
+    /// How far x runs past the peak before y first falls below [`FALLEN_FRACTION`] of it: how
+    /// abruptly the load drops. `None` when it never falls that far.
+    pub fall: Option<f64>,
 }
+
+/// The fraction of its peak below which a load curve counts as fallen ([`CurveSummary::fall`]).
+pub const FALLEN_FRACTION: f64 = 0.05;
 
 /// Peak of `y` against `x`, and the RMS deviation from a straight line of the points with
 /// `x` between `from` and 90% of the peak's x (the "wiggle" of a loading curve).
@@ -373,11 +379,15 @@ fn oriented_curve_summary(x: &[f64], y: &[f64], from: f64) -> Option<CurveSummar
         .sum::<f64>()
         / n)
         .sqrt();
+    let fall = (peak_index..y.len())
+        .find(|&k| y[k] < FALLEN_FRACTION * peak)
+        .map(|k| x[k] - x_at_peak);
     Some(CurveSummary {
         peak,
         x_at_peak,
         slope,
         rms_deviation: rms,
+        fall,
     })
 }
 
@@ -395,6 +405,21 @@ mod tests {
         let s = curve_summary(&x, &straight, 0.0).unwrap();
         assert_eq!((s.peak, s.x_at_peak), (1.0, 0.5));
         assert!((s.slope - 2.0).abs() < 1e-12 && s.rms_deviation < 1e-12);
+        // Down to 0.5 only: it never falls below 5% of the peak.
+        assert_eq!(s.fall, None);
+        // Down by 10 per unit of x: 0.1 at x = 0.59, below 0.05 (at 0) from x = 0.6.
+        let abrupt: Vec<f64> = x
+            .iter()
+            .map(|v| {
+                if *v <= 0.5 {
+                    2.0 * v
+                } else {
+                    (1.0 - 10.0 * (v - 0.5)).max(0.0)
+                }
+            })
+            .collect();
+        let fall = curve_summary(&x, &abrupt, 0.0).unwrap().fall.unwrap();
+        assert!((fall - 0.1).abs() < 1e-12, "{fall}");
         let wiggly: Vec<f64> = straight
             .iter()
             .enumerate()

@@ -20,8 +20,9 @@ fn point3(values: &[f64], what: &str) -> PyResult<[f64; 3]> {
     }
 }
 
-/// Peak of `y` against `x` in a series.csv, and the RMS deviation of its rise (`x` from
-/// `start`) from a straight line, as `fractum curve` reports them.
+/// Peak of `y` against `x` in a series.csv, the RMS deviation of its rise (`x` from `start`)
+/// from a straight line, and how far `x` runs past the peak before `y` falls below 5% of it
+/// (`fall`, None when it never does), as `fractum curve` reports them.
 #[pyfunction]
 #[pyo3(signature = (csv, x, y, start=0.0))]
 fn curve<'py>(
@@ -42,6 +43,7 @@ fn curve<'py>(
     out.set_item("x_at_peak", summary.x_at_peak)?;
     out.set_item("slope", summary.slope)?;
     out.set_item("rms_deviation", summary.rms_deviation)?;
+    out.set_item("fall", summary.fall)?;
     Ok(out)
 }
 

@@ -20,6 +20,13 @@ pub(crate) fn curve_command(csv: &Path, x: &str, y: &str, from: f64) -> i32 {
                 s.rms_deviation,
                 100.0 * s.rms_deviation / s.peak.abs()
             );
+            let percent = 100.0 * plot::FALLEN_FRACTION;
+            match s.fall {
+                Some(fall) => {
+                    outln!("falls below {percent}% of the peak {fall:.6e} in {x} after it")
+                }
+                None => outln!("does not fall below {percent}% of the peak"),
+            }
             0
         }
         Err(e) => {

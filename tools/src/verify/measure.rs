@@ -81,6 +81,28 @@ pub enum Measure {
         #[serde(default)]
         from: f64,
     },
+    /// The roughness of the rise of `y` against `x` (`fractum curve`): the RMS deviation of
+    /// the pre-peak points from their straight line, as a fraction of the peak.
+    CurveWiggle {
+        /// Column for x.
+        x: String,
+        /// Column for y.
+        y: String,
+        /// Smallest x considered.
+        #[serde(default)]
+        from: f64,
+    },
+    /// How abruptly `y` drops after its peak (`fractum curve`): how far `x` runs past the peak
+    /// before `y` first falls below 5% of it. An error when it never falls that far.
+    CurveFall {
+        /// Column for x.
+        x: String,
+        /// Column for y.
+        y: String,
+        /// Smallest x considered.
+        #[serde(default)]
+        from: f64,
+    },
     /// The period of an oscillating column: twice the mean interval between its zero
     /// crossings.
     OscillationPeriod {
@@ -354,6 +376,17 @@ impl Measure {
             Measure::CurvePeak { x, y, from } => curve(series, x, y, *from).map(|c| c.peak),
             Measure::CurvePeakAt { x, y, from } => curve(series, x, y, *from).map(|c| c.x_at_peak),
             Measure::CurveSlope { x, y, from } => curve(series, x, y, *from).map(|c| c.slope),
+            Measure::CurveWiggle { x, y, from } => {
+                curve(series, x, y, *from).map(|c| c.rms_deviation / c.peak)
+            }
+            Measure::CurveFall { x, y, from } => {
+                curve(series, x, y, *from)?.fall.ok_or_else(|| {
+                    format!(
+                        "{y} never falls below {}% of its peak",
+                        100.0 * plot::FALLEN_FRACTION
+                    )
+                })
+            }
             Measure::OscillationPeriod { column } => {
                 let crossings = zero_crossings(&time, &series.column(column)?);
                 if crossings.len() < 3 {
@@ -598,6 +631,41 @@ mod tests {
         assert!(missing.of_series(&s).unwrap_err().contains("no column `w`"));
     }
 
+    /// A load curve rising at 2 per unit of u to 1 at u = 0.5, with ±0.01 of noise on the
+    /// rise, then dropping by 10 per unit: its wiggle is the noise over the peak, its fall 0.1.
+    #[test]
+    fn a_load_curve_has_its_wiggle_and_its_fall() {
+        let rows = (0..=100)
+            .map(|k| {
+                let u = k as f64 / 100.0;
+                let noise = if k % 2 == 0 { 0.01 } else { -0.01 };
+                let r = if u <= 0.5 {
+                    2.0 * u + noise
+                } else {
+                    (1.0 - 10.0 * (u - 0.5)).max(0.0)
+                };
+                vec![u, u, r]
+            })
+            .collect();
+        let s = series(&["time", "u", "r"], rows);
+        let (x, y, from) = ("u".to_string(), "r".to_string(), 0.0);
+        let wiggle = Measure::CurveWiggle {
+            x: x.clone(),
+            y: y.clone(),
+            from,
+        };
+        let measured = wiggle.of_series(&s).unwrap();
+        assert!((measured - 0.01 / 1.01).abs() < 1e-3, "{measured}");
+        let fall = Measure::CurveFall { x, y, from };
+        assert!((fall.of_series(&s).unwrap() - 0.1).abs() < 1e-12);
+        let flat = series(
+            &["time", "u", "r"],
+            (0..=10)
+                .map(|k| vec![k as f64, k as f64, k.min(5) as f64])
+                .collect(),
+        );
+        assert!(fall.of_series(&flat).unwrap_err().contains("never falls"));
+    }
     #[test]
     fn a_crack_needs_matching_coordinates() {
         let bad = Measure::CrackAngle(CrackAt {

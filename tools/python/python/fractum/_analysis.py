@@ -25,7 +25,9 @@ def _series_file(series):
 def curve(series, x, y, start=0.0):
     """The peak of column ``y`` against ``x`` of a run's series (a Run, its folder, or a
     series.csv) and the RMS deviation of its rise from a straight line (points with ``x`` from
-    ``start``), as ``fractum curve`` reports them: peak, x_at_peak, slope, rms_deviation."""
+    ``start``), as ``fractum curve`` reports them: peak, x_at_peak, slope, rms_deviation, and
+    fall (how far ``x`` runs past the peak before ``y`` falls below 5% of it; None when it never
+    does)."""
     return _native.curve(str(_series_file(series)), x, y, float(start))
 
 
