@@ -446,14 +446,15 @@ pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
         format!(
             "ranks {}: slabs re-cut {} times ({} worlds rebuilt for the nodes they moved), the \
              most loaded rank {:.1}% over the mean at the end; ghosts make {:.2}x the particles, \
-             the nodes the ranks hold {:.2}x the grid's; {} sent per step per rank\n",
+             the nodes the ranks hold {:.2}x the grid's; {} sent per step per rank\n{}\n",
             r.ranks,
             r.rebalances,
             r.rebuilds,
             100.0 * r.imbalance,
             r.held_over_owned,
             r.held_nodes_over_grid,
-            fractum_engine::budget::describe_bytes(r.sent_per_step)
+            fractum_engine::budget::describe_bytes(r.sent_per_step),
+            fractum_io::run::rank_clock::describe_phases(&r.phase_seconds, s.wall.as_secs_f64())
         )
     });
     format!(

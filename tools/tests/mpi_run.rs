@@ -86,6 +86,12 @@ fn under_mpirun_three_ranks_run_and_resume_a_scene_as_the_single_process_does() 
         "{}",
         text(&ran.stdout)
     );
+    // Where a rank's time went, phase by phase (`fractum_io::run::rank_clock`).
+    assert!(
+        text(&ran.stdout).contains("a rank's time, the mean over ranks: pipeline"),
+        "{}",
+        text(&ran.stdout)
+    );
     assert!(
         text(&ran.stdout).contains("x the grid's;"),
         "{}",

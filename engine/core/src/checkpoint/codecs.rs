@@ -165,10 +165,52 @@ pub(super) fn save_rows<R: RowState>(
     postcard::to_allocvec(&values).map_err(codec(R::KEY))
 }
 
+/// Moves the values of `C`'s column in the particles' one table so that row `n` holds what row
+/// `from[n]` held (`from` a permutation of the rows); `false` when the particles are not all in
+/// one table with `C`. A table without `C` has nothing to move.
+pub(super) fn permute_column<C: Component<Mutability = bevy_ecs::component::Mutable>>(
+    world: &mut World,
+    from: &[usize],
+) -> bool {
+    let mut query = world.query_filtered::<&mut C, With<Particle>>();
+    let Ok(mut tables) = query.contiguous_iter_mut(world) else {
+        return false;
+    };
+    let Some(mut column) = tables.next() else {
+        return true;
+    };
+    if tables.next().is_some() || column.len() != from.len() {
+        return false;
+    }
+    apply_permutation(&mut column, from);
+    true
+}
+
+/// Rearranges `values` so that slot `n` holds what slot `from[n]` held, by swaps along the
+/// permutation's cycles (no value is cloned or dropped).
+pub(super) fn apply_permutation<T>(values: &mut [T], from: &[usize]) {
+    let mut placed = vec![false; values.len()];
+    for start in 0..values.len() {
+        let mut slot = start;
+        while !placed[slot] {
+            placed[slot] = true;
+            let source = from[slot];
+            if source == start {
+                break;
+            }
+            values.swap(slot, source);
+            slot = source;
+        }
+    }
+}
+
+/// Picks each row of resource `R` from `sources` as [`pick_component`] picks a component; a row
+/// picked as [`KEEP_ROW`] takes the value of row `kept[n]` of the resource as it is.
 pub(super) fn pick_rows<R: RowState>(
     world: &mut World,
     sources: &[&[u8]],
     picks: &[(u32, u32)],
+    kept: &[Option<usize>],
 ) -> Result<(), CheckpointError> {
     let name = R::KEY;
     if !world.contains_resource::<R>() {
@@ -182,16 +224,19 @@ pub(super) fn pick_rows<R: RowState>(
                 .map_err(codec(name))
         })
         .collect::<Result<_, _>>()?;
-    let rows = picks
-        .iter()
-        .map(|&(block, index)| {
-            picked(&mut decoded, block, index)
-                .and_then(Option::take)
-                .ok_or_else(|| {
-                    CheckpointError::Mismatch(format!(
-                        "{name}: row {index} of block {block} was not sent"
-                    ))
-                })
+    let resource = world.resource::<R>();
+    let rows = (picks.iter().enumerate())
+        .map(|(n, &(block, index))| {
+            let old_row = kept.get(n).copied().flatten();
+            match old_row {
+                Some(row) if (block, index) == KEEP_ROW => Some(resource.row(row)),
+                _ => picked(&mut decoded, block, index).and_then(Option::take),
+            }
+            .ok_or_else(|| {
+                CheckpointError::Mismatch(format!(
+                    "{name}: row {index} of block {block} was not sent"
+                ))
+            })
         })
         .collect::<Result<Vec<_>, _>>()?;
     if let Some(mut resource) = world.get_resource_mut::<R>() {
@@ -216,4 +261,22 @@ pub(super) fn load_resource<R: Resource + State>(
     let value: R = postcard::from_bytes(bytes).map_err(codec(R::KEY))?;
     world.insert_resource(value);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Slot `n` takes what slot `from[n]` held, through cycles of every length, with values
+    /// that can be neither cloned nor defaulted.
+    #[test]
+    fn a_permutation_moves_each_value_once() {
+        struct Opaque(u32);
+        let from = [3, 0, 1, 2, 4, 6, 5];
+        let mut values: Vec<Opaque> = (0..7).map(Opaque).collect();
+        apply_permutation(&mut values, &from);
+        let got: Vec<u32> = values.iter().map(|v| v.0).collect();
+        let want: Vec<u32> = from.iter().map(|&r| r as u32).collect();
+        assert_eq!(got, want);
+    }
 }

@@ -2,8 +2,8 @@
 //! module [`crate::checkpoint`]).
 
 use super::codecs::{
-    load_component, load_resource, pick_column, pick_component, pick_rows, save_column,
-    save_component, save_resource, save_rows,
+    load_component, load_resource, permute_column, pick_column, pick_component, pick_rows,
+    save_column, save_component, save_resource, save_rows,
 };
 use super::keys::{CheckpointError, RowState, State};
 use crate::components::{Particle, ParticleId};
@@ -17,7 +17,9 @@ type PickComponent =
 type SaveColumn = fn(&mut World, &[usize], usize) -> Option<Result<Vec<u8>, CheckpointError>>;
 type PickColumn = fn(&mut World, &[&[u8]], &[(u32, u32)]) -> Option<Result<(), CheckpointError>>;
 type SaveRows = fn(&World, &[usize]) -> Result<Vec<u8>, CheckpointError>;
-type PickRows = fn(&mut World, &[&[u8]], &[(u32, u32)]) -> Result<(), CheckpointError>;
+type PickRows =
+    fn(&mut World, &[&[u8]], &[(u32, u32)], &[Option<usize>]) -> Result<(), CheckpointError>;
+type PermuteColumn = fn(&mut World, &[usize]) -> bool;
 type SaveResource = fn(&World) -> Result<Option<Vec<u8>>, CheckpointError>;
 type LoadResource = fn(&mut World, &[u8]) -> Result<(), CheckpointError>;
 
@@ -30,6 +32,7 @@ struct ComponentEntry {
     pick: PickComponent,
     save_column: SaveColumn,
     pick_column: PickColumn,
+    permute_column: PermuteColumn,
 }
 
 #[derive(Clone, Copy)]
@@ -83,6 +86,7 @@ impl CheckpointState {
                 pick: pick_component::<C>,
                 save_column: save_column::<C>,
                 pick_column: pick_column::<C>,
+                permute_column: permute_column::<C>,
             });
         }
     }
@@ -136,6 +140,75 @@ impl CheckpointState {
         same_rows: bool,
     ) -> Result<(), CheckpointError> {
         let part = |c: usize| self.block_parts(blocks, c);
+        self.write_picked_components(world, blocks, picks)?;
+        if same_rows {
+            return Ok(());
+        }
+        for (r, entry) in self.rows.iter().enumerate() {
+            (entry.pick)(world, &part(self.components.len() + r)?, picks, &[])?;
+        }
+        Ok(())
+    }
+
+    /// Moves every carried component of the particles within its column so that row `n`
+    /// holds what row `from[n]` held (`from` a permutation of the particles' rows): a rank's
+    /// kept particles take their new rows without being encoded and decoded. `false`, with
+    /// nothing moved, when the particles are not all in one table (then their state is to be
+    /// encoded and picked, [`Self::load_picked_rows`]).
+    pub fn permute_rows(&self, world: &mut World, from: &[usize]) -> Result<bool, CheckpointError> {
+        let mut query = world.query_filtered::<&ParticleId, With<Particle>>();
+        let one_table = query.contiguous_iter(world).is_ok_and(|mut tables| {
+            tables.next().is_some_and(|t| t.len() == from.len()) && tables.next().is_none()
+        });
+        if !one_table {
+            return Ok(false);
+        }
+        let mut check = from.to_vec();
+        check.sort_unstable();
+        if check.iter().enumerate().any(|(n, &r)| n != r) {
+            return Err(CheckpointError::Mismatch(
+                "the rows' new order is not a permutation of the rows".into(),
+            ));
+        }
+        for entry in &self.components {
+            if !(entry.permute_column)(world, from) {
+                return Err(CheckpointError::Mismatch(format!(
+                    "{}: not a column of the particles' one table",
+                    entry.name
+                )));
+            }
+        }
+        Ok(true)
+    }
+
+    /// After [`Self::permute_rows`]: writes the particles that arrived, as
+    /// [`Self::load_picked_rows`] with the moved rows picked as [`KEEP_ROW`](super::KEEP_ROW),
+    /// and makes the rows of each [`RowState`] resource the picked ones, a kept row's value
+    /// taken from its old row `kept[n]`.
+    pub fn load_arrived_rows(
+        &self,
+        world: &mut World,
+        blocks: &[Vec<Vec<u8>>],
+        picks: &[(u32, u32)],
+        kept: &[Option<usize>],
+    ) -> Result<(), CheckpointError> {
+        let part = |c: usize| self.block_parts(blocks, c);
+        self.write_picked_components(world, blocks, picks)?;
+        for (r, entry) in self.rows.iter().enumerate() {
+            (entry.pick)(world, &part(self.components.len() + r)?, picks, kept)?;
+        }
+        Ok(())
+    }
+
+    /// Writes every carried component of each particle row from its pick (see
+    /// [`Self::load_picked_rows`]): column by column, or particle by particle where the
+    /// particles are not all in one table.
+    fn write_picked_components(
+        &self,
+        world: &mut World,
+        blocks: &[Vec<Vec<u8>>],
+        picks: &[(u32, u32)],
+    ) -> Result<(), CheckpointError> {
         let (targets, _) = particles_in_order(world);
         if targets.len() != picks.len() {
             return Err(CheckpointError::Mismatch(format!(
@@ -145,17 +218,11 @@ impl CheckpointState {
             )));
         }
         for (c, entry) in self.components.iter().enumerate() {
-            let sources = part(c)?;
+            let sources = self.block_parts(blocks, c)?;
             match (entry.pick_column)(world, &sources, picks) {
                 Some(done) => done?,
                 None => (entry.pick)(world, &targets, &sources, picks)?,
             }
-        }
-        if same_rows {
-            return Ok(());
-        }
-        for (r, entry) in self.rows.iter().enumerate() {
-            (entry.pick)(world, &part(self.components.len() + r)?, picks)?;
         }
         Ok(())
     }

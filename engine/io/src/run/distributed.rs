@@ -3,6 +3,7 @@
 //! state to the ranks that hold it, and each rank rebuilds its particles from what it kept and
 //! received, sorted by id. What each rank holds and why: [`fractum_engine::decomposition::Ownership`].
 
+use super::rank_clock::{Phase, RankClock, record};
 use crate::checkpoint::CheckpointState;
 use bevy_ecs::prelude::*;
 use fractum_engine::communicator::{Communicator, RankFailure};
@@ -13,6 +14,10 @@ use fractum_engine::health::{EscapedParticles, LeaveGrid};
 use fractum_engine::resources::Grid;
 use fractum_engine::resources::SimClock;
 use fractum_engine::with_dim;
+use std::time::Instant;
+
+mod rows;
+use rows::rebuild;
 
 /// Takes one step of a distributed run on this rank: the least stable step over ranks, the
 /// step, and [`redistribute`]. Every rank calls it for the same step; a failure on any rank
@@ -22,14 +27,29 @@ pub fn step(
     sim: &mut fractum_engine::Simulation,
     comm: &dyn Communicator,
 ) -> Result<(), RankFailure> {
+    // The clock stays out of the world while a re-cut may replace the world.
+    let clock = sim.world.remove_resource::<RankClock>().unwrap_or_default();
+    let started = Instant::now();
     let followed = with_dim!(sim.dimension(), D => follow_layout::<D>(sim));
+    sim.world.insert_resource(clock);
+    record(&mut sim.world, Phase::NewWorld, started.elapsed());
+    let started = Instant::now();
     comm.agree(followed.err().as_deref())?;
     agree_maxima(&mut sim.world, comm);
     let dt = comm.min(sim.planned_time_step());
+    record(&mut sim.world, Phase::Collectives, started.elapsed());
+    let started = Instant::now();
     let stepped = sim.step_with_time_step(dt).map_err(|e| e.to_string());
-    comm.agree(stepped.err().as_deref())?;
+    record(&mut sim.world, Phase::Pipeline, started.elapsed());
+    let started = Instant::now();
+    let agreed = comm.agree(stepped.err().as_deref());
+    record(&mut sim.world, Phase::Collectives, started.elapsed());
+    agreed?;
     let moved = with_dim!(sim.dimension(), D => redistribute::<D>(&mut sim.world, comm));
-    comm.agree(moved.err().as_deref())
+    let started = Instant::now();
+    let agreed = comm.agree(moved.err().as_deref());
+    record(&mut sim.world, Phase::Collectives, started.elapsed());
+    agreed
 }
 
 /// Moves this rank onto the nodes of its slabs, when they were re-cut after the last step
@@ -179,6 +199,7 @@ fn exchange_and_rebuild<D: Dim>(
     comm: &dyn Communicator,
     ownership: &mut Ownership,
 ) -> Result<(), String> {
+    let started = Instant::now();
     let grid = world.resource::<Grid<D>>().clone();
     let state = world
         .get_resource::<CheckpointState>()
@@ -190,6 +211,7 @@ fn exchange_and_rebuild<D: Dim>(
     // waits for another; the failures are reported after them.
     let (per_layer, mut failure) = count(world, comm, ownership, &per_layer, &escaped);
     let (next, peers) = next_layout(&layout, &per_layer, ownership);
+    let started = lap(world, Phase::Counting, started);
     let (kept, sends) = send(world, &state, (&claimed, ownership.rank), (&next, &peers));
     let sends: Vec<(usize, Vec<u8>)> = sends
         .into_iter()
@@ -202,14 +224,26 @@ fn exchange_and_rebuild<D: Dim>(
         })
         .collect();
     ownership.sent_bytes += sends.iter().map(|(_, b)| b.len() as u64).sum::<u64>();
+    let started = lap(world, Phase::Encoding, started);
     let received = comm.exchange(&sends);
+    let started = lap(world, Phase::Exchange, started);
     if let Some(failure) = failure {
         return Err(failure);
     }
     let arrived = receive(&peers, received)?;
+    let started = lap(world, Phase::Decoding, started);
     rebuild::<D>(world, &state, &kept, arrived)?;
     settle::<D>(world, &grid, ownership, (layout, next), &per_layer);
+    lap(world, Phase::Rebuilding, started);
     Ok(())
+}
+
+/// Adds the time since `started` to `phase` of the world's [`RankClock`]; the next phase's
+/// start.
+fn lap(world: &mut World, phase: Phase, started: Instant) -> Instant {
+    let now = Instant::now();
+    record(world, phase, now - started);
+    now
 }
 
 /// A particle this rank takes over after the step: its row, entity, id and cell layer.
@@ -421,70 +455,6 @@ fn rebalanced(layout: &Layout, per_layer: &[u64], above: Option<f64>) -> Option<
         slabs: cut.layers,
         ..layout.clone()
     })
-}
-
-/// Makes the world's particles exactly those it `kept` (storage row, entity, id) and those
-/// that `arrived` from other ranks, sorted by id, each with its owner's state. Mostly no
-/// particle enters or leaves a rank in a step: every kept particle is then in its row already,
-/// with the state this rank computed for it, and only the rows of those that arrived are
-/// written.
-fn rebuild<D: Dim>(
-    world: &mut World,
-    state: &CheckpointState,
-    kept: &[(usize, Entity, u32)],
-    arrived: Vec<Block>,
-) -> Result<(), String> {
-    // Block 0 is what this rank kept, the others what arrived, in order.
-    let kept_ids = kept.iter().map(|r| r.2);
-    let mut picks: Vec<(u32, u32, u32)> = (kept_ids.enumerate())
-        .map(|(i, id)| (id, 0, i as u32))
-        .chain(arrived.iter().enumerate().flat_map(|(b, (ids, _))| {
-            ids.iter()
-                .enumerate()
-                .map(move |(i, &id)| (id, b as u32 + 1, i as u32))
-        }))
-        .collect();
-    picks.sort_unstable();
-    if let Some(w) = picks.windows(2).find(|w| w[0].0 == w[1].0) {
-        return Err(format!("particle {} arrived from two ranks", w[0].0));
-    }
-    // Mostly no particle enters or leaves a rank in a step: every row then keeps its particle,
-    // and the systems' row caches (neighbour lists) stay valid.
-    let held: Vec<u32> = rows::<D>(world).into_iter().map(|r| r.1).collect();
-    let same_rows = held.len() == picks.len() && held.iter().zip(&picks).all(|(a, b)| *a == b.0);
-    // The kept particles' state, read before the rows move; none is needed where they stay.
-    let kept_block = if same_rows {
-        None
-    } else {
-        Some(block(world, state, kept)?.1)
-    };
-    resize_particles::<D>(world, picks.len())?;
-    let mut ids = world.query_filtered::<&mut ParticleId, With<Particle>>();
-    for (mut slot, &(id, _, _)) in ids.iter_mut(world).zip(&picks) {
-        slot.0 = id;
-    }
-    let arrived = arrived.into_iter().map(|b| b.1);
-    // Block 0 is what this rank kept, encoded where its rows move; otherwise the kept rows keep
-    // their state, and only what arrived is decoded and written.
-    let mut components = Vec::with_capacity(arrived.len() + 1);
-    let picks: Vec<(u32, u32)> = match kept_block {
-        None => {
-            components.extend(arrived);
-            let keep = |&(_, b, i): &(u32, u32, u32)| match b {
-                0 => crate::checkpoint::KEEP_ROW,
-                _ => (b - 1, i),
-            };
-            picks.iter().map(keep).collect()
-        }
-        Some(kept_block) => {
-            components.push(kept_block);
-            components.extend(arrived);
-            picks.iter().map(|&(_, b, i)| (b, i)).collect()
-        }
-    };
-    state
-        .load_picked_rows(world, &components, &picks, same_rows)
-        .map_err(|e| e.to_string())
 }
 
 /// Spawns or despawns particles at the end of storage until there are `count`: the rows that

@@ -4,6 +4,7 @@
 mod checkpoints;
 pub mod distributed;
 mod outputs;
+pub mod rank_clock;
 mod resume;
 
 use checkpoints::{CheckpointSchedule, checkpoint_now};
@@ -126,6 +127,9 @@ pub struct RankReport {
     /// How often, over every rank, a re-cut moved a rank's nodes so that its world was built
     /// afresh for the new slabs.
     pub rebuilds: u64,
+    /// The seconds a rank spent in each phase of its steps, in the order of
+    /// [`rank_clock::Phase::ALL`], on average over the ranks ([`rank_clock::RankClock`]).
+    pub phase_seconds: [f64; rank_clock::Phase::ALL.len()],
 }
 
 impl RunSummary {
@@ -409,6 +413,11 @@ fn rank_report(
         let grid = world.resource::<fractum_engine::resources::Grid<D>>();
         (grid.node_count(), grid.global_node_count())
     });
+    let clock = (sim.world.get_resource::<rank_clock::RankClock>())
+        .copied()
+        .unwrap_or_default();
+    let phases = rank_clock::Phase::ALL.map(|p| clock.spent(p).as_secs_f64());
+    let per_rank = comm.sum(&phases);
     let sums = comm.sum(&[held, owned, sent as f64, nodes as f64, rebuilds as f64]);
     RankReport {
         ranks: comm.size(),
@@ -418,6 +427,7 @@ fn rank_report(
         sent_per_step: sums[2] / comm.size() as f64 / steps.max(1) as f64,
         held_nodes_over_grid: sums[3] / grid_nodes.max(1) as f64,
         rebuilds: sums[4] as u64,
+        phase_seconds: std::array::from_fn(|k| per_rank[k] / comm.size() as f64),
     }
 }
 

@@ -1,0 +1,138 @@
+//! A rank's particle rows after a step's exchange ([`super::redistribute`]): the particles it
+//! kept and those that arrived, sorted by id, each with its owner's state.
+
+use super::{Block, Moved, block, resize_particles, rows};
+use crate::checkpoint::CheckpointState;
+use bevy_ecs::prelude::*;
+use fractum_engine::components::{Particle, ParticleId};
+use fractum_engine::dim::Dim;
+
+/// Makes the world's particles exactly those it `kept` (storage row, entity, id) and those
+/// that `arrived` from other ranks, sorted by id, each with its owner's state. Mostly no
+/// particle enters or leaves a rank in a step: every kept particle is then in its row already,
+/// with the state this rank computed for it, and only the rows of those that arrived are
+/// written. Where rows change, the kept particles' components move to their new rows within
+/// their columns ([`CheckpointState::permute_rows`]), and only what arrived is decoded.
+pub(super) fn rebuild<D: Dim>(
+    world: &mut World,
+    state: &CheckpointState,
+    kept: &[(usize, Entity, u32)],
+    arrived: Vec<Block>,
+) -> Result<(), String> {
+    let picks = merged_picks(kept, &arrived)?;
+    let held: Vec<u32> = rows::<D>(world).into_iter().map(|r| r.1).collect();
+    let same_rows = held.len() == picks.len() && held.iter().zip(&picks).all(|(a, b)| *a == b.0);
+    let arrived: Vec<Vec<Vec<u8>>> = arrived.into_iter().map(|b| b.1).collect();
+    let keep_or_pick = |&(_, b, i): &(u32, u32, u32)| match b {
+        0 => crate::checkpoint::KEEP_ROW,
+        _ => (b - 1, i),
+    };
+    let kept_picks: Vec<(u32, u32)> = picks.iter().map(keep_or_pick).collect();
+    let codec = |e: fractum_engine::checkpoint::CheckpointError| e.to_string();
+    if same_rows {
+        // The systems' row caches (neighbour lists) stay valid.
+        return (state.load_picked_rows(world, &arrived, &kept_picks, true)).map_err(codec);
+    }
+    let kept_from: Vec<Option<usize>> = (picks.iter())
+        .map(|&(_, b, i)| (b == 0).then(|| kept[i as usize].0))
+        .collect();
+    if picks.len() > held.len() {
+        resize_particles::<D>(world, picks.len())?;
+    }
+    let from = complete_permutation(&kept_from, held.len().max(picks.len()));
+    if state.permute_rows(world, &from).map_err(codec)? {
+        resize_particles::<D>(world, picks.len())?;
+        set_ids(world, &picks);
+        return (state.load_arrived_rows(world, &arrived, &kept_picks, &kept_from)).map_err(codec);
+    }
+    // Particles in several tables: the kept ones' state is encoded and picked back as block 0.
+    let mut components = vec![block(world, state, kept)?.1];
+    components.extend(arrived);
+    resize_particles::<D>(world, picks.len())?;
+    set_ids(world, &picks);
+    let picks: Vec<(u32, u32)> = picks.iter().map(|&(_, b, i)| (b, i)).collect();
+    (state.load_picked_rows(world, &components, &picks, false)).map_err(codec)
+}
+
+/// Every particle the rank holds after the step, sorted by id: (id, block, index), block 0
+/// being what this rank `kept` and block `b + 1` the `b`-th that arrived.
+fn merged_picks(kept: &[Moved], arrived: &[Block]) -> Result<Vec<(u32, u32, u32)>, String> {
+    let kept_ids = kept.iter().map(|r| r.2);
+    let mut picks: Vec<(u32, u32, u32)> = (kept_ids.enumerate())
+        .map(|(i, id)| (id, 0, i as u32))
+        .chain(arrived.iter().enumerate().flat_map(|(b, (ids, _))| {
+            ids.iter()
+                .enumerate()
+                .map(move |(i, &id)| (id, b as u32 + 1, i as u32))
+        }))
+        .collect();
+    picks.sort_unstable();
+    match picks.windows(2).find(|w| w[0].0 == w[1].0) {
+        Some(w) => Err(format!("particle {} arrived from two ranks", w[0].0)),
+        None => Ok(picks),
+    }
+}
+
+/// The rows' new order over `len` rows: new row `n` takes old row `kept_from[n]` where a kept
+/// particle moves there, and one of the rows no kept particle leaves from otherwise (a row an
+/// arrival overwrites, or one despawned at the end).
+fn complete_permutation(kept_from: &[Option<usize>], len: usize) -> Vec<usize> {
+    let mut left = vec![true; len];
+    for &row in kept_from.iter().flatten() {
+        left[row] = false;
+    }
+    let mut spare = (0..len).filter(|&row| left[row]);
+    (0..len)
+        .map(|n| match kept_from.get(n).copied().flatten() {
+            Some(row) => row,
+            None => spare.next().unwrap_or(n),
+        })
+        .collect()
+}
+
+/// Writes the particles' ids in storage order from `picks` (id, block, index).
+fn set_ids(world: &mut World, picks: &[(u32, u32, u32)]) {
+    let mut ids = world.query_filtered::<&mut ParticleId, With<Particle>>();
+    for (mut slot, &(id, _, _)) in ids.iter_mut(world).zip(picks) {
+        slot.0 = id;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rows 0..5 held particles 10..14; 11 and 13 left, 12 and 14 were kept, and 15 and 16
+    /// arrived: the new rows are 12, 14, 15, 16 (the kept ones from old rows 2 and 4), over
+    /// five rows until the last is despawned.
+    #[test]
+    fn kept_rows_take_their_new_places_and_the_rest_fill_in() {
+        let kept_from = [Some(2), Some(4), None, None];
+        let from = complete_permutation(&kept_from, 5);
+        assert_eq!(from, vec![2, 4, 0, 1, 3]);
+        let mut sorted = from.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, vec![0, 1, 2, 3, 4]);
+        // Growing: two rows kept in place and one moved up past an arrival.
+        let grown = complete_permutation(&[Some(0), None, Some(1), Some(2)], 4);
+        assert_eq!(grown, vec![0, 3, 1, 2]);
+    }
+
+    #[test]
+    fn merged_picks_sort_by_id_and_refuse_a_particle_sent_twice() {
+        let e = Entity::PLACEHOLDER;
+        let kept = [(0, e, 3), (1, e, 7)];
+        let arrived: Vec<Block> = vec![(vec![1, 5], vec![]), (vec![9], vec![])];
+        let picks = merged_picks(&kept, &arrived).unwrap();
+        assert_eq!(
+            picks,
+            vec![(1, 1, 0), (3, 0, 0), (5, 1, 1), (7, 0, 1), (9, 2, 0)]
+        );
+        let twice: Vec<Block> = vec![(vec![7], vec![])];
+        assert!(
+            merged_picks(&kept, &twice)
+                .unwrap_err()
+                .contains("particle 7")
+        );
+    }
+}
