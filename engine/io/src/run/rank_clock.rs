@@ -2,7 +2,7 @@
 //! a rank waits for the slowest), the per-layer count, encoding the particles it sends, the
 //! exchange, decoding what arrived, rebuilding its rows from what it kept and received, and
 //! building its world afresh for re-cut slabs. [`super::distributed::step`] adds each step's phases to the rank's
-//! [`RankClock`]; the run's summary gives the mean over ranks ([`super::RankReport::phases`]).
+//! [`RankClock`]; the run's summary gives the mean over ranks ([`super::RankReport::phase_seconds`]).
 
 use bevy_ecs::prelude::*;
 use std::time::{Duration, Instant};
