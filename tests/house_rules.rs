@@ -1,8 +1,10 @@
 //! The house rules of the source, held against the source itself (ARCHITECTURE.md, "House
 //! rules"): no source file over 600 lines before its tests, no function over 80 lines, and no
 //! two files of a crate that import each other (a file and the files of its own folder may:
-//! that is one module split over files). Test code is exempt: a file's `#[cfg(test)]` module,
-//! and the integration tests under `tests/` folders.
+//! that is one module split over files), and no mutable column of the stepping crates taken
+//! with its change ticks (`single_table_mut`, not `single_table`, for `contiguous_iter_mut`).
+//! Test code is exempt: a file's `#[cfg(test)]` module, and the integration tests under
+//! `tests/` folders.
 //!
 //! The source is rustfmt's, so a function ends at the first line that is its opening line's
 //! indentation followed by `}`.
@@ -95,6 +97,47 @@ fn function_lengths(lines: &[&str]) -> Vec<(String, usize)> {
         }
     }
     found
+}
+
+/// The crates whose systems run in the step: their mutable columns come without change ticks.
+const STEPPING_CRATES: [&str; 2] = ["engine/core", "systems"];
+
+/// Whether `text` hands a mutable contiguous query to `single_table`, whose `ContiguousMut`
+/// columns mark every row changed when borrowed (`storage::single_table_mut` does not).
+fn takes_mutable_columns_with_ticks(text: &str) -> bool {
+    text.match_indices("single_table(").any(|(at, call)| {
+        let argument: String = text[at + call.len()..]
+            .chars()
+            .filter(|c| !c.is_whitespace())
+            .take(80)
+            .collect();
+        let first = argument.split(',').next().unwrap_or("");
+        first.contains(".contiguous_iter_mut(")
+    })
+}
+
+#[test]
+fn stepping_code_takes_mutable_columns_without_change_ticks() {
+    assert!(takes_mutable_columns_with_ticks(
+        "single_table(\n        nodes.contiguous_iter_mut(), \"nodes\")"
+    ));
+    assert!(!takes_mutable_columns_with_ticks(
+        "single_table_mut(nodes.contiguous_iter_mut(), \"nodes\"); single_table(q.contiguous_iter(), \"p\")"
+    ));
+    let root = repo_root();
+    let mut found = Vec::new();
+    for krate in STEPPING_CRATES {
+        for file in rust_files(&root.join(krate).join("src")) {
+            let text = std::fs::read_to_string(&file).unwrap();
+            if takes_mutable_columns_with_ticks(&before_tests(&text).join("\n")) {
+                found.push(file.strip_prefix(&root).unwrap().display().to_string());
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "take mutable columns with `single_table_mut` (storage.rs says why): {found:?}"
+    );
 }
 
 #[test]

@@ -112,8 +112,8 @@ fn advect_rows<D: Dim>(
 ) {
     let (node_acceleration, node_velocity) =
         single_table(nodes.contiguous_iter(), "nodes").unwrap_or((&[], &[]));
-    let Some((mut position, mut velocity, mut acceleration)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
+    let Some((position, velocity, acceleration)) =
+        single_table_mut(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };
@@ -454,8 +454,8 @@ pub fn advect_particles_affine<D: Dim>(
     (dt, carry, lag): (f64, f64, f64),
 ) {
     let node_columns = single_table(nodes.contiguous_iter(), "nodes").unwrap_or((&[], &[]));
-    let Some((mut position, mut velocity, mut acceleration, mut affine)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
+    let Some((position, velocity, acceleration, affine)) =
+        single_table_mut(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };

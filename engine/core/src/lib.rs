@@ -64,7 +64,7 @@ pub mod prelude {
     };
     pub use crate::series::SeriesColumns;
     pub use crate::stage::{Stage, StepSet};
-    pub use crate::storage::single_table;
+    pub use crate::storage::{Untracked, single_table, single_table_mut};
     pub use crate::text::SceneError;
     pub use crate::{generic_install, with_dim};
     pub use bevy_ecs::prelude::*;

@@ -8,7 +8,7 @@ pub use crate::components::LoadShare;
 use crate::components::{ExternalForce, Particle};
 use crate::dim::{Dim, VectorOps};
 use crate::resources::SimClock;
-use crate::storage::single_table;
+use crate::storage::single_table_mut;
 use bevy_ecs::prelude::*;
 use rayon::prelude::*;
 
@@ -38,11 +38,10 @@ pub fn apply_loads<D: Dim>(
     loads: Res<ParticleLoads<D>>,
     mut particles: Query<(&LoadShare, &mut ExternalForce<D>), With<Particle>>,
 ) {
-    let Some((shares, mut forces)) = single_table(particles.contiguous_iter_mut(), "particles")
+    let Some((shares, forces)) = single_table_mut(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };
-    let forces: &mut [ExternalForce<D>] = &mut forces;
     forces
         .par_iter_mut()
         .zip(shares.par_iter())

@@ -36,7 +36,7 @@ pub fn mls_advection<D: Dim>(
     clock: Res<SimClock>,
     mut particles: Query<(&mut Position<D>, &Velocity<D>), With<Particle>>,
 ) {
-    let Some((mut position, velocity)) = single_table(particles.contiguous_iter_mut(), "particles")
+    let Some((position, velocity)) = single_table_mut(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };

@@ -539,8 +539,8 @@ pub fn frictional_contact<D: Dim>(
     };
     // The partition's separability statistics, where a partition system computes them.
     let damage = single_table(field_damage.contiguous_iter(), "nodes");
-    let Some((fields, mass, mut velocity, mut acceleration, mut normal, mut contact, mut impulse)) =
-        single_table(nodes.contiguous_iter_mut(), "nodes")
+    let Some((fields, mass, velocity, acceleration, normal, contact, impulse)) =
+        single_table_mut(nodes.contiguous_iter_mut(), "nodes")
     else {
         return;
     };
@@ -549,11 +549,11 @@ pub fn frictional_contact<D: Dim>(
         fields,
         damage,
         mass,
-        velocity: &mut velocity,
-        acceleration: &mut acceleration,
-        normal: &mut normal,
-        contact: &mut contact,
-        impulse: &mut impulse,
+        velocity,
+        acceleration,
+        normal,
+        contact,
+        impulse,
     };
     let step = ContactStep {
         params: &inputs.params,

@@ -462,8 +462,8 @@ pub fn penalty_contact<D: Dim>(
     else {
         return;
     };
-    let Some((node_mass, mut velocity, mut acceleration, mut contact)) =
-        single_table(nodes.contiguous_iter_mut(), "nodes")
+    let Some((node_mass, velocity, acceleration, contact)) =
+        single_table_mut(nodes.contiguous_iter_mut(), "nodes")
     else {
         return;
     };
@@ -485,7 +485,7 @@ pub fn penalty_contact<D: Dim>(
         GridIntegration::UpdateStressLast => 0.0,
     };
     let states = contact_states(
-        (c, &velocity),
+        (c, velocity),
         (positions, mass, volume, material),
         &inputs.moduli,
         (thickness, lookahead, at_contact_point),
@@ -510,10 +510,10 @@ pub fn penalty_contact<D: Dim>(
     let mut own = vec![NodeContactForce::<D>::default(); node_mass.len()];
     node_forces(c, &forces, &held, &mut own);
     if integration == GridIntegration::UpdateStressLast {
-        kick_nodes((&mut velocity, &mut acceleration), (node_mass, &own), dt);
+        kick_nodes((velocity, acceleration), (node_mass, &own), dt);
     }
     if inputs.adds.as_ref().is_some_and(|a| a.0) {
-        add_forces(&mut contact, &own);
+        add_forces(contact, &own);
     } else {
         contact.copy_from_slice(&own);
     }

@@ -69,8 +69,8 @@ pub fn newmark_corrector<D: Dim>(
     };
     // Contact forces exist where a contact system gave nodes them.
     let contact = single_table(contact.contiguous_iter(), "nodes");
-    let Some((node_mass, mut node_velocity, mut node_acceleration, mut node_force)) =
-        single_table(nodes.contiguous_iter_mut(), "nodes")
+    let Some((node_mass, node_velocity, accelerations, stored_forces)) =
+        single_table_mut(nodes.contiguous_iter_mut(), "nodes")
     else {
         return;
     };
@@ -84,8 +84,7 @@ pub fn newmark_corrector<D: Dim>(
     );
     let (integration, dt) = (*integration, clock.dt);
     let gamma_dt = integration.force_window(dt);
-    let velocities: &mut [NodeVelocity<D>] = &mut node_velocity;
-    velocities
+    node_velocity
         .par_iter_mut()
         .zip(forces.par_iter_mut())
         .zip(node_mass.par_iter())
@@ -101,12 +100,10 @@ pub fn newmark_corrector<D: Dim>(
     bcs.enforce(
         clock.time + clock.dt,
         node_mass,
-        velocities,
+        node_velocity,
         Some((gamma_dt, &mut reactions)),
     );
     bcs.fill_held_mask(forces.len(), held);
-    let (accelerations, stored_forces): (&mut [NodeAcceleration<D>], &mut [NodeForce<D>]) =
-        (&mut node_acceleration, &mut node_force);
     accelerations
         .par_iter_mut()
         .zip(stored_forces.par_iter_mut())

@@ -53,17 +53,8 @@ pub fn degrade_particles<D: Dim>(
     particles: &mut DegradingParticles<D>,
     damage_law: impl Fn(MaterialId, f64, f64, f64) -> f64 + Sync,
 ) {
-    let Some((
-        material,
-        v0,
-        strength,
-        strain,
-        deformation,
-        mut stress,
-        mut energy,
-        mut damage,
-        mut dissipation,
-    )) = single_table(particles.contiguous_iter_mut(), "particles")
+    let Some((material, v0, strength, strain, deformation, stress, energy, damage, dissipation)) =
+        single_table_mut(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };
@@ -94,7 +85,7 @@ pub fn degrade_particles<D: Dim>(
                 dissipated.0 += v0[i].0 * released;
             }
         });
-    let (damaged, failed) = damage_counts(material, &damage, law.materials, owned);
+    let (damaged, failed) = damage_counts(material, damage, law.materials, owned);
     let [cd, cf, ce] = law.columns;
     columns.values[cd] = damaged as f64;
     columns.values[cf] = failed as f64;

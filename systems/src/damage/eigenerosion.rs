@@ -190,12 +190,11 @@ pub fn eigenerosion<D: Dim>(
     mut particles: ParticleQuery<D>,
     owned: OwnedRows,
 ) {
-    let Some((material, volume, v0, stress, energy, mut damage)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
+    let Some((material, volume, v0, stress, energy, damage)) =
+        single_table_mut(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };
-    let damage: &mut [Damage] = &mut damage;
     let epsilon = neighbourhoods.radius;
     // The stored energy of a particle: W per reference volume times V₀.
     let stored = |q: usize| energy[q].0 * v0[q].0;

@@ -491,13 +491,11 @@ pub fn eigensoftening<D: Dim>(
     mut reach: Local<StressReach<D>>,
     mut particles: ParticleQuery<D>,
 ) {
-    let Some((positions, mass, material, v0, stress, strain, mut damage, mut history, mut opening)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
+    let Some((positions, mass, material, v0, stress, strain, damage, history, opening)) =
+        single_table_mut(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };
-    let (damage, history, opening): (&mut [Damage], &mut [DamageHistory], &mut [CrackOpening]) =
-        (&mut damage, &mut history, &mut opening);
     let previous: &[Damage] = damage;
     // Each particle's largest principal stress, once, for all the neighbourhoods it is in.
     let principal: Vec<f64> = stress.par_iter().map(|s| s.0.largest_principal()).collect();

@@ -352,15 +352,14 @@ pub fn dfg_partition<D: Spatial>(
     mut nodes: Query<(&NodeFields, &mut NodeFieldDamage), With<Node>>,
     mut buffers: Local<(Vec<f64>, Vec<bool>, Vec<usize>)>,
 ) {
-    let Some((positions, groups, bodies, damage, mass, mut surface, mut gradients)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
+    let Some((positions, groups, bodies, damage, mass, surface, gradients)) =
+        single_table_mut(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };
     let radius = params.radius.unwrap_or(grid.spacing * (D::N as f64).sqrt());
     carried.candidates.refresh(positions, groups, radius);
     let neighbours = &carried.candidates.rows;
-    let surface: &mut [SurfaceFlag] = &mut surface;
     if let (Some(threshold), Some(detected)) = (params.surface, carried.detected.as_mut())
         && !detected.0
     {
@@ -390,7 +389,6 @@ pub fn dfg_partition<D: Spatial>(
             near_damage[p as usize] = true;
         }
     }
-    let gradients: &mut [DamageGradient<D>] = &mut gradients;
     gradients.par_iter_mut().enumerate().for_each(|(p, g)| {
         if !near_damage[p] {
             // Mostly zero already: a read instead of a write.
@@ -405,10 +403,10 @@ pub fn dfg_partition<D: Spatial>(
             .map(|&q| (positions[q as usize].0, effective[q as usize]));
         g.0 = normalised_gradient(kernel_sums(positions[p].0, row, radius));
     });
-    let Some((fields, mut stats)) = single_table(nodes.contiguous_iter_mut(), "nodes") else {
+    let Some((fields, stats)) = single_table_mut(nodes.contiguous_iter_mut(), "nodes") else {
         return;
     };
-    node_field_damage(&connectivity, (fields, mass, effective), &mut stats);
+    node_field_damage(&connectivity, (fields, mass, effective), stats);
 }
 
 /// Each node's damage statistics per velocity field (Algorithm 2's inputs) from the

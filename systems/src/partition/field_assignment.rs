@@ -112,7 +112,7 @@ pub fn assign_fields_system<D: Dim>(
         return;
     };
     let gradients = single_table(gradients.contiguous_iter(), "particles");
-    let Some(mut fields) = single_table(nodes.contiguous_iter_mut(), "nodes") else {
+    let Some(fields) = single_table_mut(nodes.contiguous_iter_mut(), "nodes") else {
         return;
     };
     // The separability condition's inputs, only when the pipeline asks for it.
@@ -128,7 +128,7 @@ pub fn assign_fields_system<D: Dim>(
         groups,
         gradients,
         separation.as_ref(),
-        &mut fields,
+        fields,
     );
     if let Err(e) = result {
         health.fail(Blowup::new(

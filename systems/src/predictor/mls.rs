@@ -159,8 +159,7 @@ pub fn mls_particle_to_grid<D: Dim>(
     let Some(affine) = single_table(affine.contiguous_iter(), "particles") else {
         return;
     };
-    let Some((mut node_mass, mut node_velocity)) =
-        single_table(nodes.contiguous_iter_mut(), "nodes")
+    let Some((node_mass, node_velocity)) = single_table_mut(nodes.contiguous_iter_mut(), "nodes")
     else {
         return;
     };
@@ -222,8 +221,8 @@ pub fn mls_grid_to_particle<D: Dim>(
     mut particles: MlsParticleQuery<D>,
 ) {
     let node_velocity = single_table(nodes.contiguous_iter(), "nodes").unwrap_or(&[]);
-    let Some((mut velocity, mut acceleration, mut affine)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
+    let Some((velocity, acceleration, affine)) =
+        single_table_mut(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };

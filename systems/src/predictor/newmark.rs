@@ -143,8 +143,8 @@ pub fn newmark_predictor<D: Dim>(
     mut sums: Local<Vec<NodeSums<D>>>,
 ) {
     let affine = affine.columns();
-    let Some((mass, velocity, mut acceleration, external)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
+    let Some((mass, velocity, acceleration, external)) =
+        single_table_mut(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };
@@ -154,9 +154,9 @@ pub fn newmark_predictor<D: Dim>(
             a.0 = starting_acceleration::<D>(inputs.body_force.0, f.0, m.0);
         }
     }
-    let acceleration: &[Acceleration<D>] = &acceleration;
-    let Some((mut node_mass, mut momentum, mut node_velocity, mut node_acceleration, mut force)) =
-        single_table(nodes.contiguous_iter_mut(), "nodes")
+    let acceleration: &[Acceleration<D>] = acceleration;
+    let Some((node_mass, momentum, node_velocity, node_acceleration, force)) =
+        single_table_mut(nodes.contiguous_iter_mut(), "nodes")
     else {
         return;
     };
@@ -176,13 +176,6 @@ pub fn newmark_predictor<D: Dim>(
             add_affine_momentum(sum, connectivity, mass, affine, e, p);
         }
     });
-    // One `&mut *column` per column: indexing bevy's column in the loop would mark it changed on
-    // every access.
-    let (node_mass, momentum, node_velocity): (
-        &mut [NodeMass],
-        &mut [NodeMomentum<D>],
-        &mut [NodeVelocity<D>],
-    ) = (&mut node_mass, &mut momentum, &mut node_velocity);
     node_mass
         .par_iter_mut()
         .zip(momentum.par_iter_mut())

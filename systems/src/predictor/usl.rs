@@ -209,8 +209,8 @@ pub fn usl_predictor<D: Dim>(
     let Some(slices) = ParticleSlices::of(&particles) else {
         return;
     };
-    let Some((mut node_mass, mut momentum, mut node_velocity, mut acceleration, mut force)) =
-        single_table(nodes.contiguous_iter_mut(), "nodes")
+    let Some((node_mass, momentum, node_velocity, acceleration, force)) =
+        single_table_mut(nodes.contiguous_iter_mut(), "nodes")
     else {
         return;
     };
@@ -231,11 +231,11 @@ pub fn usl_predictor<D: Dim>(
     // Each `&mut *column` marks the whole column changed once; indexing the bevy column inside
     // a loop would do that on every access (quadratic), so the kernel gets plain slices.
     let columns = NodeColumns {
-        mass: &mut node_mass,
-        momentum: &mut momentum,
-        velocity: &mut node_velocity,
-        acceleration: &mut acceleration,
-        force: &mut force,
+        mass: node_mass,
+        momentum,
+        velocity: node_velocity,
+        acceleration,
+        force,
     };
     grid_update(&sums, &ctx, columns, &mut reactions);
     if params.scheme == UslScheme::Musl {
@@ -243,8 +243,8 @@ pub fn usl_predictor<D: Dim>(
             &connectivity,
             &slices,
             &ctx,
-            (&node_mass, &acceleration),
-            &mut node_velocity,
+            (node_mass, acceleration),
+            node_velocity,
         );
     }
 }

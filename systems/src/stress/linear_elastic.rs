@@ -106,8 +106,8 @@ pub fn linear_elastic_stress<D: Dim>(
     mut particles: ParticleQuery<D>,
 ) {
     let gradients = gradients.reader();
-    let Some((material, initial_volume, mut stress, mut strain, mut f, mut volume, mut energy)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
+    let Some((material, initial_volume, stress, strain, f, volume, energy)) =
+        single_table_mut(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };

@@ -92,8 +92,8 @@ pub fn neo_hookean_stress<D: Dim>(
     mut particles: ParticleQuery<D>,
 ) {
     let gradients = gradients.reader();
-    let Some((material, v0, mut f, mut stress, mut strain, mut volume, mut energy, mut speed)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
+    let Some((material, v0, f, stress, strain, volume, energy, speed)) =
+        single_table_mut(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };

@@ -179,8 +179,8 @@ pub fn shock_viscosity<D: Dim>(
     mut particles: ParticleQuery,
 ) {
     let gradients = gradients.reader();
-    let Some((material, mass, volume, wave_speed, mut pressure, mut dissipation)) =
-        single_table(particles.contiguous_iter_mut(), "particles")
+    let Some((material, mass, volume, wave_speed, pressure, dissipation)) =
+        single_table_mut(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };

@@ -4,6 +4,7 @@
 
 use super::keys::{CheckpointError, KEEP_ROW, RowState, State};
 use crate::components::Particle;
+use crate::storage::Untracked;
 use bevy_ecs::prelude::*;
 
 fn codec(what: &str) -> impl FnOnce(postcard::Error) -> CheckpointError + '_ {
@@ -82,7 +83,7 @@ pub(super) fn pick_column<C: Component<Mutability = bevy_ecs::component::Mutable
         .count();
     let mut query = world.query_filtered::<&mut C, With<Particle>>();
     let mut tables = query.contiguous_iter_mut(world).ok()?;
-    let mut column = tables.next()?;
+    let column = tables.next()?.untracked();
     if tables.next().is_some() || column.len() != count || count != picks.len() {
         return None;
     }
@@ -94,7 +95,6 @@ pub(super) fn pick_column<C: Component<Mutability = bevy_ecs::component::Mutable
         Ok(decoded) => decoded,
         Err(e) => return Some(Err(e)),
     };
-    let column: &mut [C] = &mut column;
     for (slot, &(block, index)) in column.iter_mut().zip(picks) {
         if (block, index) == KEEP_ROW {
             continue;
@@ -176,13 +176,13 @@ pub(super) fn permute_column<C: Component<Mutability = bevy_ecs::component::Muta
     let Ok(mut tables) = query.contiguous_iter_mut(world) else {
         return false;
     };
-    let Some(mut column) = tables.next() else {
+    let Some(column) = tables.next().map(Untracked::untracked) else {
         return true;
     };
     if tables.next().is_some() || column.len() != from.len() {
         return false;
     }
-    apply_permutation(&mut column, from);
+    apply_permutation(column, from);
     true
 }
 
