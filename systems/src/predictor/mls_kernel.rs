@@ -18,12 +18,9 @@
 //!   the even slabs run in parallel, then the odd ones. Every node then receives its sums in
 //!   one fixed order, whatever the number of threads.
 
+pub use super::slab_order::{SLAB_ROWS, SlabOrder};
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
-
-/// Rows of base nodes (along the last axis) in one slab of the scatter; two is the least for
-/// which slabs two apart share no node.
-pub const SLAB_ROWS: usize = 2;
 
 /// The node offsets `o` along an axis of the stencil, as numbers.
 const OFFSETS: [f64; 3] = [0.0, 1.0, 2.0];
@@ -329,51 +326,6 @@ pub fn scatter_particle<D: Dim>(
         if D::N == 3 {
             layer += step(2);
         }
-    }
-}
-
-/// The particles' order for the scatter: indices bucketed by slab (a stable counting sort)
-/// and the bucket boundaries.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct SlabOrder {
-    /// Particle indices, slab by slab, each slab in index order.
-    pub order: Vec<u32>,
-    /// `order[offsets[s]..offsets[s + 1]]` is slab `s`.
-    pub offsets: Vec<usize>,
-}
-
-impl SlabOrder {
-    /// Buckets particles by `rows[p] / SLAB_ROWS` (`u32::MAX`: left out) into `slabs` slabs.
-    pub fn sort(&mut self, rows: &[u32], slabs: usize) {
-        self.offsets.clear();
-        self.offsets.resize(slabs + 2, 0);
-        for &row in rows {
-            if row != u32::MAX {
-                self.offsets[row as usize / SLAB_ROWS + 2] += 1;
-            }
-        }
-        for s in 2..self.offsets.len() {
-            self.offsets[s] += self.offsets[s - 1];
-        }
-        self.order.resize(self.offsets[slabs + 1], 0);
-        for (p, &row) in rows.iter().enumerate() {
-            if row != u32::MAX {
-                let cursor = &mut self.offsets[row as usize / SLAB_ROWS + 1];
-                self.order[*cursor] = p as u32;
-                *cursor += 1;
-            }
-        }
-        self.offsets.truncate(slabs + 1);
-    }
-
-    /// The particles of slab `s`.
-    pub fn slab(&self, s: usize) -> &[u32] {
-        &self.order[self.offsets[s]..self.offsets[s + 1]]
-    }
-
-    /// Number of slabs.
-    pub fn slabs(&self) -> usize {
-        self.offsets.len().saturating_sub(1)
     }
 }
 

@@ -2,4 +2,5 @@
 pub mod mls;
 pub mod mls_kernel;
 pub mod newmark;
+pub mod slab_order;
 pub mod usl;
