@@ -4,7 +4,10 @@
 For each pipeline, `fractum bench` runs under `perf record -e cpu-clock --call-graph fp` on a
 pool of `--threads` threads (2 by default). The bench makes its pool after it has built the
 scene, so the first and last samples of the pool's threads in a parallel loop bound the steps
-(the one warm-up step with them) and leave the setup and the teardown out. Within that window each sample is:
+and leave the setup and the teardown out. Each pipeline runs twice, `--steps SHORT LONG`, and
+the table counts the long run's samples less the short run's: what the extra steps cost, with
+the warm-up step (whose first touch of every buffer page-faults) and the first step's work
+cancelled. Within the window each sample is:
 
 - idle, when it falls in the pool's waiting (rayon's spin and sleep, a yield, the scheduler);
 - parallel work, when its call chain passes through a parallel loop (rayon's iterator
@@ -25,7 +28,7 @@ The call chains need frame pointers: build the binary with them, in a target fol
     RUSTFLAGS="-C force-frame-pointers=yes" CARGO_TARGET_DIR=target/frame-pointers \\
         cargo build --release --bin fractum
     benches/serial_share.py --binary target/frame-pointers/release/fractum \\
-        --pipeline bspline-mls linear-usl --particles 1000000 --steps 20
+        --pipeline bspline-mls linear-usl --particles 1000000 --steps 5 25
 
 Not part of CI or `cargo test`: a measurement, minutes long, on Linux with `perf` (and
 `kernel.perf_event_paranoid` at most 1, or root). BENCHMARKS.md ("Every core") records what
@@ -56,7 +59,7 @@ IDLE = re.compile(
 PARALLEL = re.compile(r"bridge_producer_consumer|rayon::iter::plumbing|join_context|rayon_core::scope")
 
 
-def samples(binary, pipeline, args):
+def samples(binary, pipeline, args, steps):
     """Each CPU sample of one `fractum bench` run under perf, as `(time, thread, frames)` with
     the leaf frame first, and the process's id (its main thread's)."""
     with tempfile.TemporaryDirectory() as scratch:
@@ -66,7 +69,7 @@ def samples(binary, pipeline, args):
             "--call-graph", "fp", "-o", data,
             "--", binary, "bench", "--pipeline", pipeline, "--dimensions", str(args.dimensions),
             "--particles", str(args.particles), "--threads", str(args.threads),
-            "--steps", str(args.steps),
+            "--steps", str(steps),
         ]
         subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         script = subprocess.run(
@@ -95,10 +98,10 @@ def system_of(frames):
     return re.sub(r"\+0x[0-9a-f]+$", "", inner)
 
 
-def measure(pipeline, args, binary):
+def measure(pipeline, args, binary, steps):
     """Work samples of the steps of one run: serial, parallel, outside the pool; idle; and the
     serial samples by Fractum function."""
-    main, found = samples(binary, pipeline, args)
+    main, found = samples(binary, pipeline, args, steps)
     per_thread = collections.Counter(tid for _, tid, _ in found if tid != main)
     pool = [tid for tid, _ in per_thread.most_common(args.threads)]
     times = [
@@ -126,12 +129,15 @@ def measure(pipeline, args, binary):
 
 
 def share(pipeline, args, binary):
-    """Prints one row of the table, the counts summed over `--repeat` runs."""
+    """Prints one row of the table: the samples of the long runs less those of the short ones,
+    summed over `--repeat` pairs of runs."""
     counts, serial_by = collections.Counter(), collections.Counter()
     for _ in range(args.repeat):
-        c, s = measure(pipeline, args, binary)
-        counts.update(c)
-        serial_by.update(s)
+        short, long = (measure(pipeline, args, binary, steps) for steps in args.steps)
+        for total, part in ((counts, 0), (serial_by, 1)):
+            total.update(long[part])
+            total.subtract(short[part])
+    serial_by = collections.Counter({k: n for k, n in serial_by.items() if n > 0})
     work = counts["parallel"] + counts["serial"] + counts["outside"]
     serial = (counts["serial"] + counts["outside"]) / work
     allowed = 1.0 / (serial + (1.0 - serial) / 16.0)
@@ -157,12 +163,14 @@ def main():
     parser.add_argument("--particles", type=int, default=1_000_000)
     parser.add_argument("--dimensions", type=int, default=2)
     parser.add_argument("--threads", type=int, default=2)
-    parser.add_argument("--steps", type=int, default=40)
+    parser.add_argument("--steps", type=int, nargs=2, default=[5, 25], metavar=("SHORT", "LONG"))
     parser.add_argument("--repeat", type=int, default=2)
     parser.add_argument("--largest", type=int, default=3)
     parser.add_argument("--frequency", type=int, default=4999)
     parser.add_argument("--binary", default="target/release/fractum")
     args = parser.parse_args()
+    if args.steps[1] <= args.steps[0]:
+        sys.exit("--steps: LONG must exceed SHORT")
     header = [
         "pipeline", "work samples", "serial share", "outside the pool", "idle",
         "16 threads (Amdahl)", "largest serial sections",

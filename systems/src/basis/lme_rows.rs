@@ -8,6 +8,7 @@
 use super::lme_kernel::LmeScratch;
 use crate::spatial::Spatial;
 use fractum_engine::prelude::*;
+use rayon::prelude::*;
 use serde::Deserialize;
 
 /// Parameters of `basis/lme`.
@@ -179,7 +180,9 @@ pub fn write_nodes_and_values<D: Dim>(
 }
 
 /// Keeps every particle's λ, `dλ/dx = 2βI − J⁻¹` and position for the next step's warm start,
-/// or the first particle whose solve failed, with the reason.
+/// or the first particle whose solve failed, with the reason. In parallel, the results
+/// consumed (and so dropped) where they are read: a serial pass here was the largest serial
+/// section of the LME step at a million particles (`benches/serial_share.py`).
 pub fn keep_solutions<D: Dim>(
     solved: Vec<Result<Solved<D>, String>>,
     beta: f64,
@@ -188,17 +191,24 @@ pub fn keep_solutions<D: Dim>(
     lambda_slope: &mut [D::Matrix],
     solved_at: &mut [D::Vector],
 ) -> Result<(), (usize, String)> {
-    if let Some((p, Err(message))) = solved.iter().enumerate().find(|(_, r)| r.is_err()) {
-        return Err((p, message.clone()));
+    if let Some(p) = solved.par_iter().position_first(Result::is_err) {
+        let message = solved[p].as_ref().err().cloned().unwrap_or_default();
+        return Err((p, message));
     }
     let identity_2beta = D::Matrix::IDENTITY * (2.0 * beta);
-    for (p, result) in solved.into_iter().enumerate() {
-        if let Ok((l, j_inverse)) = result {
-            lambda[p] = l;
-            lambda_slope[p] = identity_2beta - j_inverse;
-            solved_at[p] = positions[p].0;
-        }
-    }
+    solved
+        .into_par_iter()
+        .zip(lambda.par_iter_mut())
+        .zip(lambda_slope.par_iter_mut())
+        .zip(solved_at.par_iter_mut())
+        .zip(positions.par_iter())
+        .for_each(|((((result, l), slope), at), x)| {
+            if let Ok((solution, j_inverse)) = result {
+                *l = solution;
+                *slope = identity_2beta - j_inverse;
+                *at = x.0;
+            }
+        });
     Ok(())
 }
 
