@@ -140,6 +140,40 @@ fn stepping_code_takes_mutable_columns_without_change_ticks() {
     );
 }
 
+/// Whether `text` hands [`fractum_engine::vector_isa::vectorised`] a closure not marked
+/// `#[inline(always)]`: the kernel would then be a call out of the wide code, compiled for the
+/// baseline (vector_isa.rs says why).
+fn vectorises_without_inlining(text: &str) -> bool {
+    text.match_indices("vectorised(").any(|(at, call)| {
+        let rest = text[at + call.len()..].trim_start();
+        !(rest.starts_with("#[inline(always)]") || rest.starts_with(')'))
+    })
+}
+
+#[test]
+fn vectorised_kernels_are_inlined_into_the_dispatch() {
+    assert!(vectorises_without_inlining(
+        "vectorised(|| { for x in y {} })"
+    ));
+    assert!(!vectorises_without_inlining(
+        "vectorised(\n    #[inline(always)]\n    || {})"
+    ));
+    let root = repo_root();
+    let mut found = Vec::new();
+    for krate in CRATES {
+        for file in rust_files(&root.join(krate).join("src")) {
+            let text = std::fs::read_to_string(&file).unwrap();
+            if vectorises_without_inlining(&before_tests(&text).join("\n")) {
+                found.push(file.strip_prefix(&root).unwrap().display().to_string());
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "mark the closure handed to `vectorised` `#[inline(always)]`: {found:?}"
+    );
+}
+
 #[test]
 fn no_file_is_over_600_lines_before_its_tests() {
     let root = repo_root();

@@ -40,6 +40,7 @@ pub mod strength;
 pub mod testing;
 pub mod text;
 pub mod traffic;
+pub mod vector_isa;
 
 pub use simulation::Simulation;
 
@@ -66,6 +67,7 @@ pub mod prelude {
     pub use crate::stage::{Stage, StepSet};
     pub use crate::storage::{Untracked, single_table, single_table_mut};
     pub use crate::text::SceneError;
+    pub use crate::vector_isa::{BLOCK_ROWS, vectorised};
     pub use crate::{generic_install, with_dim};
     pub use bevy_ecs::prelude::*;
     pub use glam::{DMat2, DMat3, DVec2, DVec3};

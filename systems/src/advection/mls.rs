@@ -42,9 +42,18 @@ pub fn mls_advection<D: Dim>(
     };
     let dt = clock.dt;
     position
-        .par_iter_mut()
-        .zip(velocity.par_iter())
-        .for_each(|(x, v)| x.0 += v.0 * dt);
+        .par_chunks_mut(BLOCK_ROWS)
+        .zip(velocity.par_chunks(BLOCK_ROWS))
+        .for_each(|(x, v)| {
+            vectorised(
+                #[inline(always)]
+                || {
+                    for (x, v) in x.iter_mut().zip(v) {
+                        x.0 += v.0 * dt;
+                    }
+                },
+            )
+        });
 }
 
 #[cfg(test)]

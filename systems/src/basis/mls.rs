@@ -93,14 +93,21 @@ pub fn mls_basis<D: Dim>(
     origins.resize(positions.len(), StencilOrigin::OUTSIDE);
     rows.resize(positions.len(), u32::MAX);
     origins
-        .par_iter_mut()
-        .zip(rows.par_iter_mut())
-        .zip(positions.par_iter())
-        .for_each(|((origin, row), x)| {
-            (*origin, *row) = match locate(&lattice, x.0) {
-                Some((o, r)) => (o, r as u32),
-                None => (StencilOrigin::OUTSIDE, u32::MAX),
-            };
+        .par_chunks_mut(BLOCK_ROWS)
+        .zip(rows.par_chunks_mut(BLOCK_ROWS))
+        .zip(positions.par_chunks(BLOCK_ROWS))
+        .for_each(|((origins, rows), positions)| {
+            vectorised(
+                #[inline(always)]
+                || {
+                    for ((origin, row), x) in origins.iter_mut().zip(rows).zip(positions) {
+                        (*origin, *row) = match locate(&lattice, x.0) {
+                            Some((o, r)) => (o, r as u32),
+                            None => (StencilOrigin::OUTSIDE, u32::MAX),
+                        };
+                    }
+                },
+            )
         });
     order.sort(rows, lattice.rows().div_ceil(SLAB_ROWS));
 }

@@ -171,6 +171,7 @@ pub fn mls_particle_to_grid<D: Dim>(
         &mut sums,
         &stencils.order,
         lattice.row_len(),
+        #[inline(always)]
         |p, piece, start| {
             let p = p as usize;
             if let Some(s) = stencil_at(&lattice, &origins[p]) {
@@ -229,18 +230,26 @@ pub fn mls_grid_to_particle<D: Dim>(
     let lattice = Lattice::<D>::of(&grid);
     let inverse_dt = 1.0 / clock.dt;
     velocity
-        .par_iter_mut()
-        .zip(acceleration.par_iter_mut())
-        .zip(affine.par_iter_mut())
-        .zip(stencils.origins.par_iter())
-        .for_each(|(((v, a), c), origin)| {
-            let Some(s) = stencil_at(&lattice, origin) else {
-                return;
-            };
-            let (v_new, c_new) = gather_particle(|i| node_velocity[i].0[0], (&s, &lattice));
-            a.0 = (v_new - v.0) * inverse_dt;
-            v.0 = v_new;
-            c.0 = c_new;
+        .par_chunks_mut(BLOCK_ROWS)
+        .zip(acceleration.par_chunks_mut(BLOCK_ROWS))
+        .zip(affine.par_chunks_mut(BLOCK_ROWS))
+        .zip(stencils.origins.par_chunks(BLOCK_ROWS))
+        .for_each(|(((v, a), c), origins)| {
+            vectorised(
+                #[inline(always)]
+                || {
+                    for (((v, a), c), origin) in v.iter_mut().zip(a).zip(c).zip(origins) {
+                        let Some(s) = stencil_at(&lattice, origin) else {
+                            continue;
+                        };
+                        let (v_new, c_new) =
+                            gather_particle(|i| node_velocity[i].0[0], (&s, &lattice));
+                        a.0 = (v_new - v.0) * inverse_dt;
+                        v.0 = v_new;
+                        c.0 = c_new;
+                    }
+                },
+            )
         });
 }
 

@@ -331,7 +331,8 @@ pub fn scatter_particle<D: Dim>(
 
 /// Scatters every particle of `order` into `nodes` (one per held node, zeroed here):
 /// `add(p, nodes, start)` adds particle `p` to the nodes from held node `start` on. The even
-/// slabs run in parallel, then the odd ones, so each node sums in one fixed order.
+/// slabs run in parallel, then the odd ones, so each node sums in one fixed order. Each slab's
+/// loop runs [`vectorised`]: mark `add` `#[inline(always)]` so it is compiled into it.
 pub fn scatter_slabs<D: Dim>(
     nodes: &mut [NodeSum<D>],
     order: &SlabOrder,
@@ -351,9 +352,14 @@ pub fn scatter_slabs<D: Dim>(
                     return;
                 }
                 let first = start + j * chunk;
-                for &p in order.slab(slab) {
-                    add(p, piece, first);
-                }
+                vectorised(
+                    #[inline(always)]
+                    || {
+                        for &p in order.slab(slab) {
+                            add(p, piece, first);
+                        }
+                    },
+                );
             });
     }
 }

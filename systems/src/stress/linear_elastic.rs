@@ -60,6 +60,7 @@ pub struct ElasticState<D: Dim> {
 /// the mid-step volume, per unit reference volume: `ΔW = ½(σₙ + σₙ₊₁):Δε · V½ / V₀`. That is the
 /// work the internal forces (which use the current volume) actually do, so kinetic plus stored
 /// energy is the scheme's own energy balance; for small strains it equals `½ σ:ε`.
+#[inline(always)]
 pub fn update_elastic<D: Dim>(
     state: &ElasticState<D>,
     l: D::Matrix,
@@ -113,32 +114,42 @@ pub fn linear_elastic_stress<D: Dim>(
     };
     let lame: Vec<(f64, f64)> = materials.0.iter().map(Material::lame).collect();
     let dt = clock.dt;
+    let lame = &lame;
     stress
-        .par_iter_mut()
-        .zip(strain.par_iter_mut())
-        .zip(f.par_iter_mut())
-        .zip(volume.par_iter_mut())
-        .zip(energy.par_iter_mut())
+        .par_chunks_mut(BLOCK_ROWS)
+        .zip(strain.par_chunks_mut(BLOCK_ROWS))
+        .zip(f.par_chunks_mut(BLOCK_ROWS))
+        .zip(volume.par_chunks_mut(BLOCK_ROWS))
+        .zip(energy.par_chunks_mut(BLOCK_ROWS))
         .enumerate()
-        .for_each(|(p, ((((s, e), f), v), w))| {
-            if scope.as_ref().is_some_and(|s| !s.0.applies(material[p])) {
-                return;
-            }
-            let l = gradients.at(p);
-            let before = ElasticState::<D> {
-                stress: s.0,
-                strain: e.0,
-                deformation_gradient: f.0,
-                volume: v.0,
-                energy_density: w.0,
-            };
-            let moduli = lame[material[p].0 as usize];
-            let after = update_elastic(&before, l, dt, moduli, initial_volume[p].0);
-            s.0 = after.stress;
-            e.0 = after.strain;
-            f.0 = after.deformation_gradient;
-            v.0 = after.volume;
-            w.0 = after.energy_density;
+        .for_each(|(block, ((((s, e), f), v), w))| {
+            vectorised(
+                #[inline(always)]
+                || {
+                    let rows = s.iter_mut().zip(e).zip(f).zip(v).zip(w);
+                    for (i, ((((s, e), f), v), w)) in rows.enumerate() {
+                        let p = block * BLOCK_ROWS + i;
+                        if scope.as_ref().is_some_and(|s| !s.0.applies(material[p])) {
+                            continue;
+                        }
+                        let before = ElasticState::<D> {
+                            stress: s.0,
+                            strain: e.0,
+                            deformation_gradient: f.0,
+                            volume: v.0,
+                            energy_density: w.0,
+                        };
+                        let moduli = lame[material[p].0 as usize];
+                        let l = gradients.at(p);
+                        let after = update_elastic(&before, l, dt, moduli, initial_volume[p].0);
+                        s.0 = after.stress;
+                        e.0 = after.strain;
+                        f.0 = after.deformation_gradient;
+                        v.0 = after.volume;
+                        w.0 = after.energy_density;
+                    }
+                },
+            )
         });
 }
 
