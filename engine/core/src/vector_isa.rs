@@ -5,9 +5,15 @@
 //! multiply-add. The small-matrix arithmetic of a stress update or a transfer (2×2 and 3×3
 //! tensors, glam's `DMat2`/`DMat3`) is then a sequence of shuffles, and `stress/linear_elastic`
 //! on a million particles spends more time computing than moving its bytes. [`vectorised`] runs
-//! a kernel through [`pulp`], which compiles it once more for AVX2 + FMA and for AVX-512 and
-//! picks one when the process starts, by what the CPU reports; the same binary still runs on
-//! every x86-64 CPU, and on other targets the kernel runs as compiled.
+//! a kernel through [`pulp`], which compiles it once more for AVX2 + FMA (x86-64-v3) and picks
+//! that copy when the process starts if the CPU reports those extensions; the same binary
+//! still runs on every x86-64 CPU, and on other targets the kernel runs as compiled.
+//!
+//! Not AVX-512: on this project's benchmark machine (an AMD EPYC, whose AVX-512 executes as two
+//! 256-bit halves) the AVX-512 copy of `stress/linear_elastic` took 4.2–4.5 ms for 100k 3D
+//! particles where the AVX2 copy took 3.2–3.6 ms and the baseline 3.7–4.0 ms, and the 2D MLS
+//! step was no faster with it (`systems/benches/stress_systems.rs`, `fractum bench`); and many
+//! Intel CPUs lower their clock while running it.
 //!
 //! **The results do not change.** The wider instructions compute each `f64` operation as the
 //! baseline does (IEEE 754, rounded to nearest): Rust does not contract a multiply and an add
@@ -43,7 +49,7 @@ pub const ISA_VARIABLE: &str = "FRACTUM_VECTOR_ISA";
 pub enum VectorIsa {
     /// What the build targets (SSE2 for a portable x86-64 build).
     Baseline,
-    /// The widest set the CPU reports (AVX-512 or AVX2 + FMA on x86-64).
+    /// The widest set used that the CPU reports (AVX2 + FMA on x86-64).
     Widest,
 }
 
@@ -71,12 +77,10 @@ impl VectorIsa {
         *SELECTED
     }
 
-    /// What the CPU gives under this choice, in words (`AVX-512`, `AVX2 + FMA`, `baseline`).
+    /// What the CPU gives under this choice, in words (`AVX2 + FMA`, `baseline`).
     pub fn describe(self) -> &'static str {
         match self.arch() {
             pulp::Arch::Scalar => "baseline",
-            #[cfg(any(target_arch = "x86_64", target_arch = "x86"))]
-            pulp::Arch::V4(_) => "AVX-512",
             #[cfg(any(target_arch = "x86_64", target_arch = "x86"))]
             pulp::Arch::V3(_) => "AVX2 + FMA",
             _ => "the CPU's vector extension",

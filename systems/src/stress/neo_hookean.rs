@@ -43,6 +43,7 @@ pub struct NeoHookeanScope(pub MaterialFilter);
 
 /// Cauchy stress of eq. (22), `(λ ln J − μ)/J I + μ/J b` with `b = F Fᵀ` (in plane strain
 /// `F_zz = 1`). `None` when `J ≤ 0` (the material has inverted).
+#[inline(always)]
 pub fn neo_hookean_stress_of<D: Dim>(f: D::Matrix, lambda: f64, mu: f64) -> Option<D::Sym> {
     let j = f.determinant();
     // Also rejects a NaN determinant.
@@ -55,6 +56,7 @@ pub fn neo_hookean_stress_of<D: Dim>(f: D::Matrix, lambda: f64, mu: f64) -> Opti
 }
 
 /// Stored energy per unit reference volume.
+#[inline(always)]
 pub fn neo_hookean_energy<D: Dim>(f: D::Matrix, lambda: f64, mu: f64) -> f64 {
     let ln_j = f.determinant().ln();
     let trace_c = D::cauchy_green_trace(f);
@@ -62,6 +64,7 @@ pub fn neo_hookean_energy<D: Dim>(f: D::Matrix, lambda: f64, mu: f64) -> f64 {
 }
 
 /// Dilatational wave speed from the tangent moduli at `J`, for reference density `rho0`.
+#[inline(always)]
 pub fn neo_hookean_wave_speed(j: f64, lambda: f64, mu: f64, rho0: f64) -> f64 {
     ((lambda + 2.0 * mu - 2.0 * lambda * j.ln()).max(mu) / rho0).sqrt()
 }
@@ -106,27 +109,37 @@ pub fn neo_hookean_stress<D: Dim>(
         })
         .collect();
     let dt = clock.dt;
-    f.par_iter_mut()
-        .zip(stress.par_iter_mut())
-        .zip(strain.par_iter_mut())
-        .zip(volume.par_iter_mut())
-        .zip(energy.par_iter_mut())
-        .zip(speed.par_iter_mut())
+    let constants = &constants;
+    f.par_chunks_mut(BLOCK_ROWS)
+        .zip(stress.par_chunks_mut(BLOCK_ROWS))
+        .zip(strain.par_chunks_mut(BLOCK_ROWS))
+        .zip(volume.par_chunks_mut(BLOCK_ROWS))
+        .zip(energy.par_chunks_mut(BLOCK_ROWS))
+        .zip(speed.par_chunks_mut(BLOCK_ROWS))
         .enumerate()
-        .for_each(|(p, (((((f, s), e), v), w), cp))| {
-            if scope.as_ref().is_some_and(|s| !s.0.applies(material[p])) {
-                return;
-            }
-            let (lambda, mu, rho0) = constants[material[p].0 as usize];
-            let l = gradients.at(p);
-            f.0 = (D::Matrix::IDENTITY + l * dt) * f.0;
-            e.0 = e.0.add_scaled(&D::Sym::sym_of(l * dt), 1.0);
-            let j = f.0.determinant();
-            s.0 = neo_hookean_stress_of::<D>(f.0, lambda, mu)
-                .unwrap_or_else(|| D::Sym::from_fn(|_, _| f64::NAN));
-            v.0 = j * v0[p].0;
-            w.0 = neo_hookean_energy::<D>(f.0, lambda, mu);
-            cp.0 = neo_hookean_wave_speed(j, lambda, mu, rho0);
+        .for_each(|(block, (((((f, s), e), v), w), cp))| {
+            vectorised(
+                #[inline(always)]
+                || {
+                    let rows = f.iter_mut().zip(s).zip(e).zip(v).zip(w).zip(cp);
+                    for (i, (((((f, s), e), v), w), cp)) in rows.enumerate() {
+                        let p = block * BLOCK_ROWS + i;
+                        if scope.as_ref().is_some_and(|s| !s.0.applies(material[p])) {
+                            continue;
+                        }
+                        let (lambda, mu, rho0) = constants[material[p].0 as usize];
+                        let l = gradients.at(p);
+                        f.0 = (D::Matrix::IDENTITY + l * dt) * f.0;
+                        e.0 = e.0.add_scaled(&D::Sym::sym_of(l * dt), 1.0);
+                        let j = f.0.determinant();
+                        s.0 = neo_hookean_stress_of::<D>(f.0, lambda, mu)
+                            .unwrap_or_else(|| D::Sym::from_fn(|_, _| f64::NAN));
+                        v.0 = j * v0[p].0;
+                        w.0 = neo_hookean_energy::<D>(f.0, lambda, mu);
+                        cp.0 = neo_hookean_wave_speed(j, lambda, mu, rho0);
+                    }
+                },
+            )
         });
 }
 
