@@ -116,6 +116,22 @@ fn takes_mutable_columns_with_ticks(text: &str) -> bool {
     })
 }
 
+/// The source files of `crates` (paths from the repository's root) whose code before its tests
+/// `breaks` a rule.
+fn files_where(crates: &[&str], breaks: impl Fn(&str) -> bool) -> Vec<String> {
+    let root = repo_root();
+    let mut found = Vec::new();
+    for krate in crates {
+        for file in rust_files(&root.join(krate).join("src")) {
+            let text = std::fs::read_to_string(&file).unwrap();
+            if breaks(&before_tests(&text).join("\n")) {
+                found.push(file.strip_prefix(&root).unwrap().display().to_string());
+            }
+        }
+    }
+    found
+}
+
 #[test]
 fn stepping_code_takes_mutable_columns_without_change_ticks() {
     assert!(takes_mutable_columns_with_ticks(
@@ -124,16 +140,7 @@ fn stepping_code_takes_mutable_columns_without_change_ticks() {
     assert!(!takes_mutable_columns_with_ticks(
         "single_table_mut(nodes.contiguous_iter_mut(), \"nodes\"); single_table(q.contiguous_iter(), \"p\")"
     ));
-    let root = repo_root();
-    let mut found = Vec::new();
-    for krate in STEPPING_CRATES {
-        for file in rust_files(&root.join(krate).join("src")) {
-            let text = std::fs::read_to_string(&file).unwrap();
-            if takes_mutable_columns_with_ticks(&before_tests(&text).join("\n")) {
-                found.push(file.strip_prefix(&root).unwrap().display().to_string());
-            }
-        }
-    }
+    let found = files_where(&STEPPING_CRATES, takes_mutable_columns_with_ticks);
     assert!(
         found.is_empty(),
         "take mutable columns with `single_table_mut` (storage.rs says why): {found:?}"
@@ -146,7 +153,7 @@ fn stepping_code_takes_mutable_columns_without_change_ticks() {
 fn vectorises_without_inlining(text: &str) -> bool {
     text.match_indices("vectorised(").any(|(at, call)| {
         let rest = text[at + call.len()..].trim_start();
-        !(rest.starts_with("#[inline(always)]") || rest.starts_with(')'))
+        !rest.starts_with("#[inline(always)]")
     })
 }
 
@@ -158,16 +165,7 @@ fn vectorised_kernels_are_inlined_into_the_dispatch() {
     assert!(!vectorises_without_inlining(
         "vectorised(\n    #[inline(always)]\n    || {})"
     ));
-    let root = repo_root();
-    let mut found = Vec::new();
-    for krate in CRATES {
-        for file in rust_files(&root.join(krate).join("src")) {
-            let text = std::fs::read_to_string(&file).unwrap();
-            if vectorises_without_inlining(&before_tests(&text).join("\n")) {
-                found.push(file.strip_prefix(&root).unwrap().display().to_string());
-            }
-        }
-    }
+    let found = files_where(&CRATES, vectorises_without_inlining);
     assert!(
         found.is_empty(),
         "mark the closure handed to `vectorised` `#[inline(always)]`: {found:?}"

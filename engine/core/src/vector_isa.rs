@@ -18,8 +18,9 @@
 //! **The results do not change.** The wider instructions compute each `f64` operation as the
 //! baseline does (IEEE 754, rounded to nearest): Rust does not contract a multiply and an add
 //! into one fused instruction unless the source asks for `mul_add`, whose result is the correctly
-//! rounded one either way. So a kernel gives the same bits whichever set runs it
-//! ([`tests`] check a stress update both ways, and the shipped scenes' frames are unchanged).
+//! rounded one either way. So a kernel gives the same bits whichever set runs it (this
+//! module's tests check a stress update both ways, and the shipped scenes' frames are
+//! unchanged).
 //!
 //! **How a system uses it.** The wider code exists only where the kernel is inlined into the
 //! dispatching function, so a system hands it whole blocks of rows, not one particle at a time:
