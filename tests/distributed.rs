@@ -8,7 +8,7 @@ use fractum_engine::dim::{Dim, Three, Two};
 use fractum_engine::health::EscapedParticles;
 use fractum_engine::resources::Grid;
 use fractum_engine::series::SeriesColumns;
-use fractum_io::run::distributed::{self, state_of_particles};
+use fractum_io::run::distributed::{self, owned_particle_ids, state_of_particles};
 use fractum_scene::{SceneFile, build_rank_simulation, build_simulation};
 use std::collections::BTreeMap;
 
@@ -136,12 +136,12 @@ fn assert_worlds_rebuilt(nodes: &[RankNodes]) {
 /// rank owned over the run that were first seeded on another rank, its re-cuts and its nodes.
 fn on_ranks<D: Dim>(text: &str, ranks: usize, steps: u64) -> Vec<RankResult> {
     each_rank(text, ranks, move |sim, comm| {
-        let first = state_of_particles::<D>(&mut sim.world).unwrap();
+        let first = owned_particle_ids::<D>(&mut sim.world);
         let mut arrived = std::collections::BTreeSet::<u32>::new();
         for _ in 0..steps {
             distributed::step(sim, comm).unwrap();
-            let owned = state_of_particles::<D>(&mut sim.world).unwrap();
-            arrived.extend(owned.keys().filter(|id| !first.contains_key(id)));
+            let owned = owned_particle_ids::<D>(&mut sim.world);
+            arrived.extend(owned.into_iter().filter(|id| first.binary_search(id).is_err()));
         }
         let owned = state_of_particles::<D>(&mut sim.world).unwrap();
         let rebalances = sim.world.resource::<Ownership>().rebalances;

@@ -478,6 +478,24 @@ fn resize_particles<D: Dim>(world: &mut World, count: usize) -> Result<(), Strin
     Ok(())
 }
 
+/// The ids of this rank's owned particles in a distributed run (every particle's otherwise),
+/// ascending: which particles a rank holds, without encoding their state as
+/// [`state_of_particles`] does (one query for the whole table, where that encodes each particle's
+/// components one query at a time).
+pub fn owned_particle_ids<D: Dim>(world: &mut World) -> Vec<u32> {
+    let owned = world
+        .get_resource::<Ownership>()
+        .map(|o| o.particles.clone());
+    let mut ids: Vec<u32> = rows::<D>(world)
+        .into_iter()
+        .enumerate()
+        .filter(|(row, _)| owned.as_ref().is_none_or(|o| o[*row]))
+        .map(|(_, (_, id, _))| id)
+        .collect();
+    ids.sort_unstable();
+    ids
+}
+
 /// Each particle's carried state, encoded one particle at a time, by id: this rank's owned
 /// particles in a distributed run, every particle otherwise. What tests compare between a
 /// distributed run and the single process.
