@@ -141,7 +141,11 @@ fn on_ranks<D: Dim>(text: &str, ranks: usize, steps: u64) -> Vec<RankResult> {
         for _ in 0..steps {
             distributed::step(sim, comm).unwrap();
             let owned = owned_particle_ids::<D>(&mut sim.world);
-            arrived.extend(owned.into_iter().filter(|id| first.binary_search(id).is_err()));
+            arrived.extend(
+                owned
+                    .into_iter()
+                    .filter(|id| first.binary_search(id).is_err()),
+            );
         }
         let owned = state_of_particles::<D>(&mut sim.world).unwrap();
         let rebalances = sim.world.resource::<Ownership>().rebalances;

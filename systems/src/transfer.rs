@@ -374,6 +374,27 @@ impl<D: Dim> GradientReader<'_, D> {
     }
 }
 
+/// `$body` compiled once for each source of a [`GradientReader`], with `$at` bound to that
+/// source's lookup by particle row (`|p| L_p`): the source is matched once per system run, not
+/// once per particle. With the match inside the loop, the AVX2 copy of `stress/linear_elastic`
+/// moved each `C_p` through the stack (one 32-byte store, then loads straddling its halves, which
+/// the CPU cannot forward from the store), and a fifth of that kernel's samples waited there.
+macro_rules! with_gradient_source {
+    ($reader:expr, |$at:ident| $body:expr) => {
+        match $reader {
+            $crate::transfer::GradientReader::Grid(connectivity, nodes) => {
+                let $at = |p: usize| $crate::transfer::velocity_gradient(connectivity, nodes, p);
+                $body
+            }
+            $crate::transfer::GradientReader::Affine(affine) => {
+                let $at = |p: usize| affine[p].0;
+                $body
+            }
+        }
+    };
+}
+pub(crate) use with_gradient_source;
+
 /// What the grid gives one particle under the affine transfer (APIC): the interpolated
 /// acceleration and velocity, and the affine velocity of the field the next predictor carries.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -12,7 +12,7 @@
 //! - Stored energy per unit reference volume accumulates the stress work of each step,
 //!   `ΔW = ½(σₙ + σₙ₊₁):Δε · V½/V₀`, so kinetic + stored energy is the scheme's own balance.
 
-use crate::transfer::VelocityGradients;
+use crate::transfer::{VelocityGradients, with_gradient_source};
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 
@@ -106,51 +106,90 @@ pub fn linear_elastic_stress<D: Dim>(
     gradients: VelocityGradients<D>,
     mut particles: ParticleQuery<D>,
 ) {
-    let gradients = gradients.reader();
     let Some((material, initial_volume, stress, strain, f, volume, energy)) =
         single_table_mut(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };
-    let lame: Vec<(f64, f64)> = materials.0.iter().map(Material::lame).collect();
-    let dt = clock.dt;
-    let lame = &lame;
-    stress
-        .par_chunks_mut(BLOCK_ROWS)
-        .zip(strain.par_chunks_mut(BLOCK_ROWS))
-        .zip(f.par_chunks_mut(BLOCK_ROWS))
-        .zip(volume.par_chunks_mut(BLOCK_ROWS))
-        .zip(energy.par_chunks_mut(BLOCK_ROWS))
-        .enumerate()
-        .for_each(|(block, ((((s, e), f), v), w))| {
-            vectorised(
-                #[inline(always)]
-                || {
-                    let rows = s.iter_mut().zip(e).zip(f).zip(v).zip(w);
-                    for (i, ((((s, e), f), v), w)) in rows.enumerate() {
-                        let p = block * BLOCK_ROWS + i;
-                        if scope.as_ref().is_some_and(|s| !s.0.applies(material[p])) {
-                            continue;
+    let rows = ElasticRows {
+        material,
+        initial_volume,
+        lame: materials.0.iter().map(Material::lame).collect(),
+        scope: scope.as_deref(),
+        dt: clock.dt,
+    };
+    let columns = (stress, strain, f, volume, energy);
+    with_gradient_source!(gradients.reader(), |at| rows.update(columns, at));
+}
+
+/// What every row of the update reads besides its own columns.
+struct ElasticRows<'a> {
+    material: &'a [MaterialId],
+    initial_volume: &'a [InitialVolume],
+    lame: Vec<(f64, f64)>,
+    scope: Option<&'a LinearElasticScope>,
+    dt: f64,
+}
+
+/// The columns the update writes: stress, strain, F, volume and stored energy.
+type ElasticColumns<'a, D> = (
+    &'a mut [Stress<D>],
+    &'a mut [Strain<D>],
+    &'a mut [DeformationGradient<D>],
+    &'a mut [Volume],
+    &'a mut [StrainEnergyDensity],
+);
+
+impl ElasticRows<'_> {
+    /// [`update_elastic`] on every row in scope, `at(p)` giving row `p`'s velocity gradient.
+    fn update<D: Dim>(
+        &self,
+        columns: ElasticColumns<'_, D>,
+        at: impl Fn(usize) -> D::Matrix + Sync,
+    ) {
+        let (stress, strain, f, volume, energy) = columns;
+        stress
+            .par_chunks_mut(BLOCK_ROWS)
+            .zip(strain.par_chunks_mut(BLOCK_ROWS))
+            .zip(f.par_chunks_mut(BLOCK_ROWS))
+            .zip(volume.par_chunks_mut(BLOCK_ROWS))
+            .zip(energy.par_chunks_mut(BLOCK_ROWS))
+            .enumerate()
+            .for_each(|(block, ((((s, e), f), v), w))| {
+                vectorised(
+                    #[inline(always)]
+                    || {
+                        let rows = s.iter_mut().zip(e).zip(f).zip(v).zip(w);
+                        for (i, ((((s, e), f), v), w)) in rows.enumerate() {
+                            let p = block * BLOCK_ROWS + i;
+                            if self.scope.is_some_and(|s| !s.0.applies(self.material[p])) {
+                                continue;
+                            }
+                            let before = ElasticState::<D> {
+                                stress: s.0,
+                                strain: e.0,
+                                deformation_gradient: f.0,
+                                volume: v.0,
+                                energy_density: w.0,
+                            };
+                            let moduli = self.lame[self.material[p].0 as usize];
+                            let after = update_elastic(
+                                &before,
+                                at(p),
+                                self.dt,
+                                moduli,
+                                self.initial_volume[p].0,
+                            );
+                            s.0 = after.stress;
+                            e.0 = after.strain;
+                            f.0 = after.deformation_gradient;
+                            v.0 = after.volume;
+                            w.0 = after.energy_density;
                         }
-                        let before = ElasticState::<D> {
-                            stress: s.0,
-                            strain: e.0,
-                            deformation_gradient: f.0,
-                            volume: v.0,
-                            energy_density: w.0,
-                        };
-                        let moduli = lame[material[p].0 as usize];
-                        let l = gradients.at(p);
-                        let after = update_elastic(&before, l, dt, moduli, initial_volume[p].0);
-                        s.0 = after.stress;
-                        e.0 = after.strain;
-                        f.0 = after.deformation_gradient;
-                        v.0 = after.volume;
-                        w.0 = after.energy_density;
-                    }
-                },
-            )
-        });
+                    },
+                )
+            });
+    }
 }
 
 #[cfg(test)]
@@ -256,6 +295,28 @@ mod tests {
         let stress = particle_values::<Stress<Two>>(&mut world);
         assert!(stress[0].0.xx > 0.0);
         assert_eq!(stress[1].0, SymTensor2::ZERO);
+    }
+
+    /// Under `predictor/mls` (`GradientInAffineVelocity`) the system reads each particle's
+    /// `C_p`, not the nodal field: here the nodes carry a stretch along x and `C_p` a shear.
+    #[test]
+    fn system_reads_the_affine_velocity_under_mls() {
+        let mut world = tiny_world::<Two>(2, 0.5, 0.01);
+        let particle = spawn_particle(&mut world, DVec2::new(0.3, 0.7), DVec2::ZERO, 1.0, 0.1);
+        let shear = DMat2::from_cols(DVec2::ZERO, DVec2::new(0.4, 0.0));
+        world.entity_mut(particle).insert(AffineVelocity::<Two>(shear));
+        world.insert_resource(crate::transfer::GradientInAffineVelocity);
+        let mut query = world.query::<&mut NodeVelocity<Two>>();
+        for mut v in query.iter_mut(&mut world) {
+            v.0[0] = DVec2::new(1.0, 0.0);
+        }
+        run_system(&mut world, linear_elastic_stress::<Two>);
+        let strain = particle_values::<Strain<Two>>(&mut world)[0].0;
+        assert_eq!((strain.xx, strain.yy), (0.0, 0.0));
+        assert!((strain.xy - 0.002).abs() < 1e-15, "{strain:?}");
+        let (_, mu) = test_material().lame();
+        let stress = particle_values::<Stress<Two>>(&mut world)[0].0;
+        assert!((stress.xy - 2.0 * mu * 0.002).abs() < 1e-9, "{stress:?}");
     }
 
     #[test]

@@ -14,7 +14,7 @@
 //!   which stiffens in compression and keeps a CFL time step stable.
 //! - `Strain` accumulates `Δt sym(L)` (the integrated rate of deformation), for output.
 
-use crate::transfer::VelocityGradients;
+use crate::transfer::{VelocityGradients, with_gradient_source};
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
 
@@ -94,53 +94,90 @@ pub fn neo_hookean_stress<D: Dim>(
     gradients: VelocityGradients<D>,
     mut particles: ParticleQuery<D>,
 ) {
-    let gradients = gradients.reader();
     let Some((material, v0, f, stress, strain, volume, energy, speed)) =
         single_table_mut(particles.contiguous_iter_mut(), "particles")
     else {
         return;
     };
-    let constants: Vec<(f64, f64, f64)> = materials
-        .0
-        .iter()
-        .map(|m| {
-            let (lambda, mu) = m.lame();
-            (lambda, mu, m.density)
-        })
-        .collect();
-    let dt = clock.dt;
-    let constants = &constants;
-    f.par_chunks_mut(BLOCK_ROWS)
-        .zip(stress.par_chunks_mut(BLOCK_ROWS))
-        .zip(strain.par_chunks_mut(BLOCK_ROWS))
-        .zip(volume.par_chunks_mut(BLOCK_ROWS))
-        .zip(energy.par_chunks_mut(BLOCK_ROWS))
-        .zip(speed.par_chunks_mut(BLOCK_ROWS))
-        .enumerate()
-        .for_each(|(block, (((((f, s), e), v), w), cp))| {
-            vectorised(
-                #[inline(always)]
-                || {
-                    let rows = f.iter_mut().zip(s).zip(e).zip(v).zip(w).zip(cp);
-                    for (i, (((((f, s), e), v), w), cp)) in rows.enumerate() {
-                        let p = block * BLOCK_ROWS + i;
-                        if scope.as_ref().is_some_and(|s| !s.0.applies(material[p])) {
-                            continue;
+    let rows = NeoHookeanRows {
+        material,
+        initial_volume: v0,
+        constants: materials
+            .0
+            .iter()
+            .map(|m| {
+                let (lambda, mu) = m.lame();
+                (lambda, mu, m.density)
+            })
+            .collect(),
+        scope: scope.as_deref(),
+        dt: clock.dt,
+    };
+    let columns = (f, stress, strain, volume, energy, speed);
+    with_gradient_source!(gradients.reader(), |at| rows.update(columns, at));
+}
+
+/// What every row of the update reads besides its own columns.
+struct NeoHookeanRows<'a> {
+    material: &'a [MaterialId],
+    initial_volume: &'a [InitialVolume],
+    /// λ, μ and the reference density of each material.
+    constants: Vec<(f64, f64, f64)>,
+    scope: Option<&'a NeoHookeanScope>,
+    dt: f64,
+}
+
+/// The columns the update writes: F, stress, strain, volume, stored energy and wave speed.
+type NeoHookeanColumns<'a, D> = (
+    &'a mut [DeformationGradient<D>],
+    &'a mut [Stress<D>],
+    &'a mut [Strain<D>],
+    &'a mut [Volume],
+    &'a mut [StrainEnergyDensity],
+    &'a mut [WaveSpeed],
+);
+
+impl NeoHookeanRows<'_> {
+    /// Every row in scope, `at(p)` giving row `p`'s velocity gradient.
+    fn update<D: Dim>(
+        &self,
+        columns: NeoHookeanColumns<'_, D>,
+        at: impl Fn(usize) -> D::Matrix + Sync,
+    ) {
+        let (f, stress, strain, volume, energy, speed) = columns;
+        let dt = self.dt;
+        f.par_chunks_mut(BLOCK_ROWS)
+            .zip(stress.par_chunks_mut(BLOCK_ROWS))
+            .zip(strain.par_chunks_mut(BLOCK_ROWS))
+            .zip(volume.par_chunks_mut(BLOCK_ROWS))
+            .zip(energy.par_chunks_mut(BLOCK_ROWS))
+            .zip(speed.par_chunks_mut(BLOCK_ROWS))
+            .enumerate()
+            .for_each(|(block, (((((f, s), e), v), w), cp))| {
+                vectorised(
+                    #[inline(always)]
+                    || {
+                        let rows = f.iter_mut().zip(s).zip(e).zip(v).zip(w).zip(cp);
+                        for (i, (((((f, s), e), v), w), cp)) in rows.enumerate() {
+                            let p = block * BLOCK_ROWS + i;
+                            if self.scope.is_some_and(|s| !s.0.applies(self.material[p])) {
+                                continue;
+                            }
+                            let (lambda, mu, rho0) = self.constants[self.material[p].0 as usize];
+                            let l = at(p);
+                            f.0 = (D::Matrix::IDENTITY + l * dt) * f.0;
+                            e.0 = e.0.add_scaled(&D::Sym::sym_of(l * dt), 1.0);
+                            let j = f.0.determinant();
+                            s.0 = neo_hookean_stress_of::<D>(f.0, lambda, mu)
+                                .unwrap_or_else(|| D::Sym::from_fn(|_, _| f64::NAN));
+                            v.0 = j * self.initial_volume[p].0;
+                            w.0 = neo_hookean_energy::<D>(f.0, lambda, mu);
+                            cp.0 = neo_hookean_wave_speed(j, lambda, mu, rho0);
                         }
-                        let (lambda, mu, rho0) = constants[material[p].0 as usize];
-                        let l = gradients.at(p);
-                        f.0 = (D::Matrix::IDENTITY + l * dt) * f.0;
-                        e.0 = e.0.add_scaled(&D::Sym::sym_of(l * dt), 1.0);
-                        let j = f.0.determinant();
-                        s.0 = neo_hookean_stress_of::<D>(f.0, lambda, mu)
-                            .unwrap_or_else(|| D::Sym::from_fn(|_, _| f64::NAN));
-                        v.0 = j * v0[p].0;
-                        w.0 = neo_hookean_energy::<D>(f.0, lambda, mu);
-                        cp.0 = neo_hookean_wave_speed(j, lambda, mu, rho0);
-                    }
-                },
-            )
-        });
+                    },
+                )
+            });
+    }
 }
 
 #[cfg(test)]
