@@ -304,7 +304,9 @@ mod tests {
         let mut world = tiny_world::<Two>(2, 0.5, 0.01);
         let particle = spawn_particle(&mut world, DVec2::new(0.3, 0.7), DVec2::ZERO, 1.0, 0.1);
         let shear = DMat2::from_cols(DVec2::ZERO, DVec2::new(0.4, 0.0));
-        world.entity_mut(particle).insert(AffineVelocity::<Two>(shear));
+        world
+            .entity_mut(particle)
+            .insert(AffineVelocity::<Two>(shear));
         world.insert_resource(crate::transfer::GradientInAffineVelocity);
         let mut query = world.query::<&mut NodeVelocity<Two>>();
         for mut v in query.iter_mut(&mut world) {
