@@ -69,12 +69,24 @@ pub struct LmeScratch {
     trial: Vec<f64>,
 }
 
-/// `log Z`, `r` and `J` at one λ (the `N_I` are in a buffer beside it).
+/// `Z` (as its scaled sum and the shift of the exponents), `r` and `J` at one λ (the `N_I` are
+/// in a buffer beside it).
 #[derive(Clone, Copy, Debug)]
 struct Moments<D: Dim> {
-    log_z: f64,
+    /// `Σ exp(f_I − largest)`: `log Z` is `ln(scaled_z) + largest`, taken only by the damped
+    /// method's line search (a logarithm per solve the fast path does not need).
+    scaled_z: f64,
+    /// The largest exponent `f_I`, by which they were shifted.
+    largest: f64,
     r: D::Vector,
     j: D::Matrix,
+}
+
+impl<D: Dim> Moments<D> {
+    /// `log Z(x, λ)` (eq. 7's objective).
+    fn log_z(&self) -> f64 {
+        self.scaled_z.ln() + self.largest
+    }
 }
 
 /// Evaluates the moments at `lambda`, writing `N_I` into `values`.
@@ -87,11 +99,13 @@ fn moments<D: Dim>(
 ) -> Moments<D> {
     values.clear();
     // Exponents first, then shifted by the largest so that exp never overflows.
+    let mut largest = f64::NEG_INFINITY;
     values.extend(nodes.iter().map(|&xi| {
         let d = x - xi;
-        -beta * d.length_squared() + lambda.dot(d)
+        let exponent = -beta * d.length_squared() + lambda.dot(d);
+        largest = largest.max(exponent);
+        exponent
     }));
-    let largest = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let mut z = 0.0;
     for v in values.iter_mut() {
         *v = (*v - largest).exp();
@@ -106,7 +120,8 @@ fn moments<D: Dim>(
         second += D::Matrix::outer(d, d) * *v;
     }
     Moments {
-        log_z: z.ln() + largest,
+        scaled_z: z,
+        largest,
         r,
         j: second - D::Matrix::outer(r, r),
     }
@@ -222,9 +237,10 @@ impl<D: Dim> Problem<'_, D> {
                 let trial = self.trial(lambda + direction * t, scratch);
                 // Sufficient decrease of log Z, or (once its changes drown in round-off near
                 // the minimum) a halving of the gradient norm.
-                let decreases = trial.log_z <= m.log_z + 1e-4 * t * slope;
+                let (trial_log_z, log_z) = (trial.log_z(), m.log_z());
+                let decreases = trial_log_z <= log_z + 1e-4 * t * slope;
                 let closer = trial.r.length() <= 0.5 * m.r.length();
-                if trial.log_z.is_finite() && (decreases || closer) {
+                if trial_log_z.is_finite() && (decreases || closer) {
                     lambda += direction * t;
                     m = trial;
                     std::mem::swap(&mut scratch.values, &mut scratch.trial);
@@ -272,18 +288,24 @@ fn linearised<D: Dim>(
     let Some(delta) = newton_step(&m) else {
         return FastPath::Declined(m);
     };
+    // Each value's relative change `δ·(d_I − r)`, kept in the trial buffer (free on this path)
+    // for the correction below.
+    let changes = &mut scratch.trial;
+    changes.clear();
     let mut largest = 0.0f64;
-    for &xi in problem.nodes {
-        largest = largest.max(delta.dot(problem.x - xi - m.r).abs());
-    }
+    changes.extend(problem.nodes.iter().map(|&xi| {
+        let change = delta.dot(problem.x - xi - m.r);
+        largest = largest.max(change.abs());
+        change
+    }));
     if largest > LINEARISE_BELOW {
         return FastPath::Declined(m);
     }
     let mut r = D::Vector::ZERO;
     let mut second = D::Matrix::ZERO;
-    for (v, &xi) in scratch.values.iter_mut().zip(problem.nodes) {
+    for ((v, &xi), &change) in scratch.values.iter_mut().zip(problem.nodes).zip(&*changes) {
         let d = problem.x - xi;
-        *v *= 1.0 + delta.dot(d - m.r);
+        *v *= 1.0 + change;
         r += d * *v;
         second += D::Matrix::outer(d, d) * *v;
     }

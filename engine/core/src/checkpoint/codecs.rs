@@ -69,22 +69,19 @@ pub(super) fn save_column<C: Component + State>(
     Some(postcard::to_allocvec(&values?).map_err(codec(C::KEY)))
 }
 
-/// [`pick_component`] into every particle row in order, through the particles' one table;
-/// `None` when they are not all in one table with `C`.
+/// [`pick_component`] into the particles' one table: `arrivals` are the rows to fill, each
+/// with its pick (every other row keeps its value, [`KEEP_ROW`]), among `count` rows; `None`
+/// when the particles are not all in one table with `C`.
 pub(super) fn pick_column<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
     world: &mut World,
     sources: &[&[u8]],
-    picks: &[(u32, u32)],
+    (arrivals, count): (&[(usize, u32, u32)], usize),
 ) -> Option<Result<(), CheckpointError>> {
     let name = C::KEY;
-    let count = world
-        .query_filtered::<(), With<Particle>>()
-        .iter(world)
-        .count();
     let mut query = world.query_filtered::<&mut C, With<Particle>>();
     let mut tables = query.contiguous_iter_mut(world).ok()?;
     let column = tables.next()?.untracked();
-    if tables.next().is_some() || column.len() != count || count != picks.len() {
+    if tables.next().is_some() || column.len() != count {
         return None;
     }
     let decoded: Result<Vec<Vec<Option<C>>>, _> = sources
@@ -95,14 +92,11 @@ pub(super) fn pick_column<C: Component<Mutability = bevy_ecs::component::Mutable
         Ok(decoded) => decoded,
         Err(e) => return Some(Err(e)),
     };
-    for (slot, &(block, index)) in column.iter_mut().zip(picks) {
-        if (block, index) == KEEP_ROW {
-            continue;
-        }
+    for &(row, block, index) in arrivals {
         let value = picked(&mut decoded, block, index).and_then(Option::take);
-        match value {
-            Some(value) => *slot = value,
-            None => {
+        match (column.get_mut(row), value) {
+            (Some(slot), Some(value)) => *slot = value,
+            _ => {
                 return Some(Err(CheckpointError::Mismatch(format!(
                     "{name}: particle {index} of block {block} was not sent with it"
                 ))));

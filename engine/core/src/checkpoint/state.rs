@@ -15,7 +15,8 @@ type LoadComponent = fn(&mut World, &[Entity], &[u8]) -> Result<(), CheckpointEr
 type PickComponent =
     fn(&mut World, &[Entity], &[&[u8]], &[(u32, u32)]) -> Result<(), CheckpointError>;
 type SaveColumn = fn(&mut World, &[usize], usize) -> Option<Result<Vec<u8>, CheckpointError>>;
-type PickColumn = fn(&mut World, &[&[u8]], &[(u32, u32)]) -> Option<Result<(), CheckpointError>>;
+type PickColumn =
+    fn(&mut World, &[&[u8]], (&[(usize, u32, u32)], usize)) -> Option<Result<(), CheckpointError>>;
 type SaveRows = fn(&World, &[usize]) -> Result<Vec<u8>, CheckpointError>;
 type PickRows =
     fn(&mut World, &[&[u8]], &[(u32, u32)], &[Option<usize>]) -> Result<(), CheckpointError>;
@@ -217,9 +218,14 @@ impl CheckpointState {
                 picks.len()
             )));
         }
+        // The rows that take a value, found once for every column.
+        let arrivals: Vec<(usize, u32, u32)> = (picks.iter().enumerate())
+            .filter(|(_, pick)| **pick != super::KEEP_ROW)
+            .map(|(row, &(block, index))| (row, block, index))
+            .collect();
         for (c, entry) in self.components.iter().enumerate() {
             let sources = self.block_parts(blocks, c)?;
-            match (entry.pick_column)(world, &sources, picks) {
+            match (entry.pick_column)(world, &sources, (&arrivals, targets.len())) {
                 Some(done) => done?,
                 None => (entry.pick)(world, &targets, &sources, picks)?,
             }

@@ -17,6 +17,7 @@ use fractum_engine::with_dim;
 use std::time::Instant;
 
 mod rows;
+mod wire;
 use rows::rebuild;
 
 /// Takes one step of a distributed run on this rank: the least stable step over ranks, the
@@ -345,15 +346,27 @@ fn send(
     (claimed, me): (&[Claimed], usize),
     (next, peers): (&Layout, &[usize]),
 ) -> (Vec<Moved>, Vec<Encoded>) {
-    let mut kept = Vec::new();
+    let mut kept = Vec::with_capacity(claimed.len());
     let mut outgoing: Vec<Vec<Moved>> = vec![Vec::new(); peers.len()];
+    // Where each layer's particles go, found once per layer rather than once per particle:
+    // `None` for this rank, the peer's place in `peers` otherwise (every holder of a layer of
+    // this slab is a peer, `Layout::peers`).
+    let destinations: Vec<Vec<Option<usize>>> = (0..next.cells())
+        .map(|layer| {
+            (next.holders(layer))
+                .filter_map(|holder| match peers.iter().position(|&p| p == holder) {
+                    _ if holder == me => Some(None),
+                    Some(k) => Some(Some(k)),
+                    None => None,
+                })
+                .collect()
+        })
+        .collect();
     for &(row, entity, id, layer) in claimed {
-        for holder in next.holders(layer) {
-            if holder == me {
-                kept.push((row, entity, id));
-            } else if let Some(k) = peers.iter().position(|&p| p == holder) {
-                // Every holder of a layer of this slab is a peer (`Layout::peers`).
-                outgoing[k].push((row, entity, id));
+        for destination in destinations.get(layer).into_iter().flatten() {
+            match destination {
+                None => kept.push((row, entity, id)),
+                Some(k) => outgoing[*k].push((row, entity, id)),
             }
         }
     }
@@ -361,10 +374,9 @@ fn send(
         .iter()
         .zip(&outgoing)
         .map(|(peer, rows)| {
-            let encoded = block(world, state, rows).and_then(|b| {
-                postcard::to_allocvec(&b)
-                    .map_err(|e| format!("cannot encode particles for rank {peer}: {e}"))
-            });
+            let encoded = block(world, state, rows)
+                .map(|(ids, parts)| wire::encode(&ids, &parts))
+                .map_err(|e| format!("cannot encode particles for rank {peer}: {e}"));
             (*peer, encoded)
         })
         .collect();
@@ -377,7 +389,7 @@ fn receive(peers: &[usize], received: Vec<Vec<u8>>) -> Result<Vec<Block>, String
         .iter()
         .zip(received)
         .map(|(peer, bytes)| {
-            postcard::from_bytes(&bytes)
+            wire::decode(&bytes)
                 .map_err(|e| format!("cannot decode the particles rank {peer} sent: {e}"))
         })
         .collect()
@@ -402,9 +414,9 @@ fn settle<D: Dim>(
     }
     ownership.imbalance =
         fractum_engine::decomposition::imbalance(&slab_loads(&ownership.layout, per_layer));
-    let layers: Vec<usize> = rows::<D>(world)
-        .into_iter()
-        .map(|(_, _, x)| layer_of::<D>(&ownership.layout, grid, x))
+    let mut positions = world.query_filtered::<&Position<D>, With<Particle>>();
+    let layers: Vec<usize> = (positions.iter(world))
+        .map(|x| layer_of::<D>(&ownership.layout, grid, x.0))
         .collect();
     ownership.mark(layers.into_iter());
 }

@@ -1,7 +1,7 @@
 //! A rank's particle rows after a step's exchange ([`super::redistribute`]): the particles it
 //! kept and those that arrived, sorted by id, each with its owner's state.
 
-use super::{Block, Moved, block, resize_particles, rows};
+use super::{Block, Moved, block, resize_particles};
 use crate::checkpoint::CheckpointState;
 use bevy_ecs::prelude::*;
 use fractum_engine::components::{Particle, ParticleId};
@@ -20,7 +20,8 @@ pub(super) fn rebuild<D: Dim>(
     arrived: Vec<Block>,
 ) -> Result<(), String> {
     let picks = merged_picks(kept, &arrived)?;
-    let held: Vec<u32> = rows::<D>(world).into_iter().map(|r| r.1).collect();
+    let mut ids = world.query_filtered::<&ParticleId, With<Particle>>();
+    let held: Vec<u32> = ids.iter(world).map(|id| id.0).collect();
     let same_rows = held.len() == picks.len() && held.iter().zip(&picks).all(|(a, b)| *a == b.0);
     let arrived: Vec<Vec<Vec<u8>>> = arrived.into_iter().map(|b| b.1).collect();
     let keep_or_pick = |&(_, b, i): &(u32, u32, u32)| match b {
@@ -66,7 +67,9 @@ fn merged_picks(kept: &[Moved], arrived: &[Block]) -> Result<Vec<(u32, u32, u32)
                 .map(move |(i, &id)| (id, b as u32 + 1, i as u32))
         }))
         .collect();
-    picks.sort_unstable();
+    // The kept ids ascend (rows are in id order) and so do each block's: the stable sort
+    // merges these runs in linear time where an unstable one sorts them afresh.
+    picks.sort();
     match picks.windows(2).find(|w| w[0].0 == w[1].0) {
         Some(w) => Err(format!("particle {} arrived from two ranks", w[0].0)),
         None => Ok(picks),
