@@ -35,7 +35,7 @@ pub fn refill_particle_frame(world: &mut World, frame: &mut ParticleFrame) {
 }
 
 /// The engine's own particle columns a frame shows.
-type EngineColumns<D> = (
+pub(super) type EngineColumns<D> = (
     &'static ParticleId,
     &'static BodyId,
     &'static MaterialId,
@@ -48,40 +48,64 @@ type EngineColumns<D> = (
     &'static StrainEnergyDensity,
 );
 
+/// The engine's own particle columns as the world stores them, one slice per component.
+pub(super) type EngineSlices<'a, D> = (
+    &'a [ParticleId],
+    &'a [BodyId],
+    &'a [MaterialId],
+    &'a [Position<D>],
+    &'a [Velocity<D>],
+    &'a [Mass],
+    &'a [Volume],
+    &'a [Stress<D>],
+    &'a [Damage],
+    &'a [StrainEnergyDensity],
+);
+
 fn refill_particle_frame_of<D: Dim>(world: &mut World, f: &mut ParticleFrame) {
     let mut state = world.query_filtered::<EngineColumns<D>, With<Particle>>();
     let query = state.query(world);
-    match single_table(query.contiguous_iter(), "particles") {
-        Some((id, body, material, x, v, m, vol, s, d, w)) => {
-            copy_column(id, &mut f.id, |c| c.0);
-            copy_column(body, &mut f.body, |c| c.0);
-            copy_column(material, &mut f.material, |c| c.0);
-            copy_column(x, &mut f.position, |c| c.0.to_3d());
-            copy_column(v, &mut f.velocity, |c| c.0.to_3d());
-            copy_column(m, &mut f.mass, |c| c.0);
-            copy_column(vol, &mut f.volume, |c| c.0);
-            copy_column(s, &mut f.stress, |c| c.0.as_3x3());
-            copy_column(d, &mut f.damage, |c| c.0);
-            copy_column(w, &mut f.strain_energy_density, |c| c.0);
+    let rows = match single_table(query.contiguous_iter(), "particles") {
+        Some(columns) => {
+            write_engine_columns::<D>(columns, f);
+            columns.0.len()
         }
         None => {
-            let empty = ParticleFrame::default();
-            (f.id, f.body, f.material) = (empty.id, empty.body, empty.material);
-            (f.position, f.velocity, f.stress) = (empty.position, empty.velocity, empty.stress);
-            (f.mass, f.volume) = (empty.mass, empty.volume);
-            (f.damage, f.strain_energy_density) = (empty.damage, empty.strain_energy_density);
+            write_engine_columns::<D>(Default::default(), f);
+            0
         }
-    }
-    system_columns::<D>(world, f);
+    };
+    system_columns::<D>(world, f, rows);
     if let Some(ownership) = world.get_resource::<fractum_engine::decomposition::Ownership>() {
         // A rank's frame is its piece of the run's: the particles it owns.
         f.retain_rows(&ownership.particles);
     }
-    f.thickness = if D::N == 2 {
+    f.thickness = frame_thickness::<D>(world);
+}
+
+/// The thickness a frame of a `D` world carries: the scene's in 2D, none in 3D.
+pub(super) fn frame_thickness<D: Dim>(world: &World) -> Option<f64> {
+    if D::N == 2 {
         world.get_resource::<Thickness>().map(|t| t.0)
     } else {
         None
-    };
+    }
+}
+
+/// Fills the frame's engine columns from the components, converted as VTK expects (vectors
+/// with three components, stresses as 3×3), into the frame's own arrays.
+pub(super) fn write_engine_columns<D: Dim>(columns: EngineSlices<'_, D>, f: &mut ParticleFrame) {
+    let (id, body, material, x, v, m, vol, s, d, w) = columns;
+    copy_column(id, &mut f.id, |c| c.0);
+    copy_column(body, &mut f.body, |c| c.0);
+    copy_column(material, &mut f.material, |c| c.0);
+    copy_column(x, &mut f.position, |c| c.0.to_3d());
+    copy_column(v, &mut f.velocity, |c| c.0.to_3d());
+    copy_column(m, &mut f.mass, |c| c.0);
+    copy_column(vol, &mut f.volume, |c| c.0);
+    copy_column(s, &mut f.stress, |c| c.0.as_3x3());
+    copy_column(d, &mut f.damage, |c| c.0);
+    copy_column(w, &mut f.strain_energy_density, |c| c.0);
 }
 
 /// `out[p] = value(&column[p])` for every row, in parallel, into `out`'s own allocation.
@@ -145,7 +169,8 @@ fn grid_frame_of<D: Dim>(world: &mut World) -> GridFrame {
 /// The columns the installed systems registered ([`super::FrameColumns`]), then the
 /// velocity field of each particle at its nearest node (the key `2 × group + side` of the field
 /// its largest-weight node puts it in) when some system assigns fields.
-fn system_columns<D: Dim>(world: &mut World, f: &mut ParticleFrame) {
+/// `rows` is the number of particle rows of the world.
+pub(super) fn system_columns<D: Dim>(world: &mut World, f: &mut ParticleFrame, rows: usize) {
     // The frame's previous arrays, by name, for the readers to refill.
     let mut columns: Vec<(String, super::ColumnValues)> = std::mem::take(&mut f.scalars)
         .into_iter()
@@ -181,20 +206,39 @@ fn system_columns<D: Dim>(world: &mut World, f: &mut ParticleFrame) {
     let nodes = nodes.query(world);
     let node_fields = single_table(nodes.contiguous_iter(), "nodes").unwrap_or(&[]);
     let c = world.resource::<fractum_engine::connectivity::Connectivity<D>>();
-    if c.row_offsets.len() != f.id.len() + 1 {
+    if c.row_offsets.len() != rows + 1 {
         return;
     }
-    (0..f.id.len())
-        .into_par_iter()
-        .map(|p| {
-            c.row(p)
-                .max_by(|&a, &b| c.weights[a].total_cmp(&c.weights[b]).then(b.cmp(&a)))
-                .map_or(f64::NAN, |e| {
-                    f64::from(node_fields[c.nodes[e] as usize].keys[c.field(e)].0)
-                })
+    c.row_offsets
+        .par_windows(2)
+        .map(|row| {
+            largest_weight_entry(&c.weights[row[0]..row[1]]).map_or(f64::NAN, |k| {
+                let e = row[0] + k;
+                f64::from(node_fields[c.nodes[e] as usize].keys[c.field(e)].0)
+            })
         })
         .collect_into_vec(&mut field_buffer);
     f.scalars.push(("velocity_field".into(), field_buffer));
+}
+
+/// The position of the largest of `weights` in the total order of `f64::total_cmp`, the first
+/// on a tie; `None` for no weights. A plain loop: a frame asks it of every particle row, and
+/// the last good frame of a run with velocity fields asks it every step.
+fn largest_weight_entry(weights: &[f64]) -> Option<usize> {
+    // `f64::total_cmp`'s order as integers: the sign-magnitude bits with the magnitude's bits
+    // flipped for negative numbers (what `total_cmp` compares), computed once per weight.
+    let key = |w: f64| {
+        let bits = w.to_bits() as i64;
+        bits ^ (((bits >> 63) as u64) >> 1) as i64
+    };
+    let mut best = (0, key(*weights.first()?));
+    for (k, &w) in weights.iter().enumerate().skip(1) {
+        let candidate = key(w);
+        if candidate > best.1 {
+            best = (k, candidate);
+        }
+    }
+    Some(best.0)
 }
 
 #[cfg(test)]
@@ -243,5 +287,30 @@ mod tests {
         let mut on_two = ParticleFrame::default();
         pool.install(|| refill_particle_frame(&mut world, &mut on_two));
         assert_eq!(format!("{fresh:?}"), format!("{on_two:?}"));
+    }
+
+    /// The loop picks what `Iterator::max_by` with the index as tie-break picks (the frame's
+    /// earlier rule): the first of equal weights, a NaN above every number, `None` for an empty
+    /// row.
+    #[test]
+    fn the_largest_weight_entry_is_the_first_of_the_largest() {
+        let by_max =
+            |w: &[f64]| (0..w.len()).max_by(|&a, &b| w[a].total_cmp(&w[b]).then(b.cmp(&a)));
+        let rows: [&[f64]; 9] = [
+            &[],
+            &[0.5],
+            &[0.1, 0.4, 0.4, 0.1],
+            &[0.0, -0.0, 0.0],
+            &[0.2, f64::NAN, 0.9],
+            &[0.25; 9],
+            &[0.01, 0.02, 0.6, 0.3, 0.6, 0.07],
+            &[-1.0, -0.5, -2.0],
+            &[f64::NEG_INFINITY, -f64::NAN, 1e-300, f64::INFINITY],
+        ];
+        for row in rows {
+            assert_eq!(largest_weight_entry(row), by_max(row), "{row:?}");
+        }
+        assert_eq!(largest_weight_entry(&[0.1, 0.4, 0.4, 0.1]), Some(1));
+        assert_eq!(largest_weight_entry(&[0.0, -0.0, 0.0]), Some(0));
     }
 }

@@ -6,6 +6,7 @@ mod atomic;
 mod csv;
 mod frame_reader;
 mod frames;
+mod last_good;
 mod probes;
 mod pvd;
 mod pvtu;
@@ -17,6 +18,7 @@ pub use csv::SeriesWriter;
 pub use fractum_engine::columns::{ColumnValues, FrameColumns};
 pub use frame_reader::read_particle_frame;
 pub use frames::{grid_frame, particle_frame, refill_particle_frame};
+pub use last_good::LastGoodState;
 pub use probes::{
     initial_energy_part, largest_energy_particle, must_be_finite, series_parts, series_row,
     series_row_from,

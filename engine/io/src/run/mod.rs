@@ -17,8 +17,8 @@ use crate::checkpoint::{
 };
 use crate::output::{
     FrameWriter, OutputPlan, SeriesWriter, WriteFailure, grid_frame, largest_energy_particle,
-    must_be_finite, particle_frame, piece_name, refill_particle_frame, series_parts,
-    series_row_from, write_particle_frame, write_pvtu,
+    must_be_finite, particle_frame, piece_name, series_parts, series_row_from,
+    write_particle_frame, write_pvtu,
 };
 use fractum_engine::communicator::{Communicator, RankFailure};
 use fractum_engine::energy::{EnergyBalance, EnergyWatch};
@@ -243,18 +243,18 @@ pub fn run_with(
     let mut interrupted = false;
     let mut checkpoint = None;
     // The state at the start of the step, refilled in place each step (no allocation).
-    let mut last_good = crate::output::ParticleFrame::default();
+    let mut last_good = crate::output::LastGoodState::default();
     while !sim.finished() {
         if plan.last_good_frame {
-            sim.with_world_in_pool(|world| refill_particle_frame(world, &mut last_good));
+            sim.with_world_in_pool(|world| last_good.refill(world));
         }
         // The step the state was at: a rank whose step failed has not moved its clock, the
         // others have.
         let step = sim.clock().step;
         if let Err(failure) = step_once(sim, comm) {
             let settled = outputs.settle();
-            let last_good = plan.last_good_frame.then_some(&last_good);
-            let written = write_last_good(plan, &frames_dir, step, last_good, comm);
+            let last_good = plan.last_good_frame.then(|| last_good.frame()).flatten();
+            let written = write_last_good(plan, &frames_dir, step, last_good.as_ref(), comm);
             let written = agreed(comm, settled.and(written))?;
             let listed = outputs.list_every_frame();
             agreed(comm, listed)?;
