@@ -360,7 +360,9 @@ fn first_bad_particle<D: Dim>(
     let (ids, positions, velocities, stresses, volumes) =
         single_table(particles.contiguous_iter(), "particles")?;
     let checked = (positions, velocities, stresses, volumes);
-    if owned.is_none() && all_particles_healthy(checked, columns, grid, outside_allowed) {
+    // Every row healthy means every owned row healthy: a rank's ghosts take the fast pass too,
+    // and only a failed pass looks for an owned culprit (a ghost's bad state alone is no blow-up).
+    if all_particles_healthy(checked, columns, grid, outside_allowed) {
         return None;
     }
     let (lo, hi) = (grid.min, grid.max());
@@ -456,7 +458,7 @@ fn first_bad_node<D: Dim>(
         return None;
     }
     let (indices, masses, velocities, forces) = single_table(nodes.contiguous_iter(), "nodes")?;
-    if owned.is_none() && all_nodes_finite(masses, velocities, forces) {
+    if all_nodes_finite(masses, velocities, forces) {
         return None;
     }
     let bad = (0..indices.len()).into_par_iter().find_first(|&n| {
@@ -659,5 +661,41 @@ mod tests {
         let mut bad = masses.clone();
         bad[CHECK_BLOCK].0[1] = f64::NEG_INFINITY;
         assert!(!all_nodes_finite(&bad, &velocities, &forces));
+    }
+
+    /// A rank's check: a ghost's bad stress is no blow-up (ghosts near the halo's outer face
+    /// compute what no rank uses), an owned particle's is, named; the same on every check after
+    /// the first (which looks at every column).
+    #[test]
+    fn a_rank_fails_on_its_own_particles_only() {
+        use crate::components::ParticleBundle;
+        use crate::decomposition::Layout;
+        let mut world = crate::testing::tiny_world::<Two>(4, 0.25, 1e-3);
+        for k in 0..3u32 {
+            let x = DVec2::new(0.1 + 0.3 * f64::from(k), 0.5);
+            let mut particle = ParticleBundle::<Two>::new(k, x, 1.0, 0.01, 0);
+            if k == 2 {
+                particle.stress.0.xy = f64::NAN;
+            }
+            world.spawn(particle);
+        }
+        let layout = Layout {
+            axis: 0,
+            slabs: vec![0..2, 2..4],
+            halo: 1,
+        };
+        let mut ownership = Ownership::new(layout, 0, 2, 0..5);
+        ownership.particles = vec![true, true, false];
+        world.insert_resource(ownership);
+        for _ in 0..2 {
+            crate::testing::run_system(&mut world, stage_check::<Two>(Stage::Stress));
+            assert!(world.resource::<Health>().failure.is_none());
+        }
+        world.resource_mut::<Ownership>().particles[2] = true;
+        crate::testing::run_system(&mut world, stage_check::<Two>(Stage::Stress));
+        let failure = world.resource::<Health>().failure.clone().unwrap();
+        assert_eq!(failure.stage, Stage::Stress);
+        assert!(failure.message.starts_with("particle 2 at "), "{failure}");
+        assert!(failure.message.contains("non-finite stress"), "{failure}");
     }
 }
