@@ -25,10 +25,11 @@ pub fn particle_frame(world: &mut World) -> ParticleFrame {
     frame
 }
 
-/// [`particle_frame`] into `frame`, reusing its arrays: a run that keeps the state at the start
-/// of every step for a blow-up's last good frame fills the same arrays each step, so it
-/// neither allocates nor faults in fresh pages per step. The engine's columns are copied in
-/// parallel (rayon's current pool), each value exactly as [`particle_frame`] gives it.
+/// [`particle_frame`] into `frame`, reusing its arrays: code that collects a frame again and
+/// again (every step, say) fills the same arrays each time, so it neither allocates nor faults
+/// in fresh pages. The engine's columns are copied in parallel (rayon's current pool), each
+/// value exactly as [`particle_frame`] gives it. (A run's last good frame keeps the raw
+/// columns instead and converts them only on a failure: [`super::LastGoodState`].)
 pub fn refill_particle_frame(world: &mut World, frame: &mut ParticleFrame) {
     let dimension = *world.resource::<Dimension>();
     with_dim!(dimension, D => refill_particle_frame_of::<D>(world, frame));
