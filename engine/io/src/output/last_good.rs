@@ -37,6 +37,7 @@ pub struct LastGoodState {
 }
 
 /// The engine's own particle columns, as the world stores them.
+#[derive(Default)]
 struct EngineRows<D: Dim> {
     id: Vec<ParticleId>,
     body: Vec<BodyId>,
@@ -48,23 +49,6 @@ struct EngineRows<D: Dim> {
     stress: Vec<Stress<D>>,
     damage: Vec<Damage>,
     energy: Vec<StrainEnergyDensity>,
-}
-
-impl<D: Dim> Default for EngineRows<D> {
-    fn default() -> Self {
-        Self {
-            id: Vec::new(),
-            body: Vec::new(),
-            material: Vec::new(),
-            position: Vec::new(),
-            velocity: Vec::new(),
-            mass: Vec::new(),
-            volume: Vec::new(),
-            stress: Vec::new(),
-            damage: Vec::new(),
-            energy: Vec::new(),
-        }
-    }
 }
 
 impl<D: Dim> EngineRows<D> {
