@@ -27,6 +27,7 @@
 use super::tensor::{AxisFactors, Row, axis_factors, tensor_row, write_tensor_row};
 use fractum_engine::health::{Blowup, Health, fmt_vector};
 use fractum_engine::prelude::*;
+use rayon::prelude::*;
 
 /// Registration of `basis/gimp`.
 pub const REGISTRATION: Registration = Registration {
@@ -110,19 +111,24 @@ pub fn gimp_basis<D: Dim>(
         let l = half_width(volumes[p].0, t, D::N, grid.spacing);
         gimp_axes(grid, positions[p].0, l)
     };
-    // The rows go straight into the connectivity tables (a failed particle gets none).
-    let results: Vec<Result<(), usize>> = connectivity.fill_rows(
+    // The rows go straight into the connectivity tables (a failed particle gets none, and
+    // its row's value is the axis its domain crosses the grid's edge along).
+    let crossed: Vec<Option<usize>> = connectivity.fill_rows(
         positions.len(),
         grid.node_count(),
         |p| axes(p).map_or(0, |a| a.width(D::N)),
         || (),
-        |_, p, nodes, weights, gradients| {
-            let axes = axes(p)?;
-            write_tensor_row(grid, &axes, (nodes, weights, gradients));
-            Ok(())
+        |_, p, nodes, weights, gradients| match axes(p) {
+            Ok(axes) => {
+                write_tensor_row(grid, &axes, (nodes, weights, gradients));
+                None
+            }
+            Err(axis) => Some(axis),
         },
     );
-    if let Some((p, Err(axis))) = results.iter().enumerate().find(|(_, r)| r.is_err()) {
+    // The first failed particle, searched on the pool's threads like the rows were filled.
+    let first = crossed.par_iter().position_first(Option::is_some);
+    if let Some((p, Some(axis))) = first.map(|p| (p, crossed[p])) {
         health.fail(Blowup::new(
             clock.step + 1,
             Stage::Basis,

@@ -209,6 +209,7 @@ pub fn lme_basis<D: Spatial>(
     mut state: ResMut<LmeState<D>>,
     mut connectivity: ResMut<Connectivity<D>>,
     mut cloud: Local<Option<NodeCloud<D>>>,
+    mut solutions: Local<Vec<Result<Solved<D>, String>>>,
     nodes: Query<&NodePosition<D>, With<Node>>,
     particles: ParticleQuery<D>,
 ) {
@@ -227,6 +228,8 @@ pub fn lme_basis<D: Spatial>(
     let Some(cloud) = cloud.as_ref() else { return };
     let (ids, positions) =
         single_table(particles.contiguous_iter(), "particles").unwrap_or((&[], &[]));
+    // Each row's solution, in a buffer kept from step to step (`fill_rows_into`).
+    solutions.resize(positions.len(), Err(String::new()));
     let solved = if grid.is_graded() {
         graded_rows(
             &grid,
@@ -234,7 +237,7 @@ pub fn lme_basis<D: Spatial>(
             cloud,
             positions,
             &mut state,
-            &mut connectivity,
+            (&mut connectivity, &mut solutions),
         )
     } else {
         uniform_rows(
@@ -243,7 +246,7 @@ pub fn lme_basis<D: Spatial>(
             cloud,
             positions,
             &mut state,
-            &mut connectivity,
+            (&mut connectivity, &mut solutions),
         )
     };
     if let Err((p, message)) = solved {
@@ -259,7 +262,7 @@ fn uniform_rows<D: Spatial>(
     cloud: &NodeCloud<D>,
     positions: &[Position<D>],
     state: &mut LmeState<D>,
-    connectivity: &mut Connectivity<D>,
+    (connectivity, solutions): (&mut Connectivity<D>, &mut [Result<Solved<D>, String>]),
 ) -> Result<(), (usize, String)> {
     let settings = LmeSettings {
         beta: params.gamma / (h * h),
@@ -297,8 +300,7 @@ fn uniform_rows<D: Spatial>(
     };
     // The rows go straight into the connectivity tables: no per-particle row buffers, and
     // no gradients: each row keeps `J⁻¹` and its point, from which eq. (8) gives them.
-    let solved = connectivity.fill_rows_mapped(
-        positions.len(),
+    connectivity.fill_rows_mapped_into(
         cloud.positions(),
         |p| {
             let x = positions[p].0;
@@ -308,6 +310,7 @@ fn uniform_rows<D: Spatial>(
                 .count()
         },
         RowScratch::default,
+        solutions,
         |scratch, p, nodes, weights, map| {
             let x = positions[p].0;
             let guess = guesses.0[p] + guesses.1[p] * (x - guesses.2[p]);
@@ -316,7 +319,7 @@ fn uniform_rows<D: Spatial>(
         },
     );
     keep_solutions(
-        solved,
+        solutions,
         settings.beta,
         positions,
         lambda,

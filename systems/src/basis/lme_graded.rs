@@ -97,7 +97,7 @@ pub(super) fn graded_rows<D: Spatial>(
     cloud: &NodeCloud<D>,
     positions: &[Position<D>],
     state: &mut LmeState<D>,
-    connectivity: &mut Connectivity<D>,
+    (connectivity, solutions): (&mut Connectivity<D>, &mut [Result<Solved<D>, String>]),
 ) -> Result<(), (usize, String)> {
     let settings = LmeSettings {
         beta: params.gamma,
@@ -131,8 +131,7 @@ pub(super) fn graded_rows<D: Spatial>(
     let lists = (&mut anchors[..], &mut candidates[..], &mut reach[..]);
     refresh_graded_candidates(cloud, positions, &scales, &radii, lists);
     let (candidates, guesses) = (&*candidates, (&*lambda, &*lambda_slope, &*solved_at));
-    let solved: Vec<Result<Solved<D>, String>> = connectivity.fill_rows(
-        positions.len(),
+    connectivity.fill_rows_into(
         cloud.len(),
         |p| {
             let (x, scale, radius2) = (positions[p].0, scales[p], radii[p] * radii[p]);
@@ -142,6 +141,7 @@ pub(super) fn graded_rows<D: Spatial>(
                 .count()
         },
         RowScratch::<D>::default,
+        solutions,
         |scratch, p, nodes, weights, gradients| {
             let (x, scale, radius2) = (positions[p].0, scales[p], radii[p] * radii[p]);
             let guess = guesses.0[p] + guesses.1[p] * ((x - guesses.2[p]) / scale);
@@ -158,7 +158,7 @@ pub(super) fn graded_rows<D: Spatial>(
         },
     );
     keep_solutions(
-        solved,
+        solutions,
         settings.beta,
         positions,
         lambda,

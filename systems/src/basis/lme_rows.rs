@@ -180,11 +180,12 @@ pub fn write_nodes_and_values<D: Dim>(
 }
 
 /// Keeps every particle's λ, `dλ/dx = 2βI − J⁻¹` and position for the next step's warm start,
-/// or the first particle whose solve failed, with the reason. In parallel, the results
-/// consumed (and so dropped) where they are read: a serial pass here was the largest serial
-/// section of the LME step at a million particles (`benches/serial_share.py`).
+/// or the first particle whose solve failed, with the reason. In parallel, from the basis
+/// system's buffer of solutions (kept from step to step): a serial pass over them, and before
+/// that a serial gather of the rows' blocks into a new buffer, were the largest serial sections
+/// of the LME step at a million particles (`benches/serial_share.py`).
 pub fn keep_solutions<D: Dim>(
-    solved: Vec<Result<Solved<D>, String>>,
+    solved: &[Result<Solved<D>, String>],
     beta: f64,
     positions: &[Position<D>],
     lambda: &mut [D::Vector],
@@ -197,15 +198,15 @@ pub fn keep_solutions<D: Dim>(
     }
     let identity_2beta = D::Matrix::IDENTITY * (2.0 * beta);
     solved
-        .into_par_iter()
+        .par_iter()
         .zip(lambda.par_iter_mut())
         .zip(lambda_slope.par_iter_mut())
         .zip(solved_at.par_iter_mut())
         .zip(positions.par_iter())
         .for_each(|((((result, l), slope), at), x)| {
             if let Ok((solution, j_inverse)) = result {
-                *l = solution;
-                *slope = identity_2beta - j_inverse;
+                *l = *solution;
+                *slope = identity_2beta - *j_inverse;
                 *at = x.0;
             }
         });

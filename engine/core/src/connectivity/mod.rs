@@ -20,6 +20,12 @@ use transpose::running_sum;
 
 mod transpose;
 
+/// `count` default values, made on the pool's threads (a large buffer's pages are first
+/// touched where its rows will be written).
+fn default_values<T: Send + Default>(count: usize) -> Vec<T> {
+    (0..count).into_par_iter().map(|_| T::default()).collect()
+}
+
 /// Shape-function connectivity for the current particle positions.
 #[derive(Resource, Clone, Debug)]
 pub struct Connectivity<D: Dim> {
@@ -218,16 +224,35 @@ impl<D: Dim> Connectivity<D> {
         fill: F,
     ) -> Vec<T>
     where
+        T: Send + Default,
+        W: Fn(usize) -> usize + Sync,
+        F: Fn(&mut S, usize, &mut [u32], &mut [f64], &mut [D::Vector]) -> T + Sync,
+    {
+        let mut values = default_values(particles);
+        self.fill_rows_into(node_count, width, init, &mut values, fill);
+        values
+    }
+
+    /// [`Self::fill_rows`] with the per-row values written into `values`, one per particle row
+    /// (its length is the particle count): a buffer the caller keeps from step to step, so that
+    /// no step allocates, first-touches and gathers a new one on one thread.
+    pub fn fill_rows_into<S, T, W, F>(
+        &mut self,
+        node_count: usize,
+        width: W,
+        init: impl Fn() -> S + Sync,
+        values: &mut [T],
+        fill: F,
+    ) where
         T: Send,
         W: Fn(usize) -> usize + Sync,
         F: Fn(&mut S, usize, &mut [u32], &mut [f64], &mut [D::Vector]) -> T + Sync,
     {
         self.row_maps = Vec::new();
         let mut gradients = std::mem::take(&mut self.gradients);
-        let values = self.fill_rows_with(particles, &width, true, &mut gradients, init, fill);
+        self.fill_rows_with((&width, true), &mut gradients, init, values, fill);
         self.gradients = gradients;
         self.rebuild_transpose(node_count);
-        values
     }
 
     /// [`Self::fill_rows`] for rows whose gradients follow a map ([`RowMap`], LME's eq. 8):
@@ -243,6 +268,25 @@ impl<D: Dim> Connectivity<D> {
         fill: F,
     ) -> Vec<T>
     where
+        T: Send + Default,
+        W: Fn(usize) -> usize + Sync,
+        F: Fn(&mut S, usize, &mut [u32], &mut [f64], &mut RowMap<D>) -> T + Sync,
+    {
+        let mut values = default_values(particles);
+        self.fill_rows_mapped_into(node_positions, width, init, &mut values, fill);
+        values
+    }
+
+    /// [`Self::fill_rows_mapped`] with the per-row values written into `values`, one per
+    /// particle row (as [`Self::fill_rows_into`]).
+    pub fn fill_rows_mapped_into<S, T, W, F>(
+        &mut self,
+        node_positions: &[D::Vector],
+        width: W,
+        init: impl Fn() -> S + Sync,
+        values: &mut [T],
+        fill: F,
+    ) where
         T: Send,
         W: Fn(usize) -> usize + Sync,
         F: Fn(&mut S, usize, &mut [u32], &mut [f64], &mut RowMap<D>) -> T + Sync,
@@ -252,37 +296,31 @@ impl<D: Dim> Connectivity<D> {
             self.node_positions = node_positions.to_vec();
         }
         let mut maps = std::mem::take(&mut self.row_maps);
-        let values = self.fill_rows_with(
-            particles,
-            &width,
-            false,
-            &mut maps,
-            init,
-            |s, p, n, w, m| fill(s, p, n, w, &mut m[0]),
-        );
+        self.fill_rows_with((&width, false), &mut maps, init, values, |s, p, n, w, m| {
+            fill(s, p, n, w, &mut m[0])
+        });
         self.row_maps = maps;
         self.rebuild_transpose(node_positions.len());
-        values
     }
 
-    /// The loop of [`Self::fill_rows`] and [`Self::fill_rows_mapped`]: each row gets its slices
-    /// of the nodes and weights, and its items of `extra`: one per entry (its gradients) where
-    /// `per_entry`, else one (its map).
+    /// The loop of [`Self::fill_rows_into`] and [`Self::fill_rows_mapped_into`]: each row gets
+    /// its slices of the nodes and weights, and its items of `extra`: one per entry (its
+    /// gradients) where `per_entry`, else one (its map); its value goes to its place in
+    /// `values`, block by block on the pool's threads.
     fn fill_rows_with<S, T, X, F>(
         &mut self,
-        particles: usize,
-        width: &(impl Fn(usize) -> usize + Sync),
-        per_entry: bool,
+        (width, per_entry): (&(impl Fn(usize) -> usize + Sync), bool),
         extra: &mut Vec<X>,
         init: impl Fn() -> S + Sync,
+        values: &mut [T],
         fill: F,
-    ) -> Vec<T>
-    where
+    ) where
         T: Send,
         X: Default + Clone + Send,
         F: Fn(&mut S, usize, &mut [u32], &mut [f64], &mut [X]) -> T + Sync,
     {
         const BLOCK: usize = 1024;
+        let particles = values.len();
         self.row_offsets.resize(particles + 1, 0);
         self.row_offsets[0] = 0;
         self.row_offsets[1..]
@@ -303,35 +341,36 @@ impl<D: Dim> Connectivity<D> {
             }
         };
         let mut blocks = Vec::with_capacity(particles.div_ceil(BLOCK));
-        let (mut nodes, mut weights, mut extras) =
-            (&mut self.nodes[..], &mut self.weights[..], &mut extra[..]);
+        let (mut nodes, mut weights, mut extras, mut rest) = (
+            &mut self.nodes[..],
+            &mut self.weights[..],
+            &mut extra[..],
+            values,
+        );
         for start in (0..particles).step_by(BLOCK) {
             let end = (start + BLOCK).min(particles);
             let len = offsets[end] - offsets[start];
             let (n, rest_n) = nodes.split_at_mut(len);
             let (w, rest_w) = weights.split_at_mut(len);
             let (x, rest_x) = extras.split_at_mut(extra_len(start..end));
-            (nodes, weights, extras) = (rest_n, rest_w, rest_x);
-            blocks.push((start..end, n, w, x));
+            let (v, rest_v) = rest.split_at_mut(end - start);
+            (nodes, weights, extras, rest) = (rest_n, rest_w, rest_x, rest_v);
+            blocks.push((start..end, n, w, x, v));
         }
-        let values: Vec<Vec<T>> = blocks
+        blocks
             .into_par_iter()
-            .map(|(rows, mut n, mut w, mut x)| {
+            .for_each(|(rows, mut n, mut w, mut x, block_values)| {
                 let mut scratch = init();
-                let mut values = Vec::with_capacity(rows.len());
-                for p in rows {
+                for (p, value) in rows.zip(block_values) {
                     let len = offsets[p + 1] - offsets[p];
                     let (row_n, rest_n) = std::mem::take(&mut n).split_at_mut(len);
                     let (row_w, rest_w) = std::mem::take(&mut w).split_at_mut(len);
                     let (row_x, rest_x) = std::mem::take(&mut x).split_at_mut(extra_len(p..p + 1));
                     (n, w, x) = (rest_n, rest_w, rest_x);
-                    values.push(fill(&mut scratch, p, row_n, row_w, row_x));
+                    *value = fill(&mut scratch, p, row_n, row_w, row_x);
                 }
-                values
-            })
-            .collect();
+            });
         self.reset_fields();
-        values.into_iter().flatten().collect()
     }
 
     /// Maps every entry to slot 0 (one velocity field per node).
@@ -485,6 +524,61 @@ mod fill_rows_tests {
         assert_eq!(values.len(), particles);
         assert!(values.iter().enumerate().all(|(p, v)| v.0 == p));
         assert_eq!(values[1024].1, 1);
+    }
+
+    /// A kept buffer takes each fill's values in row order, every row overwritten, over
+    /// several blocks and thread counts, as the tables do; the mapped rows the same.
+    #[test]
+    fn rows_filled_into_a_kept_buffer_overwrite_it_in_row_order() {
+        let particles = 2100;
+        let node_positions = [DVec2::ZERO, DVec2::X, DVec2::Y];
+        let mut values = vec![(usize::MAX, 0usize); particles];
+        for (fill, threads) in [(1usize, 1usize), (2, 3)] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let mut c = Connectivity::<Two>::default();
+            pool.install(|| {
+                c.fill_rows_into(
+                    3,
+                    |p| (p + fill) % 3,
+                    || 0usize,
+                    &mut values,
+                    |calls, p, n, w, g| {
+                        *calls += 1;
+                        for k in 0..n.len() {
+                            (n[k], w[k], g[k]) = (k as u32, fill as f64, DVec2::ZERO);
+                        }
+                        (p * fill, *calls)
+                    },
+                )
+            });
+            assert!(values.iter().enumerate().all(|(p, v)| v.0 == p * fill));
+            // Each block of 1 024 rows starts from a fresh scratch.
+            assert_eq!((values[1023].1, values[1024].1), (1024, 1));
+            assert_eq!(c.node_offsets[3], c.nodes.len());
+            assert_eq!(c.row(5).len(), (5 + fill) % 3);
+            pool.install(|| {
+                c.fill_rows_mapped_into(
+                    &node_positions,
+                    |p| 1 + p % 2,
+                    || (),
+                    &mut values,
+                    |_, p, n, w, map| {
+                        for k in 0..n.len() {
+                            (n[k], w[k]) = (k as u32, 1.0 / n.len() as f64);
+                        }
+                        map.point = DVec2::splat(p as f64);
+                        (p + fill, 0)
+                    },
+                )
+            });
+            assert!(values.iter().enumerate().all(|(p, v)| *v == (p + fill, 0)));
+            assert_eq!(c.row_maps.len(), particles);
+            assert_eq!(c.row_maps[7].point, DVec2::splat(7.0));
+            assert!(c.gradients.is_empty());
+        }
     }
 
     /// The transpose lists each node's entries in particle order, whatever the thread count.
