@@ -202,14 +202,17 @@ pub struct LmeInputs<'w, D: Dim> {
     clock: Res<'w, SimClock>,
 }
 
+/// What `basis/lme` keeps from one step to the next besides its state: the node cloud (rebuilt
+/// when the node count changes) and the buffer each row's solution is written into.
+type KeptBetweenSteps<D> = (Option<NodeCloud<D>>, Vec<Result<Solved<D>, String>>);
+
 /// The `basis/lme` system.
 pub fn lme_basis<D: Spatial>(
     inputs: LmeInputs<D>,
     mut health: ResMut<Health>,
     mut state: ResMut<LmeState<D>>,
     mut connectivity: ResMut<Connectivity<D>>,
-    mut cloud: Local<Option<NodeCloud<D>>>,
-    mut solutions: Local<Vec<Result<Solved<D>, String>>>,
+    mut kept: Local<KeptBetweenSteps<D>>,
     nodes: Query<&NodePosition<D>, With<Node>>,
     particles: ParticleQuery<D>,
 ) {
@@ -218,6 +221,7 @@ pub fn lme_basis<D: Spatial>(
         params,
         clock,
     } = inputs;
+    let (cloud, solutions) = &mut *kept;
     let node_positions = single_table(nodes.contiguous_iter(), "nodes").unwrap_or(&[]);
     if cloud
         .as_ref()
@@ -237,7 +241,7 @@ pub fn lme_basis<D: Spatial>(
             cloud,
             positions,
             &mut state,
-            (&mut connectivity, &mut solutions),
+            (&mut connectivity, solutions),
         )
     } else {
         uniform_rows(
@@ -246,7 +250,7 @@ pub fn lme_basis<D: Spatial>(
             cloud,
             positions,
             &mut state,
-            (&mut connectivity, &mut solutions),
+            (&mut connectivity, solutions),
         )
     };
     if let Err((p, message)) = solved {
