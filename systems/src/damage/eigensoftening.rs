@@ -458,11 +458,15 @@ fn write_back(
     (damage, history, opening): (&mut [Damage], &mut [DamageHistory], &mut [CrackOpening]),
 ) -> (usize, usize, f64) {
     let law = &params.law;
+    (damage.par_iter_mut())
+        .zip(history.par_iter_mut())
+        .zip(opening.par_iter_mut())
+        .zip(&updated)
+        .for_each(|(((chi, onset), w), new)| (chi.0, onset.0, w.0) = *new);
+    // The counts and the energy on one thread, in particle order: the sum's rounding is the
+    // same for any thread count.
     let (mut damaged, mut failed, mut dissipated) = (0usize, 0usize, 0.0);
-    for (p, (chi, onset, w)) in updated.into_iter().enumerate() {
-        damage[p].0 = chi;
-        history[p].0 = onset;
-        opening[p].0 = w;
+    for (p, &(chi, _, w)) in updated.iter().enumerate() {
         // The columns count what this rank owns (every particle in one process).
         if !owned.particle(p) {
             continue;
@@ -501,8 +505,7 @@ pub fn eigensoftening<D: Dim>(
     let principal: Vec<f64> = stress.par_iter().map(|s| s.0.largest_principal()).collect();
     // What each particle adds to its neighbours' sums, for the bound of where they can reach
     // f_t (a failed particle adds nothing).
-    let contributed: Vec<f64> = principal
-        .iter()
+    let contributed: Vec<f64> = (principal.par_iter())
         .zip(previous)
         .map(|(s, d)| if d.0 < 1.0 { *s } else { 0.0 })
         .collect();

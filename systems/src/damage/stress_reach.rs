@@ -15,6 +15,7 @@
 //! neighbour stage; in between no stock system moves particles (only advection does).
 
 use fractum_engine::prelude::*;
+use rayon::prelude::*;
 
 /// Bins are this much wider than ε, so that rounding in `(x − lo)/side` cannot put two
 /// particles within ε two bins apart.
@@ -34,6 +35,8 @@ pub struct StressReach<D: Dim> {
     /// magnitude.
     bounds: Vec<(f64, f64)>,
     scratch: Vec<(f64, f64)>,
+    /// Each particle's bin, found on the pool's threads before the bounds are gathered.
+    particle_bins: Vec<usize>,
     active: bool,
 }
 
@@ -44,23 +47,29 @@ impl<D: Dim> StressReach<D> {
     /// when there is nothing to bin, the radius is not positive, a value or position is not
     /// finite, or the bins would outnumber the particles by far.
     pub fn refill(&mut self, positions: &[Position<D>], values: &[f64], radius: f64) {
-        self.active = self.bin_layout(positions, radius);
+        self.active =
+            self.bin_layout(positions, radius) && values.par_iter().all(|v| v.is_finite());
         if !self.active {
             return;
         }
         let bins = self.counts.iter().product::<usize>();
         self.bounds.clear();
         self.bounds.resize(bins, (0.0, 0.0));
-        for (x, &value) in positions.iter().zip(values) {
-            if !value.is_finite() {
-                self.active = false;
-                return;
-            }
-            let index = self.bin_of(x.0);
+        // The bins on the pool's threads (a division and a floor per axis: most of the work);
+        // the largest of each bin's values on one, since bins are shared (a max is exact in
+        // any order, so the bounds are the same either way).
+        let mut particle_bins = std::mem::take(&mut self.particle_bins);
+        particle_bins.resize(positions.len(), 0);
+        let this = &*self;
+        (particle_bins.par_iter_mut())
+            .zip(positions)
+            .for_each(|(bin, x)| *bin = this.bin_of(x.0));
+        for (&index, &value) in particle_bins.iter().zip(values) {
             let bin = &mut self.bounds[index];
             bin.0 = bin.0.max(value);
             bin.1 = bin.1.max(value.abs());
         }
+        self.particle_bins = particle_bins;
         for axis in 0..D::N {
             self.dilate_along(axis);
         }
@@ -88,11 +97,11 @@ impl<D: Dim> StressReach<D> {
         if positions.is_empty() || !(radius.is_finite() && radius > 0.0) {
             return false;
         }
-        let (mut lo, mut hi) = (positions[0].0, positions[0].0);
-        for x in positions {
-            lo = lo.min(x.0);
-            hi = hi.max(x.0);
-        }
+        let first = (positions[0].0, positions[0].0);
+        let (lo, hi) = positions
+            .par_iter()
+            .fold(|| first, |(lo, hi), x| (lo.min(x.0), hi.max(x.0)))
+            .reduce(|| first, |a, b| (a.0.min(b.0), a.1.max(b.1)));
         if !(lo.is_finite() && hi.is_finite()) {
             return false;
         }
