@@ -115,12 +115,15 @@ fn install<D: Spatial>(installer: &mut Installer, params: &Params) -> Result<(),
     } else {
         (8 * (d * d + d)) as f64
     };
+    // The buffer each row's solution (λ and `J⁻¹`, or why it failed) is written into, kept
+    // from step to step.
+    let solution = std::mem::size_of::<Result<Solved<D>, String>>() as f64;
     super::declare_support::<D>(
         installer,
         "basis/lme",
         (nodes, reach),
         graded,
-        4.0 * candidates + state + row_map,
+        4.0 * candidates + state + row_map + solution,
     );
     installer.insert_resource(parsed);
     installer.init_row_state::<LmeState<D>>();
