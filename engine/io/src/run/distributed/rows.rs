@@ -58,22 +58,43 @@ pub(super) fn rebuild<D: Dim>(
 /// Every particle the rank holds after the step, sorted by id: (id, block, index), block 0
 /// being what this rank `kept` and block `b + 1` the `b`-th that arrived.
 fn merged_picks(kept: &[Moved], arrived: &[Block]) -> Result<Vec<(u32, u32, u32)>, String> {
-    let kept_ids = kept.iter().map(|r| r.2);
-    let mut picks: Vec<(u32, u32, u32)> = (kept_ids.enumerate())
-        .map(|(i, id)| (id, 0, i as u32))
-        .chain(arrived.iter().enumerate().flat_map(|(b, (ids, _))| {
-            ids.iter()
-                .enumerate()
-                .map(move |(i, &id)| (id, b as u32 + 1, i as u32))
-        }))
+    let kept_ids: Vec<u32> = kept.iter().map(|r| r.2).collect();
+    let runs: Vec<&[u32]> = std::iter::once(kept_ids.as_slice())
+        .chain(arrived.iter().map(|(ids, _)| ids.as_slice()))
         .collect();
-    // The kept ids ascend (rows are in id order) and so do each block's: the stable sort
-    // merges these runs in linear time where an unstable one sorts them afresh.
-    picks.sort();
+    let picks = merge_ascending_runs(&runs);
     match picks.windows(2).find(|w| w[0].0 == w[1].0) {
         Some(w) => Err(format!("particle {} arrived from two ranks", w[0].0)),
         None => Ok(picks),
     }
+}
+
+/// The ids of `runs` in one ascending sequence, each as (id, run, index in the run), equal ids
+/// in run order. The kept ids ascend (rows are in id order) and so do each block's, so the
+/// runs are merged in one pass, the least head taken each time (a rank has a few runs: its
+/// own and one per peer); a run that does not ascend is sorted with the rest instead.
+fn merge_ascending_runs(runs: &[&[u32]]) -> Vec<(u32, u32, u32)> {
+    let total = runs.iter().map(|r| r.len()).sum();
+    let mut merged = Vec::with_capacity(total);
+    if !runs.iter().all(|run| run.is_sorted()) {
+        for (b, run) in runs.iter().enumerate() {
+            merged.extend((run.iter().enumerate()).map(|(i, &id)| (id, b as u32, i as u32)));
+        }
+        merged.sort();
+        return merged;
+    }
+    let mut heads = vec![0usize; runs.len()];
+    // The first run with the least head: a tie goes to the lower run, as a sort would.
+    let least_head = |heads: &[usize]| {
+        (runs.iter().zip(heads).enumerate())
+            .filter_map(|(b, (run, &h))| run.get(h).map(|&id| (b, id)))
+            .min_by_key(|&(b, id)| (id, b))
+    };
+    while let Some((b, id)) = least_head(&heads) {
+        merged.push((id, b as u32, heads[b] as u32));
+        heads[b] += 1;
+    }
+    merged
 }
 
 /// The rows' new order over `len` rows: new row `n` takes old row `kept_from[n]` where a kept
@@ -119,6 +140,26 @@ mod tests {
         // Growing: two rows kept in place and one moved up past an arrival.
         let grown = complete_permutation(&[Some(0), None, Some(1), Some(2)], 4);
         assert_eq!(grown, vec![0, 3, 1, 2]);
+    }
+
+    /// The merge is the sort of the tagged ids, runs that ascend or not, empty ones too.
+    #[test]
+    fn merged_runs_are_the_sorted_ids() {
+        let cases: [&[&[u32]]; 4] = [
+            &[&[2, 5, 9], &[1, 3], &[], &[4, 10, 11]],
+            &[&[], &[]],
+            &[&[7, 7, 8], &[7]],
+            &[&[5, 1], &[3]],
+        ];
+        for runs in cases {
+            let mut sorted: Vec<(u32, u32, u32)> = (runs.iter().enumerate())
+                .flat_map(|(b, run)| {
+                    (run.iter().enumerate()).map(move |(i, &id)| (id, b as u32, i as u32))
+                })
+                .collect();
+            sorted.sort();
+            assert_eq!(merge_ascending_runs(runs), sorted, "{runs:?}");
+        }
     }
 
     #[test]
