@@ -235,7 +235,7 @@ fn assert_scene_ranks_match_serial<D: Dim>(text: &str, steps: u64) -> (Columns, 
 fn two_disks_colliding_on_one_to_four_ranks_are_the_single_process_bit_for_bit() {
     // 0.4 m/s each over 0.5 s: the disks cross the slab boundaries and meet.
     let (_, nodes) = assert_ranks_match_serial(USL, 500);
-    // A halo of 4 layers on a 20-cell grid: each of 4 ranks holds fewer nodes than the grid.
+    // A halo of 3 layers on a 20-cell grid: each of 4 ranks holds fewer nodes than the grid.
     assert!(nodes.iter().all(|n| n.held < n.grid), "{nodes:?}");
     assert_worlds_rebuilt(&nodes);
 }

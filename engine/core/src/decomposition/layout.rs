@@ -8,8 +8,9 @@
 //! an owned particle's step reads sums the same entries in the same order as the single
 //! process: an owned particle's state is the single process's, bit for bit. The halo is as
 //! deep as the step's chain of particle–grid–particle transfers and particle neighbourhoods
-//! reaches ([`StepReach`], declared by the systems' installers), plus one layer for the motion
-//! of a step and one for the cut between layers. Ghosts near the halo's outer face read nodes
+//! reaches ([`StepReach`], declared by the systems' installers), plus one layer for the
+//! particles a rank may take over after the step ([`StepReach::halo_layers`] says why that is
+//! enough). Ghosts near the halo's outer face read nodes
 //! that miss some of their particles, so what they compute is wrong, and no rank uses it: after
 //! every step each particle's owner sends its state to every rank that holds it
 //! (`fractum_io::run::distributed::redistribute`), which replaces every ghost and moves each particle that crossed into
@@ -48,10 +49,17 @@ impl StepReach {
             + self.neighbourhoods.iter().map(|(_, r)| r).sum::<f64>()
     }
 
-    /// The halo in cell layers of width `h`: the reach, one layer for a step's motion (the
-    /// stable step moves no particle a whole cell) and one for the cut between layers.
+    /// The halo in cell layers at least `h` wide: the reach in layers, and one more.
+    ///
+    /// Every particle an owned particle's step reads lies closer than the reach `R` at the
+    /// start of the step (positions move only at its end), and two points closer than `R`
+    /// along the slabs' axis are at most `⌈R/h⌉` layers apart, wherever they sit in their
+    /// layers: so `⌈R/h⌉` layers make the owned particles exact. A rank also takes over the
+    /// particles that began the step in the layer next to its slab and ended it inside (the
+    /// stable step moves no particle a whole cell), whose steps must be exact as well: one
+    /// layer more.
     pub fn halo_layers(&self, h: f64) -> usize {
-        (self.metres() / h).ceil() as usize + 2
+        (self.metres() / h).ceil() as usize + 1
     }
 }
 
@@ -299,7 +307,14 @@ mod tests {
             neighbourhoods: vec![("pipeline[4]".into(), 0.15)],
         };
         assert!((reach.metres() - 0.55).abs() < 1e-15);
-        // 0.55 / 0.1 = 5.5 layers, six, plus the step's motion and the cut.
-        assert_eq!(reach.halo_layers(0.1), 8);
+        // 0.55 / 0.1 = 5.5 layers, six, plus the layer of the particles a rank takes over.
+        assert_eq!(reach.halo_layers(0.1), 7);
+        // A reach of whole layers needs no layer for the part of one.
+        let two_layers = StepReach {
+            support: Some(0.1),
+            round_trips: 1,
+            neighbourhoods: Vec::new(),
+        };
+        assert_eq!(two_layers.halo_layers(0.1), 3);
     }
 }
