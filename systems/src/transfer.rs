@@ -159,9 +159,10 @@ pub fn advect_particles_with_kicks<D: Dim>(
     update: impl Fn(&mut D::Vector, &mut D::Vector, GridMotion<D::Vector>) + Sync,
 ) {
     let kick_of = |p: usize| {
-        connectivity.row(p).fold(D::Vector::ZERO, |sum, e| {
-            sum + kicks[connectivity.nodes[e] as usize][connectivity.field(e)]
-                * connectivity.weights[e]
+        let (row, c) = (connectivity.row(p), connectivity);
+        let entries = c.nodes[row.clone()].iter().zip(&c.fields[row.clone()]);
+        (entries.zip(&c.weights[row])).fold(D::Vector::ZERO, |sum, ((&node, &k), &n)| {
+            sum + kicks[node as usize][k as usize] * n
         })
     };
     advect_rows(connectivity, nodes, particles, |p, x, v, mut motion| {
@@ -306,11 +307,16 @@ pub fn interpolate<D: Dim>(
     velocity: &[NodeVelocity<D>],
     p: usize,
 ) -> (D::Vector, D::Vector) {
-    c.row(p)
-        .fold((D::Vector::ZERO, D::Vector::ZERO), |(a, v), e| {
-            let (node, k, n) = (c.nodes[e] as usize, c.field(e), c.weights[e]);
+    let row = c.row(p);
+    // The row's columns as slices, so that the loop indexes no column by entry number.
+    let entries = c.nodes[row.clone()].iter().zip(&c.fields[row.clone()]);
+    entries.zip(&c.weights[row]).fold(
+        (D::Vector::ZERO, D::Vector::ZERO),
+        |(a, v), ((&node, &k), &n)| {
+            let (node, k) = (node as usize, k as usize);
             (a + acceleration[node].0[k] * n, v + velocity[node].0[k] * n)
-        })
+        },
+    )
 }
 
 /// Velocity gradient `L_p = Σ v_I ⊗ ∇N_Ip` of particle row `p` (eq. 7), from the particle's
@@ -320,10 +326,39 @@ pub fn velocity_gradient<D: Dim>(
     node_velocity: &[NodeVelocity<D>],
     p: usize,
 ) -> D::Matrix {
-    c.row_gradients(p)
-        .fold(D::Matrix::ZERO, |l, (e, gradient)| {
-            l + D::Matrix::outer(node_velocity[c.nodes[e] as usize].0[c.field(e)], gradient)
-        })
+    let row = c.row(p);
+    let nodes = &c.nodes[row.clone()];
+    let fields = &c.fields[row.clone()];
+    let add = |l: D::Matrix, (node, field): (u32, u8), gradient: D::Vector| {
+        l + D::Matrix::outer(node_velocity[node as usize].0[field as usize], gradient)
+    };
+    let entries = nodes.iter().copied().zip(fields.iter().copied());
+    // One loop for each source of the gradients (`Connectivity::row_gradients`' two), chosen
+    // once per row: the entries in the same order and the same sums either way.
+    match c
+        .gradients
+        .get(row.clone())
+        .filter(|stored| !stored.is_empty())
+    {
+        Some(stored) => entries
+            .zip(stored)
+            .fold(D::Matrix::ZERO, |l, (entry, &gradient)| {
+                add(l, entry, gradient)
+            }),
+        None if nodes.is_empty() => D::Matrix::ZERO,
+        None => {
+            let map = c.row_maps[p];
+            let positions = nodes.iter().map(|&node| c.node_positions[node as usize]);
+            let gradients = positions
+                .zip(&c.weights[row])
+                .map(|(position, &weight)| map.gradient(position, weight));
+            entries
+                .zip(gradients)
+                .fold(D::Matrix::ZERO, |l, (entry, gradient)| {
+                    add(l, entry, gradient)
+                })
+        }
+    }
 }
 
 /// Marks a pipeline whose transfer leaves each particle's velocity gradient in its
@@ -529,4 +564,86 @@ pub fn add_affine_momentum<D: Dim>(
     let node = c.nodes[e] as usize;
     let offset = grid.node_position(node) - position[p].0;
     sums.momentum[c.field(e)] += affine[p].0 * offset * (c.weights[e] * mass[p].0);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fractum_engine::connectivity::RowMap;
+    use glam::{DMat2, DVec2};
+
+    /// Two particle rows over four nodes, the second row's entries in two fields.
+    fn two_rows() -> Connectivity<Two> {
+        Connectivity {
+            row_offsets: vec![0, 3, 6],
+            nodes: vec![0, 1, 3, 1, 2, 3],
+            weights: vec![0.5, 0.3, 0.2, 0.25, 0.25, 0.5],
+            fields: vec![0, 0, 0, 1, 0, 1],
+            node_positions: (0..4)
+                .map(|i| DVec2::new(i as f64, 0.5 * i as f64))
+                .collect(),
+            ..Default::default()
+        }
+    }
+
+    fn nodes() -> (Vec<NodeVelocity<Two>>, Vec<NodeAcceleration<Two>>) {
+        let v = |i: usize, k: usize| DVec2::new(1.0 + i as f64 + 0.1 * k as f64, -2.0 * i as f64);
+        let velocity = (0..4)
+            .map(|i| NodeVelocity(std::array::from_fn(|k| v(i, k))))
+            .collect();
+        let acceleration = (0..4)
+            .map(|i| NodeAcceleration(std::array::from_fn(|k| v(i, 3 - k))))
+            .collect();
+        (velocity, acceleration)
+    }
+
+    /// `Σ v_I ⊗ ∇N_I` and `Σ N v_I` in entry order, as the connectivity's own readers give them.
+    fn by_entries(c: &Connectivity<Two>, velocity: &[NodeVelocity<Two>], p: usize) -> DMat2 {
+        c.row_gradients(p).fold(DMat2::ZERO, |l, (e, gradient)| {
+            l + DMat2::outer(velocity[c.nodes[e] as usize].0[c.field(e)], gradient)
+        })
+    }
+
+    /// The velocity gradient and the interpolation read each entry's own field, with the
+    /// gradients stored or from the row's map, and sum the entries in row order.
+    #[test]
+    fn the_transfers_sum_each_entrys_field_in_row_order() {
+        let (velocity, acceleration) = nodes();
+        let mut stored = two_rows();
+        stored.gradients = (0..6)
+            .map(|e| DVec2::new(0.1 * e as f64, 1.0 - e as f64))
+            .collect();
+        let mut mapped = two_rows();
+        mapped.row_maps = vec![
+            RowMap {
+                matrix: DMat2::from_cols_array(&[2.0, 0.5, 0.5, 3.0]),
+                point: DVec2::new(0.4, 0.3),
+            },
+            RowMap {
+                matrix: DMat2::from_cols_array(&[1.5, -0.2, -0.2, 1.0]),
+                point: DVec2::new(1.6, 0.9),
+            },
+        ];
+        for c in [&stored, &mapped] {
+            for p in 0..2 {
+                let l = velocity_gradient(c, &velocity, p);
+                assert_eq!(l, by_entries(c, &velocity, p));
+                let (a, v) = interpolate(c, &acceleration, &velocity, p);
+                let (mut a_sum, mut v_sum) = (DVec2::ZERO, DVec2::ZERO);
+                for e in c.row(p) {
+                    let (node, k) = (c.nodes[e] as usize, c.field(e));
+                    a_sum += acceleration[node].0[k] * c.weights[e];
+                    v_sum += velocity[node].0[k] * c.weights[e];
+                }
+                assert_eq!((a, v), (a_sum, v_sum));
+            }
+        }
+        // Row 1 reads field 1 at nodes 1 and 3: the gradient differs from field 0's.
+        let mut one_field = stored.clone();
+        one_field.fields = vec![0; 6];
+        assert_ne!(
+            velocity_gradient(&stored, &velocity, 1),
+            velocity_gradient(&one_field, &velocity, 1)
+        );
+    }
 }
