@@ -31,7 +31,7 @@
 //! - Weights and gradients are computed once per particle per step into the connectivity
 //!   tables, which every transfer of the step reads.
 
-use super::tensor::{AxisFactors, MAX_AXIS_NODES, write_tensor_row};
+use super::tensor::{AxisFactors, AxisRun, MAX_AXIS_NODES, write_box_row, write_tensor_row};
 use fractum_engine::prelude::*;
 use serde::Deserialize;
 
@@ -68,6 +68,12 @@ impl BsplineParams {
     /// How far the support reaches from a node, in cells: `(order + 1) / 2`.
     pub fn reach(&self) -> f64 {
         f64::from(self.order + 1) / 2.0
+    }
+
+    /// Lattice nodes along an axis that may lie within reach of a point: `2 × reach + 1`,
+    /// `order + 2`.
+    pub fn candidates(&self) -> usize {
+        self.order as usize + 2
     }
 
     /// The spline's name in messages.
@@ -158,7 +164,7 @@ pub fn spline_axes<D: Dim>(grid: &Grid<D>, x: D::Vector, params: &BsplineParams)
     let h = grid.spacing;
     let reach = params.reach();
     let lattice = grid.nodes_per_axis();
-    let candidates = (2.0 * reach).ceil() as usize + 1;
+    let candidates = params.candidates();
     let mut factors = AxisFactors::empty();
     for a in 0..D::N {
         let s = (x[a] - grid.min[a]) / h;
@@ -166,7 +172,7 @@ pub fn spline_axes<D: Dim>(grid: &Grid<D>, x: D::Vector, params: &BsplineParams)
         if !(0.0..=last as f64).contains(&s) {
             return AxisFactors::empty();
         }
-        let low = (s - reach).ceil() as isize;
+        let low = ceil_index(s - reach);
         let interior = low >= 0 && low + candidates as isize - 1 <= last;
         for node in (low..).take(candidates) {
             let r = x[a] - (grid.min[a] + node as f64 * h);
@@ -187,6 +193,58 @@ pub fn spline_axes<D: Dim>(grid: &Grid<D>, x: D::Vector, params: &BsplineParams)
     factors
 }
 
+/// The runs of the row of a particle at `x` whose splines all lie on the grid's nodes (none
+/// to fold: [`fold_ghost`]), the nodes and values [`spline_axes`] gives it, evaluated the same
+/// way; `None` for a particle by the grid's faces or outside the grid, which
+/// [`spline_axes`] handles. Most particles of a scene are interior: their rows then skip the
+/// folding's merges and go to [`write_box_row`].
+///
+/// The runs are written into `runs` (the axes past the dimension left as they are, which
+/// should be [`AxisRun::UNIT`]) rather than returned: this is on the path of every particle of
+/// every step.
+pub fn interior_runs<D: Dim>(
+    grid: &Grid<D>,
+    x: D::Vector,
+    params: &BsplineParams,
+    runs: &mut [AxisRun; 3],
+) -> bool {
+    let h = grid.spacing;
+    let reach = params.reach();
+    let lattice = grid.nodes_per_axis();
+    let candidates = params.candidates();
+    for (a, run) in runs.iter_mut().enumerate().take(D::N) {
+        let s = (x[a] - grid.min[a]) / h;
+        let last = lattice[a] as isize - 1;
+        let low = ceil_index(s - reach);
+        if !(0.0..=last as f64).contains(&s) || low < 0 || low + candidates as isize - 1 > last {
+            return false;
+        }
+        run.count = 0;
+        // The positive splines are consecutive: |ξ| falls, then rises, along the candidates.
+        for node in (low..).take(candidates) {
+            let r = x[a] - (grid.min[a] + node as f64 * h);
+            let (weight, slope) = spline_1d(params.order, r, h);
+            if weight > 0.0 && !run.push(node as usize, weight, slope) {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+/// `value.ceil() as isize`, without the call to `ceil` that the baseline x86-64 target makes
+/// of it (no rounding instruction): the truncation, one up where it fell below `value`. The
+/// same for every `f64`: NaN gives 0 and the casts saturate as `as` does.
+#[inline]
+pub fn ceil_index(value: f64) -> isize {
+    let truncated = value as isize;
+    if (truncated as f64) < value {
+        truncated.saturating_add(1)
+    } else {
+        truncated
+    }
+}
+
 /// The width of the row [`spline_axes`] gives a particle at `x`, found without evaluating a
 /// spline: the first pass of the connectivity's fill, which only sizes the rows, so that each
 /// particle's splines are evaluated once per step, in the second. A node counts where its
@@ -198,7 +256,7 @@ pub fn spline_width<D: Dim>(grid: &Grid<D>, x: D::Vector, params: &BsplineParams
     let h = grid.spacing;
     let reach = params.reach();
     let lattice = grid.nodes_per_axis();
-    let candidates = (2.0 * reach).ceil() as usize + 1;
+    let candidates = params.candidates();
     let mut width = 1;
     for a in 0..D::N {
         let s = (x[a] - grid.min[a]) / h;
@@ -206,12 +264,18 @@ pub fn spline_width<D: Dim>(grid: &Grid<D>, x: D::Vector, params: &BsplineParams
         if !(0.0..=last as f64).contains(&s) {
             return 0;
         }
-        let low = (s - reach).ceil() as isize;
+        let low = ceil_index(s - reach);
+        let interior = low >= 0 && low + candidates as isize - 1 <= last;
         let mut targets = [0usize; MAX_AXIS_NODES];
         let mut count = 0;
         for node in (low..).take(candidates) {
             let r = x[a] - (grid.min[a] + node as f64 * h);
             if (r / h).abs() >= reach {
+                continue;
+            }
+            if interior {
+                // Distinct nodes, none folded ([`AxisFactors::push`] in `spline_axes`).
+                count = (count + 1).min(MAX_AXIS_NODES);
                 continue;
             }
             for (target, _) in fold_ghost(node, last) {
@@ -265,8 +329,17 @@ pub fn bspline_basis<D: Dim>(
         |p| spline_width(grid, positions[p].0, params),
         || (),
         |_, p, nodes, weights, gradients| {
-            let axes = spline_axes(grid, positions[p].0, params);
-            write_tensor_row(grid, &axes, (nodes, weights, gradients));
+            let x = positions[p].0;
+            let mut runs = [AxisRun::UNIT; 3];
+            if !(interior_runs(grid, x, params, &mut runs)
+                && write_box_row(grid, &runs, (nodes, weights, gradients)))
+            {
+                write_tensor_row(
+                    grid,
+                    &spline_axes(grid, x, params),
+                    (nodes, weights, gradients),
+                );
+            }
         },
     );
 }
@@ -395,6 +468,108 @@ mod tests {
             graded: None,
             window: None,
         });
+    }
+
+    /// The rows of interior particles, written from their runs, are the general path's rows to
+    /// the bit (nodes, weights and every gradient component), for both orders, in 2D and 3D,
+    /// on a whole grid and on a rank's window of it; on positions swept across the grid, its
+    /// half and whole cells (where a run has one node fewer) and its faces (no runs there).
+    #[test]
+    fn interior_rows_are_the_general_rows_to_the_bit() {
+        // Positions `cells.0` to `cells.1` cells from the grid's corner along each axis.
+        fn sweep<D: Dim>(grid: &Grid<D>, cells: (f64, f64)) -> (usize, usize) {
+            let (mut interior, mut folded) = (0, 0);
+            let span = cells.1 - cells.0;
+            for order in [2, 3] {
+                let params = BsplineParams { order };
+                for k in 0..=240 {
+                    let x = D::Vector::from_fn(|a| {
+                        let offset = if a == 0 {
+                            f64::from(k) * span / 240.0
+                        } else {
+                            (f64::from(k) * 0.618_034 * (a + 1) as f64).fract() * span
+                        };
+                        grid.min[a] + (cells.0 + offset) * grid.spacing
+                    });
+                    let expected = tensor_row(grid, &spline_axes(grid, x, &params));
+                    let mut runs = [AxisRun::UNIT; 3];
+                    if !interior_runs(grid, x, &params, &mut runs) {
+                        folded += 1;
+                        continue;
+                    }
+                    let width = expected.len();
+                    let (mut nodes, mut weights) = (vec![0; width], vec![0.0; width]);
+                    let mut gradients = vec![D::Vector::ZERO; width];
+                    let row = (&mut nodes[..], &mut weights[..], &mut gradients[..]);
+                    assert!(write_box_row(grid, &runs, row), "{x:?}");
+                    for (k, &(node, weight, gradient)) in expected.iter().enumerate() {
+                        assert_eq!(nodes[k], node, "order {order} at {x:?}");
+                        assert_eq!(weights[k].to_bits(), weight.to_bits(), "{x:?}");
+                        for a in 0..D::N {
+                            assert_eq!(gradients[k][a].to_bits(), gradient[a].to_bits());
+                        }
+                    }
+                    interior += 1;
+                }
+            }
+            (interior, folded)
+        }
+        let plane = Grid::<Two> {
+            min: DVec2::new(-1.0, 2.0),
+            spacing: 0.25,
+            cells: [12, 12],
+            graded: None,
+            window: None,
+        };
+        // The whole grid, faces included; then a window of nodes 3..11 × 2..12, swept where a
+        // particle's nodes all lie in it (two cells in from its edges).
+        let (interior, folded) = sweep(&plane, (0.0, 12.0));
+        assert!(interior > 100 && folded > 20, "{interior} {folded}");
+        let window = fractum_engine::resources::NodeWindow {
+            first: [3, 2],
+            counts: [9, 11],
+        };
+        let (interior, _) = sweep(&plane.windowed(window), (5.0, 9.0));
+        assert!(interior > 100, "{interior}");
+        let space = Grid::<Three> {
+            min: DVec3::new(0.1, -0.3, 0.0),
+            spacing: 0.1,
+            cells: [7, 7, 7],
+            graded: None,
+            window: None,
+        };
+        let (interior, folded) = sweep(&space, (0.0, 7.0));
+        assert!(interior > 50 && folded > 20, "{interior} {folded}");
+    }
+
+    /// The rounding up without `ceil` is `ceil` cast, for every kind of value.
+    #[test]
+    fn ceil_index_is_ceil_cast() {
+        let mut values = vec![
+            0.0,
+            -0.0,
+            0.3,
+            -0.3,
+            -0.5,
+            1.0,
+            -1.0,
+            2.0 + f64::EPSILON * 2.0,
+            2.0 - f64::EPSILON,
+            -1.5,
+            4.5e15 + 0.5,
+            9.223_372_036_854_775e18,
+            1e300,
+            -1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+        ];
+        values.extend((-40..40).map(|k| f64::from(k) * 0.173));
+        for value in values {
+            assert_eq!(ceil_index(value), value.ceil() as isize, "{value}");
+        }
     }
 
     /// On the face the edge node's weight is one (a held face holds there); inside, the folded

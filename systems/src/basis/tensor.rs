@@ -135,6 +135,91 @@ pub fn write_tensor_row<D: Dim>(
     }
 }
 
+/// One axis of a row whose nodes along it are consecutive lattice indices (no node folded
+/// onto another): the first node, how many, and each one's weight `S` and slope `dS/dr`.
+/// An axis a dimension lacks is one node of weight 1 and slope 0 ([`AxisRun::UNIT`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AxisRun {
+    /// Lattice index of the first node.
+    pub first: usize,
+    /// Nodes in the run, at most [`MAX_AXIS_NODES`].
+    pub count: usize,
+    /// Each node's weight.
+    pub weight: [f64; MAX_AXIS_NODES],
+    /// Each node's slope.
+    pub slope: [f64; MAX_AXIS_NODES],
+}
+
+impl AxisRun {
+    /// The run of an axis the grid does not have: a factor of one.
+    pub const UNIT: Self = Self {
+        first: 0,
+        count: 1,
+        weight: [1.0; MAX_AXIS_NODES],
+        slope: [0.0; MAX_AXIS_NODES],
+    };
+
+    /// Appends the next node's weight and slope; `false` (nothing added) when the run is full.
+    #[inline]
+    pub fn push(&mut self, node: usize, weight: f64, slope: f64) -> bool {
+        if self.count == MAX_AXIS_NODES {
+            return false;
+        }
+        if self.count == 0 {
+            self.first = node;
+        }
+        self.weight[self.count] = weight;
+        self.slope[self.count] = slope;
+        self.count += 1;
+        true
+    }
+}
+
+/// Writes the tensor product of `runs` (one per axis; [`AxisRun::UNIT`] past the dimension)
+/// into a row of `Π count` entries, the entries, values and order [`write_tensor_row`] gives
+/// for the same factors, to the bit: weights and gradient components are the same products
+/// taken in the same order (a missing axis's factor is an exact 1), and node indices step by
+/// the held lattice's strides from the box's first node. `false`, with nothing written, when
+/// a corner of the box is not among the nodes this world holds (the caller's general path
+/// then reports it).
+pub fn write_box_row<D: Dim>(
+    grid: &Grid<D>,
+    runs: &[AxisRun; 3],
+    (nodes, weights, gradients): (&mut [u32], &mut [f64], &mut [D::Vector]),
+) -> bool {
+    let first = D::Cell::from_fn(|a| runs[a].first);
+    let last = D::Cell::from_fn(|a| runs[a].first + runs[a].count - 1);
+    let (Some(base), Some(_)) = (grid.held_node_index(first), grid.held_node_index(last)) else {
+        return false;
+    };
+    let counts = grid
+        .window
+        .as_ref()
+        .map_or(grid.nodes_per_axis(), |w| w.counts);
+    let stride_y = if D::N > 1 { counts[0] } else { 0 };
+    let stride_z = if D::N > 2 { counts[0] * counts[1] } else { 0 };
+    let [x, y, z] = runs;
+    let mut k = 0;
+    for c in 0..z.count {
+        for b in 0..y.count {
+            let row_base = base + b * stride_y + c * stride_z;
+            let (sy, sz, dy, dz) = (y.weight[b], z.weight[c], y.slope[b], z.slope[c]);
+            for a in 0..x.count {
+                let (sx, dx) = (x.weight[a], x.slope[a]);
+                weights[k] = sx * sy * sz;
+                gradients[k] = D::Vector::from_fn(|axis| match axis {
+                    0 => dx * sy * sz,
+                    1 => sx * dy * sz,
+                    _ => sx * sy * dz,
+                });
+                nodes[k] = (row_base + a) as u32;
+                k += 1;
+            }
+        }
+    }
+    true
+}
+
 /// One particle's connectivity row: `(node, weight, gradient)` per node.
 pub type Row<D> = Vec<(u32, f64, <D as Dim>::Vector)>;
 
