@@ -31,7 +31,9 @@
 //! - Weights and gradients are computed once per particle per step into the connectivity
 //!   tables, which every transfer of the step reads.
 
-use super::tensor::{AxisFactors, AxisRun, MAX_AXIS_NODES, write_box_row, write_tensor_row};
+use super::tensor::{
+    AxisFactors, AxisRun, MAX_AXIS_NODES, ceil_index, write_box_row, write_tensor_row,
+};
 use fractum_engine::prelude::*;
 use serde::Deserialize;
 
@@ -230,19 +232,6 @@ pub fn interior_runs<D: Dim>(
         }
     }
     true
-}
-
-/// `value.ceil() as isize`, without the call to `ceil` that the baseline x86-64 target makes
-/// of it (no rounding instruction): the truncation, one up where it fell below `value`. The
-/// same for every `f64`: NaN gives 0 and the casts saturate as `as` does.
-#[inline]
-pub fn ceil_index(value: f64) -> isize {
-    let truncated = value as isize;
-    if (truncated as f64) < value {
-        truncated.saturating_add(1)
-    } else {
-        truncated
-    }
 }
 
 /// The width of the row [`spline_axes`] gives a particle at `x`, found without evaluating a

@@ -24,7 +24,10 @@
 //!   `Σ ∇S̄ = 0`, `Σ x_I ⊗ ∇S̄_I = I`). A particle whose support would reach past the grid stops
 //!   the run with a message naming it.
 
-use super::tensor::{AxisFactors, Row, axis_factors, tensor_row, write_tensor_row};
+use super::tensor::{
+    AxisFactors, AxisRun, Row, axis_factors, axis_runs, runs_width, tensor_row, write_box_row,
+    write_tensor_row,
+};
 use fractum_engine::health::{Blowup, Health, fmt_vector};
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
@@ -94,6 +97,18 @@ pub fn gimp_axes<D: Dim>(grid: &Grid<D>, x: D::Vector, l: f64) -> Result<AxisFac
     axis_factors(grid, x, 1.0 + l / h, |r| gimp_1d(r, h, l))
 }
 
+/// [`gimp_axes`] as runs of consecutive nodes written into `runs` ([`axis_runs`]): the rows
+/// the system writes, without the general path's merges.
+pub fn gimp_runs<D: Dim>(
+    grid: &Grid<D>,
+    x: D::Vector,
+    l: f64,
+    runs: &mut [AxisRun; 3],
+) -> Result<(), usize> {
+    let h = grid.spacing;
+    axis_runs(grid, x, 1.0 + l / h, |r| gimp_1d(r, h, l), runs)
+}
+
 /// The `basis/gimp` system: rebuilds the connectivity for the current positions.
 pub fn gimp_basis<D: Dim>(
     clock: Res<SimClock>,
@@ -107,23 +122,33 @@ pub fn gimp_basis<D: Dim>(
         single_table(particles.contiguous_iter(), "particles").unwrap_or((&[], &[], &[]));
     let grid = &*grid;
     let t = thickness.map_or(1.0, |t| t.0);
-    let axes = |p: usize| {
+    let runs = |p: usize, runs: &mut [AxisRun; 3]| {
         let l = half_width(volumes[p].0, t, D::N, grid.spacing);
-        gimp_axes(grid, positions[p].0, l)
+        gimp_runs(grid, positions[p].0, l, runs)
     };
     // The rows go straight into the connectivity tables (a failed particle gets none, and
     // its row's value is the axis its domain crosses the grid's edge along).
     let crossed: Vec<Option<usize>> = connectivity.fill_rows(
         positions.len(),
         grid.node_count(),
-        |p| axes(p).map_or(0, |a| a.width(D::N)),
+        |p| {
+            let mut axes = [AxisRun::UNIT; 3];
+            runs(p, &mut axes).map_or(0, |()| runs_width(&axes))
+        },
         || (),
-        |_, p, nodes, weights, gradients| match axes(p) {
-            Ok(axes) => {
-                write_tensor_row(grid, &axes, (nodes, weights, gradients));
-                None
+        |_, p, nodes, weights, gradients| {
+            let mut axes = [AxisRun::UNIT; 3];
+            match runs(p, &mut axes) {
+                Ok(()) if write_box_row(grid, &axes, (nodes, weights, gradients)) => None,
+                // A node this world does not hold: the general path names it.
+                Ok(()) => {
+                    let l = half_width(volumes[p].0, t, D::N, grid.spacing);
+                    let factors = gimp_axes(grid, positions[p].0, l).ok()?;
+                    write_tensor_row(grid, &factors, (nodes, weights, gradients));
+                    None
+                }
+                Err(axis) => Some(axis),
             }
-            Err(axis) => Some(axis),
         },
     );
     // The first failed particle, searched on the pool's threads like the rows were filled.
@@ -180,6 +205,74 @@ mod tests {
         };
         check_consistency(&grid, DVec3::new(0.05, 2.95, 0.98), l, 27);
         check_consistency(&grid, DVec3::new(0.25, 3.25, 0.75), l, 8);
+    }
+
+    /// The rows the system writes from runs are the general path's rows to the bit, and fail
+    /// along the same axis, on positions swept across a grid (half and whole cells, where a
+    /// row has two or three nodes per axis, and past the faces), for two particle sizes, in
+    /// 2D and 3D, on a whole grid and on a rank's window of it.
+    #[test]
+    fn rows_from_runs_are_the_general_rows_to_the_bit() {
+        fn sweep<D: Dim>(grid: &Grid<D>, cells: (f64, f64)) -> usize {
+            let mut compared = 0;
+            for l in [0.25 * grid.spacing, 0.5 * grid.spacing] {
+                for k in 0..=160 {
+                    let x = D::Vector::from_fn(|a| {
+                        let t = if a == 0 {
+                            f64::from(k) / 160.0
+                        } else {
+                            (f64::from(k) * 0.618_034 * (a + 1) as f64).fract()
+                        };
+                        grid.min[a] + (cells.0 + t * (cells.1 - cells.0)) * grid.spacing
+                    });
+                    let mut runs = [AxisRun::UNIT; 3];
+                    let general = gimp_row(grid, x, l);
+                    match gimp_runs(grid, x, l, &mut runs) {
+                        Err(axis) => assert_eq!(general, Err(axis)),
+                        Ok(()) => {
+                            let expected = general.unwrap();
+                            let width = runs_width(&runs);
+                            assert_eq!(width, expected.len());
+                            let mut nodes = vec![0; width];
+                            let mut weights = vec![0.0; width];
+                            let mut gradients = vec![D::Vector::ZERO; width];
+                            let row = (&mut nodes[..], &mut weights[..], &mut gradients[..]);
+                            assert!(write_box_row(grid, &runs, row));
+                            for (k, &(node, weight, gradient)) in expected.iter().enumerate() {
+                                assert_eq!(nodes[k], node, "{x:?}");
+                                assert_eq!(weights[k].to_bits(), weight.to_bits(), "{x:?}");
+                                for a in 0..D::N {
+                                    assert_eq!(gradients[k][a].to_bits(), gradient[a].to_bits());
+                                }
+                            }
+                            compared += 1;
+                        }
+                    }
+                }
+            }
+            compared
+        }
+        let plane = Grid::<Two> {
+            min: DVec2::new(-1.0, 2.0),
+            spacing: 0.5,
+            cells: [8, 8],
+            graded: None,
+            window: None,
+        };
+        assert!(sweep(&plane, (-0.5, 8.5)) > 200);
+        let window = fractum_engine::resources::NodeWindow {
+            first: [2, 1],
+            counts: [6, 7],
+        };
+        assert!(sweep(&plane.windowed(window), (3.0, 6.0)) > 200);
+        let space = Grid::<Three> {
+            min: DVec3::new(0.1, -0.3, 0.0),
+            spacing: 0.1,
+            cells: [5, 5, 5],
+            graded: None,
+            window: None,
+        };
+        assert!(sweep(&space, (-0.5, 5.5)) > 100);
     }
 
     /// Inside a cell, away from its faces, the weights are the tents'; across the support's edge

@@ -76,10 +76,10 @@ pub fn axis_factors<D: Dim>(
     let h = grid.spacing;
     let nodes = grid.nodes_per_axis();
     let mut factors = AxisFactors::empty();
-    let candidates = (2.0 * reach).ceil() as usize + 1;
+    let candidates = ceil_index(2.0 * reach) as usize + 1;
     for a in 0..D::N {
         let s = (x[a] - grid.min[a]) / h;
-        let low = (s - reach).ceil() as isize;
+        let low = ceil_index(s - reach);
         for k in 0..candidates {
             let node = low + k as isize;
             let r = x[a] - (grid.min[a] + node as f64 * h);
@@ -97,6 +97,61 @@ pub fn axis_factors<D: Dim>(
         }
     }
     Ok(factors)
+}
+
+/// `value.ceil() as isize`, without the call to `ceil` that the baseline x86-64 target makes
+/// of it (no rounding instruction): the truncation, one up where it fell below `value`. The
+/// same for every `f64`: NaN gives 0 and the casts saturate as `as` does.
+#[inline]
+pub fn ceil_index(value: f64) -> isize {
+    let truncated = value as isize;
+    if (truncated as f64) < value {
+        truncated.saturating_add(1)
+    } else {
+        truncated
+    }
+}
+
+/// [`axis_factors`] as runs of consecutive nodes, one per axis ([`AxisRun::UNIT`] past the
+/// dimension), written into `runs`: the same nodes and values, found the same way (a
+/// positive `shape` holds on one interval of nodes, so the nodes it keeps are consecutive).
+/// `Err` with the first axis along which the support leaves the grid; an axis with no node
+/// ends the search, as there (the row is then empty).
+pub fn axis_runs<D: Dim>(
+    grid: &Grid<D>,
+    x: D::Vector,
+    reach: f64,
+    shape: impl Fn(f64) -> (f64, f64),
+    runs: &mut [AxisRun; 3],
+) -> Result<(), usize> {
+    let h = grid.spacing;
+    let nodes = grid.nodes_per_axis();
+    let candidates = ceil_index(2.0 * reach) as usize + 1;
+    for (a, run) in runs.iter_mut().enumerate().take(D::N) {
+        let s = (x[a] - grid.min[a]) / h;
+        let low = ceil_index(s - reach);
+        run.count = 0;
+        for k in 0..candidates {
+            let node = low + k as isize;
+            let r = x[a] - (grid.min[a] + node as f64 * h);
+            let (weight, slope) = shape(r);
+            if weight > 0.0 && run.count < MAX_AXIS_NODES {
+                if node < 0 || node as usize >= nodes[a] {
+                    return Err(a);
+                }
+                run.push(node as usize, weight, slope);
+            }
+        }
+        if run.count == 0 {
+            break;
+        }
+    }
+    Ok(())
+}
+
+/// The entries of the row of `runs`: the product of their counts.
+pub fn runs_width(runs: &[AxisRun; 3]) -> usize {
+    runs.iter().map(|run| run.count).product()
 }
 
 /// Writes the tensor product of `factors` (first axis fastest, lattice order) into a row of
@@ -187,6 +242,9 @@ pub fn write_box_row<D: Dim>(
     runs: &[AxisRun; 3],
     (nodes, weights, gradients): (&mut [u32], &mut [f64], &mut [D::Vector]),
 ) -> bool {
+    if runs.iter().any(|run| run.count == 0) {
+        return true;
+    }
     let first = D::Cell::from_fn(|a| runs[a].first);
     let last = D::Cell::from_fn(|a| runs[a].first + runs[a].count - 1);
     let (Some(base), Some(_)) = (grid.held_node_index(first), grid.held_node_index(last)) else {
