@@ -90,41 +90,107 @@ impl<C: serde::Serialize> serde::Serialize for PresentRows<'_, C> {
     }
 }
 
-/// [`pick_component`] into the particles' one table: `arrivals` are the rows to fill, each
-/// with its pick (every other row keeps its value, [`KEEP_ROW`]), among `count` rows; `None`
-/// when the particles are not all in one table with `C`.
+/// A block's particle that no row picks ([`BlockRows`]).
+pub(super) const NOT_PICKED: usize = usize::MAX;
+
+/// Where each block's particles go: per block, per particle of the block, the row it fills
+/// ([`NOT_PICKED`] for none). Found once from the picks, for every column.
+pub(super) type BlockRows = [Vec<usize>];
+
+/// [`pick_component`] into the particles' one table: `block_rows` says the row each block's
+/// particle fills (every other row keeps its value, [`KEEP_ROW`]), among `count` rows; `None`
+/// when the particles are not all in one table with `C`. Each block's values are decoded
+/// straight into their rows, with no vector of decoded values between (a rank picks its
+/// ghosts' columns every step).
 pub(super) fn pick_column<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
     world: &mut World,
     sources: &[&[u8]],
-    (arrivals, count): (&[(usize, u32, u32)], usize),
+    (block_rows, count): (&BlockRows, usize),
 ) -> Option<Result<(), CheckpointError>> {
-    let name = C::KEY;
     let mut query = world.query_filtered::<&mut C, With<Particle>>();
     let mut tables = query.contiguous_iter_mut(world).ok()?;
     let column = tables.next()?.untracked();
     if tables.next().is_some() || column.len() != count {
         return None;
     }
-    let decoded: Result<Vec<Vec<Option<C>>>, _> = sources
-        .iter()
-        .map(|bytes| postcard::from_bytes(bytes).map_err(codec(name)))
-        .collect();
-    let mut decoded = match decoded {
-        Ok(decoded) => decoded,
-        Err(e) => return Some(Err(e)),
-    };
-    for &(row, block, index) in arrivals {
-        let value = picked(&mut decoded, block, index).and_then(Option::take);
-        match (column.get_mut(row), value) {
-            (Some(slot), Some(value)) => *slot = value,
-            _ => {
-                return Some(Err(CheckpointError::Mismatch(format!(
-                    "{name}: particle {index} of block {block} was not sent with it"
-                ))));
-            }
+    for (block, bytes) in sources.iter().enumerate() {
+        let rows = block_rows.get(block).map_or(&[][..], Vec::as_slice);
+        let mut mismatch = None;
+        let seed = IntoRows {
+            column: &mut *column,
+            rows,
+            block,
+            mismatch: &mut mismatch,
+        };
+        let decoded = serde::de::DeserializeSeed::deserialize(
+            seed,
+            &mut postcard::Deserializer::from_bytes(bytes),
+        );
+        if let Some(mismatch) = mismatch {
+            return Some(Err(mismatch));
+        }
+        if let Err(e) = decoded {
+            return Some(Err(codec(C::KEY)(e)));
         }
     }
     Some(Ok(()))
+}
+
+/// Decodes one block's `Vec<Option<C>>` (as [`save_column`] encodes it) into `column`: the
+/// `i`-th value into row `rows[i]`, or dropped where no row picks it. A picked value that was
+/// not sent (absent, or past the block's end) is a mismatch, kept in `mismatch`.
+struct IntoRows<'a, C> {
+    column: &'a mut [C],
+    rows: &'a [usize],
+    block: usize,
+    mismatch: &'a mut Option<CheckpointError>,
+}
+
+impl<C: State> IntoRows<'_, C> {
+    fn not_sent(&mut self, index: usize) {
+        *self.mismatch = Some(CheckpointError::Mismatch(format!(
+            "{}: particle {index} of block {} was not sent with it",
+            C::KEY,
+            self.block
+        )));
+    }
+}
+
+impl<'de, C: State> serde::de::DeserializeSeed<'de> for IntoRows<'_, C> {
+    type Value = ();
+
+    fn deserialize<De: serde::Deserializer<'de>>(self, deserializer: De) -> Result<(), De::Error> {
+        deserializer.deserialize_seq(self)
+    }
+}
+
+impl<'de, C: State> serde::de::Visitor<'de> for IntoRows<'_, C> {
+    type Value = ();
+
+    fn expecting(&self, formatter: &mut std::fmt::Formatter) -> std::fmt::Result {
+        write!(formatter, "a sequence of {} values", C::KEY)
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(mut self, mut seq: A) -> Result<(), A::Error> {
+        let mut index = 0;
+        while let Some(value) = seq.next_element::<Option<C>>()? {
+            let row = self.rows.get(index).copied().unwrap_or(NOT_PICKED);
+            match (self.column.get_mut(row), value) {
+                (Some(slot), Some(value)) => *slot = value,
+                (Some(_), None) => {
+                    self.not_sent(index);
+                    return Err(serde::de::Error::custom("a picked value was not sent"));
+                }
+                (None, _) => {}
+            }
+            index += 1;
+        }
+        let rows = self.rows.get(index..).unwrap_or(&[]);
+        if let Some(missing) = rows.iter().position(|&row| row != NOT_PICKED) {
+            self.not_sent(index + missing);
+        }
+        Ok(())
+    }
 }
 
 pub(super) fn pick_component<C: Component<Mutability = bevy_ecs::component::Mutable> + State>(
@@ -310,6 +376,43 @@ mod tests {
             none,
             save_component::<Position<Two>>(&mut world, &[]).unwrap()
         );
+    }
+
+    /// Each block's values go straight to the rows that pick them: rows picked from two
+    /// blocks take their values, unpicked values of a block are dropped, every other row keeps
+    /// its own; a picked value past a block's end, or one sent as absent, is a mismatch that
+    /// names the particle and its block.
+    #[test]
+    fn picked_values_are_decoded_into_their_rows() {
+        let mut world = tiny_world::<Two>(4, 1.0, 1e-3);
+        let at = |i: usize| DVec2::new(0.1 + 0.15 * i as f64, 0.5);
+        for i in 0..5 {
+            spawn_particle(&mut world, at(i), DVec2::ZERO, 1.0, 1.0);
+        }
+        let sent = |xs: &[Option<f64>]| {
+            let values: Vec<Option<Position<Two>>> = (xs.iter())
+                .map(|x| x.map(|x| Position(DVec2::new(x, -x))))
+                .collect();
+            postcard::to_allocvec(&values).unwrap()
+        };
+        let (first, second) = (sent(&[Some(7.0), Some(8.0)]), sent(&[Some(9.0), Some(10.0)]));
+        // Row 4 from block 0's second value, rows 1 and 3 from block 1; block 0's first value
+        // picked by none.
+        let rows = [vec![NOT_PICKED, 4], vec![1, 3]];
+        let picked = pick_column::<Position<Two>>(&mut world, &[&first, &second], (&rows, 5));
+        assert!(matches!(picked, Some(Ok(()))));
+        let mut query = world.query::<&Position<Two>>();
+        let xs: Vec<f64> = query.iter(&world).map(|x| x.0.x).collect();
+        assert_eq!(xs, [at(0).x, 9.0, at(2).x, 10.0, 8.0]);
+        let past_the_end = [vec![0, 1, 2]];
+        let picked = pick_column::<Position<Two>>(&mut world, &[&first], (&past_the_end, 5));
+        let message = picked.unwrap().unwrap_err().to_string();
+        assert!(message.contains("particle 2 of block 0 was not sent"), "{message}");
+        let absent = sent(&[Some(1.0), None]);
+        let picked = pick_column::<Position<Two>>(&mut world, &[&absent], (&[vec![0, 1]], 5));
+        let message = picked.unwrap().unwrap_err().to_string();
+        assert!(message.contains("particle 1 of block 0 was not sent"), "{message}");
+        assert!(pick_column::<Position<Two>>(&mut world, &[], (&[], 4)).is_none());
     }
 
     /// Slot `n` takes what slot `from[n]` held, through cycles of every length, with values

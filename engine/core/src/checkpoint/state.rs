@@ -2,8 +2,8 @@
 //! module [`crate::checkpoint`]).
 
 use super::codecs::{
-    load_component, load_resource, permute_column, pick_column, pick_component, pick_rows,
-    save_column, save_component, save_resource, save_rows,
+    BlockRows, NOT_PICKED, load_component, load_resource, permute_column, pick_column,
+    pick_component, pick_rows, save_column, save_component, save_resource, save_rows,
 };
 use super::keys::{CheckpointError, RowState, State};
 use crate::components::{Particle, ParticleId};
@@ -16,7 +16,7 @@ type PickComponent =
     fn(&mut World, &[Entity], &[&[u8]], &[(u32, u32)]) -> Result<(), CheckpointError>;
 type SaveColumn = fn(&mut World, &[usize], usize) -> Option<Result<Vec<u8>, CheckpointError>>;
 type PickColumn =
-    fn(&mut World, &[&[u8]], (&[(usize, u32, u32)], usize)) -> Option<Result<(), CheckpointError>>;
+    fn(&mut World, &[&[u8]], (&BlockRows, usize)) -> Option<Result<(), CheckpointError>>;
 type SaveRows = fn(&World, &[usize]) -> Result<Vec<u8>, CheckpointError>;
 type PickRows =
     fn(&mut World, &[&[u8]], &[(u32, u32)], &[Option<usize>]) -> Result<(), CheckpointError>;
@@ -218,14 +218,10 @@ impl CheckpointState {
                 picks.len()
             )));
         }
-        // The rows that take a value, found once for every column.
-        let arrivals: Vec<(usize, u32, u32)> = (picks.iter().enumerate())
-            .filter(|(_, pick)| **pick != super::KEEP_ROW)
-            .map(|(row, &(block, index))| (row, block, index))
-            .collect();
+        let block_rows = block_rows(blocks.len(), picks)?;
         for (c, entry) in self.components.iter().enumerate() {
             let sources = self.block_parts(blocks, c)?;
-            match (entry.pick_column)(world, &sources, (&arrivals, targets.len())) {
+            match (entry.pick_column)(world, &sources, (&block_rows, targets.len())) {
                 Some(done) => done?,
                 None => (entry.pick)(world, &targets, &sources, picks)?,
             }
@@ -389,6 +385,29 @@ pub struct WorldState {
     pub components: Vec<(String, Vec<u8>)>,
     /// Resource name and its value (absent resources are not listed).
     pub resources: Vec<(String, Vec<u8>)>,
+}
+
+/// The row each particle of each of `blocks` blocks fills, from the rows' `picks` (block,
+/// index; [`KEEP_ROW`](super::KEEP_ROW) for none), found once for every column:
+/// [`NOT_PICKED`] where no row picks it. A pick of a block that was not sent is a mismatch.
+fn block_rows(blocks: usize, picks: &[(u32, u32)]) -> Result<Vec<Vec<usize>>, CheckpointError> {
+    let mut rows = vec![Vec::new(); blocks];
+    for (row, &(block, index)) in picks.iter().enumerate() {
+        if (block, index) == super::KEEP_ROW {
+            continue;
+        }
+        let block_rows = rows.get_mut(block as usize).ok_or_else(|| {
+            CheckpointError::Mismatch(format!(
+                "particle {index} of block {block} was picked, and {blocks} blocks were sent"
+            ))
+        })?;
+        let index = index as usize;
+        if block_rows.len() <= index {
+            block_rows.resize(index + 1, NOT_PICKED);
+        }
+        block_rows[index] = row;
+    }
+    Ok(rows)
 }
 
 fn particles_in_order(world: &mut World) -> (Vec<Entity>, Vec<u32>) {
