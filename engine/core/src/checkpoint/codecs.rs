@@ -395,7 +395,10 @@ mod tests {
                 .collect();
             postcard::to_allocvec(&values).unwrap()
         };
-        let (first, second) = (sent(&[Some(7.0), Some(8.0)]), sent(&[Some(9.0), Some(10.0)]));
+        let (first, second) = (
+            sent(&[Some(7.0), Some(8.0)]),
+            sent(&[Some(9.0), Some(10.0)]),
+        );
         // Row 4 from block 0's second value, rows 1 and 3 from block 1; block 0's first value
         // picked by none.
         let rows = [vec![NOT_PICKED, 4], vec![1, 3]];
@@ -407,11 +410,17 @@ mod tests {
         let past_the_end = [vec![0, 1, 2]];
         let picked = pick_column::<Position<Two>>(&mut world, &[&first], (&past_the_end, 5));
         let message = picked.unwrap().unwrap_err().to_string();
-        assert!(message.contains("particle 2 of block 0 was not sent"), "{message}");
+        assert!(
+            message.contains("particle 2 of block 0 was not sent"),
+            "{message}"
+        );
         let absent = sent(&[Some(1.0), None]);
         let picked = pick_column::<Position<Two>>(&mut world, &[&absent], (&[vec![0, 1]], 5));
         let message = picked.unwrap().unwrap_err().to_string();
-        assert!(message.contains("particle 1 of block 0 was not sent"), "{message}");
+        assert!(
+            message.contains("particle 1 of block 0 was not sent"),
+            "{message}"
+        );
         assert!(pick_column::<Position<Two>>(&mut world, &[], (&[], 4)).is_none());
     }
 
