@@ -337,7 +337,7 @@ pub fn bspline_basis<D: Dim>(
 mod tests {
     use super::*;
     use crate::basis::tensor::assert_consistent_row;
-    use crate::basis::tensor::tensor_row;
+    use crate::basis::tensor::{assert_box_row_is, tensor_row};
     use fractum_engine::testing::*;
 
     /// `fractum systems` documents the fields its parameters read, and its documented defaults
@@ -486,18 +486,7 @@ mod tests {
                         folded += 1;
                         continue;
                     }
-                    let width = expected.len();
-                    let (mut nodes, mut weights) = (vec![0; width], vec![0.0; width]);
-                    let mut gradients = vec![D::Vector::ZERO; width];
-                    let row = (&mut nodes[..], &mut weights[..], &mut gradients[..]);
-                    assert!(write_box_row(grid, &runs, row), "{x:?}");
-                    for (k, &(node, weight, gradient)) in expected.iter().enumerate() {
-                        assert_eq!(nodes[k], node, "order {order} at {x:?}");
-                        assert_eq!(weights[k].to_bits(), weight.to_bits(), "{x:?}");
-                        for a in 0..D::N {
-                            assert_eq!(gradients[k][a].to_bits(), gradient[a].to_bits());
-                        }
-                    }
+                    assert_box_row_is(grid, &runs, &expected, &(order, x));
                     interior += 1;
                 }
             }

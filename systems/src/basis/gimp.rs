@@ -170,7 +170,7 @@ pub fn gimp_basis<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::basis::tensor::assert_consistent_row;
+    use crate::basis::tensor::{assert_box_row_is, assert_consistent_row};
     use fractum_engine::testing::*;
 
     /// Partition of unity, linear reproduction, Σ∇S̄ = 0 and Σ x_I ⊗ ∇S̄_I = I for a row.
@@ -230,21 +230,7 @@ mod tests {
                     match gimp_runs(grid, x, l, &mut runs) {
                         Err(axis) => assert_eq!(general, Err(axis)),
                         Ok(()) => {
-                            let expected = general.unwrap();
-                            let width = runs_width(&runs);
-                            assert_eq!(width, expected.len());
-                            let mut nodes = vec![0; width];
-                            let mut weights = vec![0.0; width];
-                            let mut gradients = vec![D::Vector::ZERO; width];
-                            let row = (&mut nodes[..], &mut weights[..], &mut gradients[..]);
-                            assert!(write_box_row(grid, &runs, row));
-                            for (k, &(node, weight, gradient)) in expected.iter().enumerate() {
-                                assert_eq!(nodes[k], node, "{x:?}");
-                                assert_eq!(weights[k].to_bits(), weight.to_bits(), "{x:?}");
-                                for a in 0..D::N {
-                                    assert_eq!(gradients[k][a].to_bits(), gradient[a].to_bits());
-                                }
-                            }
+                            assert_box_row_is(grid, &runs, &general.unwrap(), &(l, x));
                             compared += 1;
                         }
                     }

@@ -296,6 +296,30 @@ pub fn tensor_row<D: Dim>(grid: &Grid<D>, factors: &AxisFactors) -> Row<D> {
         .collect()
 }
 
+/// Test check that the row `write_box_row` writes from `runs` is `expected` to the bit: nodes,
+/// weights and every gradient component (`at` names the particle in a failure).
+#[cfg(test)]
+pub fn assert_box_row_is<D: Dim>(
+    grid: &Grid<D>,
+    runs: &[AxisRun; 3],
+    expected: &Row<D>,
+    at: &dyn std::fmt::Debug,
+) {
+    let width = expected.len();
+    assert_eq!(runs_width(runs), width, "{at:?}");
+    let (mut nodes, mut weights) = (vec![0; width], vec![0.0; width]);
+    let mut gradients = vec![D::Vector::ZERO; width];
+    let row = (&mut nodes[..], &mut weights[..], &mut gradients[..]);
+    assert!(write_box_row(grid, runs, row), "{at:?}");
+    for (k, &(node, weight, gradient)) in expected.iter().enumerate() {
+        assert_eq!(nodes[k], node, "{at:?}");
+        assert_eq!(weights[k].to_bits(), weight.to_bits(), "{at:?}");
+        for a in 0..D::N {
+            assert_eq!(gradients[k][a].to_bits(), gradient[a].to_bits(), "{at:?}");
+        }
+    }
+}
+
 /// Test check of a row at `x`: partition of unity, linear reproduction (to `reproduction`),
 /// `Σ ∇N = 0`, `Σ x_I ⊗ ∇N_I = I`, and no weight negative (a row may keep a node whose weight
 /// is zero at `x` for its gradient, as a boundary-folded spline's on the grid's face).
