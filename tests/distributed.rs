@@ -266,12 +266,13 @@ fn newmark_with_b_splines_on_one_to_four_ranks_is_the_single_process_bit_for_bit
 #[test]
 fn lme_with_neighbour_lists_on_one_to_four_ranks_is_the_single_process_bit_for_bit() {
     // LME's Newton warm starts go with their particles; its and the kd-tree's cached lists are
-    // rebuilt on every rank after each step.
+    // rebuilt on every rank after each step. 250 steps: on two ranks the slabs meet half way
+    // between the disks, which the disks' leading particles cross after 160 steps.
     let lme = r#"(system: "neighbour/kdtree", params: (c_epsilon: 2.0)),
         (system: "basis/lme", params: (gamma: 1.8)), (system: "predictor/newmark"),
         (system: "stress/linear_elastic"), (system: "corrector/newmark"),
         (system: "advection/newmark")"#;
-    assert_ranks_match_serial(lme, 150);
+    assert_ranks_match_serial(lme, 250);
 }
 
 #[test]

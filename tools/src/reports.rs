@@ -544,9 +544,10 @@ fn slabs_report(ranks: &fractum_scene::RankSlabs, out: &mut String) {
     let _ = writeln!(
         out,
         "ranks      {} slabs along {axis}, cut at cell faces; imbalance {:.1}% (the most \
-         loaded rank over the mean)",
+         loaded rank over the mean, a node counted as {} of a particle)",
         slabs.layers.len(),
-        100.0 * slabs.imbalance()
+        100.0 * slabs.imbalance(),
+        fractum_engine::decomposition::NODE_COST
     );
     let _ = writeln!(
         out,

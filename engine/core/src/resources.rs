@@ -134,6 +134,16 @@ impl<D: Dim> Grid<D> {
         D::Cell::from_fn(|a| self.cells[a] + 1)
     }
 
+    /// The nodes of one layer across `axis`: the product of the other axes' node counts (every
+    /// layer of the grid has as many; a rank holds whole layers).
+    pub fn nodes_per_layer(&self, axis: usize) -> u64 {
+        let all = self.nodes_per_axis();
+        (0..D::N)
+            .filter(|&a| a != axis)
+            .map(|a| all[a] as u64)
+            .product()
+    }
+
     /// The nodes this world holds: the window's, or every node of the grid.
     pub fn node_count(&self) -> usize {
         match &self.window {

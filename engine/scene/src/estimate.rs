@@ -123,8 +123,8 @@ impl<'s, D: Dim> Estimator<'s, D> {
     }
 
     /// The slabs of `ranks` ranks: the seeds counted per cell layer along the axis on which
-    /// they spread furthest, cut by [`decomposition::cut_slabs`]; with each rank's slab
-    /// bounds in metres.
+    /// they spread furthest, cut by [`decomposition::cut_slabs`] with the grid's nodes per
+    /// layer; with each rank's slab bounds in metres.
     pub(crate) fn slabs(&self, seeds: &[Seeds<D>], ranks: usize) -> Result<RankSlabs, SceneError> {
         let mut low = [f64::INFINITY; 3];
         let mut high = [f64::NEG_INFINITY; 3];
@@ -143,7 +143,8 @@ impl<'s, D: Dim> Estimator<'s, D> {
                 per_layer[layer] += 1;
             }
         }
-        let slabs = decomposition::cut_slabs(axis, &per_layer, ranks)
+        let nodes = self.spec.grid.nodes_per_layer(axis);
+        let slabs = decomposition::cut_slabs(axis, &per_layer, nodes, ranks)
             .map_err(|e| self.spec.source.error("grid.spacing", e))?;
         let bounds = slabs
             .layers

@@ -136,7 +136,8 @@ pub struct Ownership {
     /// The particles of the whole run (every rank's owned ones).
     pub total: u64,
     /// Re-cut the slabs after a step when the most loaded rank holds more than this fraction
-    /// over the mean of its own particles (`None`: never). 0.1 unless set.
+    /// over the mean of its own load (particles, and nodes at
+    /// [`super::NODE_COST`]; `None`: never). 0.1 unless set.
     pub rebalance_above: Option<f64>,
     /// How far the most loaded rank was over the mean after the last step.
     pub imbalance: f64,

@@ -1,13 +1,16 @@
 //! How a scene divides over the ranks of a distributed run: one slab of cell layers per rank,
 //! along the axis on which the particles spread furthest, cut at cell faces so that the rank
-//! with the most particles has as few as any such cut allows.
+//! with the most work has as little as any such cut allows.
 //!
-//! The cut is the contiguous partition of the layers' particle counts that minimises its
-//! largest part: the least bound `B` for which filling slabs greedily up to `B` needs no more
-//! slabs than ranks, found by bisection on `B` (the greedy fill is optimal for a given bound).
-//! Slabs rather than recursive bisection because a slab has two neighbours, whatever the rank
-//! count, which keeps a first distributed step's exchanges to two per rank; the imbalance this
-//! reports tells when a scene needs better.
+//! A rank's work is counted as its particles and its nodes, a node at [`NODE_COST`] of a
+//! particle: a rank holds every node of its cell layers, so a slab over empty space (the
+//! region an impactor travels through) costs a step even with no particle in it. The cut is
+//! the contiguous partition of the layers' loads that minimises its largest part: the least
+//! bound `B` for which filling slabs greedily up to `B` needs no more slabs than ranks, found
+//! by bisection on `B` (the greedy fill is optimal for a given bound). Slabs rather than
+//! recursive bisection because a slab has two neighbours, whatever the rank count, which keeps
+//! a first distributed step's exchanges to two per rank; the imbalance this reports tells when
+//! a scene needs better.
 
 mod layout;
 mod owned;
@@ -97,6 +100,27 @@ pub fn rank_grid<D: crate::dim::Dim>(
 
 use std::ops::Range;
 
+/// What a node costs a step, in particles. Measured with callgrind by adding 50 layers of
+/// empty nodes to three shipped scenes and dividing the instructions a step they add per node
+/// by those of a particle (docs/design/distributed.md, "Slabs cut by particles and nodes"):
+/// 0.26 on `kalthoff_winkler_dfg` (B-splines, DFG partitioning, frictional contact: 1 140
+/// instructions a node, 4 440 a particle), 0.30 on `brazilian_dfg` (GIMP, DFG: 1 150 and
+/// 3 780) and 0.10 on `drop_weight_881` (LME with eigensoftening: 750 and 7 400). The value
+/// is the DFG pipelines', whose ranks cut across contact regions and empty space; it counts
+/// a node that carries mass as an empty one, its particles being counted as well.
+pub const NODE_COST: f64 = 0.25;
+
+/// The slabs' loads are counted in hundredths of a particle, so that [`NODE_COST`] times a
+/// layer's nodes keeps two decimals in whole numbers.
+const LOAD_UNIT: u64 = 100;
+
+/// Each cell layer's load, in hundredths of a particle: its `particles` and its
+/// `nodes_per_layer` nodes (every layer along a slab's axis has as many) at [`NODE_COST`].
+pub fn layer_loads(particles: &[u64], nodes_per_layer: u64) -> Vec<u64> {
+    let nodes = (nodes_per_layer as f64 * NODE_COST * LOAD_UNIT as f64).round() as u64;
+    particles.iter().map(|&p| p * LOAD_UNIT + nodes).collect()
+}
+
 /// The slabs of a scene over its ranks.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Slabs {
@@ -106,12 +130,16 @@ pub struct Slabs {
     pub layers: Vec<Range<usize>>,
     /// Each rank's particles.
     pub particles: Vec<u64>,
+    /// Each rank's load: its particles and its nodes at [`NODE_COST`], in hundredths of a
+    /// particle ([`layer_loads`]).
+    pub loads: Vec<u64>,
 }
 
 impl Slabs {
-    /// How far the most loaded rank is above the mean: `max / mean − 1` (0 when balanced).
+    /// How far the most loaded rank is above the mean: `max / mean − 1` of the loads (0 when
+    /// balanced).
     pub fn imbalance(&self) -> f64 {
-        imbalance(&self.particles)
+        imbalance(&self.loads)
     }
 }
 
@@ -127,10 +155,15 @@ pub fn imbalance(counts: &[u64]) -> f64 {
     most as f64 * counts.len() as f64 / total as f64 - 1.0
 }
 
-/// Cuts `per_layer` (the particles in each cell layer along `axis`) into `ranks` slabs of at
-/// least one layer each, minimising the largest slab's particles. Refused when there are
-/// fewer layers than ranks.
-pub fn cut_slabs(axis: usize, per_layer: &[u64], ranks: usize) -> Result<Slabs, String> {
+/// Cuts the cell layers along `axis` into `ranks` slabs of at least one layer each,
+/// minimising the largest slab's load ([`layer_loads`] of `per_layer`, the particles in each
+/// layer, and `nodes_per_layer`). Refused when there are fewer layers than ranks.
+pub fn cut_slabs(
+    axis: usize,
+    per_layer: &[u64],
+    nodes_per_layer: u64,
+    ranks: usize,
+) -> Result<Slabs, String> {
     if ranks == 0 {
         return Err("a run needs at least one rank".to_string());
     }
@@ -142,19 +175,37 @@ pub fn cut_slabs(axis: usize, per_layer: &[u64], ranks: usize) -> Result<Slabs, 
             ["x", "y", "z"][axis.min(2)]
         ));
     }
+    let loads = layer_loads(per_layer, nodes_per_layer);
+    let layers = cut_loads(&loads, ranks);
+    let sums = |per_layer: &[u64]| -> Vec<u64> {
+        (layers.iter())
+            .map(|r| per_layer[r.clone()].iter().sum())
+            .collect()
+    };
+    Ok(Slabs {
+        axis,
+        particles: sums(per_layer),
+        loads: sums(&loads),
+        layers,
+    })
+}
+
+/// The contiguous cut of `loads` into `ranks` (at most `loads.len()`) non-empty slabs with the
+/// least largest slab.
+fn cut_loads(loads: &[u64], ranks: usize) -> Vec<Range<usize>> {
     let (mut low, mut high) = (
-        per_layer.iter().copied().max().unwrap_or(0),
-        per_layer.iter().sum::<u64>(),
+        loads.iter().copied().max().unwrap_or(0),
+        loads.iter().sum::<u64>(),
     );
     while low < high {
         let bound = low + (high - low) / 2;
-        if greedy_slabs(per_layer, bound).len() <= ranks {
+        if greedy_slabs(loads, bound).len() <= ranks {
             high = bound;
         } else {
             low = bound + 1;
         }
     }
-    let mut layers = greedy_slabs(per_layer, low);
+    let mut layers = greedy_slabs(loads, low);
     // Fewer slabs than ranks: split slabs of several layers (no part grows) until each rank
     // has one, taking layers off the end of the widest.
     while layers.len() < ranks {
@@ -166,18 +217,10 @@ pub fn cut_slabs(axis: usize, per_layer: &[u64], ranks: usize) -> Result<Slabs, 
         layers[widest] = range.start..middle;
         layers.insert(widest + 1, middle..range.end);
     }
-    let particles = layers
-        .iter()
-        .map(|r| per_layer[r.clone()].iter().sum())
-        .collect();
-    Ok(Slabs {
-        axis,
-        layers,
-        particles,
-    })
+    layers
 }
 
-/// Slabs filled in order up to `bound` particles each (a layer above `bound` alone makes one).
+/// Slabs filled in order up to `bound` load each (a layer above `bound` alone makes one).
 fn greedy_slabs(per_layer: &[u64], bound: u64) -> Vec<Range<usize>> {
     let mut slabs = Vec::new();
     let (mut start, mut load) = (0, 0u64);
@@ -205,7 +248,7 @@ mod tests {
 
     #[test]
     fn a_uniform_body_is_cut_into_equal_slabs() {
-        let slabs = cut_slabs(0, &[10; 12], 4).unwrap();
+        let slabs = cut_slabs(0, &[10; 12], 0, 4).unwrap();
         assert_eq!(slabs.layers, vec![0..3, 3..6, 6..9, 9..12]);
         assert_eq!(slabs.particles, vec![30; 4]);
         assert_eq!(slabs.imbalance(), 0.0);
@@ -216,15 +259,51 @@ mod tests {
         // A body in the middle third of the grid.
         let mut per_layer = vec![0; 30];
         per_layer[10..20].fill(100);
-        let slabs = cut_slabs(1, &per_layer, 2).unwrap();
+        let slabs = cut_slabs(1, &per_layer, 0, 2).unwrap();
         assert_eq!(slabs.particles, vec![500, 500]);
         assert_eq!(slabs.layers[0].end, 15);
         assert_eq!(slabs.layers.last().unwrap().end, 30);
     }
 
+    /// An impactor's layers (few particles, every node of the layer held) next to a target's
+    /// (many particles): counted by particles alone the impactor's rank gets the empty nodes
+    /// over the cut as well; with the nodes counted, layers of the target move to the other
+    /// rank until the loads are as even as the layers allow.
+    #[test]
+    fn a_slab_over_empty_nodes_takes_fewer_particles() {
+        let mut per_layer = vec![20u64; 40];
+        per_layer[20..].fill(100);
+        let by_particles = cut_slabs(0, &per_layer, 0, 2).unwrap();
+        let by_load = cut_slabs(0, &per_layer, 100, 2).unwrap();
+        assert_eq!(by_particles.layers, vec![0..28, 28..40]);
+        assert_eq!(by_particles.particles, vec![1200, 1200]);
+        // A layer of 100 nodes weighs 25 particles: loads 45 and 125 a layer, 3400 in all.
+        assert_eq!(by_load.layers, vec![0..26, 26..40]);
+        assert_eq!(by_load.particles, vec![1000, 1400]);
+        assert_eq!(
+            by_load.loads,
+            vec![(1000 + 26 * 25) * 100, (1400 + 14 * 25) * 100]
+        );
+        assert!(by_load.imbalance() < 0.05);
+        let loads_of = |slabs: &Slabs| -> Vec<u64> {
+            let loads = layer_loads(&per_layer, 100);
+            (slabs.layers.iter())
+                .map(|r| loads[r.clone()].iter().sum())
+                .collect()
+        };
+        assert!(loads_of(&by_load).iter().max() < loads_of(&by_particles).iter().max());
+    }
+
+    #[test]
+    fn a_layers_load_counts_its_nodes_at_the_node_cost() {
+        assert_eq!(layer_loads(&[0, 3], 0), vec![0, 300]);
+        let nodes = (4.0 * NODE_COST * 100.0).round() as u64;
+        assert_eq!(layer_loads(&[0, 3], 4), vec![nodes, 300 + nodes]);
+    }
+
     #[test]
     fn more_ranks_than_particles_still_give_every_rank_a_layer() {
-        let slabs = cut_slabs(0, &[0, 0, 5, 0, 0, 0], 4).unwrap();
+        let slabs = cut_slabs(0, &[0, 0, 5, 0, 0, 0], 0, 4).unwrap();
         assert_eq!(slabs.layers.len(), 4);
         assert_eq!(slabs.particles.iter().sum::<u64>(), 5);
         assert!(slabs.layers.iter().all(|r| !r.is_empty()));
@@ -233,9 +312,9 @@ mod tests {
 
     #[test]
     fn fewer_layers_than_ranks_are_refused() {
-        let error = cut_slabs(2, &[1, 2, 3], 4).unwrap_err();
+        let error = cut_slabs(2, &[1, 2, 3], 0, 4).unwrap_err();
         assert!(error.contains("3 cell layers along the z axis, fewer than the 4 ranks"));
-        assert!(cut_slabs(0, &[1], 0).is_err());
+        assert!(cut_slabs(0, &[1], 0, 0).is_err());
     }
 
     #[test]
@@ -267,9 +346,10 @@ mod tests {
         fn the_cut_is_the_best_contiguous_one(
             per_layer in proptest::collection::vec(0u64..50, 1..10),
             ranks in 1usize..5,
+            nodes in 0u64..40,
         ) {
             prop_assume!(ranks <= per_layer.len());
-            let slabs = cut_slabs(0, &per_layer, ranks).unwrap();
+            let slabs = cut_slabs(0, &per_layer, nodes, ranks).unwrap();
             prop_assert_eq!(slabs.layers.len(), ranks);
             prop_assert_eq!(slabs.layers[0].start, 0);
             prop_assert_eq!(slabs.layers[ranks - 1].end, per_layer.len());
@@ -277,8 +357,10 @@ mod tests {
                 prop_assert_eq!(pair[0].end, pair[1].start);
                 prop_assert!(!pair[0].is_empty());
             }
-            let largest = *slabs.particles.iter().max().unwrap();
-            prop_assert_eq!(largest, best_by_search(&per_layer, ranks));
+            let largest = *slabs.loads.iter().max().unwrap();
+            let loads = layer_loads(&per_layer, nodes);
+            prop_assert_eq!(largest, best_by_search(&loads, ranks));
+            prop_assert_eq!(slabs.particles.iter().sum::<u64>(), per_layer.iter().sum::<u64>());
         }
     }
 }

@@ -211,7 +211,8 @@ fn exchange_and_rebuild<D: Dim>(
     // Every rank takes part in the sums and the exchange, whatever it found, so that none
     // waits for another; the failures are reported after them.
     let (per_layer, mut failure) = count(world, comm, ownership, &per_layer, &escaped);
-    let (next, peers) = next_layout(&layout, &per_layer, ownership);
+    let nodes_per_layer = grid.nodes_per_layer(layout.axis);
+    let (next, peers) = next_layout(&layout, (&per_layer, nodes_per_layer), ownership);
     let started = lap(world, Phase::Counting, started);
     let (kept, sends) = send(world, &state, (&claimed, ownership.rank), (&next, &peers));
     let sends: Vec<(usize, Vec<u8>)> = sends
@@ -234,7 +235,8 @@ fn exchange_and_rebuild<D: Dim>(
     let arrived = receive(&peers, received)?;
     let started = lap(world, Phase::Decoding, started);
     rebuild::<D>(world, &state, &kept, arrived)?;
-    settle::<D>(world, &grid, ownership, (layout, next), &per_layer);
+    let loads = fractum_engine::decomposition::layer_loads(&per_layer, nodes_per_layer);
+    settle::<D>(world, &grid, ownership, (layout, next), &loads);
     lap(world, Phase::Rebuilding, started);
     Ok(())
 }
@@ -319,8 +321,13 @@ fn count(
 }
 
 /// The slabs after the step (re-cut when the load is out of balance) and the ranks this rank
-/// exchanges particles with: its neighbours, or every rank when the slabs move.
-fn next_layout(layout: &Layout, per_layer: &[u64], ownership: &Ownership) -> (Layout, Vec<usize>) {
+/// exchanges particles with: its neighbours, or every rank when the slabs move. `per_layer`:
+/// the particles in each cell layer and the nodes in every layer.
+fn next_layout(
+    layout: &Layout,
+    per_layer: (&[u64], u64),
+    ownership: &Ownership,
+) -> (Layout, Vec<usize>) {
     let me = ownership.rank;
     match rebalanced(layout, per_layer, ownership.rebalance_above) {
         // The slabs move: any rank may hold what another owned.
@@ -396,13 +403,14 @@ fn receive(peers: &[usize], received: Vec<Vec<u8>>) -> Result<Vec<Block>, String
 }
 
 /// After the rebuild: the ownership follows the `next` slabs (its nodes when the next step
-/// begins), and records the imbalance and which particles this rank owns.
+/// begins), and records the imbalance (of the cell layers' `loads`) and which particles this
+/// rank owns.
 fn settle<D: Dim>(
     world: &mut World,
     grid: &Grid<D>,
     ownership: &mut Ownership,
     (layout, next): (Layout, Layout),
-    per_layer: &[u64],
+    loads: &[u64],
 ) {
     if next != layout {
         // The nodes this step computed stay owned (and held) until the next step begins
@@ -413,7 +421,7 @@ fn settle<D: Dim>(
         ownership.nodes_pending = true;
     }
     ownership.imbalance =
-        fractum_engine::decomposition::imbalance(&slab_loads(&ownership.layout, per_layer));
+        fractum_engine::decomposition::imbalance(&slab_loads(&ownership.layout, loads));
     let mut positions = world.query_filtered::<&Position<D>, With<Particle>>();
     let layers: Vec<usize> = (positions.iter(world))
         .map(|x| layer_of::<D>(&ownership.layout, grid, x.0))
@@ -444,25 +452,33 @@ fn record_removed(
     }
 }
 
-/// Each slab's particles, from the particles per layer.
-fn slab_loads(layout: &Layout, per_layer: &[u64]) -> Vec<u64> {
+/// Each slab's load, from the loads per layer.
+fn slab_loads(layout: &Layout, loads: &[u64]) -> Vec<u64> {
     layout
         .slabs
         .iter()
-        .map(|slab| per_layer[slab.clone()].iter().sum())
+        .map(|slab| loads[slab.clone()].iter().sum())
         .collect()
 }
 
-/// The slabs re-cut to the particles per layer when the most loaded rank is more than
+/// The slabs re-cut to the particles per layer and the nodes in every layer
+/// ([`fractum_engine::decomposition::layer_loads`]) when the most loaded rank is more than
 /// `above` over the mean and the new cut is better balanced; `None` to keep them.
-fn rebalanced(layout: &Layout, per_layer: &[u64], above: Option<f64>) -> Option<Layout> {
+fn rebalanced(
+    layout: &Layout,
+    (per_layer, nodes_per_layer): (&[u64], u64),
+    above: Option<f64>,
+) -> Option<Layout> {
+    use fractum_engine::decomposition::{cut_slabs, imbalance, layer_loads};
     let above = above?;
-    let now = fractum_engine::decomposition::imbalance(&slab_loads(layout, per_layer));
+    let now = imbalance(&slab_loads(
+        layout,
+        &layer_loads(per_layer, nodes_per_layer),
+    ));
     if now <= above {
         return None;
     }
-    let cut = fractum_engine::decomposition::cut_slabs(layout.axis, per_layer, layout.slabs.len())
-        .ok()?;
+    let cut = cut_slabs(layout.axis, per_layer, nodes_per_layer, layout.slabs.len()).ok()?;
     (cut.imbalance() < now).then(|| Layout {
         slabs: cut.layers,
         ..layout.clone()

@@ -112,9 +112,10 @@ pub struct RunSummary {
 pub struct RankReport {
     /// Ranks.
     pub ranks: usize,
-    /// How often the slabs were re-cut to balance the ranks' particles.
+    /// How often the slabs were re-cut to balance the ranks' loads.
     pub rebalances: u64,
-    /// How far the most loaded rank was over the mean after the last step (0.05: 5%).
+    /// How far the most loaded rank was over the mean after the last step (0.05: 5%), its
+    /// particles and nodes counted (`decomposition::layer_loads`).
     pub imbalance: f64,
     /// The particles the ranks held at the end, owned and ghosts, over the run's particles: what
     /// the halos add to the work.
