@@ -426,7 +426,12 @@ fn first_bad_particle<D: Dim>(
     })
 }
 
-/// Whether every node's state is finite, folded per block with non-short-circuit `&`.
+/// Whether every node's state is finite, per block: the block's values summed. An infinity or
+/// a NaN makes every sum it enters non-finite (`∞ + x` is ±∞ or NaN, `NaN + x` is NaN), so a
+/// finite sum means finite values: one add a value, where `is_finite` on each is a mask, a
+/// compare and an `&` (a node holds twenty values in 2D, and an empty node is checked after
+/// every stage that writes the nodes). Finite values whose sum overflows fail the pass
+/// although none is bad; [`first_bad_node`] then searches and finds none.
 fn all_nodes_finite<D: Dim>(
     masses: &[NodeMass],
     velocities: &[NodeVelocity<D>],
@@ -435,15 +440,18 @@ fn all_nodes_finite<D: Dim>(
     let blocks = masses.len().div_ceil(CHECK_BLOCK);
     (0..blocks).into_par_iter().all(|b| {
         let rows = b * CHECK_BLOCK..((b + 1) * CHECK_BLOCK).min(masses.len());
-        let mut finite = true;
-        for n in rows {
+        let (mut mass, mut vectors) = (0.0, D::Vector::ZERO);
+        for ((m, v), f) in masses[rows.clone()]
+            .iter()
+            .zip(&velocities[rows.clone()])
+            .zip(&forces[rows])
+        {
             for k in 0..crate::components::MAX_FIELDS {
-                finite &= masses[n].0[k].is_finite()
-                    & velocities[n].0[k].is_finite()
-                    & forces[n].0[k].is_finite();
+                mass += m.0[k];
+                vectors = vectors + v.0[k] + f.0[k];
             }
         }
-        finite
+        mass.is_finite() & vectors.is_finite()
     })
 }
 
@@ -579,7 +587,7 @@ pub fn mark_escaped_particles<D: Dim>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dim::{SymTensor2, Two};
+    use crate::dim::{SymTensor2, Three, Two};
     use glam::DVec2;
 
     fn grid() -> Grid<Two> {
@@ -661,6 +669,56 @@ mod tests {
         let mut bad = masses.clone();
         bad[CHECK_BLOCK].0[1] = f64::NEG_INFINITY;
         assert!(!all_nodes_finite(&bad, &velocities, &forces));
+        let mut bad = velocities.clone();
+        bad[7].0[2].y = f64::INFINITY;
+        assert!(!all_nodes_finite(&masses, &bad, &forces));
+        // An infinity and its negative in one block are caught (their sum is NaN).
+        let mut bad = velocities.clone();
+        bad[1].0[0].x = f64::INFINITY;
+        bad[2].0[0].x = f64::NEG_INFINITY;
+        assert!(!all_nodes_finite(&masses, &bad, &forces));
+        // Large, tiny and negative finite values pass; finite values whose sum overflows fail
+        // the fast pass, and the search after it finds no bad node.
+        let mut fine = velocities.clone();
+        fine[3].0[0].x = f64::MAX;
+        fine[4].0[1].y = -f64::MAX;
+        fine[5].0[2].x = -f64::MIN_POSITIVE / 2.0;
+        let mut heavy = masses.clone();
+        heavy[6].0 = [f64::MAX, -1.0, -0.0, 1e-310];
+        assert!(all_nodes_finite(&heavy, &fine, &forces));
+        heavy[7].0[0] = f64::MAX;
+        assert!(!all_nodes_finite(&heavy, &fine, &forces));
+        // In 3D the third component counts too.
+        let mut velocities = vec![NodeVelocity::<Three>::default(); n];
+        let forces = vec![NodeForce::<Three>::default(); n];
+        assert!(all_nodes_finite(&masses, &velocities, &forces));
+        velocities[n - 2].0[0].z = f64::NAN;
+        assert!(!all_nodes_finite(&masses, &velocities, &forces));
+    }
+
+    /// Nodes whose finite values overflow the fast pass's sum are searched and found healthy;
+    /// an infinite force after them is named with its node.
+    #[test]
+    fn huge_finite_node_values_are_no_blow_up() {
+        let mut world = crate::testing::tiny_world::<Two>(4, 0.25, 1e-3);
+        let mut masses = world.query_filtered::<&mut NodeMass, With<Node>>();
+        for mut mass in masses.iter_mut(&mut world).take(2) {
+            mass.0[0] = f64::MAX;
+        }
+        crate::testing::run_system(&mut world, stage_check::<Two>(Stage::Predictor));
+        assert!(world.resource::<Health>().failure.is_none());
+        let mut forces = world.query_filtered::<(&NodeIndex, &mut NodeForce<Two>), With<Node>>();
+        let (index, mut force) = forces.iter_mut(&mut world).nth(7).unwrap();
+        let index = index.0;
+        force.0[1].y = f64::INFINITY;
+        crate::testing::run_system(&mut world, stage_check::<Two>(Stage::Predictor));
+        let failure = world.resource::<Health>().failure.clone().unwrap();
+        assert!(
+            failure
+                .message
+                .starts_with(&format!("node {index} has non-finite state")),
+            "{failure}"
+        );
     }
 
     /// A rank's check: a ghost's bad stress is no blow-up (ghosts near the halo's outer face
