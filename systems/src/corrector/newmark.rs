@@ -91,16 +91,17 @@ pub fn newmark_corrector<D: Dim>(
         .enumerate()
         .for_each(|(i, ((v, f), m))| {
             for (k, fk) in f.iter_mut().enumerate() {
-                if !(m.0[k] > 0.0) {
-                    // An empty field's velocity does not depend on its force, which nothing
-                    // reads (the acceleration below is zero for it): most of a grid's fields.
-                    v.0[k] = integration.end_of_step_velocity(m.0[k], v.0[k], D::Vector::ZERO, dt);
-                    continue;
-                }
-                // Without a contact system the force gains an exact zero, as it did when
-                // every node carried a zero contact force.
-                *fk += contact.map_or(D::Vector::ZERO, |c| c[i].0[k]);
-                v.0[k] = integration.end_of_step_velocity(m.0[k], v.0[k], *fk, dt);
+                // An empty field's velocity does not depend on its force, which nothing reads
+                // (its acceleration below is zero): most of a grid's fields skip the contact.
+                let force = if m.0[k] > 0.0 {
+                    // Without a contact system the force gains an exact zero, as it did when
+                    // every node carried a zero contact force.
+                    *fk += contact.map_or(D::Vector::ZERO, |c| c[i].0[k]);
+                    *fk
+                } else {
+                    D::Vector::ZERO
+                };
+                v.0[k] = integration.end_of_step_velocity(m.0[k], v.0[k], force, dt);
             }
         });
     bcs.enforce(
