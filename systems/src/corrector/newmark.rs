@@ -84,26 +84,7 @@ pub fn newmark_corrector<D: Dim>(
     );
     let (integration, dt) = (*integration, clock.dt);
     let gamma_dt = integration.force_window(dt);
-    node_velocity
-        .par_iter_mut()
-        .zip(forces.par_iter_mut())
-        .zip(node_mass.par_iter())
-        .enumerate()
-        .for_each(|(i, ((v, f), m))| {
-            for (k, fk) in f.iter_mut().enumerate() {
-                // An empty field's velocity does not depend on its force, which nothing reads
-                // (its acceleration below is zero): most of a grid's fields skip the contact.
-                let force = if m.0[k] > 0.0 {
-                    // Without a contact system the force gains an exact zero, as it did when
-                    // every node carried a zero contact force.
-                    *fk += contact.map_or(D::Vector::ZERO, |c| c[i].0[k]);
-                    *fk
-                } else {
-                    D::Vector::ZERO
-                };
-                v.0[k] = integration.end_of_step_velocity(m.0[k], v.0[k], force, dt);
-            }
-        });
+    correct_velocities(node_velocity, forces, node_mass, contact, (integration, dt));
     bcs.enforce(
         clock.time + clock.dt,
         node_mass,
@@ -127,6 +108,37 @@ pub fn newmark_corrector<D: Dim>(
                 }
                 stored.0[k] = f;
                 acceleration.0[k] = if m > 0.0 { f / m } else { D::Vector::ZERO };
+            }
+        });
+}
+
+/// Each field's end-of-step velocity from its mass, its velocity and its `forces` with the
+/// contact force added (the forces keep the sum). An empty field's velocity does not depend on
+/// its force, which nothing reads (its acceleration is zero): most of a grid's fields skip the
+/// contact.
+fn correct_velocities<D: Dim>(
+    node_velocity: &mut [NodeVelocity<D>],
+    forces: &mut [[D::Vector; MAX_FIELDS]],
+    node_mass: &[NodeMass],
+    contact: Option<&[NodeContactForce<D>]>,
+    (integration, dt): (GridIntegration, f64),
+) {
+    node_velocity
+        .par_iter_mut()
+        .zip(forces.par_iter_mut())
+        .zip(node_mass.par_iter())
+        .enumerate()
+        .for_each(|(i, ((v, f), m))| {
+            for (k, fk) in f.iter_mut().enumerate() {
+                let force = if m.0[k] > 0.0 {
+                    // Without a contact system the force gains an exact zero, as it did when
+                    // every node carried a zero contact force.
+                    *fk += contact.map_or(D::Vector::ZERO, |c| c[i].0[k]);
+                    *fk
+                } else {
+                    D::Vector::ZERO
+                };
+                v.0[k] = integration.end_of_step_velocity(m.0[k], v.0[k], force, dt);
             }
         });
 }
