@@ -74,7 +74,33 @@ pub(super) fn save_column<C: Component + State>(
     // step).
     let values = PresentRows { column, rows };
     let room = 10 + rows.len() * (1 + std::mem::size_of::<C>());
-    Some(postcard::to_extend(&values, Vec::with_capacity(room)).map_err(codec(C::KEY)))
+    let output = Appending(Vec::with_capacity(room));
+    Some(postcard::serialize_with_flavor(&values, output).map_err(codec(C::KEY)))
+}
+
+/// Postcard's output into a vector: a value's bytes (a number's eight) appended at once, where
+/// postcard's `to_extend` appends them one by one through an iterator, which cost several times
+/// the encoding of a rank's ghosts (they are encoded every step).
+struct Appending(Vec<u8>);
+
+impl postcard::ser_flavors::Flavor for Appending {
+    type Output = Vec<u8>;
+
+    #[inline(always)]
+    fn try_extend(&mut self, data: &[u8]) -> postcard::Result<()> {
+        self.0.extend_from_slice(data);
+        Ok(())
+    }
+
+    #[inline(always)]
+    fn try_push(&mut self, data: u8) -> postcard::Result<()> {
+        self.0.push(data);
+        Ok(())
+    }
+
+    fn finalize(self) -> postcard::Result<Vec<u8>> {
+        Ok(self.0)
+    }
 }
 
 /// Rows `rows` of `column`, serialised as the sequence of `Some(&value)` that

@@ -20,8 +20,8 @@ pub(super) fn rebuild<D: Dim>(
     arrived: Vec<Block>,
 ) -> Result<(), String> {
     let picks = merged_picks(kept, &arrived)?;
-    let mut ids = world.query_filtered::<&ParticleId, With<Particle>>();
-    let held: Vec<u32> = ids.iter(world).map(|id| id.0).collect();
+    let mut held = Vec::with_capacity(picks.len());
+    super::for_each_row::<D>(world, |_, _, id, _| held.push(id));
     let same_rows = held.len() == picks.len() && held.iter().zip(&picks).all(|(a, b)| *a == b.0);
     let arrived: Vec<Vec<Vec<u8>>> = arrived.into_iter().map(|b| b.1).collect();
     let keep_or_pick = |&(_, b, i): &(u32, u32, u32)| match b {
@@ -71,8 +71,9 @@ fn merged_picks(kept: &[Moved], arrived: &[Block]) -> Result<Vec<(u32, u32, u32)
 
 /// The ids of `runs` in one ascending sequence, each as (id, run, index in the run), equal ids
 /// in run order. The kept ids ascend (rows are in id order) and so do each block's, so the
-/// runs are merged in one pass, the least head taken each time (a rank has a few runs: its
-/// own and one per peer); a run that does not ascend is sorted with the rest instead.
+/// runs are merged in one pass: the run with the least head gives every id that still comes
+/// before the next run's head (a rank has a few runs, its own and one per peer, whose ids
+/// interleave in stretches); a run that does not ascend is sorted with the rest instead.
 fn merge_ascending_runs(runs: &[&[u32]]) -> Vec<(u32, u32, u32)> {
     let total = runs.iter().map(|r| r.len()).sum();
     let mut merged = Vec::with_capacity(total);
@@ -84,17 +85,40 @@ fn merge_ascending_runs(runs: &[&[u32]]) -> Vec<(u32, u32, u32)> {
         return merged;
     }
     let mut heads = vec![0usize; runs.len()];
-    // The first run with the least head: a tie goes to the lower run, as a sort would.
-    let least_head = |heads: &[usize]| {
-        (runs.iter().zip(heads).enumerate())
-            .filter_map(|(b, (run, &h))| run.get(h).map(|&id| (b, id)))
-            .min_by_key(|&(b, id)| (id, b))
-    };
-    while let Some((b, id)) = least_head(&heads) {
-        merged.push((id, b as u32, heads[b] as u32));
-        heads[b] += 1;
+    while let Some(((_, b), next)) = two_least_heads(runs, &heads) {
+        // Run `b`'s ids up to the next head, a tie going to the lower run, as a sort would.
+        let run = runs[b];
+        let mut h = heads[b];
+        while let Some(&id) = run.get(h) {
+            if next.is_some_and(|next| (id, b) > next) {
+                break;
+            }
+            merged.push((id, b as u32, h as u32));
+            h += 1;
+        }
+        heads[b] = h;
     }
     merged
+}
+
+/// The least (head id, run) over the runs not yet used up, and the next least, if any.
+type Heads = ((u32, usize), Option<(u32, usize)>);
+
+/// [`Heads`] of `runs` at `heads`; `None` when every run is used up.
+fn two_least_heads(runs: &[&[u32]], heads: &[usize]) -> Option<Heads> {
+    let mut least: Option<(u32, usize)> = None;
+    let mut next: Option<(u32, usize)> = None;
+    for (b, (run, &h)) in runs.iter().zip(heads).enumerate() {
+        let Some(&id) = run.get(h) else { continue };
+        let key = (id, b);
+        if least.is_none_or(|l| key < l) {
+            next = least;
+            least = Some(key);
+        } else if next.is_none_or(|n| key < n) {
+            next = Some(key);
+        }
+    }
+    least.map(|least| (least, next))
 }
 
 /// The rows' new order over `len` rows: new row `n` takes old row `kept_from[n]` where a kept
@@ -159,6 +183,36 @@ mod tests {
                 .collect();
             sorted.sort();
             assert_eq!(merge_ascending_runs(runs), sorted, "{runs:?}");
+        }
+    }
+
+    /// Runs that interleave in stretches of every length, with ids shared between runs, merge
+    /// into the sort of their tagged ids.
+    #[test]
+    fn interleaved_runs_merge_into_the_sorted_ids() {
+        let mut state = 0x2545_f491_u64;
+        let mut next = |below: u64| {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            (state >> 33) % below
+        };
+        for case in 0..200 {
+            let runs: Vec<Vec<u32>> = (0..1 + next(4))
+                .map(|_| {
+                    let mut run: Vec<u32> = (0..next(40)).map(|_| next(20 + case) as u32).collect();
+                    run.sort_unstable();
+                    run
+                })
+                .collect();
+            let runs: Vec<&[u32]> = runs.iter().map(Vec::as_slice).collect();
+            let mut sorted: Vec<(u32, u32, u32)> = (runs.iter().enumerate())
+                .flat_map(|(b, run)| {
+                    (run.iter().enumerate()).map(move |(i, &id)| (id, b as u32, i as u32))
+                })
+                .collect();
+            sorted.sort();
+            assert_eq!(merge_ascending_runs(&runs), sorted, "{runs:?}");
         }
     }
 
