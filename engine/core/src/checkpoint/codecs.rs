@@ -68,14 +68,104 @@ pub(super) fn save_column<C: Component + State>(
     if rows.iter().any(|&r| r >= column.len()) {
         return None;
     }
+    if (1..=MOST_NUMBERS).contains(&C::NUMBERS) {
+        return Some(Ok(save_numbers(column, rows)));
+    }
     // The bytes of a `Vec<Option<&C>>` (a length, then each value tagged as present), written
     // straight from the column into a buffer sized for them: no vector of references between,
     // and no buffer regrown and copied as it fills (a rank encodes its ghosts' columns every
     // step).
     let values = PresentRows { column, rows };
-    let room = 10 + rows.len() * (1 + std::mem::size_of::<C>());
-    let output = Appending(Vec::with_capacity(room));
+    let room = 11 + rows.len() * (1 + std::mem::size_of::<C>());
+    let mut bytes = Vec::with_capacity(room);
+    bytes.push(ENCODED);
+    let output = Appending(bytes);
     Some(postcard::serialize_with_flavor(&values, output).map_err(codec(C::KEY)))
+}
+
+/// A part of a rank's particles ([`CheckpointState::save_particles`](super::CheckpointState::save_particles)) that holds a
+/// `Vec<Option<C>>` as postcard encodes it, after this byte.
+pub(super) const ENCODED: u8 = 0;
+
+/// A part that holds every value as its numbers ([`State::NUMBERS`]), after this byte: the
+/// count of values (a little-endian `u64`), then each value's numbers as little-endian `f64`s.
+pub(super) const NUMBERS: u8 = 1;
+
+/// The most numbers a value sent as numbers is made of (a 3×3 tensor has nine); a type made of
+/// more is encoded.
+const MOST_NUMBERS: usize = 16;
+
+/// Rows `rows` of `column` as a [`NUMBERS`] part: a copy of their numbers, where encoding them
+/// value by value cost several times as much (a rank sends its ghosts' columns every step).
+fn save_numbers<C: State>(column: &[C], rows: &[usize]) -> Vec<u8> {
+    let count = C::NUMBERS;
+    // Appended value by value into the room reserved for them: a buffer zeroed first cost as
+    // much as the copy.
+    let mut bytes = Vec::with_capacity(9 + 8 * count * rows.len());
+    bytes.push(NUMBERS);
+    bytes.extend_from_slice(&(rows.len() as u64).to_le_bytes());
+    let mut numbers = [0.0; MOST_NUMBERS];
+    for &row in rows {
+        column[row].write_numbers(&mut numbers[..count]);
+        for number in &numbers[..count] {
+            bytes.extend_from_slice(&number.to_le_bytes());
+        }
+    }
+    bytes
+}
+
+/// The values of a [`NUMBERS`] part's `body` (what follows its first byte), in order; a body
+/// that is not whole values of `C`, or a `C` that is not numbers, is a mismatch.
+fn numbers_of<C: State>(body: &[u8]) -> Result<impl Iterator<Item = C>, CheckpointError> {
+    let mismatch =
+        |what: &str| CheckpointError::Mismatch(format!("{}: the numbers sent {what}", C::KEY));
+    let count = C::NUMBERS;
+    if !(1..=MOST_NUMBERS).contains(&count) {
+        return Err(mismatch("are of a value that is not numbers"));
+    }
+    let (length, values) = body
+        .split_at_checked(8)
+        .ok_or_else(|| mismatch("have no count"))?;
+    let mut length_bytes = [0u8; 8];
+    length_bytes.copy_from_slice(length);
+    let length = usize::try_from(u64::from_le_bytes(length_bytes)).unwrap_or(usize::MAX);
+    let (numbers, rest) = values.as_chunks::<8>();
+    if !rest.is_empty() || Some(numbers.len()) != length.checked_mul(count) {
+        return Err(mismatch(&format!(
+            "are {} bytes, not {length} values of {count}",
+            values.len()
+        )));
+    }
+    let numbers: Vec<f64> = numbers.iter().map(|&n| f64::from_le_bytes(n)).collect();
+    let values: Vec<C> = (numbers.chunks_exact(count))
+        .map(|value| C::read_numbers(value).expect("a type of numbers reads its numbers"))
+        .collect();
+    Ok(values.into_iter())
+}
+
+/// A part's format byte and the bytes after it; an empty part is a mismatch.
+fn split_part<'a>(bytes: &'a [u8], what: &str) -> Result<(u8, &'a [u8]), CheckpointError> {
+    bytes
+        .split_first()
+        .map(|(&format, body)| (format, body))
+        .ok_or_else(|| CheckpointError::Mismatch(format!("{what}: an empty part was sent")))
+}
+
+/// A part's values, in order, as `Option`s (every value of a [`NUMBERS`] part is present).
+fn values_of_part<C: State>(bytes: &[u8]) -> Result<Vec<Option<C>>, CheckpointError> {
+    match split_part(bytes, C::KEY)? {
+        (ENCODED, body) => postcard::from_bytes(body).map_err(codec(C::KEY)),
+        (NUMBERS, body) => Ok(numbers_of::<C>(body)?.map(Some).collect()),
+        (format, _) => Err(unknown_format::<C>(format)),
+    }
+}
+
+/// A part of `C` whose format byte is neither [`ENCODED`] nor [`NUMBERS`].
+fn unknown_format<C: State>(format: u8) -> CheckpointError {
+    CheckpointError::Mismatch(format!(
+        "{}: a part of unknown format {format} was sent",
+        C::KEY
+    ))
 }
 
 /// Postcard's output into a vector: a value's bytes (a number's eight) appended at once, where
@@ -141,6 +231,15 @@ pub(super) fn pick_column<C: Component<Mutability = bevy_ecs::component::Mutable
     }
     for (block, bytes) in sources.iter().enumerate() {
         let rows = block_rows.get(block).map_or(&[][..], Vec::as_slice);
+        let bytes = match split_part(bytes, C::KEY) {
+            Ok((ENCODED, body)) => body,
+            Ok((NUMBERS, body)) => match numbers_into_rows(column, body, rows, block) {
+                Ok(()) => continue,
+                Err(e) => return Some(Err(e)),
+            },
+            Ok((format, _)) => return Some(Err(unknown_format::<C>(format))),
+            Err(e) => return Some(Err(e)),
+        };
         let mut mismatch = None;
         let seed = IntoRows {
             column: &mut *column,
@@ -160,6 +259,32 @@ pub(super) fn pick_column<C: Component<Mutability = bevy_ecs::component::Mutable
         }
     }
     Some(Ok(()))
+}
+
+/// A [`NUMBERS`] part's values (its `body`) into `column`: the `i`-th into row `rows[i]`, or
+/// dropped where no row picks it; a picked value past the part's end is a mismatch.
+fn numbers_into_rows<C: State>(
+    column: &mut [C],
+    body: &[u8],
+    rows: &[usize],
+    block: usize,
+) -> Result<(), CheckpointError> {
+    let mut sent = 0;
+    for (index, value) in numbers_of::<C>(body)?.enumerate() {
+        if let Some(slot) = rows.get(index).and_then(|&row| column.get_mut(row)) {
+            *slot = value;
+        }
+        sent = index + 1;
+    }
+    let rows = rows.get(sent..).unwrap_or(&[]);
+    match rows.iter().position(|&row| row != NOT_PICKED) {
+        Some(missing) => Err(CheckpointError::Mismatch(format!(
+            "{}: particle {} of block {block} was not sent with it",
+            C::KEY,
+            sent + missing
+        ))),
+        None => Ok(()),
+    }
 }
 
 /// Decodes one block's `Vec<Option<C>>` (as [`save_column`] encodes it) into `column`: the
@@ -228,7 +353,7 @@ pub(super) fn pick_component<C: Component<Mutability = bevy_ecs::component::Muta
     let name = C::KEY;
     let mut decoded: Vec<Vec<Option<C>>> = sources
         .iter()
-        .map(|bytes| postcard::from_bytes(bytes).map_err(codec(name)))
+        .map(|bytes| values_of_part::<C>(bytes))
         .collect::<Result<_, _>>()?;
     for (&entity, &(block, index)) in targets.iter().zip(picks) {
         if (block, index) == KEEP_ROW {
@@ -373,15 +498,17 @@ pub(super) fn load_resource<R: Resource + State>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::components::Position;
+    use crate::components::{MaterialId, Position};
     use crate::dim::Two;
     use crate::testing::{spawn_particle, tiny_world};
     use glam::DVec2;
 
-    /// Rows read from the column are the same bytes as the same particles saved one entity at
-    /// a time, in any order and with repeats; a row past the table is no column read.
+    /// Rows read from the column are the same values as the same particles saved one entity
+    /// at a time, in any order and with repeats: as their numbers for a component of numbers,
+    /// as the same encoded bytes after the format byte for any other; a row past the table is
+    /// no column read.
     #[test]
-    fn rows_of_the_column_are_the_bytes_of_the_particles() {
+    fn rows_of_the_column_are_the_values_of_the_particles() {
         let mut world = tiny_world::<Two>(4, 1.0, 1e-3);
         let particles: Vec<Entity> = (0..5)
             .map(|i| {
@@ -392,16 +519,114 @@ mod tests {
         let rows = [3, 0, 4, 4, 1];
         let entities: Vec<Entity> = rows.iter().map(|&r| particles[r]).collect();
         let by_entity = save_component::<Position<Two>>(&mut world, &entities).unwrap();
-        let by_column = save_column::<Position<Two>>(&mut world, &rows, 5);
-        assert_eq!(by_column.unwrap().unwrap(), by_entity);
+        let by_column = save_column::<Position<Two>>(&mut world, &rows, 5)
+            .unwrap()
+            .unwrap();
+        assert_eq!(by_column[0], NUMBERS);
+        let sent: Vec<Option<Position<Two>>> = postcard::from_bytes(&by_entity).unwrap();
+        assert_eq!(values_of_part::<Position<Two>>(&by_column).unwrap(), sent);
+        let materials = save_component::<MaterialId>(&mut world, &entities).unwrap();
+        let by_column = save_column::<MaterialId>(&mut world, &rows, 5);
+        assert_eq!(
+            by_column.unwrap().unwrap(),
+            [&[ENCODED], &materials[..]].concat()
+        );
         assert!(save_column::<Position<Two>>(&mut world, &[0, 5], 5).is_none());
         let none = save_column::<Position<Two>>(&mut world, &[], 5)
             .unwrap()
             .unwrap();
-        assert_eq!(
-            none,
-            save_component::<Position<Two>>(&mut world, &[]).unwrap()
-        );
+        assert!(values_of_part::<Position<Two>>(&none).unwrap().is_empty());
+    }
+
+    /// Values sent as numbers come back bit for bit, signed zeros, infinities, subnormals and
+    /// a NaN's payload included, in 2D and 3D, for vectors, tensors and scalars.
+    #[test]
+    fn numbers_come_back_bit_for_bit() {
+        let odd = [
+            -0.0,
+            f64::from_bits(0x7ff8_0000_dead_beef),
+            f64::INFINITY,
+            f64::MIN_POSITIVE / 3.0,
+            -1.5e300,
+            std::f64::consts::PI,
+            1.0 / 3.0,
+            -7.25,
+            f64::NEG_INFINITY,
+        ];
+        fn round_trip<C: State>(numbers: &[f64]) {
+            let value = C::read_numbers(numbers).unwrap();
+            let part = save_numbers(&[value], &[0, 0]);
+            let back: Vec<C> = numbers_of::<C>(&part[1..]).unwrap().collect();
+            assert_eq!(back.len(), 2);
+            for value in &back {
+                let mut out = [0.0; MOST_NUMBERS];
+                value.write_numbers(&mut out);
+                let bits = |xs: &[f64]| xs.iter().map(|x| x.to_bits()).collect::<Vec<u64>>();
+                assert_eq!(
+                    bits(&out[..C::NUMBERS]),
+                    bits(&numbers[..C::NUMBERS]),
+                    "{}",
+                    C::KEY
+                );
+            }
+        }
+        use crate::components::{DeformationGradient, Mass, Stress, Velocity};
+        use crate::dim::Three;
+        round_trip::<Position<Two>>(&odd);
+        round_trip::<Velocity<Three>>(&odd);
+        round_trip::<Stress<Two>>(&odd);
+        round_trip::<Stress<Three>>(&odd);
+        round_trip::<DeformationGradient<Two>>(&odd);
+        round_trip::<DeformationGradient<Three>>(&odd);
+        round_trip::<Mass>(&odd[1..]);
+        assert_eq!(<Stress<Three> as State>::NUMBERS, 6);
+        assert_eq!(<DeformationGradient<Three> as State>::NUMBERS, 9);
+        assert!(MaterialId::read_numbers(&[1.0]).is_none());
+    }
+
+    /// A part of numbers fills the rows that pick its values, in the column and entity by
+    /// entity alike; a pick past its end, a part cut inside a value or without its count, and
+    /// an unknown format byte are mismatches that say so, never a panic.
+    #[test]
+    fn a_part_of_numbers_fills_its_rows_and_a_damaged_one_is_refused() {
+        let mut world = tiny_world::<Two>(4, 1.0, 1e-3);
+        let at = |i: usize| DVec2::new(0.1 + 0.15 * i as f64, 0.5);
+        let particles: Vec<Entity> = (0..5)
+            .map(|i| spawn_particle(&mut world, at(i), DVec2::ZERO, 1.0, 1.0))
+            .collect();
+        let values = [
+            Position::<Two>(DVec2::new(7.0, -7.0)),
+            Position(DVec2::new(8.0, -8.0)),
+        ];
+        let part = save_numbers(&values, &[0, 1]);
+        let rows = [vec![NOT_PICKED, 2]];
+        let picked = pick_column::<Position<Two>>(&mut world, &[&part], (&rows, 5));
+        assert!(matches!(picked, Some(Ok(()))));
+        let xs = |world: &mut World| -> Vec<f64> {
+            let mut query = world.query::<&Position<Two>>();
+            query.iter(world).map(|x| x.0.x).collect()
+        };
+        assert_eq!(xs(&mut world), [at(0).x, at(1).x, 8.0, at(3).x, at(4).x]);
+        let targets = [particles[4], particles[3]];
+        pick_component::<Position<Two>>(&mut world, &targets, &[&part], &[(0, 0), KEEP_ROW])
+            .unwrap();
+        assert_eq!(xs(&mut world), [at(0).x, at(1).x, 8.0, at(3).x, 7.0]);
+        let message =
+            |picked: Option<Result<(), CheckpointError>>| picked.unwrap().unwrap_err().to_string();
+        let past_the_end = [vec![0, 1, 3]];
+        let refused = pick_column::<Position<Two>>(&mut world, &[&part], (&past_the_end, 5));
+        assert!(message(refused).contains("particle 2 of block 0 was not sent"));
+        let cut = &part[..part.len() - 3];
+        let refused = pick_column::<Position<Two>>(&mut world, &[cut], (&rows, 5));
+        assert!(message(refused).contains("not 2 values of 2"));
+        let refused = pick_column::<Position<Two>>(&mut world, &[&part[..5]], (&rows, 5));
+        assert!(message(refused).contains("have no count"));
+        let unknown = [&[7u8], &part[1..]].concat();
+        let refused = pick_column::<Position<Two>>(&mut world, &[&unknown], (&rows, 5));
+        assert!(message(refused).contains("unknown format 7"));
+        let refused = pick_column::<Position<Two>>(&mut world, &[&[]], (&rows, 5));
+        assert!(message(refused).contains("an empty part"));
+        assert!(numbers_of::<MaterialId>(&part[1..]).is_err());
     }
 
     /// Each block's values go straight to the rows that pick them: rows picked from two
@@ -419,7 +644,7 @@ mod tests {
             let values: Vec<Option<Position<Two>>> = (xs.iter())
                 .map(|x| x.map(|x| Position(DVec2::new(x, -x))))
                 .collect();
-            postcard::to_allocvec(&values).unwrap()
+            [&[ENCODED], &postcard::to_allocvec(&values).unwrap()[..]].concat()
         };
         let (first, second) = (
             sent(&[Some(7.0), Some(8.0)]),

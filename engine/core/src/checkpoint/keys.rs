@@ -1,6 +1,7 @@
 //! What a checkpoint can carry: the [`State`] and [`RowState`] traits, the keys of the
 //! engine's own state, and the errors of capturing and restoring it.
 
+use crate::dim::Numbers;
 use bevy_ecs::prelude::Resource;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
@@ -12,6 +13,25 @@ pub trait State: Serialize + DeserializeOwned + Send + Sync + 'static {
     /// from the type's Rust path), unique among everything a run carries. Stock keys are
     /// `particle/…`, `engine/…` and `<system>/…`; a user's crate should prefix its own.
     const KEY: &'static str;
+
+    /// How many `f64`s a value is made of, when it is made of nothing else (a scalar, a vector,
+    /// a tensor), with [`Self::write_numbers`] and [`Self::read_numbers`] taking it apart and
+    /// putting it back bit for bit; `0`, the default, otherwise. A distributed run sends a
+    /// carried particle component of numbers between ranks as its numbers, and encodes the
+    /// others value by value (what a checkpoint file holds is encoded either way).
+    const NUMBERS: usize = 0;
+
+    /// Writes the value's [`Self::NUMBERS`] numbers into `out` (which holds as many).
+    fn write_numbers(&self, out: &mut [f64]) {
+        let _ = out;
+    }
+
+    /// The value [`Self::write_numbers`] wrote as `numbers`; `None` for a type that is not
+    /// numbers.
+    fn read_numbers(numbers: &[f64]) -> Option<Self> {
+        let _ = numbers;
+        None
+    }
 }
 
 /// A carried resource that keeps a value per particle row (a Newton warm start, a cached
@@ -41,29 +61,61 @@ macro_rules! checkpoint_keys {
     };
 }
 
-/// Implements [`State`] for generic-over-`D` engine types.
+/// Implements [`State`] for generic-over-`D` engine types, newtypes of `D`'s vector, matrix or
+/// symmetric tensor: numbers ([`State::NUMBERS`]).
 macro_rules! dim_keys {
-    ($($ty:ident => $key:literal),* $(,)?) => {
+    ($($ty:ident($inner:ident) => $key:literal),* $(,)?) => {
         $(impl<D: crate::dim::Dim> State for crate::components::$ty<D> {
             const KEY: &'static str = $key;
+            const NUMBERS: usize = <D::$inner as Numbers>::COUNT;
+
+            #[inline]
+            fn write_numbers(&self, out: &mut [f64]) {
+                self.0.write_numbers(out);
+            }
+
+            #[inline]
+            fn read_numbers(numbers: &[f64]) -> Option<Self> {
+                Some(Self(Numbers::from_numbers(numbers)))
+            }
+        })*
+    };
+}
+
+/// Implements [`State`] for newtypes of one `f64`: numbers ([`State::NUMBERS`]).
+macro_rules! scalar_keys {
+    ($($ty:ty => $key:literal),* $(,)?) => {
+        $(impl State for $ty {
+            const KEY: &'static str = $key;
+            const NUMBERS: usize = 1;
+
+            #[inline]
+            fn write_numbers(&self, out: &mut [f64]) {
+                out[0] = self.0;
+            }
+
+            #[inline]
+            fn read_numbers(numbers: &[f64]) -> Option<Self> {
+                Some(Self(numbers[0]))
+            }
         })*
     };
 }
 
 dim_keys! {
-    Position => "particle/position",
-    Velocity => "particle/velocity",
-    Acceleration => "particle/acceleration",
-    DeformationGradient => "particle/deformation_gradient",
-    Stress => "particle/stress",
-    Strain => "particle/strain",
-    ExternalForce => "particle/external_force",
-    DamageGradient => "particle/damage_gradient",
-    AffineVelocity => "particle/affine_velocity",
-    ReferencePosition => "particle/reference_position",
+    Position(Vector) => "particle/position",
+    Velocity(Vector) => "particle/velocity",
+    Acceleration(Vector) => "particle/acceleration",
+    DeformationGradient(Matrix) => "particle/deformation_gradient",
+    Stress(Sym) => "particle/stress",
+    Strain(Sym) => "particle/strain",
+    ExternalForce(Vector) => "particle/external_force",
+    DamageGradient(Vector) => "particle/damage_gradient",
+    AffineVelocity(Matrix) => "particle/affine_velocity",
+    ReferencePosition(Vector) => "particle/reference_position",
 }
 
-checkpoint_keys! {
+scalar_keys! {
     crate::components::Mass => "particle/mass",
     crate::components::Volume => "particle/volume",
     crate::components::InitialVolume => "particle/initial_volume",
@@ -71,15 +123,18 @@ checkpoint_keys! {
     crate::components::WaveSpeed => "particle/wave_speed",
     crate::components::Damage => "particle/damage",
     crate::components::DamageHistory => "particle/damage_history",
-    crate::components::MaterialId => "particle/material",
-    crate::components::BodyId => "particle/body",
-    crate::components::ContactGroup => "particle/contact_group",
     crate::components::Strength => "particle/strength",
     crate::components::CrackOpening => "particle/crack_opening",
     crate::components::ViscousPressure => "particle/viscous_pressure",
     crate::components::ViscousDissipation => "particle/viscous_dissipation",
     crate::components::DamageDissipation => "particle/damage_dissipation",
     crate::components::SurfaceFlag => "particle/surface_flag",
+}
+
+checkpoint_keys! {
+    crate::components::MaterialId => "particle/material",
+    crate::components::BodyId => "particle/body",
+    crate::components::ContactGroup => "particle/contact_group",
     crate::loads::LoadShare => "particle/load_share",
     crate::resources::SimClock => "engine/clock",
     crate::energy::EnergyAccount => "engine/energy_account",

@@ -2,7 +2,7 @@
 //! module [`crate::checkpoint`]).
 
 use super::codecs::{
-    BlockRows, NOT_PICKED, load_component, load_resource, permute_column, pick_column,
+    BlockRows, ENCODED, NOT_PICKED, load_component, load_resource, permute_column, pick_column,
     pick_component, pick_rows, save_column, save_component, save_resource, save_rows,
 };
 use super::keys::{CheckpointError, RowState, State};
@@ -294,10 +294,12 @@ impl CheckpointState {
         self.components.iter().map(|e| e.name).collect()
     }
 
-    /// Every carried component of `particles` (storage rows `rows`), each encoded as a
-    /// checkpoint encodes it, in the order the components are carried, then their rows of each
-    /// [`RowState`] resource: the particles' state, to be sent to another rank of a
-    /// distributed run and put back with [`CheckpointState::load_picked_rows`].
+    /// Every carried component of `particles` (storage rows `rows`), in the order the
+    /// components are carried, then their rows of each [`RowState`] resource: the particles'
+    /// state, to be sent to another rank of a distributed run and put back with
+    /// [`CheckpointState::load_picked_rows`]. A component's part is a format byte and the
+    /// values: as their numbers for a component of numbers ([`State::NUMBERS`]) in the
+    /// particles' one table, encoded as a checkpoint encodes them otherwise.
     pub fn save_particles(
         &self,
         world: &mut World,
@@ -310,7 +312,11 @@ impl CheckpointState {
             // entity by entity otherwise.
             let bytes = match (entry.save_column)(world, rows, particles.len()) {
                 Some(column) => column?,
-                None => (entry.save)(world, particles)?,
+                None => {
+                    let mut part = vec![ENCODED];
+                    part.extend((entry.save)(world, particles)?);
+                    part
+                }
             };
             saved.push(bytes);
         }

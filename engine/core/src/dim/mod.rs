@@ -17,9 +17,11 @@
 //!   ([`eigen`]), always ordered largest first.
 
 pub mod eigen;
+mod numbers;
 mod three;
 mod two;
 
+pub use numbers::Numbers;
 pub use three::{SymTensor3, Three};
 pub use two::{SymTensor2, Two};
 
@@ -127,11 +129,11 @@ pub trait Dim:
     /// Names of the coordinate axes, used in column names (`momentum_x`).
     const AXES: &'static [&'static str];
     /// A position, velocity, force or gradient vector.
-    type Vector: VectorOps;
+    type Vector: VectorOps + Numbers;
     /// A full (non-symmetric) second-order tensor: velocity gradient, deformation gradient.
-    type Matrix: MatrixOps<Self::Vector>;
+    type Matrix: MatrixOps<Self::Vector> + Numbers;
     /// A symmetric second-order tensor: stress, strain (in 2D with the out-of-plane `zz`).
-    type Sym: SymOps<Self::Vector, Self::Matrix>;
+    type Sym: SymOps<Self::Vector, Self::Matrix> + Numbers;
     /// Lattice coordinates of a grid cell or node, `[usize; N]`.
     type Cell: Lattice;
 
