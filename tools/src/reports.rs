@@ -555,6 +555,11 @@ fn slabs_report(ranks: &fractum_scene::RankSlabs, out: &mut String) {
          deep as a step reaches), and the nodes they reach",
         ranks.halo
     );
+    // A face at the origin comes out of the node coordinates as a round-off (1.4e-17 m): a
+    // coordinate within 1e-12 of the slabs' extent of zero is zero.
+    let extent =
+        (ranks.bounds.iter()).fold(0.0_f64, |e, (low, high)| e.max(low.abs()).max(high.abs()));
+    let at = |x: f64| short(if x.abs() < 1e-12 * extent { 0.0 } else { x });
     for (rank, (((layers, particles), (low, high)), (held, nodes, bytes))) in slabs
         .layers
         .iter()
@@ -567,8 +572,8 @@ fn slabs_report(ranks: &fractum_scene::RankSlabs, out: &mut String) {
             out,
             "  rank {rank:<4} {axis} {} to {} m (cell layers {}..{}): {particles} particles, \
              {held} with ghosts, {} nodes, {}",
-            short(*low),
-            short(*high),
+            at(*low),
+            at(*high),
             layers.start,
             layers.end,
             fractum_engine::budget::describe_count(*nodes as f64),

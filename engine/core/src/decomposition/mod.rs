@@ -100,15 +100,20 @@ pub fn rank_grid<D: crate::dim::Dim>(
 
 use std::ops::Range;
 
-/// What a node costs a step, in particles. Measured with callgrind by adding 50 layers of
-/// empty nodes to three shipped scenes and dividing the instructions a step they add per node
-/// by those of a particle (docs/design/distributed.md, "Slabs cut by particles and nodes"):
-/// 0.26 on `kalthoff_winkler_dfg` (B-splines, DFG partitioning, frictional contact: 1 140
-/// instructions a node, 4 440 a particle), 0.30 on `brazilian_dfg` (GIMP, DFG: 1 150 and
-/// 3 780) and 0.10 on `drop_weight_881` (LME with eigensoftening: 750 and 7 400). The value
-/// is the DFG pipelines', whose ranks cut across contact regions and empty space; it counts
-/// a node that carries mass as an empty one, its particles being counted as well.
-pub const NODE_COST: f64 = 0.25;
+/// What a node costs a step, in particles: the weight that balances the two ranks' pipelines
+/// of `kalthoff_winkler_dfg` (B-splines, DFG partitioning, frictional contact; callgrind, one
+/// thread a rank: 124.7 and 124.1 M instructions a step at 0.5, 128.3 and 121.0 M at 0.25,
+/// where the rank over the impactor and the empty space before it holds 7 500 nodes more;
+/// docs/design/distributed.md, "Slabs cut by particles and nodes"). An empty node alone costs
+/// less, measured by adding 50 layers of empty nodes to three shipped scenes and dividing the
+/// instructions a step they add per node by those of a particle: 0.26 on
+/// `kalthoff_winkler_dfg` (1 140 instructions a node, 4 440 a particle), 0.30 on
+/// `brazilian_dfg` (GIMP, DFG: 1 150 and 3 780), 0.10 on `drop_weight_881` (LME with
+/// eigensoftening: 750 and 7 400); a node that carries mass costs more (its fields, their
+/// contact and the partition), which the balanced weight counts. A slab of layers with as many
+/// particles and nodes as its neighbour's is cut the same at any weight: the weight moves only
+/// cuts between regions of different density, as an impactor's.
+pub const NODE_COST: f64 = 0.5;
 
 /// The slabs' loads are counted in hundredths of a particle, so that [`NODE_COST`] times a
 /// layer's nodes keeps two decimals in whole numbers.
@@ -277,12 +282,13 @@ mod tests {
         let by_load = cut_slabs(0, &per_layer, 100, 2).unwrap();
         assert_eq!(by_particles.layers, vec![0..28, 28..40]);
         assert_eq!(by_particles.particles, vec![1200, 1200]);
-        // A layer of 100 nodes weighs 25 particles: loads 45 and 125 a layer, 3400 in all.
-        assert_eq!(by_load.layers, vec![0..26, 26..40]);
-        assert_eq!(by_load.particles, vec![1000, 1400]);
+        // A layer of 100 nodes weighs 50 particles: loads 70 and 150 a layer, 4400 in all.
+        assert_eq!(NODE_COST, 0.5);
+        assert_eq!(by_load.layers, vec![0..25, 25..40]);
+        assert_eq!(by_load.particles, vec![900, 1500]);
         assert_eq!(
             by_load.loads,
-            vec![(1000 + 26 * 25) * 100, (1400 + 14 * 25) * 100]
+            vec![(900 + 25 * 50) * 100, (1500 + 15 * 50) * 100]
         );
         assert!(by_load.imbalance() < 0.05);
         let loads_of = |slabs: &Slabs| -> Vec<u64> {
