@@ -7,7 +7,7 @@ use super::rank_clock::{Phase, RankClock, record};
 use crate::checkpoint::CheckpointState;
 use bevy_ecs::prelude::*;
 use fractum_engine::communicator::{Communicator, RankFailure};
-use fractum_engine::components::{Particle, ParticleBundle, ParticleId, Position};
+use fractum_engine::components::{Particle, ParticleBundle, ParticleId};
 use fractum_engine::decomposition::{Layout, Ownership, RankRebuild};
 use fractum_engine::dim::{Dim, VectorOps};
 use fractum_engine::health::{EscapedParticles, LeaveGrid};
@@ -18,7 +18,7 @@ use std::time::Instant;
 
 mod rows;
 mod wire;
-use rows::rebuild;
+use rows::{for_each_row, rebuild, rows};
 
 /// Takes one step of a distributed run on this rank: the least stable step over ranks, the
 /// step, and [`redistribute`]. Every rank calls it for the same step; a failure on any rank
@@ -162,36 +162,6 @@ fn layer_of<D: Dim>(layout: &Layout, grid: &Grid<D>, x: D::Vector) -> usize {
 /// One rank's particles on the wire: their ids, ascending, and their carried components as
 /// [`CheckpointState::save_particles`] encodes them.
 type Block = (Vec<u32>, Vec<Vec<u8>>);
-
-/// Rows in storage order: entity, id, position.
-fn rows<D: Dim>(world: &mut World) -> Vec<(Entity, u32, D::Vector)> {
-    let mut rows = Vec::new();
-    for_each_row::<D>(world, |_, entity, id, x| rows.push((entity, id, x)));
-    rows
-}
-
-/// Calls `visit` with every particle row in storage order: its row, entity, id and position.
-/// Table by table over the columns' slices, as the query's iterator goes through the tables:
-/// that iterator's fetch of each particle cost more than the work a step's exchange does with
-/// it, twice over every row (a rank goes through its rows after every step).
-fn for_each_row<D: Dim>(world: &mut World, mut visit: impl FnMut(usize, Entity, u32, D::Vector)) {
-    let mut query = world.query_filtered::<(Entity, &ParticleId, &Position<D>), With<Particle>>();
-    let mut row = 0;
-    let mut next = |entity: Entity, id: &ParticleId, x: &Position<D>| {
-        visit(row, entity, id.0, x.0);
-        row += 1;
-    };
-    match query.contiguous_iter(world) {
-        Ok(tables) => {
-            for (entities, ids, xs) in tables {
-                for ((&entity, id), x) in entities.iter().zip(ids).zip(xs) {
-                    next(entity, id, x);
-                }
-            }
-        }
-        Err(_) => query.iter(world).for_each(|(e, id, x)| next(e, id, x)),
-    }
-}
 
 /// The particles `rows` (storage row, entity, id) on the wire.
 fn block(
@@ -620,46 +590,4 @@ pub fn restore_rank_piece(
     let world = &mut sim.world;
     with_dim!(dimension, D => put_particles::<D>(world, &file.world.particles, ownership))?;
     super::restore_checkpoint(sim, file)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use fractum_engine::dim::Two;
-    use glam::DVec2;
-
-    #[derive(Component)]
-    struct Marked;
-
-    /// Rows come in the query's order with their own ids and positions, in one table and when
-    /// a component on some particles splits them over two.
-    #[test]
-    fn rows_are_visited_in_the_querys_order_over_every_table() {
-        for split in [false, true] {
-            let mut world = fractum_engine::testing::tiny_world::<Two>(4, 0.25, 1e-3);
-            for k in 0..6u32 {
-                let x = DVec2::new(0.1 * f64::from(k), 0.5);
-                let mut entity = world.spawn(ParticleBundle::<Two>::new(10 + k, x, 1.0, 0.01, 0));
-                if split && k % 2 == 1 {
-                    entity.insert(Marked);
-                }
-            }
-            let mut query =
-                world.query_filtered::<(Entity, &ParticleId, &Position<Two>), With<Particle>>();
-            let expected: Vec<(usize, Entity, u32, DVec2)> = (query.iter(&world))
-                .enumerate()
-                .map(|(row, (e, id, x))| (row, e, id.0, x.0))
-                .collect();
-            let mut visited = Vec::new();
-            for_each_row::<Two>(&mut world, |row, e, id, x| visited.push((row, e, id, x)));
-            assert_eq!(visited, expected, "split over two tables: {split}");
-            let ids: Vec<u32> = visited.iter().map(|v| v.2).collect();
-            let mut sorted = ids.clone();
-            sorted.sort_unstable();
-            assert_eq!(sorted, (10..16).collect::<Vec<u32>>());
-            if split {
-                assert_ne!(ids, sorted, "the marked particles make a second table");
-            }
-        }
-    }
 }

@@ -1,10 +1,11 @@
-//! A rank's particle rows after a step's exchange ([`super::redistribute`]): the particles it
-//! kept and those that arrived, sorted by id, each with its owner's state.
+//! A rank's particle rows: visited in storage order ([`for_each_row`]), and rebuilt after a
+//! step's exchange ([`super::redistribute`]) from the particles it kept and those that arrived,
+//! sorted by id, each with its owner's state.
 
 use super::{Block, Moved, block, resize_particles};
 use crate::checkpoint::CheckpointState;
 use bevy_ecs::prelude::*;
-use fractum_engine::components::{Particle, ParticleId};
+use fractum_engine::components::{Particle, ParticleId, Position};
 use fractum_engine::dim::Dim;
 
 /// Makes the world's particles exactly those it `kept` (storage row, entity, id) and those
@@ -21,7 +22,7 @@ pub(super) fn rebuild<D: Dim>(
 ) -> Result<(), String> {
     let picks = merged_picks(kept, &arrived)?;
     let mut held = Vec::with_capacity(picks.len());
-    super::for_each_row::<D>(world, |_, _, id, _| held.push(id));
+    for_each_row::<D>(world, |_, _, id, _| held.push(id));
     let same_rows = held.len() == picks.len() && held.iter().zip(&picks).all(|(a, b)| *a == b.0);
     let arrived: Vec<Vec<Vec<u8>>> = arrived.into_iter().map(|b| b.1).collect();
     let keep_or_pick = |&(_, b, i): &(u32, u32, u32)| match b {
@@ -146,9 +147,45 @@ fn set_ids(world: &mut World, picks: &[(u32, u32, u32)]) {
     }
 }
 
+/// Rows in storage order: entity, id, position.
+pub(super) fn rows<D: Dim>(world: &mut World) -> Vec<(Entity, u32, D::Vector)> {
+    let mut rows = Vec::new();
+    for_each_row::<D>(world, |_, entity, id, x| rows.push((entity, id, x)));
+    rows
+}
+
+/// Calls `visit` with every particle row in storage order: its row, entity, id and position.
+/// Table by table over the columns' slices, as the query's iterator goes through the tables:
+/// that iterator's fetch of each particle cost more than the work a step's exchange does with
+/// it, twice over every row (a rank goes through its rows after every step).
+pub(super) fn for_each_row<D: Dim>(
+    world: &mut World,
+    mut visit: impl FnMut(usize, Entity, u32, D::Vector),
+) {
+    let mut query = world.query_filtered::<(Entity, &ParticleId, &Position<D>), With<Particle>>();
+    let mut row = 0;
+    let mut next = |entity: Entity, id: &ParticleId, x: &Position<D>| {
+        visit(row, entity, id.0, x.0);
+        row += 1;
+    };
+    match query.contiguous_iter(world) {
+        Ok(tables) => {
+            for (entities, ids, xs) in tables {
+                for ((&entity, id), x) in entities.iter().zip(ids).zip(xs) {
+                    next(entity, id, x);
+                }
+            }
+        }
+        Err(_) => query.iter(world).for_each(|(e, id, x)| next(e, id, x)),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fractum_engine::components::ParticleBundle;
+    use fractum_engine::dim::Two;
+    use glam::DVec2;
 
     /// Rows 0..5 held particles 10..14; 11 and 13 left, 12 and 14 were kept, and 15 and 16
     /// arrived: the new rows are 12, 14, 15, 16 (the kept ones from old rows 2 and 4), over
@@ -232,5 +269,40 @@ mod tests {
                 .unwrap_err()
                 .contains("particle 7")
         );
+    }
+
+    #[derive(Component)]
+    struct Marked;
+
+    /// Rows come in the query's order with their own ids and positions, in one table and when
+    /// a component on some particles splits them over two.
+    #[test]
+    fn rows_are_visited_in_the_querys_order_over_every_table() {
+        for split in [false, true] {
+            let mut world = fractum_engine::testing::tiny_world::<Two>(4, 0.25, 1e-3);
+            for k in 0..6u32 {
+                let x = DVec2::new(0.1 * f64::from(k), 0.5);
+                let mut entity = world.spawn(ParticleBundle::<Two>::new(10 + k, x, 1.0, 0.01, 0));
+                if split && k % 2 == 1 {
+                    entity.insert(Marked);
+                }
+            }
+            let mut query =
+                world.query_filtered::<(Entity, &ParticleId, &Position<Two>), With<Particle>>();
+            let expected: Vec<(usize, Entity, u32, DVec2)> = (query.iter(&world))
+                .enumerate()
+                .map(|(row, (e, id, x))| (row, e, id.0, x.0))
+                .collect();
+            let mut visited = Vec::new();
+            for_each_row::<Two>(&mut world, |row, e, id, x| visited.push((row, e, id, x)));
+            assert_eq!(visited, expected, "split over two tables: {split}");
+            let ids: Vec<u32> = visited.iter().map(|v| v.2).collect();
+            let mut sorted = ids.clone();
+            sorted.sort_unstable();
+            assert_eq!(sorted, (10..16).collect::<Vec<u32>>());
+            if split {
+                assert_ne!(ids, sorted, "the marked particles make a second table");
+            }
+        }
     }
 }
