@@ -57,42 +57,28 @@ glam_numbers! {
     DMat3, 9, to_cols_array, from_cols_slice;
 }
 
-impl Numbers for SymTensor2 {
-    const COUNT: usize = 4;
+/// `Numbers` for a symmetric tensor through its components, in the order listed.
+macro_rules! sym_numbers {
+    ($($ty:ty: $($field:ident),+;)*) => {
+        $(impl Numbers for $ty {
+            const COUNT: usize = [$(stringify!($field)),+].len();
 
-    #[inline]
-    fn write_numbers(&self, out: &mut [f64]) {
-        out[..4].copy_from_slice(&[self.xx, self.yy, self.zz, self.xy]);
-    }
+            #[inline]
+            fn write_numbers(&self, out: &mut [f64]) {
+                out[..Self::COUNT].copy_from_slice(&[$(self.$field),+]);
+            }
 
-    #[inline]
-    fn from_numbers(numbers: &[f64]) -> Self {
-        Self {
-            xx: numbers[0],
-            yy: numbers[1],
-            zz: numbers[2],
-            xy: numbers[3],
-        }
-    }
+            #[inline]
+            fn from_numbers(numbers: &[f64]) -> Self {
+                let mut numbers = numbers.iter().copied();
+                let mut next = || numbers.next().expect("a value's numbers are all given");
+                Self { $($field: next()),+ }
+            }
+        })*
+    };
 }
 
-impl Numbers for SymTensor3 {
-    const COUNT: usize = 6;
-
-    #[inline]
-    fn write_numbers(&self, out: &mut [f64]) {
-        out[..6].copy_from_slice(&[self.xx, self.yy, self.zz, self.xy, self.yz, self.xz]);
-    }
-
-    #[inline]
-    fn from_numbers(numbers: &[f64]) -> Self {
-        Self {
-            xx: numbers[0],
-            yy: numbers[1],
-            zz: numbers[2],
-            xy: numbers[3],
-            yz: numbers[4],
-            xz: numbers[5],
-        }
-    }
+sym_numbers! {
+    SymTensor2: xx, yy, zz, xy;
+    SymTensor3: xx, yy, zz, xy, yz, xz;
 }
