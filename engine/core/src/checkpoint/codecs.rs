@@ -168,9 +168,8 @@ fn unknown_format<C: State>(format: u8) -> CheckpointError {
     ))
 }
 
-/// Postcard's output into a vector: a value's bytes (a number's eight) appended at once, where
-/// postcard's `to_extend` appends them one by one through an iterator, which cost several times
-/// the encoding of a rank's ghosts (they are encoded every step).
+/// Postcard's output appended to a vector whose room was reserved (here after the part's
+/// format byte), a value's bytes (a number's eight) copied at once.
 struct Appending(Vec<u8>);
 
 impl postcard::ser_flavors::Flavor for Appending {
