@@ -19,10 +19,17 @@
 //! method with a backtracking line search restarts from λ = 0; if that also fails, the caller
 //! gets an error rather than shape functions that are not a partition of unity.
 //!
+//! The sums over the support nodes (`Z`, `r`, `J`, the first-order update) are in
+//! `lme_lanes.rs`, four nodes at a time; [`lme_solve`] runs the whole solve through
+//! [`vectorised`], so they are AVX2 instructions where the CPU has them, with the baseline's
+//! bits.
+//!
 //! Generic over the dimension: λ, `r` are `d`-vectors and `J` is `d × d`.
 
+use super::lme_lanes::{self as lanes, LaneMoments, RowOffsets};
 use fractum_engine::connectivity::RowMap;
 use fractum_engine::prelude::{Dim, MatrixOps, VectorOps};
+use fractum_engine::vector_isa::vectorised;
 
 /// Solver settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -67,67 +74,21 @@ pub struct LmeScratch {
     /// `N_I` at the current λ; holds the result after a successful solve.
     pub values: Vec<f64>,
     trial: Vec<f64>,
+    offsets: RowOffsets,
 }
 
 /// `Z` (as its scaled sum and the shift of the exponents), `r` and `J` at one λ (the `N_I` are
 /// in a buffer beside it).
-#[derive(Clone, Copy, Debug)]
-struct Moments<D: Dim> {
-    /// `Σ exp(f_I − largest)`: `log Z` is `ln(scaled_z) + largest`, taken only by the damped
-    /// method's line search (a logarithm per solve the fast path does not need).
-    scaled_z: f64,
-    /// The largest exponent `f_I`, by which they were shifted.
-    largest: f64,
-    r: D::Vector,
-    j: D::Matrix,
-}
+type Moments<D> = LaneMoments<D>;
 
-impl<D: Dim> Moments<D> {
-    /// `log Z(x, λ)` (eq. 7's objective).
-    fn log_z(&self) -> f64 {
-        self.scaled_z.ln() + self.largest
-    }
-}
-
-/// Evaluates the moments at `lambda`, writing `N_I` into `values`.
-fn moments<D: Dim>(
-    x: D::Vector,
-    nodes: &[D::Vector],
-    beta: f64,
-    lambda: D::Vector,
-    values: &mut Vec<f64>,
-) -> Moments<D> {
-    values.clear();
-    // Exponents first, then shifted by the largest so that exp never overflows.
-    let mut largest = f64::NEG_INFINITY;
-    values.extend(nodes.iter().map(|&xi| {
-        let d = x - xi;
-        let exponent = -beta * d.length_squared() + lambda.dot(d);
-        largest = largest.max(exponent);
-        exponent
-    }));
-    let mut z = 0.0;
-    for v in values.iter_mut() {
-        *v = (*v - largest).exp();
-        z += *v;
-    }
-    let mut r = D::Vector::ZERO;
-    let mut second = D::Matrix::ZERO;
-    for (v, &xi) in values.iter_mut().zip(nodes) {
-        *v /= z;
-        let d = x - xi;
-        r += d * *v;
-        second += D::Matrix::outer(d, d) * *v;
-    }
-    Moments {
-        scaled_z: z,
-        largest,
-        r,
-        j: second - D::Matrix::outer(r, r),
-    }
+/// `log Z(x, λ)` (eq. 7's objective), taken only by the damped method's line search (a
+/// logarithm per solve the fast path does not need).
+fn log_z<D: Dim>(m: &Moments<D>) -> f64 {
+    m.scaled_z.ln() + m.largest
 }
 
 /// The Newton step `−J⁻¹ r`, or `None` when J is singular or the step is not finite.
+#[inline(always)]
 fn newton_step<D: Dim>(m: &Moments<D>) -> Option<D::Vector> {
     let det = m.j.determinant();
     if !(det.is_finite() && det > f64::MIN_POSITIVE) {
@@ -137,42 +98,36 @@ fn newton_step<D: Dim>(m: &Moments<D>) -> Option<D::Vector> {
     step.is_finite().then_some(step)
 }
 
+/// One point's solve: the settings (the support's offsets are in the scratch).
 struct Problem<'a, D: Dim> {
-    x: D::Vector,
-    nodes: &'a [D::Vector],
     settings: &'a LmeSettings,
+    dimension: std::marker::PhantomData<D>,
 }
 
 impl<D: Dim> Problem<'_, D> {
+    #[inline(always)]
     fn goal(&self) -> f64 {
         self.settings.tolerance * self.settings.length_scale
     }
 
     /// Moments at `lambda` into the scratch's trial buffer.
+    #[inline(always)]
     fn trial(&self, lambda: D::Vector, scratch: &mut LmeScratch) -> Moments<D> {
-        moments(
-            self.x,
-            self.nodes,
-            self.settings.beta,
-            lambda,
-            &mut scratch.trial,
-        )
+        let beta = self.settings.beta;
+        lanes::moments::<D>(&scratch.offsets, beta, lambda, &mut scratch.trial)
     }
 
     /// Moments at `lambda` into the scratch's current buffer.
+    #[inline(always)]
     fn current(&self, lambda: D::Vector, scratch: &mut LmeScratch) -> Moments<D> {
-        moments(
-            self.x,
-            self.nodes,
-            self.settings.beta,
-            lambda,
-            &mut scratch.values,
-        )
+        let beta = self.settings.beta;
+        lanes::moments::<D>(&scratch.offsets, beta, lambda, &mut scratch.values)
     }
 
     /// One more Newton step if it still shrinks `|r|`: at quadratic convergence it takes the
     /// residual from the tolerance to round-off, which the gradient identities need because
     /// they carry `J⁻¹ r` and J is small near a node at large γ̂.
+    #[inline(always)]
     fn polish(
         &self,
         lambda: D::Vector,
@@ -196,6 +151,7 @@ impl<D: Dim> Problem<'_, D> {
     /// Plain Newton from `start`; `Err(iterations)` when it does not converge.
     /// `first` are the moments at `start` when the caller has them (with `scratch.values`
     /// holding their values), so they are not evaluated twice.
+    #[inline(always)]
     fn plain_newton(
         &self,
         start: D::Vector,
@@ -219,6 +175,7 @@ impl<D: Dim> Problem<'_, D> {
 
     /// Damped Newton with Armijo backtracking on `log Z`, from λ = 0; steepest descent when J
     /// is singular. `Err(residual)` when it does not converge.
+    #[inline(always)]
     fn damped_newton(
         &self,
         scratch: &mut LmeScratch,
@@ -237,7 +194,7 @@ impl<D: Dim> Problem<'_, D> {
                 let trial = self.trial(lambda + direction * t, scratch);
                 // Sufficient decrease of log Z, or (once its changes drown in round-off near
                 // the minimum) a halving of the gradient norm.
-                let (trial_log_z, log_z) = (trial.log_z(), m.log_z());
+                let (trial_log_z, log_z) = (log_z(&trial), log_z(&m));
                 let decreases = trial_log_z <= log_z + 1e-4 * t * slope;
                 let closer = trial.r.length() <= 0.5 * m.r.length();
                 if trial_log_z.is_finite() && (decreases || closer) {
@@ -279,6 +236,7 @@ enum FastPath<D: Dim> {
 /// The fast path: the moments at `lambda_guess`, one Newton step applied to the values to first
 /// order and `J` recomputed from them, unless the step would change some value by more than
 /// [`LINEARISE_BELOW`] relatively.
+#[inline(always)]
 fn linearised<D: Dim>(
     problem: &Problem<D>,
     lambda_guess: D::Vector,
@@ -290,33 +248,22 @@ fn linearised<D: Dim>(
     };
     // Each value's relative change `δ·(d_I − r)`, kept in the trial buffer (free on this path)
     // for the correction below.
-    let changes = &mut scratch.trial;
-    changes.clear();
-    let mut largest = 0.0f64;
-    changes.extend(problem.nodes.iter().map(|&xi| {
-        let change = delta.dot(problem.x - xi - m.r);
-        largest = largest.max(change.abs());
-        change
-    }));
+    let largest = lanes::changes::<D>(&scratch.offsets, delta, m.r, &mut scratch.trial);
     if largest > LINEARISE_BELOW {
         return FastPath::Declined(m);
     }
-    let mut r = D::Vector::ZERO;
-    let mut second = D::Matrix::ZERO;
-    for ((v, &xi), &change) in scratch.values.iter_mut().zip(problem.nodes).zip(&*changes) {
-        let d = problem.x - xi;
-        *v *= 1.0 + change;
-        r += d * *v;
-        second += D::Matrix::outer(d, d) * *v;
-    }
-    let j = second - D::Matrix::outer(r, r);
-    let det = j.determinant();
+    let corrected =
+        lanes::apply_changes::<D>(&scratch.offsets, &scratch.trial, &mut scratch.values);
+    let det = corrected.j.determinant();
     if det.is_finite() && det > f64::MIN_POSITIVE {
-        FastPath::Accepted(lambda_guess + delta, j.inverse())
+        FastPath::Accepted(lambda_guess + delta, corrected.j.inverse())
     } else {
         FastPath::Spoiled
     }
 }
+
+/// λ, `J⁻¹` and the Newton iterations used.
+pub type Solution<D> = (<D as Dim>::Vector, <D as Dim>::Matrix, usize);
 
 /// Solves for λ at `x` over `nodes`, warm-started from `lambda_guess`. On success `scratch.values`
 /// holds `N_I` and the result carries λ, `J⁻¹` and the iterations used.
@@ -326,8 +273,34 @@ pub fn lme_solve<D: Dim>(
     settings: &LmeSettings,
     lambda_guess: D::Vector,
     scratch: &mut LmeScratch,
-) -> Result<(D::Vector, D::Matrix, usize), LmeFailure> {
-    let problem = Problem::<D> { x, nodes, settings };
+) -> Result<Solution<D>, LmeFailure> {
+    scratch.offsets.fill::<D>(x, nodes);
+    // The whole solve in the widest instructions (`lme_lanes.rs` says why the baseline's copy
+    // gives the same bits).
+    let solved = vectorised(
+        #[inline(always)]
+        || solve_from::<D>(settings, lambda_guess, scratch),
+    );
+    scratch.values.truncate(nodes.len());
+    solved.map_err(|(residual, iterations)| LmeFailure {
+        residual,
+        iterations,
+        nodes: nodes.len(),
+    })
+}
+
+/// [`lme_solve`] over the offsets already in the scratch: the fast path, then plain Newton,
+/// then damped Newton; `Err((residual, iterations))` when none converges.
+#[inline(always)]
+fn solve_from<D: Dim>(
+    settings: &LmeSettings,
+    lambda_guess: D::Vector,
+    scratch: &mut LmeScratch,
+) -> Result<Solution<D>, (f64, usize)> {
+    let problem = Problem::<D> {
+        settings,
+        dimension: std::marker::PhantomData,
+    };
     let first = match linearised(&problem, lambda_guess, scratch) {
         FastPath::Accepted(lambda, j_inverse) => return Ok((lambda, j_inverse, 0)),
         FastPath::Declined(m) => Some(m),
@@ -338,11 +311,7 @@ pub fn lme_solve<D: Dim>(
         Err(spent) => problem
             .damped_newton(scratch)
             .map(|(lambda, m, k)| (lambda, m, k + spent))
-            .map_err(|residual| LmeFailure {
-                residual,
-                iterations: spent + settings.max_iterations,
-                nodes: nodes.len(),
-            })?,
+            .map_err(|residual| (residual, spent + settings.max_iterations))?,
     };
     Ok((lambda, m.j.inverse(), iterations))
 }

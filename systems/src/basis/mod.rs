@@ -5,6 +5,7 @@ pub mod linear;
 pub mod lme;
 mod lme_graded;
 pub mod lme_kernel;
+pub mod lme_lanes;
 pub mod lme_rows;
 pub mod mls;
 pub mod tensor;
