@@ -15,6 +15,7 @@ pub mod damage;
 pub mod neighbour;
 pub mod partition;
 pub mod predictor;
+pub mod row_map_transfer;
 pub mod spatial;
 pub mod stress;
 pub mod transfer;

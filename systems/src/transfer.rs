@@ -15,6 +15,7 @@
 //! particle only ever sees, and contributes to, its own field at each node (Algorithm 2).
 //! Generic over the dimension `D`.
 
+use crate::row_map_transfer::{ParticleForce, mapped_field_forces, mapped_velocity_gradient};
 use bevy_ecs::system::SystemParam;
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
@@ -284,17 +285,48 @@ pub fn force_contribution<D: Dim>(
         - traction * (intact * particles.volume[p].0)
 }
 
+/// Particle `p`'s stress as the internal force reads it, `σ − q I` with a shock viscosity,
+/// and the factor `(1 − D) V` (`V` where the damage sits in the stress) it is scaled by.
+#[inline]
+fn internal_stress<D: Dim>(particles: &ParticleSlices<D>, p: usize) -> (D::Matrix, f64) {
+    let intact = if particles.damage_scales_force {
+        1.0 - particles.damage[p].0
+    } else {
+        1.0
+    };
+    let stress = particles.stress[p].0.to_matrix();
+    let stress = match particles.viscous {
+        Some(q) => stress - D::Matrix::IDENTITY * q[p].0,
+        None => stress,
+    };
+    (stress, intact * particles.volume[p].0)
+}
+
 /// Per-field force sums `Σ N (m b + f_ext) − Σ (1 − D) V σ·∇N` (without `1 − D` under
 /// [`DamageInStress`]) of every node, into `forces`
-/// (resized to `node_count`; every slot is overwritten).
+/// (resized to `node_count`; every slot is overwritten). Where the rows keep maps instead of
+/// gradients (LME), each particle's map is applied once, its record kept in `records`
+/// (`row_map_transfer.rs`).
 pub fn field_forces<D: Dim>(
     c: &Connectivity<D>,
     particles: &ParticleSlices<D>,
     body_force: D::Vector,
     node_count: usize,
-    forces: &mut Vec<[D::Vector; MAX_FIELDS]>,
+    (forces, records): (
+        &mut Vec<[D::Vector; MAX_FIELDS]>,
+        &mut Vec<ParticleForce<D>>,
+    ),
 ) {
     forces.resize(node_count, [D::Vector::ZERO; MAX_FIELDS]);
+    if c.gradients.is_empty() && !c.row_maps.is_empty() {
+        let record = |p: usize, map| {
+            let (stress, scale) = internal_stress(particles, p);
+            let body = body_force * particles.mass[p].0 + particles.external[p].0;
+            ParticleForce::new(body, stress, scale, map)
+        };
+        mapped_field_forces(c, record, records, forces);
+        return;
+    }
     c.accumulate_to_nodes(forces, |f: &mut [D::Vector; MAX_FIELDS], e, p| {
         f[c.field(e)] += force_contribution(c, particles, body_force, e, p);
     });
@@ -346,18 +378,13 @@ pub fn velocity_gradient<D: Dim>(
                 add(l, entry, gradient)
             }),
         None if nodes.is_empty() => D::Matrix::ZERO,
-        None => {
-            let map = c.row_maps[p];
-            let positions = nodes.iter().map(|&node| c.node_positions[node as usize]);
-            let gradients = positions
-                .zip(&c.weights[row])
-                .map(|(position, &weight)| map.gradient(position, weight));
-            entries
-                .zip(gradients)
-                .fold(D::Matrix::ZERO, |l, (entry, gradient)| {
-                    add(l, entry, gradient)
-                })
-        }
+        // The row's map applied once to the row's sum (`row_map_transfer.rs`).
+        None => mapped_velocity_gradient(
+            c.row_maps[p],
+            (nodes, fields, &c.weights[row]),
+            &c.node_positions,
+            node_velocity,
+        ),
     }
 }
 
@@ -626,8 +653,17 @@ mod tests {
         ];
         for c in [&stored, &mapped] {
             for p in 0..2 {
-                let l = velocity_gradient(c, &velocity, p);
-                assert_eq!(l, by_entries(c, &velocity, p));
+                let (l, expected) = (
+                    velocity_gradient(c, &velocity, p),
+                    by_entries(c, &velocity, p),
+                );
+                if c.row_maps.is_empty() {
+                    assert_eq!(l, expected);
+                } else {
+                    // The map applied to the row's sum (`row_map_transfer.rs`): round-off apart.
+                    let scale = expected.max_abs();
+                    assert!((l - expected).max_abs() <= 1e-14 * scale);
+                }
                 let (a, v) = interpolate(c, &acceleration, &velocity, p);
                 let (mut a_sum, mut v_sum) = (DVec2::ZERO, DVec2::ZERO);
                 for e in c.row(p) {
@@ -645,5 +681,73 @@ mod tests {
             velocity_gradient(&stored, &velocity, 1),
             velocity_gradient(&one_field, &velocity, 1)
         );
+    }
+
+    /// Where the rows keep maps, `field_forces` (each map applied once per particle,
+    /// `row_map_transfer.rs`) equals the entry-by-entry `force_contribution` to round-off,
+    /// with the damage scaling the force or not and with a shock viscosity's pressure.
+    #[test]
+    fn mapped_rows_give_the_entry_by_entry_forces() {
+        let mut c = two_rows();
+        c.row_maps = vec![
+            RowMap {
+                matrix: DMat2::from_cols_array(&[2.0, 0.5, 0.5, 3.0]),
+                point: DVec2::new(0.4, 0.3),
+            },
+            RowMap {
+                matrix: DMat2::from_cols_array(&[1.5, -0.2, -0.2, 1.0]),
+                point: DVec2::new(1.6, 0.9),
+            },
+        ];
+        c.rebuild_transpose(4);
+        let sigma = |xx: f64, yy: f64, xy: f64| {
+            let zz = 0.3 * (xx + yy);
+            Stress::<Two>(SymTensor2 { xx, yy, zz, xy })
+        };
+        let stress = [sigma(3.0e6, -1.0e6, 0.5e6), sigma(-2.0e6, 4.0e6, -0.7e6)];
+        let (mass, volume) = ([Mass(2.0), Mass(3.0)], [Volume(0.2), Volume(0.25)]);
+        let external = [
+            ExternalForce(DVec2::new(5.0, 0.0)),
+            ExternalForce(DVec2::ZERO),
+        ];
+        let velocity = [Velocity(DVec2::ZERO); 2];
+        let (damage, q) = (
+            [Damage(0.0), Damage(0.4)],
+            [ViscousPressure(1.0e4), ViscousPressure(-2.0e5)],
+        );
+        let gravity = DVec2::new(0.0, -9.81);
+        for (damage_scales_force, viscous) in [(true, None), (false, None), (true, Some(&q[..]))] {
+            let particles = ParticleSlices {
+                mass: &mass,
+                velocity: &velocity,
+                volume: &volume,
+                stress: &stress,
+                damage: &damage,
+                external: &external,
+                viscous,
+                damage_scales_force,
+            };
+            let mut forces = Vec::new();
+            field_forces(&c, &particles, gravity, 5, (&mut forces, &mut Vec::new()));
+            let mut expected = vec![[DVec2::ZERO; MAX_FIELDS]; 5];
+            for p in 0..2 {
+                for e in c.row(p) {
+                    expected[c.nodes[e] as usize][c.field(e)] +=
+                        force_contribution(&c, &particles, gravity, e, p);
+                }
+            }
+            let largest = expected
+                .iter()
+                .flatten()
+                .map(|f| f.length())
+                .fold(0.0, f64::max);
+            assert!(largest > 1.0e5, "the stress is in play");
+            for (got, want) in forces.iter().flatten().zip(expected.iter().flatten()) {
+                assert!(
+                    (*got - *want).length() <= 1e-14 * largest,
+                    "{got:?} against {want:?}"
+                );
+            }
+        }
     }
 }

@@ -15,6 +15,7 @@
 //!   part) and leaves its force in `NodeContactForce`, which joins `f_I` and is integrated like
 //!   any other force (see `contact/frictional`).
 
+use crate::row_map_transfer::ParticleForce;
 use crate::transfer::{ForceSources, GridStepInputs, ParticleSlices, field_forces};
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
@@ -74,13 +75,17 @@ pub fn newmark_corrector<D: Dim>(
     else {
         return;
     };
-    let NodeBuffers { forces, held } = &mut *buffers;
+    let NodeBuffers {
+        forces,
+        records,
+        held,
+    } = &mut *buffers;
     field_forces(
         &connectivity,
         &slices,
         body_force.0,
         node_mass.len(),
-        forces,
+        (forces, records),
     );
     let (integration, dt) = (*integration, clock.dt);
     let gamma_dt = integration.force_window(dt);
@@ -143,9 +148,11 @@ fn correct_velocities<D: Dim>(
         });
 }
 
-/// Per-node buffers of the corrector, kept between steps.
+/// The corrector's buffers, kept between steps: the nodes' forces and held components, and the
+/// particles' force records of LME rows.
 pub struct NodeBuffers<D: Dim> {
     forces: Vec<[D::Vector; MAX_FIELDS]>,
+    records: Vec<ParticleForce<D>>,
     held: Vec<[bool; fractum_engine::boundary::MAX_COMPONENTS]>,
 }
 
@@ -153,6 +160,7 @@ impl<D: Dim> Default for NodeBuffers<D> {
     fn default() -> Self {
         Self {
             forces: Vec::new(),
+            records: Vec::new(),
             held: Vec::new(),
         }
     }
