@@ -105,7 +105,9 @@ fn install<D: Spatial>(installer: &mut Installer, params: &Params) -> Result<(),
     let nodes = cells_in_ball(d, reach);
     let candidates = cells_in_ball(d, 1.25 * reach);
     let state = (8 * (3 * d + d * d)) as f64;
-    // On a uniform grid each row keeps `J⁻¹` and its point instead of its gradients.
+    // On a uniform grid each row keeps `J⁻¹` and its point instead of its gradients, and the
+    // force gather keeps a record per particle with the map applied (`row_map_transfer.rs`:
+    // `m b + f_ext`, `B_p` and the point).
     let graded = installer
         .world()
         .get_resource::<Grid<D>>()
@@ -113,7 +115,7 @@ fn install<D: Spatial>(installer: &mut Installer, params: &Params) -> Result<(),
     let row_map = if graded {
         0.0
     } else {
-        (8 * (d * d + d)) as f64
+        (8 * (d * d + d) + 8 * (d * d + 2 * d)) as f64
     };
     // The buffer each row's solution (λ and `J⁻¹`, or why it failed) is written into, kept
     // from step to step.
