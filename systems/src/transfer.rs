@@ -270,11 +270,6 @@ pub fn force_contribution<D: Dim>(
     e: usize,
     p: usize,
 ) -> D::Vector {
-    let intact = if particles.damage_scales_force {
-        1.0 - particles.damage[p].0
-    } else {
-        1.0
-    };
     let n = c.weights[e];
     let gradient = c.gradient(e, p);
     let traction = match particles.viscous {
@@ -282,24 +277,31 @@ pub fn force_contribution<D: Dim>(
         None => particles.stress[p].0.dot(gradient),
     };
     body_force * (n * particles.mass[p].0) + particles.external[p].0 * n
-        - traction * (intact * particles.volume[p].0)
+        - traction * internal_scale(particles, p)
 }
 
-/// Particle `p`'s stress as the internal force reads it, `σ − q I` with a shock viscosity,
-/// and the factor `(1 − D) V` (`V` where the damage sits in the stress) it is scaled by.
-#[inline]
-fn internal_stress<D: Dim>(particles: &ParticleSlices<D>, p: usize) -> (D::Matrix, f64) {
+/// The factor particle `p`'s internal force is scaled by: `(1 − D) V`, or `V` where the damage
+/// sits in the stress ([`DamageInStress`]).
+#[inline(always)]
+fn internal_scale<D: Dim>(particles: &ParticleSlices<D>, p: usize) -> f64 {
     let intact = if particles.damage_scales_force {
         1.0 - particles.damage[p].0
     } else {
         1.0
     };
+    intact * particles.volume[p].0
+}
+
+/// Particle `p`'s stress as the internal force reads it, `σ − q I` with a shock viscosity,
+/// and the factor it is scaled by ([`internal_scale`]).
+#[inline]
+fn internal_stress<D: Dim>(particles: &ParticleSlices<D>, p: usize) -> (D::Matrix, f64) {
     let stress = particles.stress[p].0.to_matrix();
     let stress = match particles.viscous {
         Some(q) => stress - D::Matrix::IDENTITY * q[p].0,
         None => stress,
     };
-    (stress, intact * particles.volume[p].0)
+    (stress, internal_scale(particles, p))
 }
 
 /// Per-field force sums `Σ N (m b + f_ext) − Σ (1 − D) V σ·∇N` (without `1 − D` under
@@ -613,6 +615,18 @@ mod tests {
         }
     }
 
+    /// A map for each of [`two_rows`]' rows (`A` symmetric, as LME's `J⁻¹` is).
+    fn two_maps() -> Vec<RowMap<Two>> {
+        let map = |a: [f64; 4], point: DVec2| RowMap {
+            matrix: DMat2::from_cols_array(&a),
+            point,
+        };
+        vec![
+            map([2.0, 0.5, 0.5, 3.0], DVec2::new(0.4, 0.3)),
+            map([1.5, -0.2, -0.2, 1.0], DVec2::new(1.6, 0.9)),
+        ]
+    }
+
     fn nodes() -> (Vec<NodeVelocity<Two>>, Vec<NodeAcceleration<Two>>) {
         let v = |i: usize, k: usize| DVec2::new(1.0 + i as f64 + 0.1 * k as f64, -2.0 * i as f64);
         let velocity = (0..4)
@@ -641,16 +655,7 @@ mod tests {
             .map(|e| DVec2::new(0.1 * e as f64, 1.0 - e as f64))
             .collect();
         let mut mapped = two_rows();
-        mapped.row_maps = vec![
-            RowMap {
-                matrix: DMat2::from_cols_array(&[2.0, 0.5, 0.5, 3.0]),
-                point: DVec2::new(0.4, 0.3),
-            },
-            RowMap {
-                matrix: DMat2::from_cols_array(&[1.5, -0.2, -0.2, 1.0]),
-                point: DVec2::new(1.6, 0.9),
-            },
-        ];
+        mapped.row_maps = two_maps();
         for c in [&stored, &mapped] {
             for p in 0..2 {
                 let (l, expected) = (
@@ -689,16 +694,7 @@ mod tests {
     #[test]
     fn mapped_rows_give_the_entry_by_entry_forces() {
         let mut c = two_rows();
-        c.row_maps = vec![
-            RowMap {
-                matrix: DMat2::from_cols_array(&[2.0, 0.5, 0.5, 3.0]),
-                point: DVec2::new(0.4, 0.3),
-            },
-            RowMap {
-                matrix: DMat2::from_cols_array(&[1.5, -0.2, -0.2, 1.0]),
-                point: DVec2::new(1.6, 0.9),
-            },
-        ];
+        c.row_maps = two_maps();
         c.rebuild_transpose(4);
         let sigma = |xx: f64, yy: f64, xy: f64| {
             let zz = 0.3 * (xx + yy);
