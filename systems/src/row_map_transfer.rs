@@ -94,9 +94,11 @@ pub fn mapped_field_forces<D: Dim>(
     let records = &*records;
     forces.par_iter_mut().enumerate().for_each(|(node, slot)| {
         let mut sum = [D::Vector::ZERO; MAX_FIELDS];
-        if node + 1 < c.node_offsets.len() {
+        let entries = c.entries_of_node(node);
+        if !entries.is_empty() {
+            // The node's position once, for all its entries.
             let x_i = c.node_positions[node];
-            for &(e, p) in &c.node_entries[c.node_offsets[node]..c.node_offsets[node + 1]] {
+            for &(e, p) in entries {
                 let (e, record) = (e as usize, &records[p as usize]);
                 let per_weight = record.body + record.internal * (record.point - x_i);
                 sum[c.fields[e] as usize] += per_weight * c.weights[e];

@@ -203,7 +203,7 @@ mod tests {
         assert_eq!(&c.nodes[4..8], &[4, 5, 7, 8]);
         assert_eq!(&c.weights[4..8], &[0.5, 0.5, 0.0, 0.0]);
         // Node 4 (the centre) is touched by both particles, in particle order.
-        let slots = &c.node_entries[c.node_offsets[4]..c.node_offsets[5]];
+        let slots = c.entries_of_node(4);
         assert_eq!(slots.iter().map(|s| s.1).collect::<Vec<_>>(), vec![0, 1]);
     }
 

@@ -300,7 +300,7 @@ pub fn assign_fields<D: Dim>(
         .zip(references.par_iter_mut())
         .enumerate()
         .map(|(node, (fields, refs))| {
-            let entries = node_entries(c_ref, node);
+            let entries = c_ref.entries_of_node(node);
             // One group and no damage gradient at the node (most nodes): one field, side 0,
             // which is what the general path below finds, without its three passes. With one
             // group in the whole body of particles, the node's mark says so without a scan.
@@ -372,7 +372,7 @@ fn mark_touched_rows<D: Dim>(
     touched.clear();
     touched.resize(c.row_offsets.len().saturating_sub(1), false);
     for (node, _) in node_fields.iter().enumerate().filter(|(_, f)| f.count >= 2) {
-        for &(_, p) in node_entries(c, node) {
+        for &(_, p) in c.entries_of_node(node) {
             touched[p as usize] = true;
         }
     }
@@ -479,14 +479,6 @@ fn assign_slots<D: Dim>(
             }
         }
     });
-}
-
-fn node_entries<D: Dim>(c: &Connectivity<D>, node: usize) -> &[(u32, u32)] {
-    if node + 1 < c.node_offsets.len() {
-        &c.node_entries[c.node_offsets[node]..c.node_offsets[node + 1]]
-    } else {
-        &[]
-    }
 }
 
 /// The group of every particle at the node when there is one group and no particle there has a

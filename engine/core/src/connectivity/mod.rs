@@ -394,15 +394,24 @@ impl<D: Dim> Connectivity<D> {
     {
         out.par_iter_mut().enumerate().for_each(|(node, slot)| {
             let mut sum = T::default();
-            if node + 1 < self.node_offsets.len() {
-                for &(entry, particle) in
-                    &self.node_entries[self.node_offsets[node]..self.node_offsets[node + 1]]
-                {
-                    add(&mut sum, entry as usize, particle as usize);
-                }
+            for &(entry, particle) in self.entries_of_node(node) {
+                add(&mut sum, entry as usize, particle as usize);
             }
             *slot = sum;
         });
+    }
+
+    /// The (entry, particle) pairs of node `node`'s transposed entries, in particle order;
+    /// none for a node beyond the transpose (one no row reached when it was built).
+    #[inline]
+    pub fn entries_of_node(&self, node: usize) -> &[(u32, u32)] {
+        let end = node
+            .checked_add(1)
+            .and_then(|next| self.node_offsets.get(next));
+        match (self.node_offsets.get(node), end) {
+            (Some(&start), Some(&end)) => &self.node_entries[start..end],
+            _ => &[],
+        }
     }
 
     /// Particle-to-grid transfer: `out[I] = Σ_(entries of I) contribution(entry, particle)`.
@@ -416,12 +425,8 @@ impl<D: Dim> Connectivity<D> {
     {
         out.par_iter_mut().enumerate().for_each(|(node, slot)| {
             let mut sum = T::default();
-            if node + 1 < self.node_offsets.len() {
-                for &(entry, particle) in
-                    &self.node_entries[self.node_offsets[node]..self.node_offsets[node + 1]]
-                {
-                    sum += contribution(entry as usize, particle as usize);
-                }
+            for &(entry, particle) in self.entries_of_node(node) {
+                sum += contribution(entry as usize, particle as usize);
             }
             *slot = sum;
         });
@@ -643,6 +648,11 @@ mod tests {
         let c = sample();
         assert_eq!(c.node_offsets, vec![0, 2, 3, 5]);
         assert_eq!(c.node_entries, vec![(0, 0), (4, 2), (3, 2), (1, 0), (2, 1)]);
+        assert_eq!(c.entries_of_node(1), &[(3, 2)]);
+        assert_eq!(c.entries_of_node(2), &[(1, 0), (2, 1)]);
+        // A node beyond the transpose (the grid grew, no row reached it) has no entries.
+        assert!(c.entries_of_node(3).is_empty());
+        assert!(c.entries_of_node(usize::MAX).is_empty());
     }
 
     #[test]
