@@ -23,6 +23,7 @@ pub mod decomposition;
 pub mod diagnostics;
 pub mod dim;
 pub mod energy;
+pub mod engine_systems;
 pub mod fields;
 pub mod health;
 pub mod integration;

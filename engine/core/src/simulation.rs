@@ -2,9 +2,9 @@
 
 use crate::components::{MaterialId, Particle, ParticleId, Position, Velocity, WaveSpeed};
 use crate::dim::{Dim, Dimension, VectorOps};
-use crate::health::{Blowup, Health, healthy, stage_check};
+use crate::health::{Blowup, Health, healthy};
 use crate::resources::{Grid, Materials, SimClock, TimeStepLimit};
-use crate::stage::{Stage, StageCheck, StepSet, configure_step};
+use crate::stage::{Stage, StepSet, configure_step};
 use crate::with_dim;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::{LogLevel, ScheduleBuildSettings, ScheduleLabel, SingleThreadedExecutor};
@@ -33,7 +33,7 @@ pub struct StepSchedule;
 
 /// An empty step schedule: single-threaded executor, ambiguities are errors, the step ordered
 /// as [`crate::stage`] declares it, and every stage and window skipped after a failure. Add the health checks with
-/// [`add_stage_checks`] once the pipeline is installed.
+/// [`crate::engine_systems::add_stage_checks`] once the pipeline is installed.
 pub fn step_schedule() -> Schedule {
     let mut schedule = Schedule::new(StepSchedule);
     schedule.set_executor(SingleThreadedExecutor::new());
@@ -49,18 +49,6 @@ pub fn step_schedule() -> Schedule {
         schedule.configure_sets(window.run_if(healthy));
     }
     schedule
-}
-
-/// Puts the engine's health check after each of `stages` (the stages that have systems: an
-/// empty stage changes nothing, so checking after it would only repeat the previous check).
-pub fn add_stage_checks<D: Dim>(schedule: &mut Schedule, stages: impl IntoIterator<Item = Stage>) {
-    for stage in stages {
-        schedule.add_systems(
-            stage_check::<D>(stage)
-                .in_set(StageCheck(stage))
-                .run_if(healthy),
-        );
-    }
 }
 
 /// Builds the schedule's executable form now, turning ordering problems into a message that

@@ -351,6 +351,19 @@ pub fn carry_resource<R: Resource + State>(world: &mut World) {
 /// Registers what the engine itself carries from step to step: every component particles are
 /// spawned with (their id is the key, not carried), the clock, and the running totals.
 pub fn carry_engine_state<D: crate::dim::Dim>(world: &mut World) {
+    carry_engine_state_of(world, D::DIMENSION);
+}
+
+/// [`carry_engine_state`] for `dimension`. Not generic, so that the carried components'
+/// encoders (which a distributed run calls every step) are generated here with the engine's
+/// optimisation, whichever crate registers them (the scene crate, optimised less in the test
+/// profile).
+#[inline(never)]
+fn carry_engine_state_of(world: &mut World, dimension: crate::dim::Dimension) {
+    crate::with_dim!(dimension, D => carry_engine_components::<D>(world));
+}
+
+fn carry_engine_components<D: crate::dim::Dim>(world: &mut World) {
     use crate::components::*;
     let mut state = world.get_resource_or_init::<CheckpointState>();
     state.component::<Position<D>>();

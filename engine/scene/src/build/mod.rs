@@ -21,17 +21,17 @@ use super::seed::Seeds;
 use super::spec::{Built, PipelineSummary, SceneSummary, Spec};
 use super::world_checks::WorldChecks;
 use bevy_ecs::prelude::World;
-use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule};
+use bevy_ecs::schedule::Schedule;
 use fractum_engine::boundary::BoundaryConditions;
 use fractum_engine::decomposition::{Layout, Ownership};
 use fractum_engine::dim::Dim;
-use fractum_engine::health::{LeaveGrid, mark_escaped_particles, remove_escaped_particles};
-use fractum_engine::loads::{ParticleLoads, apply_loads};
+use fractum_engine::engine_systems;
+use fractum_engine::health::LeaveGrid;
+use fractum_engine::loads::ParticleLoads;
 use fractum_engine::registry::Registry;
 use fractum_engine::registry::templates::ComponentTemplates;
 use fractum_engine::series::SeriesColumns;
-use fractum_engine::simulation::{Simulation, add_stage_checks, step_schedule};
-use fractum_engine::stage::{Stage, StageCheck, StepSet};
+use fractum_engine::simulation::{Simulation, step_schedule};
 use fractum_io::output::OutputPlan;
 use ranks::{RankPlan, rank_rebuild};
 
@@ -204,9 +204,10 @@ impl<'r, D: Dim> WorldBuilder<'r, D> {
         world: &mut World,
         pipeline: &PipelineSummary,
     ) {
-        add_stage_checks::<D>(schedule, pipeline.by_stage.iter().map(|(stage, _)| *stage));
+        let stages = pipeline.by_stage.iter().map(|(stage, _)| *stage);
+        engine_systems::add_stage_checks(schedule, D::DIMENSION, stages);
         if !world.resource::<ParticleLoads<D>>().0.is_empty() {
-            schedule.add_systems(apply_loads::<D>.in_set(StepSet::ApplyLoads));
+            engine_systems::add_loads(schedule, D::DIMENSION);
         }
         let start = fractum_engine::diagnostics::totals(world);
         let moment = fractum_engine::energy::first_moment::<D>(world);
@@ -242,24 +243,10 @@ impl<'r, D: Dim> WorldBuilder<'r, D> {
             world.insert_resource(KineticWatch::new(q.kinetic_limit, floor));
             fractum_engine::checkpoint::carry_resource::<KineticWatch>(world);
         }
-        schedule
-            .add_systems(fractum_engine::energy::account_work::<D>.in_set(StepSet::AccountWork));
+        engine_systems::add_work_account(schedule, D::DIMENSION);
         if self.spec.on_leave_grid == LeaveGrid::Remove {
-            if world.contains_resource::<Ownership>() {
-                // A rank despawns none in the step, which would move its rows: it disowns
-                // them after the check, before the work is accounted, and the step's
-                // redistribution drops them (`run::distributed`).
-                schedule.add_systems(
-                    mark_escaped_particles::<D>
-                        .after(StageCheck(Stage::Advection))
-                        .before(StageCheck(Stage::PostStep))
-                        .before(StepSet::AccountWork),
-                );
-            } else {
-                schedule.add_systems(
-                    remove_escaped_particles::<D>.in_set(StageCheck(Stage::Advection)),
-                );
-            }
+            let on_a_rank = world.contains_resource::<Ownership>();
+            engine_systems::add_escape_removal(schedule, D::DIMENSION, on_a_rank);
         }
     }
 
