@@ -158,7 +158,13 @@ fn step_to_end<'py>(
                     let called = callback.call1(py, (clock.step, clock.time, sim.progress()));
                     if let Err(e) = called {
                         interrupt.store(true, Ordering::SeqCst);
-                        callback_error = Some(e);
+                        // A Ctrl-C while the callback ran surfaces as its `KeyboardInterrupt`:
+                        // the same signal as one seen between calls, so the same message.
+                        if signal.is_none() && e.is_instance_of::<PyKeyboardInterrupt>(py) {
+                            signal = Some(e);
+                        } else {
+                            callback_error = Some(e);
+                        }
                     }
                 }
             });

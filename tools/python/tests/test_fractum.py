@@ -146,6 +146,21 @@ def test_ctrl_c_leaves_a_checkpoint_that_resumes_bit_for_bit(tmp_path):
     assert (tmp_path / "cut" / "series.csv").read_bytes() == whole
 
 
+def test_ctrl_c_while_the_progress_callback_runs_is_the_same_interrupt(tmp_path):
+    # A Ctrl-C that lands while the callback's Python code runs raises `KeyboardInterrupt` in
+    # the callback: the run still finishes its step, writes a checkpoint and says how to resume.
+    scene_file = tmp_path / "impact.ron"
+    longer_impact().save(scene_file)
+
+    def pressed(step, t, fraction):
+        if step > 0:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt, match=r"fractum\.resume\("):
+        fractum.run(scene_file, out=tmp_path / "cut", threads=2, progress=pressed)
+    assert fractum.open(tmp_path / "cut").checkpoints
+
+
 # -- stepping in memory ------------------------------------------------------------------
 
 
