@@ -54,13 +54,39 @@ fn body_states<D: Dim>(world: &mut World, bodies: usize) -> Vec<BodyState<D>> {
         .collect()
 }
 
-/// Smallest distance between a particle of body 0 and one of body 1.
+/// Smallest distance between a particle of body 0 and one of body 1. Two points are at least as
+/// far apart as their coordinates along any direction, so with body 1's particles sorted by
+/// their coordinate along the diagonal (the bodies' line of approach) each particle of body 0
+/// measures only the stretch within the best distance so far (widened by a millionth against
+/// round-off): the minimum over every pair, without measuring every pair (4.6 million pairs for
+/// the two spheres, every tenth step).
 fn closest_approach<D: Dim>(world: &mut World) -> f64 {
+    let diagonal = D::Vector::ONE / (D::N as f64).sqrt();
     let mut q = world.query::<(&BodyId, &Position<D>)>();
-    let (a, b): (Vec<_>, Vec<_>) = q.iter(world).partition(|(id, _)| id.0 == 0);
-    a.iter()
-        .flat_map(|(_, x)| b.iter().map(move |(_, y)| (x.0 - y.0).length()))
-        .fold(f64::INFINITY, f64::min)
+    let mut first: Vec<D::Vector> = Vec::new();
+    let mut second: Vec<D::Vector> = Vec::new();
+    for (id, x) in q.iter(world) {
+        if id.0 == 0 {
+            first.push(x.0);
+        } else {
+            second.push(x.0);
+        }
+    }
+    second.sort_by(|x, y| x.dot(diagonal).total_cmp(&y.dot(diagonal)));
+    let along: Vec<f64> = second.iter().map(|y| y.dot(diagonal)).collect();
+    let mut best_squared = f64::INFINITY;
+    for x in &first {
+        let reach = 1.000_001 * best_squared.sqrt();
+        let at = x.dot(diagonal);
+        let start = along.partition_point(|&k| k < at - reach);
+        for (y, &k) in second[start..].iter().zip(&along[start..]) {
+            if k > at + 1.000_001 * best_squared.sqrt() {
+                break;
+            }
+            best_squared = best_squared.min((*x - *y).length_squared());
+        }
+    }
+    best_squared.sqrt()
 }
 
 struct Collision {
