@@ -124,6 +124,12 @@ CHECKED_PIPELINES = {
         '(system: "stress/linear_elastic")',
         '(system: "advection/usl")',
     ],
+    "bspline-apic": [
+        '(system: "basis/bspline")',
+        '(system: "predictor/usl")',
+        '(system: "stress/linear_elastic")',
+        '(system: "advection/usl", params: (transfer: Apic))',
+    ],
     "bspline-mls": [
         '(system: "basis/mls")',
         '(system: "predictor/mls")',

@@ -478,10 +478,11 @@ pub struct AffineMotion<V, M> {
 /// (`carry = (1 − γ) Δt` under Newmark's predictor). `D_p` is `h²/4 I` for quadratic B-splines;
 /// for the tents it vanishes along an axis where the particle sits on a node line, and so does
 /// `B_p` there, so the inverse is regularised by `10⁻¹² tr D_p` and such a column of `C_p` is
-/// zero.
+/// zero. `node_positions` is the nodes' column of [`NodePosition`] (`Grid::node_position` of
+/// each, kept so that no entry converts a node index into lattice coordinates).
 pub fn affine_interpolation<D: Dim>(
     c: &Connectivity<D>,
-    grid: &Grid<D>,
+    node_positions: &[NodePosition<D>],
     (acceleration, velocity): (&[NodeAcceleration<D>], &[NodeVelocity<D>]),
     (p, x_p): (usize, D::Vector),
     carry: f64,
@@ -495,7 +496,7 @@ pub fn affine_interpolation<D: Dim>(
     for e in c.row(p) {
         let (node, k, n) = (c.nodes[e] as usize, c.field(e), c.weights[e]);
         let (a, v) = (acceleration[node].0[k], velocity[node].0[k]);
-        let offset = grid.node_position(node) - x_p;
+        let offset = node_positions[node].0 - x_p;
         motion.acceleration += a * n;
         motion.velocity += v * n;
         motion.affine += D::Matrix::outer((v + a * carry) * n, offset);
@@ -528,17 +529,21 @@ pub type AffineAdvectedQuery<'w, 's, D> = Query<
     With<Particle>,
 >;
 
+/// The nodes' positions, which the affine transfer reads at every entry.
+pub type NodePositionQuery<'w, 's, D> = Query<'w, 's, &'static NodePosition<D>, With<Node>>;
+
 /// The affine grid-to-particle update of every particle in parallel ([`affine_interpolation`]
 /// with `carry`): `v_p = Σ N v_I`, `a_p = Σ N a_I`, `C_p`, and `x_p += Δt (v_p − lag a_p)`, the
 /// position moved by the velocity the step's stress saw (`lag = γ Δt` under Newmark's
 /// predictor, 0 for update-stress-last).
 pub fn advect_particles_affine<D: Dim>(
-    (connectivity, grid): (&Connectivity<D>, &Grid<D>),
+    (connectivity, node_positions): (&Connectivity<D>, &NodePositionQuery<D>),
     nodes: &NodeMotionQuery<D>,
     particles: &mut AffineAdvectedQuery<D>,
     (dt, carry, lag): (f64, f64, f64),
 ) {
     let node_columns = single_table(nodes.contiguous_iter(), "nodes").unwrap_or((&[], &[]));
+    let node_positions = single_table(node_positions.contiguous_iter(), "nodes").unwrap_or(&[]);
     let Some((position, velocity, acceleration, affine)) =
         single_table_mut(particles.contiguous_iter_mut(), "particles")
     else {
@@ -551,7 +556,8 @@ pub fn advect_particles_affine<D: Dim>(
         .zip(affine.par_iter_mut())
         .enumerate()
         .for_each(|(p, (((x, v), a), c))| {
-            let motion = affine_interpolation(connectivity, grid, node_columns, (p, x.0), carry);
+            let motion =
+                affine_interpolation(connectivity, node_positions, node_columns, (p, x.0), carry);
             x.0 += (motion.velocity - motion.acceleration * lag) * dt;
             v.0 = motion.velocity;
             a.0 = motion.acceleration;
@@ -559,23 +565,28 @@ pub fn advect_particles_affine<D: Dim>(
         });
 }
 
-/// What a predictor reads for the affine transfer: the grid (node positions) and the
-/// particles' positions and affine velocities, where they carry them.
+/// What a predictor reads for the affine transfer: the node positions and the particles'
+/// positions and affine velocities, where they carry them.
 #[derive(SystemParam)]
 pub struct AffineInputs<'w, 's, D: Dim> {
-    grid: Res<'w, Grid<D>>,
+    nodes: NodePositionQuery<'w, 's, D>,
     particles: AffineSources<'w, 's, D>,
 }
 
-/// The affine transfer's columns for a particle-to-grid pass: the grid, positions and affine
-/// velocities, or `None` where the particles carry none (a FLIP run).
-pub type AffineColumns<'a, D> = (&'a Grid<D>, &'a [Position<D>], &'a [AffineVelocity<D>]);
+/// The affine transfer's columns for a particle-to-grid pass: node positions, particle
+/// positions and affine velocities, or `None` where the particles carry none (a FLIP run).
+pub type AffineColumns<'a, D> = (
+    &'a [NodePosition<D>],
+    &'a [Position<D>],
+    &'a [AffineVelocity<D>],
+);
 
 impl<'w, 's, D: Dim> AffineInputs<'w, 's, D> {
     /// The columns, or `None` without the affine transfer.
     pub fn columns(&self) -> Option<AffineColumns<'_, D>> {
         let (position, affine) = single_table(self.particles.contiguous_iter(), "particles")?;
-        Some((&self.grid, position, affine))
+        let nodes = single_table(self.nodes.contiguous_iter(), "nodes").unwrap_or(&[]);
+        Some((nodes, position, affine))
     }
 }
 
@@ -586,12 +597,12 @@ pub fn add_affine_momentum<D: Dim>(
     sums: &mut NodeSums<D>,
     c: &Connectivity<D>,
     mass: &[Mass],
-    (grid, position, affine): AffineColumns<D>,
+    (nodes, position, affine): AffineColumns<D>,
     e: usize,
     p: usize,
 ) {
     let node = c.nodes[e] as usize;
-    let offset = grid.node_position(node) - position[p].0;
+    let offset = nodes[node].0 - position[p].0;
     sums.momentum[c.field(e)] += affine[p].0 * offset * (c.weights[e] * mass[p].0);
 }
 

@@ -34,6 +34,10 @@ pub enum BenchPipeline {
     /// `basis/mls` + `predictor/mls` + linear elasticity + `advection/mls`: MLS-MPM on
     /// quadratic B-splines, the weights computed in the transfers, no connectivity.
     BsplineMls,
+    /// `bspline-usl` with `advection/usl`'s `transfer: Apic`: the affine particle-in-cell
+    /// transfer on the stored connectivity, whose cost beside `bspline-usl`'s FLIP is each
+    /// particle's affine velocity `C_p`, written by the advection and read by the predictor.
+    BsplineApic,
     /// `basis/lme` (γ̂ = 3.5) + Newmark predictor-corrector + linear elasticity.
     LmeNewmark,
     /// `linear-usl` plus `neighbour/kdtree` and `damage/eigensoftening` (strength too high to
@@ -59,6 +63,7 @@ impl BenchPipeline {
             BenchPipeline::GimpUsl => "gimp+usl",
             BenchPipeline::BsplineUsl => "bspline+usl",
             BenchPipeline::BsplineMls => "bspline+mls",
+            BenchPipeline::BsplineApic => "bspline+apic",
             BenchPipeline::LmeNewmark => "lme+newmark",
             BenchPipeline::KdtreeSoftening => "linear+usl+kdtree+eigensoftening",
             BenchPipeline::NodeLinkedSoftening => "linear+usl+node_linked+eigensoftening",
@@ -103,6 +108,11 @@ impl BenchPipeline {
             BenchPipeline::LinearUsl => usl(spec),
             BenchPipeline::GimpUsl => usl_on(spec, "basis/gimp"),
             BenchPipeline::BsplineUsl => usl_on(spec, "basis/bspline"),
+            BenchPipeline::BsplineApic => spec
+                .system("basis/bspline")
+                .system("predictor/usl")
+                .system("stress/linear_elastic")
+                .system_with("advection/usl", "(transfer: Apic)"),
             BenchPipeline::BsplineMls => spec
                 .system("basis/mls")
                 .system("predictor/mls")
@@ -467,6 +477,7 @@ mod tests {
             BenchPipeline::LinearUsl,
             BenchPipeline::GimpUsl,
             BenchPipeline::BsplineUsl,
+            BenchPipeline::BsplineApic,
             BenchPipeline::LmeNewmark,
             BenchPipeline::KdtreeSoftening,
             BenchPipeline::NodeLinkedSoftening,

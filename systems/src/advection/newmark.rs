@@ -36,8 +36,8 @@
 //!   already in `v_I`.
 
 use crate::transfer::{
-    AdvectedQuery, AffineAdvectedQuery, GridMotion, NodeMotionQuery, advect_particles_affine,
-    advect_particles_with_kicks,
+    AdvectedQuery, AffineAdvectedQuery, GridMotion, NodeMotionQuery, NodePositionQuery,
+    advect_particles_affine, advect_particles_with_kicks,
 };
 use fractum_engine::prelude::*;
 use rayon::prelude::*;
@@ -142,7 +142,7 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
 pub fn apic_advection<D: Dim>(
     clock: Res<SimClock>,
     integration: Option<Res<GridIntegration>>,
-    grid: Res<Grid<D>>,
+    node_positions: NodePositionQuery<D>,
     connectivity: Res<Connectivity<D>>,
     nodes: NodeMotionQuery<D>,
     mut particles: AffineAdvectedQuery<D>,
@@ -153,7 +153,7 @@ pub fn apic_advection<D: Dim>(
         _ => 0.5,
     };
     advect_particles_affine(
-        (&connectivity, &grid),
+        (&connectivity, &node_positions),
         &nodes,
         &mut particles,
         (dt, (1.0 - gamma) * dt, gamma * dt),

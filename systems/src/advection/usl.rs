@@ -20,7 +20,8 @@
 pub use super::Transfer;
 use crate::predictor::usl::{UslPredictorParams, UslScheme};
 use crate::transfer::{
-    AdvectedQuery, AffineAdvectedQuery, NodeMotionQuery, advect_particles, advect_particles_affine,
+    AdvectedQuery, AffineAdvectedQuery, NodeMotionQuery, NodePositionQuery, advect_particles,
+    advect_particles_affine,
 };
 use fractum_engine::prelude::*;
 use serde::Deserialize;
@@ -79,13 +80,18 @@ fn install<D: Dim>(installer: &mut Installer, params: &Params) -> Result<(), Sce
 /// `x_p += Δt v_p` and `C_p` of `v̄_I`.
 pub fn usl_apic_advection<D: Dim>(
     clock: Res<SimClock>,
-    grid: Res<Grid<D>>,
+    node_positions: NodePositionQuery<D>,
     connectivity: Res<Connectivity<D>>,
     nodes: NodeMotionQuery<D>,
     mut particles: AffineAdvectedQuery<D>,
 ) {
     let steps = (clock.dt, 0.0, 0.0);
-    advect_particles_affine((&connectivity, &grid), &nodes, &mut particles, steps);
+    advect_particles_affine(
+        (&connectivity, &node_positions),
+        &nodes,
+        &mut particles,
+        steps,
+    );
 }
 
 /// The `advection/usl` system.

@@ -105,11 +105,15 @@ fn save_numbers<C: State>(column: &[C], rows: &[usize]) -> Vec<u8> {
     bytes.push(NUMBERS);
     bytes.extend_from_slice(&(rows.len() as u64).to_le_bytes());
     let mut numbers = [0.0; MOST_NUMBERS];
+    let mut value = [0u8; 8 * MOST_NUMBERS];
     for &row in rows {
         column[row].write_numbers(&mut numbers[..count]);
-        for number in &numbers[..count] {
-            bytes.extend_from_slice(&number.to_le_bytes());
+        // A value's bytes gathered on the stack and appended at once: one check of the room
+        // a value instead of one a number.
+        for (slot, number) in value.chunks_exact_mut(8).zip(&numbers[..count]) {
+            slot.copy_from_slice(&number.to_le_bytes());
         }
+        bytes.extend_from_slice(&value[..8 * count]);
     }
     bytes
 }
