@@ -477,6 +477,7 @@ mod tests {
             BenchPipeline::LinearUsl,
             BenchPipeline::GimpUsl,
             BenchPipeline::BsplineUsl,
+            BenchPipeline::BsplineMls,
             BenchPipeline::BsplineApic,
             BenchPipeline::LmeNewmark,
             BenchPipeline::KdtreeSoftening,
