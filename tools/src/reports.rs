@@ -454,7 +454,11 @@ pub fn summary_report(s: &RunSummary, out_dir: &Path) -> String {
             r.held_over_owned,
             r.held_nodes_over_grid,
             fractum_engine::budget::describe_bytes(r.sent_per_step),
-            fractum_io::run::rank_clock::describe_phases(&r.phase_seconds, s.wall.as_secs_f64())
+            fractum_io::run::rank_clock::describe_phases(
+                &r.phase_seconds,
+                Some(&r.phase_range),
+                s.wall.as_secs_f64()
+            )
         )
     });
     format!(

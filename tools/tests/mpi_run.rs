@@ -86,12 +86,23 @@ fn under_mpirun_three_ranks_run_and_resume_a_scene_as_the_single_process_does() 
         "{}",
         text(&ran.stdout)
     );
-    // Where a rank's time went, phase by phase (`fractum_io::run::rank_clock`).
-    assert!(
-        text(&ran.stdout).contains("a rank's time, the mean over ranks: pipeline"),
-        "{}",
-        text(&ran.stdout)
-    );
+    // Where a rank's time went, phase by phase (`fractum_io::run::rank_clock`), with the
+    // fastest and the slowest rank's pipeline.
+    let summary = text(&ran.stdout);
+    let phases = summary
+        .lines()
+        .find(|l| l.starts_with("a rank's time, the mean over ranks: pipeline"))
+        .unwrap_or_else(|| panic!("no phases in {summary}"));
+    let spread = phases
+        .split("; ranks ")
+        .nth(1)
+        .and_then(|rest| rest.split(" s)").next())
+        .and_then(|range| range.split_once('-'))
+        .map(|(least, most)| (least.parse::<f64>(), most.parse::<f64>()));
+    let Some((Ok(least), Ok(most))) = spread else {
+        panic!("no spread of the pipeline over the ranks in {phases}")
+    };
+    assert!(0.0 <= least && least <= most, "{phases}");
     assert!(
         text(&ran.stdout).contains("x the grid's;"),
         "{}",

@@ -131,6 +131,10 @@ pub struct RankReport {
     /// The seconds a rank spent in each phase of its steps, in the order of
     /// [`rank_clock::Phase::ALL`], on average over the ranks ([`rank_clock::RankClock`]).
     pub phase_seconds: [f64; rank_clock::Phase::ALL.len()],
+    /// The least and the greatest over the ranks of each phase's seconds, in the same order:
+    /// where the particle and node counts balance the ranks but their times do not (a rank
+    /// whose particles cost more, one waiting for the other), the spread shows it.
+    pub phase_range: [(f64, f64); rank_clock::Phase::ALL.len()],
 }
 
 impl RunSummary {
@@ -418,7 +422,8 @@ fn rank_report(
         .copied()
         .unwrap_or_default();
     let phases = rank_clock::Phase::ALL.map(|p| clock.spent(p).as_secs_f64());
-    let per_rank = comm.sum(&phases);
+    let every_rank = comm.all_gather(&phases);
+    let per_rank = fractum_engine::communicator::sum_in_rank_order(&every_rank, phases.len());
     let sums = comm.sum(&[held, owned, sent as f64, nodes as f64, rebuilds as f64]);
     RankReport {
         ranks: comm.size(),
@@ -429,6 +434,7 @@ fn rank_report(
         held_nodes_over_grid: sums[3] / grid_nodes.max(1) as f64,
         rebuilds: sums[4] as u64,
         phase_seconds: std::array::from_fn(|k| per_rank[k] / comm.size() as f64),
+        phase_range: rank_clock::ranges_over_ranks(&every_rank),
     }
 }
 

@@ -2,7 +2,9 @@
 //! a rank waits for the slowest), the per-layer count, encoding the particles it sends, the
 //! exchange, decoding what arrived, rebuilding its rows from what it kept and received, and
 //! building its world afresh for re-cut slabs. [`super::distributed::step`] adds each step's phases to the rank's
-//! [`RankClock`]; the run's summary gives the mean over ranks ([`super::RankReport::phase_seconds`]).
+//! [`RankClock`]; the run's summary gives the mean over ranks ([`super::RankReport::phase_seconds`])
+//! and, for the pipeline and the waiting, the fastest and the slowest rank's
+//! ([`super::RankReport::phase_range`]).
 
 use bevy_ecs::prelude::*;
 use std::time::{Duration, Instant};
@@ -89,16 +91,42 @@ impl RankClock {
     }
 }
 
+/// Each phase's least and greatest seconds over the ranks, from `every_rank`: the ranks'
+/// seconds rank after rank, each in the order of [`Phase::ALL`].
+pub fn ranges_over_ranks(every_rank: &[f64]) -> [(f64, f64); Phase::ALL.len()] {
+    std::array::from_fn(|k| {
+        every_rank
+            .iter()
+            .skip(k)
+            .step_by(Phase::ALL.len())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(least, most), &s| {
+                (least.min(s), most.max(s))
+            })
+    })
+}
+
 /// Where a rank's time went, for the run's summary: each phase's seconds (the mean over ranks,
 /// `seconds` in the order of [`Phase::ALL`]) and share of the run's `wall` time, phases that
-/// took no time left out, and what the steps leave (outputs, the run's bookkeeping).
-pub fn describe_phases(seconds: &[f64], wall: f64) -> String {
+/// took no time left out, and what the steps leave (outputs, the run's bookkeeping). With
+/// `ranges` (each phase's least and greatest over the ranks, [`ranges_over_ranks`]), the
+/// pipeline and the waiting give their spread too: a rank whose pipeline takes longer makes
+/// the others wait, which the particle and node counts do not show.
+pub fn describe_phases(seconds: &[f64], ranges: Option<&[(f64, f64)]>, wall: f64) -> String {
     let share = |s: f64| 100.0 * s / wall.max(1e-12);
+    let spread = |k: usize| match (Phase::ALL[k], ranges.and_then(|r| r.get(k))) {
+        (Phase::Pipeline | Phase::Collectives, Some((least, most))) => {
+            format!("; ranks {least:.2}-{most:.2} s")
+        }
+        _ => String::new(),
+    };
     let mut parts: Vec<String> = Phase::ALL
         .iter()
         .zip(seconds)
-        .filter(|(_, s)| share(**s) >= 0.05)
-        .map(|(phase, s)| format!("{} {s:.2} s ({:.1}%)", phase.name(), share(*s)))
+        .enumerate()
+        .filter(|(_, (_, s))| share(**s) >= 0.05)
+        .map(|(k, (phase, s))| {
+            format!("{} {s:.2} s ({:.1}%{})", phase.name(), share(*s), spread(k))
+        })
         .collect();
     let rest = wall - seconds.iter().sum::<f64>();
     if rest > 0.0 {
@@ -141,12 +169,37 @@ mod tests {
 
     #[test]
     fn the_description_gives_shares_of_the_wall_time_and_the_rest() {
-        let text = describe_phases(&[6.0, 1.0, 0.0, 0.5, 0.5, 0.0, 1.0, 0.0], 10.0);
+        let text = describe_phases(&[6.0, 1.0, 0.0, 0.5, 0.5, 0.0, 1.0, 0.0], None, 10.0);
         assert_eq!(
             text,
             "a rank's time, the mean over ranks: pipeline 6.00 s (60.0%), collectives and \
              waiting 1.00 s (10.0%), encoding 0.50 s (5.0%), exchange 0.50 s (5.0%), rebuilding \
              rows 1.00 s (10.0%), outputs and the rest 1.00 s (10.0%)"
+        );
+    }
+
+    #[test]
+    fn the_pipeline_and_the_waiting_give_their_spread_over_the_ranks() {
+        // Two ranks: rank 1's pipeline takes a second longer, so rank 0 waits for it.
+        let every_rank = [
+            5.5, 1.5, 0.0, 0.5, 0.5, 0.0, 1.0, 0.0, //
+            6.5, 0.5, 0.0, 0.5, 0.5, 0.0, 1.0, 0.0,
+        ];
+        let ranges = ranges_over_ranks(&every_rank);
+        assert_eq!(ranges[0], (5.5, 6.5));
+        assert_eq!(ranges[1], (0.5, 1.5));
+        assert_eq!(ranges[6], (1.0, 1.0));
+        let text = describe_phases(
+            &[6.0, 1.0, 0.0, 0.5, 0.5, 0.0, 1.0, 0.0],
+            Some(&ranges),
+            10.0,
+        );
+        assert_eq!(
+            text,
+            "a rank's time, the mean over ranks: pipeline 6.00 s (60.0%; ranks 5.50-6.50 s), \
+             collectives and waiting 1.00 s (10.0%; ranks 0.50-1.50 s), encoding 0.50 s (5.0%), \
+             exchange 0.50 s (5.0%), rebuilding rows 1.00 s (10.0%), outputs and the rest 1.00 \
+             s (10.0%)"
         );
     }
 }
